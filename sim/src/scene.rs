@@ -1,0 +1,224 @@
+//! A scene: stimuli placed in the world, held in a rapier3d collider set with a BVH query
+//! pipeline, answering the geometric questions the contact solver and the ground truth ask.
+//!
+//! # World frame (W)
+//! Millimetres, `z` up; the table is the plane `z = 0` and stimuli stand on it. An object's
+//! pose is a translation plus a yaw about `+z` (planar stimuli lie flat). Rapier works in f32
+//! (about 1e-5 mm at these sizes); results are returned in f64.
+
+use std::sync::Arc;
+
+use rapier3d::parry::query::DefaultQueryDispatcher;
+use rapier3d::prelude::{
+    BroadPhaseBvh, ColliderBuilder, ColliderHandle, ColliderSet, IntegrationParameters, QueryFilter, Ray, RigidBodySet,
+};
+
+use crate::error::{Result, SimError};
+use crate::stimulus::{EdgePoint, Stimulus};
+
+/// Placement of an object in the world (mm, deg).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObjectPose {
+    /// Translation of the object frame's origin (mm).
+    pub position_mm: [f64; 3],
+    /// Rotation about `+z` (deg, counter-clockwise seen from above).
+    pub yaw_deg: f64,
+}
+
+impl Default for ObjectPose {
+    fn default() -> Self {
+        Self { position_mm: [0.0; 3], yaw_deg: 0.0 }
+    }
+}
+
+impl ObjectPose {
+    /// World point of an object-frame point.
+    pub fn to_world(&self, p: [f64; 3]) -> [f64; 3] {
+        let (s, c) = self.yaw_deg.to_radians().sin_cos();
+        [
+            self.position_mm[0] + c * p[0] - s * p[1],
+            self.position_mm[1] + s * p[0] + c * p[1],
+            self.position_mm[2] + p[2],
+        ]
+    }
+
+    /// Object-frame point of a world point.
+    pub fn to_object(&self, p: [f64; 3]) -> [f64; 3] {
+        let (s, c) = self.yaw_deg.to_radians().sin_cos();
+        let d = [p[0] - self.position_mm[0], p[1] - self.position_mm[1], p[2] - self.position_mm[2]];
+        [c * d[0] + s * d[1], -s * d[0] + c * d[1], d[2]]
+    }
+
+    /// Rotates an in-plane vector from the object to the world frame.
+    pub fn rotate_to_world(&self, v: [f64; 2]) -> [f64; 2] {
+        let (s, c) = self.yaw_deg.to_radians().sin_cos();
+        [c * v[0] - s * v[1], s * v[0] + c * v[1]]
+    }
+}
+
+/// Index of an object in its scene.
+pub type ObjectId = usize;
+
+/// One placed stimulus.
+#[derive(Clone, Debug)]
+pub struct SceneObject {
+    /// The stimulus.
+    pub stimulus: Arc<Stimulus>,
+    /// Its placement.
+    pub pose: ObjectPose,
+    handle: ColliderHandle,
+}
+
+/// The stimulus surface found under a point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceHit {
+    /// Height of the surface (mm, world `z`).
+    pub height_mm: f64,
+    /// The object hit.
+    pub object: ObjectId,
+    /// Unit surface normal (world).
+    pub normal: [f64; 3],
+}
+
+/// Stimuli placed in the world.
+pub struct Scene {
+    bodies: RigidBodySet,
+    colliders: ColliderSet,
+    broad_phase: BroadPhaseBvh,
+    objects: Vec<SceneObject>,
+}
+
+impl std::fmt::Debug for Scene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Scene").field("objects", &self.objects).finish()
+    }
+}
+
+impl Default for Scene {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Scene {
+    /// An empty scene.
+    pub fn new() -> Self {
+        Self {
+            bodies: RigidBodySet::new(),
+            colliders: ColliderSet::new(),
+            broad_phase: BroadPhaseBvh::new(),
+            objects: Vec::new(),
+        }
+    }
+
+    /// Places `stimulus` at `pose`.
+    pub fn add(&mut self, stimulus: Arc<Stimulus>, pose: ObjectPose) -> Result<ObjectId> {
+        if !(pose.position_mm.iter().all(|v| v.is_finite()) && pose.yaw_deg.is_finite()) {
+            return Err(SimError::invalid(stimulus.name(), "pose", format!("must be finite, got {pose:?}")));
+        }
+        // Vertices go in world coordinates relative to the collider's own translation, so f32
+        // keeps full precision near the object.
+        let vertices = stimulus.mesh.vertices.iter().map(|v| {
+            let w = pose.to_world(*v);
+            rapier3d::math::Vector::new(
+                (w[0] - pose.position_mm[0]) as f32,
+                (w[1] - pose.position_mm[1]) as f32,
+                (w[2] - pose.position_mm[2]) as f32,
+            )
+        });
+        let collider = ColliderBuilder::trimesh(vertices.collect(), stimulus.mesh.triangles.clone())
+            .map_err(|e| SimError::mesh(stimulus.name(), format!("rapier rejected the mesh: {e:?}")))?
+            .translation(rapier3d::math::Vector::new(
+                pose.position_mm[0] as f32,
+                pose.position_mm[1] as f32,
+                pose.position_mm[2] as f32,
+            ))
+            .friction(stimulus.entry.friction as f32)
+            .build();
+        let aabb = collider.compute_aabb();
+        let handle = self.colliders.insert(collider);
+        self.broad_phase.set_aabb(&IntegrationParameters::default(), handle, aabb);
+        self.objects.push(SceneObject { stimulus, pose, handle });
+        Ok(self.objects.len() - 1)
+    }
+
+    /// The placed objects.
+    pub fn objects(&self) -> &[SceneObject] {
+        &self.objects
+    }
+
+    fn object_of(&self, handle: ColliderHandle) -> Option<ObjectId> {
+        self.objects.iter().position(|o| o.handle == handle)
+    }
+
+    /// The highest stimulus surface under world point `(x, y)` (a ray cast straight down), or
+    /// `None` where no stimulus is.
+    pub fn surface_height(&self, x_mm: f64, y_mm: f64) -> Option<SurfaceHit> {
+        const ABOVE_MM: f64 = 1.0e4;
+        let pipeline = self.broad_phase.as_query_pipeline(
+            &DefaultQueryDispatcher,
+            &self.bodies,
+            &self.colliders,
+            QueryFilter::default(),
+        );
+        let ray = Ray::new(
+            rapier3d::math::Vector::new(x_mm as f32, y_mm as f32, ABOVE_MM as f32),
+            rapier3d::math::Vector::new(0.0, 0.0, -1.0),
+        );
+        let (handle, hit) = pipeline.cast_ray_and_get_normal(&ray, 2.0 * ABOVE_MM as f32, true)?;
+        Some(SurfaceHit {
+            height_mm: ABOVE_MM - hit.time_of_impact as f64,
+            object: self.object_of(handle)?,
+            normal: [hit.normal.x as f64, hit.normal.y as f64, hit.normal.z as f64],
+        })
+    }
+
+    /// Objects whose bounding boxes reach the axis-aligned box `[min, max]` (world, mm).
+    pub fn objects_in_box(&self, min_mm: [f64; 3], max_mm: [f64; 3]) -> Vec<ObjectId> {
+        let mut ids: Vec<ObjectId> = self
+            .objects
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| {
+                let Some(c) = self.colliders.get(o.handle) else { return false };
+                let aabb = c.compute_aabb();
+                (0..3).all(|k| (aabb.mins[k] as f64) <= max_mm[k] && (aabb.maxs[k] as f64) >= min_mm[k])
+            })
+            .map(|(i, _)| i)
+            .collect();
+        ids.sort_unstable();
+        ids
+    }
+
+    /// Contour loops of a planar object in world coordinates (mm).
+    pub fn contour_world(&self, object: ObjectId) -> Vec<Vec<[f64; 2]>> {
+        let o = &self.objects[object];
+        o.stimulus
+            .contour
+            .loops
+            .iter()
+            .map(|l| {
+                l.iter()
+                    .map(|p| {
+                        let w = o.pose.to_world([p[0], p[1], 0.0]);
+                        [w[0], w[1]]
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Nearest edge point of a planar object to world point `(x, y)`: signed distance (mm,
+    /// negative over the material), closest point and edge tangent, in world coordinates.
+    pub fn edge(&self, object: ObjectId, x_mm: f64, y_mm: f64) -> EdgePoint {
+        let o = &self.objects[object];
+        let p = o.pose.to_object([x_mm, y_mm, 0.0]);
+        let e = o.stimulus.contour.nearest([p[0], p[1]]);
+        let w = o.pose.to_world([e.point[0], e.point[1], 0.0]);
+        EdgePoint {
+            signed_distance_mm: e.signed_distance_mm,
+            point: [w[0], w[1]],
+            tangent: o.pose.rotate_to_world(e.tangent),
+        }
+    }
+}

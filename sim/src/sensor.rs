@@ -1,0 +1,420 @@
+//! The parametric TacTip: dome, pins and camera, with defaults, units, TOML loading and
+//! validation. This is the one place where sensor dimensions are defined.
+//!
+//! # Sensor frame (S)
+//! Origin at the centre of the dome's hemisphere. `+z` points from the camera towards the dome
+//! apex (the direction the sensor presses in). `+x` is image right and `+y` is image down, so
+//! (x, y, z) is right-handed and the camera looks along `+z`. Lengths in mm, angles in deg in
+//! the parameters and rad in code.
+//!
+//! # Geometry
+//! The skin is a hemispherical shell of outer radius `R = dome.outer_radius_mm` and thickness
+//! `t = dome.skin_thickness_mm`. Pins are short stiff posts on the inner skin surface (radius
+//! `R - t`), pointing along the inward normal; the tip centre sits at radius
+//! `rho_tip = R - t - pins.length_mm`. Ring `k = 1..=K` (K = `pins.rings`) carries `6k` pins
+//! at polar angle `theta_k` (from `+z`) and azimuths `phase + 2 pi j / (6k)`; the centre pin
+//! sits on the axis. So the pin count is `1 + 3 K (K + 1)`: 331 for K = 10, 127 for K = 6.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Result, SimError};
+
+/// Complete description of a TacTip sensor. Load with [`SensorParams::from_toml_str`] or
+/// [`SensorParams::load`]; [`Default`] is the TacTip calibrated against the lab's processed
+/// 420x420 reference image (`cargo xtask fit-camera`, preset `sim/presets/tactip-331.toml`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SensorParams {
+    /// Free-form name, shown in reports.
+    pub name: String,
+    /// The hemispherical skin.
+    pub dome: DomeParams,
+    /// The pins on the inside of the skin.
+    pub pins: PinParams,
+    /// The camera inside the dome.
+    pub camera: CameraParams,
+}
+
+/// The hemispherical skin.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DomeParams {
+    /// Outer radius of the hemisphere (mm). TacTip: 20 mm (40 mm dome).
+    pub outer_radius_mm: f64,
+    /// Skin thickness (mm), between the outer surface and the pin bases.
+    pub skin_thickness_mm: f64,
+}
+
+/// Pin layout and size.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PinParams {
+    /// Number of concentric rings K around the centre pin; pin count = 1 + 3 K (K + 1).
+    pub rings: u32,
+    /// Pin length from the inner skin surface to the tip centre (mm).
+    pub length_mm: f64,
+    /// Radius of the (spherical) white pin tip (mm).
+    pub tip_radius_mm: f64,
+    /// Polar angle step between rings (deg): ring k sits at `k * ring_pitch_deg`, unless
+    /// `ring_polar_deg` is given.
+    pub ring_pitch_deg: f64,
+    /// Optional explicit polar angle of each ring (deg), K strictly increasing values in
+    /// (0, 90). Overrides `ring_pitch_deg`.
+    pub ring_polar_deg: Option<Vec<f64>>,
+    /// Azimuth of the first pin of every ring (deg), measured from `+x` towards `+y`.
+    pub phase_deg: f64,
+}
+
+/// Pinhole camera with optional radial distortion, on the dome axis looking along `+z`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct CameraParams {
+    /// Distance of the pinhole behind the dome centre (mm): the camera sits at
+    /// `z = -distance_mm` in the sensor frame.
+    pub distance_mm: f64,
+    /// Full field of view across the image width (deg). Size-independent: the focal length in
+    /// pixels is `(size / 2) / tan(fov / 2)`.
+    pub fov_deg: f64,
+    /// Principal point offset from the image centre as a fraction of the image size,
+    /// `[right, down]`.
+    pub principal_offset: [f64; 2],
+    /// Radial distortion coefficient k1 on normalised coordinates:
+    /// `x_d = x (1 + k1 r^2 + k2 r^4)`.
+    pub k1: f64,
+    /// Radial distortion coefficient k2 (see `k1`).
+    pub k2: f64,
+    /// Default output image size (px, square).
+    pub image_size: u32,
+}
+
+impl Default for SensorParams {
+    fn default() -> Self {
+        Self {
+            name: "tactip-331".to_owned(),
+            dome: DomeParams::default(),
+            pins: PinParams::default(),
+            camera: CameraParams::default(),
+        }
+    }
+}
+
+impl Default for DomeParams {
+    fn default() -> Self {
+        Self { outer_radius_mm: 20.0, skin_thickness_mm: 1.5 }
+    }
+}
+
+impl Default for PinParams {
+    fn default() -> Self {
+        // Calibrated values: see `cargo xtask fit-camera` and sim/presets/tactip-331.toml.
+        Self {
+            rings: 10,
+            length_mm: 2.0,
+            tip_radius_mm: 0.4073842210174232,
+            ring_pitch_deg: 4.2773079276712584,
+            ring_polar_deg: None,
+            phase_deg: -0.3577987694874839,
+        }
+    }
+}
+
+impl Default for CameraParams {
+    fn default() -> Self {
+        // Calibrated values: see `cargo xtask fit-camera` and sim/presets/tactip-331.toml.
+        Self {
+            distance_mm: 10.647805844531117,
+            fov_deg: 55.16543914696284,
+            principal_offset: [0.004618913391360335, 0.00642419163850283],
+            k1: -0.32867837128899224,
+            k2: 0.0,
+            image_size: 256,
+        }
+    }
+}
+
+/// Largest supported ring count (pin count 2791).
+pub const MAX_RINGS: u32 = 30;
+/// Smallest and largest supported image size (px).
+pub const IMAGE_SIZE_RANGE: (u32, u32) = (8, 8192);
+
+/// Pin count of a sensor with `rings` rings: `1 + 3 K (K + 1)`.
+pub fn pin_count(rings: u32) -> usize {
+    1 + 3 * rings as usize * (rings as usize + 1)
+}
+
+/// Ring count K for a centred-hexagonal pin count (331 -> 10, 127 -> 6), or `None`.
+pub fn rings_for_pin_count(pins: usize) -> Option<u32> {
+    (0..=MAX_RINGS).find(|&k| pin_count(k) == pins)
+}
+
+impl SensorParams {
+    /// Parses and validates a sensor TOML. `source_name` (a file name) is used in errors.
+    /// Missing fields take the defaults; unknown fields are errors.
+    pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self> {
+        let params: SensorParams = toml::from_str(text)
+            .map_err(|e| SimError::Toml { source_name: source_name.to_owned(), message: e.to_string() })?;
+        params.validate(source_name)?;
+        Ok(params)
+    }
+
+    /// Reads, parses and validates a sensor TOML file.
+    pub fn load(path: &std::path::Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| SimError::io(path, "read", e))?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// Serialises to TOML (the format [`SensorParams::from_toml_str`] reads).
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_else(|e| format!("# serialisation failed: {e}\n"))
+    }
+
+    /// Number of pins, `1 + 3 K (K + 1)`.
+    pub fn pin_count(&self) -> usize {
+        pin_count(self.pins.rings)
+    }
+
+    /// Radius of the pin-tip centres from the dome centre (mm).
+    pub fn tip_radius_from_centre_mm(&self) -> f64 {
+        self.dome.outer_radius_mm - self.dome.skin_thickness_mm - self.pins.length_mm
+    }
+
+    /// Polar angle of each ring k = 1..=K (rad), from `+z`.
+    pub fn ring_polar_rad(&self) -> Vec<f64> {
+        match &self.pins.ring_polar_deg {
+            Some(list) => list.iter().map(|d| d.to_radians()).collect(),
+            None => (1..=self.pins.rings).map(|k| (k as f64 * self.pins.ring_pitch_deg).to_radians()).collect(),
+        }
+    }
+
+    /// The same sensor with a different centred-hexagonal pin count (127, 331, ...). The ring
+    /// pitch is rescaled so the outermost ring stays at the same polar angle (the pins cover
+    /// the same part of the dome); an explicit ring list is resampled linearly.
+    pub fn with_pin_count(&self, pins: usize) -> Result<Self> {
+        let rings = rings_for_pin_count(pins).filter(|&k| k > 0).ok_or_else(|| {
+            SimError::invalid(
+                &self.name,
+                "pins",
+                format!("{pins} is not a centred-hexagonal pin count 1 + 3K(K+1) (7, 19, 37, 61, 91, 127, 169, 217, 271, 331, ...)"),
+            )
+        })?;
+        let mut out = self.clone();
+        let outer = *self.ring_polar_rad().last().unwrap_or(&0.0);
+        out.pins.rings = rings;
+        if self.pins.rings > 0 {
+            let old = self.ring_polar_rad();
+            out.pins.ring_pitch_deg = self.pins.ring_pitch_deg * self.pins.rings as f64 / rings as f64;
+            if self.pins.ring_polar_deg.is_some() {
+                // Ring position s in old-ring units (s = 0 is the axis), interpolated linearly.
+                let at = |j: usize| if j == 0 { 0.0 } else { old[j - 1] };
+                let resampled = (1..=rings)
+                    .map(|k| {
+                        let s = k as f64 / rings as f64 * old.len() as f64;
+                        let i = (s.floor() as usize).min(old.len());
+                        let theta = if i == old.len() { outer } else { at(i) + (at(i + 1) - at(i)) * (s - i as f64) };
+                        theta.to_degrees()
+                    })
+                    .collect();
+                out.pins.ring_polar_deg = Some(resampled);
+            }
+        }
+        out.name = format!("{}-{pins}", self.name.trim_end_matches("-331"));
+        out.validate(&out.name.clone())?;
+        Ok(out)
+    }
+
+    /// Checks every field: finite, in range, and geometrically consistent. Errors name the
+    /// field and the allowed range.
+    pub fn validate(&self, source_name: &str) -> Result<()> {
+        let bad = |field: &str, reason: String| Err(SimError::invalid(source_name, field, reason));
+        let finite = |field: &str, v: f64| -> Result<()> {
+            if v.is_finite() { Ok(()) } else { bad(field, format!("must be a finite number, got {v}")) }
+        };
+        let d = &self.dome;
+        finite("dome.outer_radius_mm", d.outer_radius_mm)?;
+        finite("dome.skin_thickness_mm", d.skin_thickness_mm)?;
+        if !(d.outer_radius_mm > 0.0 && d.outer_radius_mm <= 1000.0) {
+            return bad("dome.outer_radius_mm", format!("must be in (0, 1000] mm, got {}", d.outer_radius_mm));
+        }
+        if !(d.skin_thickness_mm > 0.0 && d.skin_thickness_mm < 0.5 * d.outer_radius_mm) {
+            return bad(
+                "dome.skin_thickness_mm",
+                format!("must be in (0, outer_radius/2 = {}) mm, got {}", 0.5 * d.outer_radius_mm, d.skin_thickness_mm),
+            );
+        }
+        let p = &self.pins;
+        for (field, v) in [
+            ("pins.length_mm", p.length_mm),
+            ("pins.tip_radius_mm", p.tip_radius_mm),
+            ("pins.ring_pitch_deg", p.ring_pitch_deg),
+            ("pins.phase_deg", p.phase_deg),
+        ] {
+            finite(field, v)?;
+        }
+        if p.rings > MAX_RINGS {
+            return bad("pins.rings", format!("must be at most {MAX_RINGS}, got {}", p.rings));
+        }
+        if p.length_mm < 0.0 {
+            return bad("pins.length_mm", format!("must be >= 0 mm, got {}", p.length_mm));
+        }
+        if p.tip_radius_mm <= 0.0 {
+            return bad("pins.tip_radius_mm", format!("must be > 0 mm, got {}", p.tip_radius_mm));
+        }
+        let rho = self.tip_radius_from_centre_mm();
+        if rho <= p.tip_radius_mm {
+            return bad(
+                "pins.length_mm",
+                format!(
+                    "pin tips would reach the dome centre: outer_radius - skin_thickness - length = {rho:.3} mm must exceed tip_radius {} mm",
+                    p.tip_radius_mm
+                ),
+            );
+        }
+        if p.phase_deg.abs() > 360.0 {
+            return bad("pins.phase_deg", format!("must be in [-360, 360] deg, got {}", p.phase_deg));
+        }
+        match &p.ring_polar_deg {
+            Some(list) => {
+                if list.len() != p.rings as usize {
+                    return bad(
+                        "pins.ring_polar_deg",
+                        format!("must list {} angles (one per ring), got {}", p.rings, list.len()),
+                    );
+                }
+                let mut prev = 0.0;
+                for (i, &a) in list.iter().enumerate() {
+                    finite(&format!("pins.ring_polar_deg[{i}]"), a)?;
+                    if !(a > prev && a < 90.0) {
+                        return bad(
+                            &format!("pins.ring_polar_deg[{i}]"),
+                            format!("ring angles must increase strictly within (0, 90) deg, got {a} after {prev}"),
+                        );
+                    }
+                    prev = a;
+                }
+            }
+            None => {
+                if p.rings > 0 && !(p.ring_pitch_deg > 0.0 && p.ring_pitch_deg * p.rings as f64 <= 89.0) {
+                    return bad(
+                        "pins.ring_pitch_deg",
+                        format!(
+                            "must be > 0 with rings * pitch <= 89 deg (pins on the hemisphere), got {} x {}",
+                            p.rings, p.ring_pitch_deg
+                        ),
+                    );
+                }
+            }
+        }
+        let c = &self.camera;
+        for (field, v) in [
+            ("camera.distance_mm", c.distance_mm),
+            ("camera.fov_deg", c.fov_deg),
+            ("camera.principal_offset[0]", c.principal_offset[0]),
+            ("camera.principal_offset[1]", c.principal_offset[1]),
+            ("camera.k1", c.k1),
+            ("camera.k2", c.k2),
+        ] {
+            finite(field, v)?;
+        }
+        if !(c.fov_deg > 1.0 && c.fov_deg < 179.0) {
+            return bad("camera.fov_deg", format!("must be in (1, 179) deg, got {}", c.fov_deg));
+        }
+        for (i, o) in c.principal_offset.iter().enumerate() {
+            if o.abs() > 0.5 {
+                return bad(
+                    &format!("camera.principal_offset[{i}]"),
+                    format!("must be in [-0.5, 0.5] (fraction of the image size), got {o}"),
+                );
+            }
+        }
+        if c.k1.abs() > 1.0 || c.k2.abs() > 1.0 {
+            return bad(
+                "camera.k1",
+                format!("distortion coefficients must be in [-1, 1], got k1 {} k2 {}", c.k1, c.k2),
+            );
+        }
+        if !(IMAGE_SIZE_RANGE.0..=IMAGE_SIZE_RANGE.1).contains(&c.image_size) {
+            return bad(
+                "camera.image_size",
+                format!("must be in [{}, {}] px, got {}", IMAGE_SIZE_RANGE.0, IMAGE_SIZE_RANGE.1, c.image_size),
+            );
+        }
+        // Every pin tip must be in front of the camera, and the distortion must stay monotonic
+        // over the part of the field the pins use (otherwise the image folds over).
+        let theta_max = self.ring_polar_rad().last().copied().unwrap_or(0.0);
+        let z_min = rho * theta_max.cos() + c.distance_mm - p.tip_radius_mm;
+        if z_min <= 1e-3 {
+            return bad(
+                "camera.distance_mm",
+                format!(
+                    "the outer pins ({:.2} mm above the dome centre) would be behind the camera: increase distance_mm",
+                    rho * theta_max.cos()
+                ),
+            );
+        }
+        let r_max = rho * theta_max.sin() / (rho * theta_max.cos() + c.distance_mm);
+        let slope = |r: f64| 1.0 + 3.0 * c.k1 * r * r + 5.0 * c.k2 * r.powi(4);
+        if (0..=20).any(|i| slope(r_max * i as f64 / 20.0) <= 0.0) {
+            return bad(
+                "camera.k1",
+                "radial distortion folds the image over within the pin field: reduce |k1|, |k2|".to_owned(),
+            );
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_is_valid_with_331_pins() {
+        let s = SensorParams::default();
+        s.validate("default").expect("default sensor is valid");
+        assert_eq!(s.pin_count(), 331);
+        assert_eq!(rings_for_pin_count(127), Some(6));
+        assert_eq!(rings_for_pin_count(128), None);
+    }
+
+    #[test]
+    fn toml_round_trip_and_partial_files() {
+        let s = SensorParams::default();
+        let back = SensorParams::from_toml_str(&s.to_toml(), "round-trip").expect("parses");
+        assert_eq!(s, back);
+        let partial = SensorParams::from_toml_str("[dome]\nouter_radius_mm = 25.0\n", "partial.toml").expect("parses");
+        assert_eq!(partial.dome.outer_radius_mm, 25.0);
+        assert_eq!(partial.pins, PinParams::default());
+    }
+
+    #[test]
+    fn errors_name_file_and_field() {
+        let e = SensorParams::from_toml_str("[dome]\nouter_radius_mm = -3.0\n", "s.toml").expect_err("negative");
+        let msg = e.to_string();
+        assert!(msg.contains("s.toml") && msg.contains("dome.outer_radius_mm"), "{msg}");
+        let e = SensorParams::from_toml_str("[dome]\nouter_radius_mm = nan\n", "s.toml").expect_err("nan");
+        assert!(e.to_string().contains("finite"), "{e}");
+        let e = SensorParams::from_toml_str("[dome]\nradius = 3.0\n", "s.toml").expect_err("unknown");
+        assert!(e.to_string().contains("radius"), "{e}");
+        let e = SensorParams::from_toml_str("[pins]\nrings = 4\nring_polar_deg = [10.0, 5.0, 20.0, 30.0]\n", "s.toml")
+            .expect_err("decreasing");
+        assert!(e.to_string().contains("ring_polar_deg[1]"), "{e}");
+    }
+
+    #[test]
+    fn default_equals_the_fitted_preset() {
+        let preset = SensorParams::from_toml_str(include_str!("../presets/tactip-331.toml"), "presets/tactip-331.toml")
+            .expect("preset parses");
+        assert_eq!(preset, SensorParams::default(), "rerun `cargo xtask fit-camera` and copy the values");
+    }
+
+    #[test]
+    fn pin_count_option_keeps_outer_ring() {
+        let s = SensorParams::default();
+        let s127 = s.with_pin_count(127).expect("127 pins");
+        assert_eq!(s127.pin_count(), 127);
+        let a = s.ring_polar_rad().last().copied().expect("rings");
+        let b = s127.ring_polar_rad().last().copied().expect("rings");
+        assert!((a - b).abs() < 1e-12);
+        assert!(s.with_pin_count(128).is_err());
+    }
+}

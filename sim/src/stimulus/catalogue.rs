@@ -1,0 +1,167 @@
+//! The stimulus catalogue: a TOML file listing each shape's OBJ file, material, friction and
+//! (for the training shapes) the contact location used for data collection.
+//!
+//! ```toml
+//! [[shape]]
+//! name = "disk"
+//! file = "disk.obj"
+//! material = "ABS"
+//! friction = 0.5
+//! description = "disk, 100 mm diameter"
+//! contact_mm = [50.0, 0.0]   # optional, a point on the edge (object frame)
+//! ```
+
+use std::path::Path;
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Result, SimError};
+use crate::stimulus::contour::Contour;
+use crate::stimulus::mesh::Mesh;
+
+/// Largest friction coefficient accepted.
+pub const MAX_FRICTION: f64 = 2.0;
+/// How far (mm) a declared contact location may lie from the shape's edge.
+pub const CONTACT_TOLERANCE_MM: f64 = 0.5;
+
+/// One catalogue entry, as written in the TOML file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShapeEntry {
+    /// Unique name (`disk`, `clover`, ...).
+    pub name: String,
+    /// OBJ file, relative to the catalogue.
+    pub file: String,
+    /// Material name (`ABS`, `acrylic`, ...).
+    pub material: String,
+    /// Coulomb friction coefficient between the sensor skin and this stimulus.
+    pub friction: f64,
+    /// One-line description with the main dimensions.
+    #[serde(default)]
+    pub description: String,
+    /// Contact location on the edge used for data collection (mm, object frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_mm: Option<[f64; 2]>,
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CatalogueFile {
+    #[serde(default)]
+    shape: Vec<ShapeEntry>,
+}
+
+/// A loaded stimulus: its entry, mesh and top-face contour.
+#[derive(Clone, Debug)]
+pub struct Stimulus {
+    /// Catalogue entry.
+    pub entry: ShapeEntry,
+    /// Closed triangle mesh (mm, object frame).
+    pub mesh: Mesh,
+    /// Top-face contour (mm, object frame).
+    pub contour: Contour,
+}
+
+impl Stimulus {
+    /// Name of the stimulus.
+    pub fn name(&self) -> &str {
+        &self.entry.name
+    }
+
+    /// Bounding-box extent `[x, y, z]` (mm).
+    pub fn extent_mm(&self) -> [f64; 3] {
+        let (lo, hi) = self.mesh.bounds();
+        [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]]
+    }
+}
+
+/// All stimuli of a catalogue.
+#[derive(Clone, Debug, Default)]
+pub struct Catalogue {
+    /// Stimuli in catalogue order.
+    pub stimuli: Vec<Arc<Stimulus>>,
+}
+
+impl Catalogue {
+    /// Parses a catalogue. `read_obj(file)` returns the OBJ text and its display name.
+    pub fn parse(
+        toml_text: &str,
+        source_name: &str,
+        mut read_obj: impl FnMut(&str) -> Result<(String, String)>,
+    ) -> Result<Self> {
+        let file: CatalogueFile = toml::from_str(toml_text)
+            .map_err(|e| SimError::Toml { source_name: source_name.to_owned(), message: e.to_string() })?;
+        let mut stimuli: Vec<Arc<Stimulus>> = Vec::new();
+        for (i, entry) in file.shape.into_iter().enumerate() {
+            let field = |f: &str| format!("shape[{i}].{f}");
+            if entry.name.trim().is_empty() {
+                return Err(SimError::invalid(source_name, field("name"), "must not be empty"));
+            }
+            if stimuli.iter().any(|s| s.entry.name == entry.name) {
+                return Err(SimError::invalid(source_name, field("name"), format!("`{}` appears twice", entry.name)));
+            }
+            if !(entry.friction.is_finite() && (0.0..=MAX_FRICTION).contains(&entry.friction)) {
+                return Err(SimError::invalid(
+                    source_name,
+                    field("friction"),
+                    format!("must be a finite number in [0, {MAX_FRICTION}], got {}", entry.friction),
+                ));
+            }
+            let (text, obj_name) = read_obj(&entry.file)?;
+            let mesh = Mesh::from_obj_str(&text, &obj_name)?;
+            let contour = Contour::from_mesh(&mesh, &obj_name)?;
+            if let Some(c) = entry.contact_mm {
+                if !c.iter().all(|v| v.is_finite()) {
+                    return Err(SimError::invalid(source_name, field("contact_mm"), "must be finite"));
+                }
+                let d = contour.signed_distance(c);
+                if d.abs() > CONTACT_TOLERANCE_MM {
+                    return Err(SimError::invalid(
+                        source_name,
+                        field("contact_mm"),
+                        format!(
+                            "{c:?} is {d:.2} mm from the edge of `{}` (must be within {CONTACT_TOLERANCE_MM} mm)",
+                            entry.name
+                        ),
+                    ));
+                }
+            }
+            stimuli.push(Arc::new(Stimulus { entry, mesh, contour }));
+        }
+        if stimuli.is_empty() {
+            return Err(SimError::invalid(source_name, "shape", "the catalogue lists no shapes"));
+        }
+        Ok(Self { stimuli })
+    }
+
+    /// Loads `catalogue.toml` and its OBJ files from `dir`.
+    pub fn load_dir(dir: &Path) -> Result<Self> {
+        let path = dir.join("catalogue.toml");
+        let text = std::fs::read_to_string(&path).map_err(|e| SimError::io(&path, "read", e))?;
+        Self::parse(&text, &path.display().to_string(), |file| {
+            let p = dir.join(file);
+            let text = std::fs::read_to_string(&p).map_err(|e| SimError::io(&p, "read", e))?;
+            Ok((text, p.display().to_string()))
+        })
+    }
+
+    /// The stimulus called `name`.
+    pub fn get(&self, name: &str) -> Result<Arc<Stimulus>> {
+        self.stimuli.iter().find(|s| s.entry.name == name).cloned().ok_or_else(|| SimError::Unknown {
+            kind: "shape",
+            name: name.to_owned(),
+            known: self.names().join(", "),
+        })
+    }
+
+    /// Names in catalogue order.
+    pub fn names(&self) -> Vec<String> {
+        self.stimuli.iter().map(|s| s.entry.name.clone()).collect()
+    }
+
+    /// Serialises entries back to catalogue TOML.
+    pub fn entries_to_toml(entries: &[ShapeEntry]) -> String {
+        toml::to_string_pretty(&CatalogueFile { shape: entries.to_vec() }).unwrap_or_default()
+    }
+}

@@ -1,0 +1,174 @@
+//! The in-plane contour of a planar (prism) stimulus: the boundary loops of its flat top
+//! face, with signed distance and edge tangent queries for ground-truth poses.
+//!
+//! Conventions: object frame, mm. Loops run counter-clockwise around material (holes
+//! clockwise), so the material is on the left of the tangent and the outward normal is the
+//! tangent turned clockwise. Signed distance is negative inside the material.
+
+use std::collections::{HashMap, HashSet};
+
+use crate::error::{Result, SimError};
+use crate::stimulus::mesh::{Mesh, winding_number};
+use crate::stimulus::outline::{perimeter, signed_area};
+
+/// Boundary of the top face of a planar stimulus.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Contour {
+    /// Closed loops (no repeated closing vertex).
+    pub loops: Vec<Vec<[f64; 2]>>,
+    /// Height of the top face (mm).
+    pub top_z_mm: f64,
+}
+
+/// Nearest point of a contour to a query point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EdgePoint {
+    /// Signed distance (mm), negative inside the material.
+    pub signed_distance_mm: f64,
+    /// Closest point on the contour (mm).
+    pub point: [f64; 2],
+    /// Unit tangent at that point, material on its left.
+    pub tangent: [f64; 2],
+}
+
+impl Contour {
+    /// Extracts the top-face boundary of a prism-like mesh: the triangles at the highest `z`
+    /// whose normals point up, and the edges of those triangles not shared within that set.
+    pub fn from_mesh(mesh: &Mesh, source_name: &str) -> Result<Self> {
+        let (_, hi) = mesh.bounds();
+        let top_z = hi[2];
+        let tol = 1e-6 * (1.0 + top_z.abs());
+        let mut directed: HashSet<(u32, u32)> = HashSet::new();
+        let mut count = 0usize;
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|i| mesh.vertices[i as usize]);
+            if [a, b, c].iter().any(|v| (v[2] - top_z).abs() > tol) {
+                continue;
+            }
+            let nz = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+            if nz <= 0.0 {
+                continue;
+            }
+            count += 1;
+            for (p, q) in [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])] {
+                // An interior edge appears in both directions and cancels.
+                if !directed.remove(&(q, p)) {
+                    directed.insert((p, q));
+                }
+            }
+        }
+        if count == 0 {
+            return Err(SimError::mesh(
+                source_name,
+                "no flat top face: a planar stimulus needs an upward face at its highest z",
+            ));
+        }
+        let mut edges: HashMap<u32, u32> = HashMap::new();
+        for (p, q) in directed {
+            if let Some(prev) = edges.insert(p, q) {
+                return Err(SimError::mesh(
+                    source_name,
+                    format!("top face boundary branches at vertex {} (to {} and {})", p + 1, prev + 1, q + 1),
+                ));
+            }
+        }
+        let mut loops = Vec::new();
+        while let Some(&start) = edges.keys().min() {
+            let mut lp = Vec::new();
+            let mut v = start;
+            loop {
+                let p = mesh.vertices[v as usize];
+                lp.push([p[0], p[1]]);
+                let Some(next) = edges.remove(&v) else {
+                    return Err(SimError::mesh(source_name, "top face boundary is not closed"));
+                };
+                v = next;
+                if v == start {
+                    break;
+                }
+            }
+            loops.push(lp);
+        }
+        // Outer loops first.
+        loops.sort_by(|a, b| signed_area(b).total_cmp(&signed_area(a)));
+        Ok(Self { loops, top_z_mm: top_z })
+    }
+
+    /// Material area of the top face (mm^2).
+    pub fn area_mm2(&self) -> f64 {
+        self.loops.iter().map(|l| signed_area(l)).sum()
+    }
+
+    /// Total boundary length (mm).
+    pub fn perimeter_mm(&self) -> f64 {
+        self.loops.iter().map(|l| perimeter(l)).sum()
+    }
+
+    /// Whether `p` lies on the material (non-zero winding).
+    pub fn contains(&self, p: [f64; 2]) -> bool {
+        self.loops.iter().map(|l| winding_number(l, p)).sum::<i32>() != 0
+    }
+
+    /// Nearest contour point, signed distance and tangent. At a polygon vertex the tangent is
+    /// the mean of the two adjacent edge directions.
+    pub fn nearest(&self, p: [f64; 2]) -> EdgePoint {
+        let mut best = (f64::INFINITY, [0.0; 2], [1.0, 0.0]);
+        for lp in &self.loops {
+            let n = lp.len();
+            for i in 0..n {
+                let (a, b) = (lp[i], lp[(i + 1) % n]);
+                let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
+                let len2 = ex * ex + ey * ey;
+                if len2 == 0.0 {
+                    continue;
+                }
+                let t = (((p[0] - a[0]) * ex + (p[1] - a[1]) * ey) / len2).clamp(0.0, 1.0);
+                let q = [a[0] + t * ex, a[1] + t * ey];
+                let d2 = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
+                if d2 < best.0 {
+                    let len = len2.sqrt();
+                    let dir = [ex / len, ey / len];
+                    let tangent = if t == 0.0 || t == 1.0 {
+                        // Vertex: average with the neighbouring edge.
+                        let (c, d) = if t == 0.0 { (lp[(i + n - 1) % n], a) } else { (b, lp[(i + 2) % n]) };
+                        let (fx, fy) = (d[0] - c[0], d[1] - c[1]);
+                        let fl = fx.hypot(fy).max(1e-300);
+                        let (mx, my) = (dir[0] + fx / fl, dir[1] + fy / fl);
+                        let ml = mx.hypot(my);
+                        if ml > 1e-12 { [mx / ml, my / ml] } else { dir }
+                    } else {
+                        dir
+                    };
+                    best = (d2, q, tangent);
+                }
+            }
+        }
+        let d = best.0.sqrt();
+        EdgePoint { signed_distance_mm: if self.contains(p) { -d } else { d }, point: best.1, tangent: best.2 }
+    }
+
+    /// Signed distance to the edge (mm), negative inside the material.
+    pub fn signed_distance(&self, p: [f64; 2]) -> f64 {
+        self.nearest(p).signed_distance_mm
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::stimulus::outline::Outline;
+
+    #[test]
+    fn disk_contour_distance_and_tangent() {
+        let poly = Outline::Disk { radius_mm: 50.0 }.polygon(0.5);
+        let mesh = Mesh::prism(&poly, 10.0, "disk").expect("prism");
+        let c = Contour::from_mesh(&mesh, "disk").expect("contour");
+        assert_eq!(c.loops.len(), 1);
+        assert_eq!(c.top_z_mm, 10.0);
+        let e = c.nearest([60.0, 0.0]);
+        assert!((e.signed_distance_mm - 10.0).abs() < 1e-3, "{e:?}");
+        assert!((e.tangent[0]).abs() < 1e-3 && (e.tangent[1] - 1.0).abs() < 1e-3, "{e:?}");
+        let inside = c.nearest([0.0, 45.0]);
+        assert!((inside.signed_distance_mm + 5.0).abs() < 1e-3 && inside.tangent[0] < -0.999, "{inside:?}");
+    }
+}

@@ -1,0 +1,115 @@
+//! One function per `tacsim` subcommand. Library errors carry file and field; this layer adds
+//! what the user was doing (anyhow context).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use tacsim_sim::detect::detect_blobs;
+use tacsim_sim::png_io::{PngDepth, write_png};
+use tacsim_sim::realism::Realism;
+use tacsim_sim::stimulus::Catalogue;
+use tacsim_sim::{PinRenderer, SensorParams};
+
+/// How `tacsim render` produces its image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RenderMode {
+    /// Exact disc coverage thresholded at 1/2 (default).
+    Binary,
+    /// Grey frame (blur, noise), then the lab's adaptive threshold and circular mask.
+    Realistic,
+    /// The grey frame alone (8-bit).
+    Grey,
+}
+
+/// Options of `tacsim render`.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    /// Sensor TOML; `None` for the built-in calibrated TacTip.
+    pub sensor: Option<PathBuf>,
+    /// Image size (px); `None` for the sensor's `camera.image_size`.
+    pub size: Option<u32>,
+    /// Pin count override (centred hexagonal: 127, 331, ...).
+    pub pins: Option<usize>,
+    /// Rendering mode.
+    pub mode: RenderMode,
+    /// Noise seed for the realistic modes.
+    pub seed: u64,
+    /// Write 1-bit instead of 8-bit PNG (binary modes only).
+    pub one_bit: bool,
+    /// Output PNG.
+    pub output: PathBuf,
+}
+
+/// Loads the sensor of `path` (or the default) and applies a pin-count override.
+pub fn load_sensor(path: Option<&Path>, pins: Option<usize>) -> Result<SensorParams> {
+    let sensor = match path {
+        Some(p) => {
+            SensorParams::load(p).context("loading the sensor file (see sim/presets/tactip-331.toml for the format)")?
+        }
+        None => SensorParams::default(),
+    };
+    match pins {
+        Some(n) => Ok(sensor.with_pin_count(n)?),
+        None => Ok(sensor),
+    }
+}
+
+/// `tacsim render`: renders the undeformed sensor. Returns a one-line summary.
+pub fn render(opts: &RenderOptions) -> Result<String> {
+    let sensor = load_sensor(opts.sensor.as_deref(), opts.pins)?;
+    let size = opts.size.unwrap_or(sensor.camera.image_size);
+    let renderer = PinRenderer::new(&sensor, size)?;
+    let pins = renderer.layout().poses();
+    let realism = Realism { seed: opts.seed, ..Realism::default() };
+    let (img, depth) = match opts.mode {
+        RenderMode::Binary => {
+            let mut img = image::GrayImage::new(size, size);
+            renderer.render_pins(&pins, &mut img);
+            (img, if opts.one_bit { PngDepth::OneBit } else { PngDepth::Grey8 })
+        }
+        RenderMode::Realistic => {
+            (realism.render(&renderer, &pins)?, if opts.one_bit { PngDepth::OneBit } else { PngDepth::Grey8 })
+        }
+        RenderMode::Grey => (realism.grey_frame(&renderer, &pins), PngDepth::Grey8),
+    };
+    write_png(&opts.output, &img, depth).with_context(|| format!("writing {}", opts.output.display()))?;
+    let blobs =
+        if opts.mode == RenderMode::Grey { String::new() } else { format!(", {} blobs", detect_blobs(&img).len()) };
+    Ok(format!(
+        "wrote {}: {size}x{size} px, sensor `{}` with {} pins{blobs}",
+        opts.output.display(),
+        sensor.name,
+        sensor.pin_count()
+    ))
+}
+
+/// The catalogue of `dir`, or the built-in one.
+pub fn load_catalogue(dir: Option<&Path>) -> Result<Catalogue> {
+    match dir {
+        Some(d) => Catalogue::load_dir(d).with_context(|| format!("loading the shape catalogue in {}", d.display())),
+        None => crate::embedded::catalogue().context("loading the built-in shapes"),
+    }
+}
+
+/// `tacsim shapes`: a table of the stimuli.
+pub fn shapes_table(catalogue: &Catalogue) -> String {
+    let mut out = format!(
+        "{:<10} {:>22} {:>10} {:>10} {:<8} {:>8}  {}\n",
+        "shape", "size x*y*z (mm)", "area mm2", "edge mm", "material", "friction", "contact (mm)"
+    );
+    for s in &catalogue.stimuli {
+        let e = s.extent_mm();
+        let contact = s.entry.contact_mm.map_or("-".to_owned(), |c| format!("({:.1}, {:.1})", c[0], c[1]));
+        out.push_str(&format!(
+            "{:<10} {:>22} {:>10.1} {:>10.1} {:<8} {:>8.2}  {}\n",
+            s.name(),
+            format!("{:.1} x {:.1} x {:.1}", e[0], e[1], e[2]),
+            s.contour.area_mm2(),
+            s.contour.perimeter_mm(),
+            s.entry.material,
+            s.entry.friction,
+            contact
+        ));
+    }
+    out
+}

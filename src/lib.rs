@@ -1,0 +1,7 @@
+//! tacsim: the command line and pipeline glue over the simulator crate (`tacsim-sim`).
+//!
+//! [`embedded`] carries the built-in stimuli so the binary runs anywhere; [`commands`] holds
+//! one function per subcommand, called by the thin `main.rs`.
+
+pub mod commands;
+pub mod embedded;
