@@ -1,0 +1,117 @@
+//! End-to-end tests of the `tacsim` command line, as a user runs it.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use tacsim_sim::detect::detect_blobs;
+use tacsim_sim::png_io::read_png;
+
+fn tacsim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tacsim")).args(args).output().expect("tacsim runs")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tacsim-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+fn render_and_count(dir: &Path, file: &str, extra: &[&str]) -> (u32, usize) {
+    let out = dir.join(file);
+    let mut args = vec!["render", "-o", out.to_str().expect("utf-8 path")];
+    args.extend_from_slice(extra);
+    let o = tacsim(&args);
+    assert!(o.status.success(), "tacsim {args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
+    let img = read_png(&out).expect("PNG written");
+    assert_eq!(img.width(), img.height());
+    assert!(img.as_raw().iter().all(|&p| p == 0 || p == 255), "binary image");
+    (img.width(), detect_blobs(&img).len())
+}
+
+#[test]
+fn render_default_gives_331_separate_blobs_at_256() {
+    let dir = temp_dir("default");
+    assert_eq!(render_and_count(&dir, "x.png", &[]), (256, 331));
+    assert_eq!(render_and_count(&dir, "x1.png", &["--one-bit"]), (256, 331));
+    assert_eq!(render_and_count(&dir, "p127.png", &["--pins", "127"]), (256, 127));
+    assert_eq!(render_and_count(&dir, "s128.png", &["--size", "128"]), (128, 331));
+    assert_eq!(render_and_count(&dir, "s420.png", &["--size", "420"]), (420, 331));
+    // The same command twice gives the same bytes.
+    render_and_count(&dir, "again.png", &[]);
+    assert_eq!(std::fs::read(dir.join("x.png")).expect("x"), std::fs::read(dir.join("again.png")).expect("again"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn render_realism_and_grey_modes() {
+    let dir = temp_dir("realism");
+    let (size, blobs) = render_and_count(&dir, "r.png", &["--realism", "--seed", "3"]);
+    assert_eq!(size, 256);
+    assert!(blobs >= 331, "every pin plus threshold specks at the rim: {blobs}");
+    let out = dir.join("g.png");
+    let o = tacsim(&["render", "--grey", "-o", out.to_str().expect("utf-8")]);
+    assert!(o.status.success());
+    let grey = read_png(&out).expect("grey PNG");
+    assert!(grey.as_raw().iter().any(|&p| p != 0 && p != 255), "grey levels present");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_sensor_files_are_clear_errors_and_leave_no_output() {
+    let dir = temp_dir("bad");
+    let out = dir.join("never.png");
+    let out_s = out.to_str().expect("utf-8");
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "[dome]\nouter_radius_mm = -20.0\n").expect("write");
+    let o = tacsim(&["render", "--sensor", bad.to_str().expect("utf-8"), "-o", out_s]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("bad.toml") && err.contains("dome.outer_radius_mm"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+
+    let o = tacsim(&["render", "--sensor", dir.join("missing.toml").to_str().expect("utf-8"), "-o", out_s]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("missing.toml"), "{err}");
+
+    let o = tacsim(&["render", "--pins", "100", "-o", out_s]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("127"), "suggests valid counts: {err}");
+
+    let o = tacsim(&["render", "--size", "24", "-o", out_s]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("24x24"), "{err}");
+
+    let o = tacsim(&["render", "-o", dir.join("no-dir/x.png").to_str().expect("utf-8")]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("no-dir"));
+    assert!(!out.exists(), "failed runs write nothing");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn shapes_lists_the_seven_stimuli() {
+    let o = tacsim(&["shapes"]);
+    assert!(o.status.success());
+    let table = String::from_utf8_lossy(&o.stdout);
+    for name in ["disk", "clover", "teardrop", "square", "foil", "spiral-1", "spiral-2"] {
+        assert!(table.lines().any(|l| l.starts_with(name)), "{name} missing from\n{table}");
+    }
+    assert!(table.contains("acrylic") && table.contains("ABS"));
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("shapes");
+    let o = tacsim(&["shapes", "--dir", dir.to_str().expect("utf-8")]);
+    assert_eq!(String::from_utf8_lossy(&o.stdout), table, "built-in equals shapes/");
+}
+
+#[test]
+fn embedded_shapes_match_the_shapes_directory() {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("shapes");
+    let mut on_disk: Vec<String> = std::fs::read_dir(&dir)
+        .expect("shapes/")
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    on_disk.sort();
+    let mut embedded: Vec<String> = tacsim::embedded::SHAPE_FILES.iter().map(|(n, _)| (*n).to_owned()).collect();
+    embedded.sort();
+    assert_eq!(embedded, on_disk, "update src/embedded.rs after adding or removing a shape");
+    assert_eq!(tacsim::embedded::catalogue().expect("loads").stimuli.len(), 7);
+}
