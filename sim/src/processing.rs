@@ -60,7 +60,7 @@ impl LabProcessing {
             }
             None => frame.clone(),
         };
-        if self.block < 3 || self.block % 2 == 0 {
+        if self.block < 3 || self.block.is_multiple_of(2) {
             return Err(SimError::invalid(
                 "lab processing",
                 "block",

@@ -207,10 +207,10 @@ impl Mesh {
                 if e.is_constraint_edge() {
                     continue;
                 }
-                if let Some(next) = e.rev().face().as_inner() {
-                    if !inside[next.fix().index()] {
-                        stack.push(next.fix());
-                    }
+                if let Some(next) = e.rev().face().as_inner()
+                    && !inside[next.fix().index()]
+                {
+                    stack.push(next.fix());
                 }
             }
         }
