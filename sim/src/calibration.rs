@@ -11,6 +11,7 @@ use image::GrayImage;
 use crate::detect::{Blob, detect_pins};
 use crate::error::{Result, SimError};
 use crate::fit::levenberg_marquardt;
+use crate::realism::Realism;
 use crate::render::PinRenderer;
 use crate::sensor::SensorParams;
 
@@ -282,4 +283,34 @@ pub fn fit_camera(start: &SensorParams, real: &GrayImage, real_name: &str) -> Re
     sensor.pins.tip_radius_mm /= (1.0 + cmp.area_rel_err).sqrt();
     sensor.validate("camera fit")?;
     Ok(sensor)
+}
+
+/// Fits [`Realism::pin_radius_scale`] (bisection) so that the lab-processed realistic render
+/// of `sensor` has the real image's mean blob area. Returns the realism settings and the
+/// remaining relative area error.
+pub fn fit_realism(
+    sensor: &SensorParams,
+    start: &Realism,
+    real: &GrayImage,
+    real_name: &str,
+) -> Result<(Realism, f64)> {
+    let renderer = PinRenderer::new(sensor, real.width())?;
+    let pins = renderer.layout().poses();
+    let target = ring_profile(real, sensor.pins.rings, real_name)?.mean_area_px();
+    let area_err = |scale: f64| -> Result<f64> {
+        let r = Realism { pin_radius_scale: scale, ..start.clone() };
+        let img = r.render(&renderer, &pins)?;
+        Ok(ring_profile(&img, sensor.pins.rings, "realistic render")?.mean_area_px() / target - 1.0)
+    };
+    let (mut lo, mut hi) = (0.3, 1.5);
+    for _ in 0..30 {
+        let mid = 0.5 * (lo + hi);
+        if area_err(mid)? > 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let scale = 0.5 * (lo + hi);
+    Ok((Realism { pin_radius_scale: scale, ..start.clone() }, area_err(scale)?))
 }

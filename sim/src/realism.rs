@@ -23,6 +23,11 @@ pub struct Realism {
     pub noise_std: f64,
     /// Noise seed.
     pub seed: u64,
+    /// Radius of the bright pin disc in the grey frame relative to the geometric tip. The
+    /// lab's adaptive threshold (local mean minus C) cuts a blurred pin below its half-height,
+    /// which grows blobs; this factor is fitted so thresholded blobs match the real blob area
+    /// (`cargo xtask fit-camera`).
+    pub pin_radius_scale: f64,
     /// Processing applied to the grey frame (stated at 420 px, scaled to the output).
     pub processing: LabProcessing,
 }
@@ -35,6 +40,7 @@ impl Default for Realism {
             blur_sigma_px420: 1.5,
             noise_std: 4.0,
             seed: 0,
+            pin_radius_scale: 0.8089,
             processing: LabProcessing::default(),
         }
     }
@@ -44,7 +50,11 @@ impl Realism {
     /// The grey frame (before processing) of pins at `pins`.
     pub fn grey_frame(&self, renderer: &PinRenderer, pins: &[PinPose]) -> GrayImage {
         let size = renderer.size();
-        let cov = raster::draw_coverage(&renderer.discs(pins), size);
+        let mut discs = renderer.discs(pins);
+        for d in &mut discs {
+            d.r *= self.pin_radius_scale;
+        }
+        let cov = raster::draw_coverage(&discs, size);
         let span = self.pin_level - self.background;
         let raw: Vec<u8> =
             cov.iter().map(|&c| (self.background + span * c as f64).round().clamp(0.0, 255.0) as u8).collect();

@@ -83,4 +83,6 @@ fn realistic_render_has_the_real_ring_structure() {
     );
     assert_eq!(sim.pins, 331);
     assert!(rms <= 1.0);
+    let area_err = sim.mean_area_px() / real_p.mean_area_px() - 1.0;
+    assert!(area_err.abs() <= 0.15, "realistic blob area error {area_err}: rerun `cargo xtask fit-camera`");
 }

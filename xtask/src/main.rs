@@ -10,7 +10,8 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 use tacsim_sim::atomic::write_atomic;
-use tacsim_sim::calibration::{compare_sensor, fit_camera};
+use tacsim_sim::calibration::{compare_sensor, fit_camera, fit_realism};
+use tacsim_sim::realism::Realism;
 use tacsim_sim::stimulus::Catalogue;
 use tacsim_sim::stimulus::builtin::shape_files;
 use tacsim_sim::{SensorParams, png_io};
@@ -119,6 +120,16 @@ fn fit(real_path: &Path) -> Result<()> {
         cmp.ring_radius_rms_px,
         100.0 * cmp.area_rel_err
     );
+    let (realism, realism_err) = fit_realism(&fitted, &Realism::default(), &real, &name)?;
+    println!(
+        "realism: pin_radius_scale {:.4} (Realism::default() has {:.4}) gives blob area error {:+.1}%",
+        realism.pin_radius_scale,
+        Realism::default().pin_radius_scale,
+        100.0 * realism_err
+    );
+    if (realism.pin_radius_scale - Realism::default().pin_radius_scale).abs() > 0.005 {
+        println!("copy pin_radius_scale into Realism::default() in sim/src/realism.rs");
+    }
     let out = root().join("sim/presets/tactip-331.toml");
     write_atomic(&out, format!("{header}{}", fitted.to_toml()).as_bytes())?;
     println!("wrote {}", out.display());
