@@ -212,6 +212,18 @@ pub fn compare(sim: &RingProfile, real: &RingProfile) -> Comparison {
     }
 }
 
+/// A per-ring table (radius, pin count, blob area) of a simulated and a real profile.
+pub fn ring_table(sim: &RingProfile, real: &RingProfile) -> String {
+    let mut out = String::from("ring  real_r_px  sim_r_px  real_n  sim_n  real_area  sim_area\n");
+    for (s, r) in sim.rings.iter().zip(&real.rings) {
+        out.push_str(&format!(
+            "{:>4} {:>10.2} {:>9.2} {:>7} {:>6} {:>10.1} {:>9.1}\n",
+            r.ring, r.mean_radius_px, s.mean_radius_px, r.count, s.count, r.mean_area_px, s.mean_area_px
+        ));
+    }
+    out
+}
+
 /// Renders `sensor` undeformed at the real image's size and compares the two profiles.
 pub fn compare_sensor(
     sensor: &SensorParams,

@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 
 use tacsim_sim::SensorParams;
-use tacsim_sim::calibration::{compare_sensor, ring_profile};
+use tacsim_sim::calibration::{compare_sensor, ring_profile, ring_table};
 use tacsim_sim::png_io::read_png;
 use tacsim_sim::realism::Realism;
 use tacsim_sim::render::PinRenderer;
@@ -31,13 +31,7 @@ fn default_sensor_matches_the_real_reference() {
     assert_eq!(real.dimensions(), (420, 420));
     let sensor = SensorParams::default();
     let (cmp, sim, real_p) = compare_sensor(&sensor, &real, &path.display().to_string()).expect("comparison");
-    println!("ring  real_r_px  sim_r_px  real_n  sim_n  real_area  sim_area");
-    for (s, r) in sim.rings.iter().zip(&real_p.rings) {
-        println!(
-            "{:>4} {:>10.2} {:>9.2} {:>7} {:>6} {:>10.1} {:>9.1}",
-            r.ring, r.mean_radius_px, s.mean_radius_px, r.count, s.count, r.mean_area_px, s.mean_area_px
-        );
-    }
+    print!("{}", ring_table(&sim, &real_p));
     println!(
         "ring-radius RMS error {:.3} px (max {:.3} px); mean blob area: real {:.1} px, sim {:.1} px, error {:+.1}%",
         cmp.ring_radius_rms_px,

@@ -10,7 +10,7 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 use tacsim_sim::atomic::write_atomic;
-use tacsim_sim::calibration::{compare_sensor, fit_camera, fit_realism};
+use tacsim_sim::calibration::{compare_sensor, fit_camera, fit_realism, ring_table};
 use tacsim_sim::realism::Realism;
 use tacsim_sim::stimulus::Catalogue;
 use tacsim_sim::stimulus::builtin::shape_files;
@@ -98,13 +98,7 @@ fn fit(real_path: &Path) -> Result<()> {
         candidate
     };
     let (cmp, sim, real_p) = compare_sensor(&fitted, &real, &name)?;
-    println!("ring  real_r_px  sim_r_px  real_n  sim_n  real_area  sim_area");
-    for (s, r) in sim.rings.iter().zip(&real_p.rings) {
-        println!(
-            "{:>4} {:>10.2} {:>9.2} {:>7} {:>6} {:>10.1} {:>9.1}",
-            r.ring, r.mean_radius_px, s.mean_radius_px, r.count, s.count, r.mean_area_px, s.mean_area_px
-        );
-    }
+    print!("{}", ring_table(&sim, &real_p));
     println!(
         "ring radius RMS {:.3} px (max {:.3}), mean blob area error {:+.1}%, centre offset {:.2} px",
         cmp.ring_radius_rms_px,

@@ -289,6 +289,9 @@ mod tests {
             ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "open mesh"),
             ("v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n", "not finite"),
             ("v 0 0 0\nv 1 0 0\nf 1 2 7\n", "cube.obj"),
+            // A two-vertex "face" cannot be fanned into triangles.
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", "cube.obj"),
+            ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n", "cube.obj"),
             (&CUBE.replace("f 1 4 3 2", "f 1 2 3 4"), "non-manifold"),
         ];
         for (text, expect) in cases {
