@@ -19,6 +19,12 @@ use crate::sensor::SensorParams;
 /// merged rim clutter.
 pub const PIN_AREA_RANGE_PX420: (f64, f64) = (0.4 * 117.0, 2.0 * 117.0);
 
+/// [`PIN_AREA_RANGE_PX420`] scaled to a `size` px image: `(min, max)` blob area (px) of a pin.
+pub fn pin_area_range(size: u32) -> (u32, u32) {
+    let k = (size as f64 / 420.0).powi(2);
+    ((PIN_AREA_RANGE_PX420.0 * k).floor().max(1.0) as u32, (PIN_AREA_RANGE_PX420.1 * k).ceil() as u32)
+}
+
 /// One ring of detected pins.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RingStats {
@@ -77,12 +83,8 @@ impl RingProfile {
 /// sensor's K; pins beyond ring K (rim clutter) are ignored.
 pub fn ring_profile(img: &GrayImage, expected_rings: u32, source_name: &str) -> Result<RingProfile> {
     let size = img.width();
-    let k = (size as f64 / 420.0).powi(2);
-    let blobs: Vec<Blob> = detect_pins(
-        img,
-        (PIN_AREA_RANGE_PX420.0 * k).floor().max(1.0) as u32,
-        (PIN_AREA_RANGE_PX420.1 * k).ceil() as u32,
-    );
+    let (min_area, max_area) = pin_area_range(size);
+    let blobs: Vec<Blob> = detect_pins(img, min_area, max_area);
     let fail = |reason: String| SimError::Analysis { source_name: source_name.to_owned(), reason };
     if blobs.len() < 7 {
         return Err(fail(format!("only {} pin-sized blobs found: is this an undeformed TacTip image?", blobs.len())));

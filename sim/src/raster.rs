@@ -51,25 +51,10 @@ pub fn box_coverage(disc: &Disc, x0: f64, x1: f64, y0: f64, y1: f64) -> f64 {
     }
     cuts[n] = a1;
     let cuts = &mut cuts[..=n];
-    // At most 6 values: insertion sort beats a generic sort here.
-    for i in 1..cuts.len() {
-        let mut j = i;
-        while j > 0 && cuts[j - 1] > cuts[j] {
-            cuts.swap(j - 1, j);
-            j -= 1;
-        }
-    }
-    // Antiderivative values at the cuts, computed at most once each (asin is the cost).
-    let mut h_at = [f64::NAN; 6];
-    let mut integral_h = |i: usize, x: f64| {
-        if h_at[i].is_nan() {
-            h_at[i] = semicircle_integral(x, r);
-        }
-        h_at[i]
-    };
+    cuts.sort_by(f64::total_cmp);
     let mut area = 0.0;
-    for i in 0..cuts.len() - 1 {
-        let (s, t) = (cuts[i], cuts[i + 1]);
+    for w in cuts.windows(2) {
+        let (s, t) = (w[0], w[1]);
         if t <= s {
             continue;
         }
@@ -82,7 +67,7 @@ pub fn box_coverage(disc: &Disc, x0: f64, x1: f64, y0: f64, y1: f64) -> f64 {
         if top_m <= bottom_m {
             continue;
         }
-        let hint = if top_is_circle || bottom_is_circle { integral_h(i + 1, t) - integral_h(i, s) } else { 0.0 };
+        let hint = semicircle_integral(t, r) - semicircle_integral(s, r);
         let top = if top_is_circle { hint } else { b1 * (t - s) };
         let bottom = if bottom_is_circle { -hint } else { b0 * (t - s) };
         area += top - bottom;

@@ -87,17 +87,16 @@ fn fit(real_path: &Path) -> Result<()> {
     let candidate = fit_camera(&start, &real, &name)?;
     // Keep the current default when the refit does not improve it measurably, so rerunning
     // the command on an already fitted default leaves the preset byte-identical.
-    let (old, _, _) = compare_sensor(&start, &real, &name)?;
-    let (new, _, _) = compare_sensor(&candidate, &real, &name)?;
-    let fitted = if old.ring_radius_rms_px <= new.ring_radius_rms_px + 0.01
-        && old.area_rel_err.abs() <= new.area_rel_err.abs() + 0.01
-    {
+    let old = compare_sensor(&start, &real, &name)?;
+    let new = compare_sensor(&candidate, &real, &name)?;
+    let keep = old.0.ring_radius_rms_px <= new.0.ring_radius_rms_px + 0.01
+        && old.0.area_rel_err.abs() <= new.0.area_rel_err.abs() + 0.01;
+    let (fitted, (cmp, sim, real_p)) = if keep {
         println!("the current default is already at the optimum (refit gains < 0.01 px, < 1% area); keeping it");
-        start.clone()
+        (start.clone(), old)
     } else {
-        candidate
+        (candidate, new)
     };
-    let (cmp, sim, real_p) = compare_sensor(&fitted, &real, &name)?;
     print!("{}", ring_table(&sim, &real_p));
     println!(
         "ring radius RMS {:.3} px (max {:.3}), mean blob area error {:+.1}%, centre offset {:.2} px",
