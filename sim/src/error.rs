@@ -81,6 +81,19 @@ pub enum SimError {
         /// What went wrong.
         reason: String,
     },
+    /// A contact solve did not converge.
+    #[error(
+        "{solver} contact solve did not converge in {iterations} iterations (residual {residual:.3e}); \
+             refine the grid or shorten the step"
+    )]
+    NoConvergence {
+        /// Which solve ("normal", "tangential").
+        solver: &'static str,
+        /// Iterations spent.
+        iterations: usize,
+        /// Last relative residual.
+        residual: f64,
+    },
 }
 
 /// Result alias of this crate.

@@ -10,6 +10,7 @@
 pub mod atomic;
 pub mod calibration;
 pub mod camera;
+pub mod contact;
 pub mod detect;
 pub mod error;
 pub mod fit;

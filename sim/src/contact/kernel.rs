@@ -1,0 +1,284 @@
+//! Half-space kernels: point loads (Boussinesq, Cerruti) at the surface and at depth, and their
+//! exact integrals over a uniformly loaded rectangle (Love 1929; Pohrt & Li 2014).
+//!
+//! # Conventions
+//! `z` points into the elastic body, pressure `p > 0` pushes into it, `(x, y)` is the surface
+//! plane. Offsets are field point minus load point. All lengths in mm, moduli in MPa, loads in N,
+//! tractions in MPa, displacements in mm.
+//!
+//! Surface displacement of a point force `(Qx, Qy, P)` at distance `r` (Johnson 1985, 3.19 and
+//! 3.86, with `c = 1 / (2 pi G)`):
+//! ```text
+//! u_z = c (1 - nu) P / r            + c (1 - 2 nu)/2 (Qx x + Qy y) / r^2
+//! u_x = c [(1 - nu)/r + nu x^2/r^3] Qx + c nu x y / r^3 Qy  - c (1 - 2 nu)/2 P x / r^2
+//! ```
+//! Surface points move towards a normal load; ahead of a tangential load the surface sinks. The
+//! two coupling terms are each other's reciprocal (Betti).
+//!
+//! The integral of each kernel over the rectangle `[x1, x2] x [y1, y2]` is the double difference
+//! of an antiderivative `F(X, Y) = int_0^X int_0^Y k`, defined in the first quadrant and extended
+//! by the kernel's parity (so the same formula is exact for the cell that holds its own load).
+
+use std::f64::consts::PI;
+
+/// `a * asinh(b / a)` with the limit 0 at `a = 0`.
+fn a_asinh_b_over_a(a: f64, b: f64) -> f64 {
+    if a == 0.0 { 0.0 } else { a * (b / a).asinh() }
+}
+
+/// `a * atan(b / a)` with the limit 0 at `a = 0` (for `a, b >= 0`).
+fn a_atan_b_over_a(a: f64, b: f64) -> f64 {
+    if a == 0.0 { 0.0 } else { a * (b / a).atan() }
+}
+
+/// `a * ln(1 + b^2 / a^2) / 2` with the limit 0 at `a = 0`.
+fn half_a_ln1p_b2_over_a2(a: f64, b: f64) -> f64 {
+    if a == 0.0 { 0.0 } else { 0.5 * a * ((b / a) * (b / a)).ln_1p() }
+}
+
+/// The six scalar kernels whose rectangle integrals build every component.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Kernel {
+    /// `1 / r`.
+    InvR,
+    /// `x^2 / r^3`.
+    XxOverR3,
+    /// `y^2 / r^3`.
+    YyOverR3,
+    /// `x y / r^3`.
+    XyOverR3,
+    /// `x / r^2`.
+    XOverR2,
+    /// `y / r^2`.
+    YOverR2,
+}
+
+impl Kernel {
+    /// All six.
+    pub const ALL: [Kernel; 6] =
+        [Kernel::InvR, Kernel::XxOverR3, Kernel::YyOverR3, Kernel::XyOverR3, Kernel::XOverR2, Kernel::YOverR2];
+
+    /// Pointwise value at offset `(x, y) != 0`.
+    pub fn value(self, x: f64, y: f64) -> f64 {
+        let r2 = x * x + y * y;
+        let r = r2.sqrt();
+        match self {
+            Kernel::InvR => 1.0 / r,
+            Kernel::XxOverR3 => x * x / (r2 * r),
+            Kernel::YyOverR3 => y * y / (r2 * r),
+            Kernel::XyOverR3 => x * y / (r2 * r),
+            Kernel::XOverR2 => x / r2,
+            Kernel::YOverR2 => y / r2,
+        }
+    }
+
+    /// `F(X, Y) = int_0^X int_0^Y k(s, t) dt ds`.
+    fn antiderivative(self, x: f64, y: f64) -> f64 {
+        let (ax, ay) = (x.abs(), y.abs());
+        let (sx, sy) = (sign(x), sign(y));
+        let r = x.hypot(y);
+        match self {
+            Kernel::InvR => sx * sy * (a_asinh_b_over_a(ax, ay) + a_asinh_b_over_a(ay, ax)),
+            Kernel::XxOverR3 => sx * sy * a_asinh_b_over_a(ay, ax),
+            Kernel::YyOverR3 => sx * sy * a_asinh_b_over_a(ax, ay),
+            Kernel::XyOverR3 => ax + ay - r,
+            Kernel::XOverR2 => sy * (half_a_ln1p_b2_over_a2(ay, ax) + a_atan_b_over_a(ax, ay)),
+            Kernel::YOverR2 => sx * (half_a_ln1p_b2_over_a2(ax, ay) + a_atan_b_over_a(ay, ax)),
+        }
+    }
+
+    /// Exact integral of the kernel over a `w x h` rectangle centred at the load point, seen from
+    /// the field point at offset `(dx, dy)` from the rectangle's centre:
+    /// `int int k(dx - s, dy - t) ds dt` over `|s| <= w/2, |t| <= h/2`.
+    pub fn rectangle(self, dx: f64, dy: f64, w: f64, h: f64) -> f64 {
+        let (x1, x2) = (dx - 0.5 * w, dx + 0.5 * w);
+        let (y1, y2) = (dy - 0.5 * h, dy + 0.5 * h);
+        self.antiderivative(x2, y2) - self.antiderivative(x1, y2) - self.antiderivative(x2, y1)
+            + self.antiderivative(x1, y1)
+    }
+}
+
+fn sign(v: f64) -> f64 {
+    if v > 0.0 {
+        1.0
+    } else if v < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+/// Isotropic linear elastic material (MPa, dimensionless).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Elastic {
+    /// Shear modulus `G` (MPa).
+    pub shear_modulus_mpa: f64,
+    /// Poisson's ratio `nu`, `0 <= nu <= 0.5`.
+    pub poisson: f64,
+}
+
+impl Elastic {
+    /// From Young's modulus `E` (MPa) and `nu`: `G = E / (2 (1 + nu))`.
+    pub fn from_young(youngs_modulus_mpa: f64, poisson: f64) -> Self {
+        Self { shear_modulus_mpa: youngs_modulus_mpa / (2.0 * (1.0 + poisson)), poisson }
+    }
+
+    /// Young's modulus `E = 2 G (1 + nu)` (MPa).
+    pub fn youngs_modulus_mpa(&self) -> f64 {
+        2.0 * self.shear_modulus_mpa * (1.0 + self.poisson)
+    }
+
+    /// Plane-strain modulus `E* = E / (1 - nu^2)` (MPa) of this body against a rigid one.
+    pub fn plane_strain_modulus_mpa(&self) -> f64 {
+        self.youngs_modulus_mpa() / (1.0 - self.poisson * self.poisson)
+    }
+}
+
+/// Displacement (mm) at depth `z >= 0` below the surface, at lateral offset `(x, y)` from a
+/// surface point force `(qx, qy, p)` (N), on a half-space (Johnson 1985, 3.20 and 3.86; `z`
+/// into the body). Singular at the load point itself.
+pub fn point_load_displacement(m: &Elastic, force: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
+    let [x, y, z] = offset;
+    let [qx, qy, p] = force;
+    let nu = m.poisson;
+    let c = 1.0 / (4.0 * PI * m.shear_modulus_mpa);
+    let rho = (x * x + y * y + z * z).sqrt();
+    let rho3 = rho * rho * rho;
+    let rz = rho + z;
+    let k = 1.0 - 2.0 * nu;
+    // Boussinesq (normal force p).
+    let bx = p * (x * z / rho3 - k * x / (rho * rz));
+    let by = p * (y * z / rho3 - k * y / (rho * rz));
+    let bz = p * (z * z / rho3 + 2.0 * (1.0 - nu) / rho);
+    // Cerruti (tangential force along x, then along y by symmetry).
+    let cx_x = qx * (1.0 / rho + x * x / rho3 + k * (1.0 / rz - x * x / (rho * rz * rz)));
+    let cx_y = qx * (x * y / rho3 - k * x * y / (rho * rz * rz));
+    let cx_z = qx * (x * z / rho3 + k * x / (rho * rz));
+    let cy_y = qy * (1.0 / rho + y * y / rho3 + k * (1.0 / rz - y * y / (rho * rz * rz)));
+    let cy_x = qy * (x * y / rho3 - k * x * y / (rho * rz * rz));
+    let cy_z = qy * (y * z / rho3 + k * y / (rho * rz));
+    [c * (bx + cx_x + cy_x), c * (by + cx_y + cy_y), c * (bz + cx_z + cy_z)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Gauss-Legendre midpoint-refined quadrature of a kernel over a rectangle away from `0`.
+    fn quadrature(k: Kernel, dx: f64, dy: f64, w: f64, h: f64) -> f64 {
+        let n = 400;
+        let mut sum = 0.0;
+        for i in 0..n {
+            for j in 0..n {
+                let s = -0.5 * w + (i as f64 + 0.5) * w / n as f64;
+                let t = -0.5 * h + (j as f64 + 0.5) * h / n as f64;
+                sum += k.value(dx - s, dy - t);
+            }
+        }
+        sum * w * h / (n * n) as f64
+    }
+
+    #[test]
+    fn rectangle_integrals_match_quadrature_in_every_quadrant() {
+        for k in Kernel::ALL {
+            for &(dx, dy) in &[(2.0, 1.5), (-2.0, 1.5), (2.0, -1.5), (-2.0, -1.5), (0.0, 2.0), (3.0, 0.0)] {
+                let exact = k.rectangle(dx, dy, 1.0, 0.8);
+                let quad = quadrature(k, dx, dy, 1.0, 0.8);
+                assert!((exact - quad).abs() < 1e-5 * (1.0 + quad.abs()), "{k:?} at ({dx},{dy}): {exact} vs {quad}");
+            }
+        }
+    }
+
+    #[test]
+    fn self_cell_integral_of_inverse_distance_is_known() {
+        // int int 1/r over the square [-a, a]^2 seen from its centre = 8 a ln(1 + sqrt 2).
+        let a = 0.7;
+        let exact = 8.0 * a * (1.0 + 2f64.sqrt()).ln();
+        assert!((Kernel::InvR.rectangle(0.0, 0.0, 2.0 * a, 2.0 * a) - exact).abs() < 1e-12);
+        // Odd kernels vanish at the centre of a symmetric cell.
+        for k in [Kernel::XyOverR3, Kernel::XOverR2, Kernel::YOverR2] {
+            assert!(k.rectangle(0.0, 0.0, 1.0, 1.0).abs() < 1e-12, "{k:?}");
+        }
+        // The self integral of x^2/r^3 plus y^2/r^3 is that of 1/r.
+        let s = Kernel::XxOverR3.rectangle(0.1, -0.2, 1.0, 1.3) + Kernel::YyOverR3.rectangle(0.1, -0.2, 1.0, 1.3);
+        assert!((s - Kernel::InvR.rectangle(0.1, -0.2, 1.0, 1.3)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn depth_kernel_reduces_to_surface_formulas() {
+        let m = Elastic { shear_modulus_mpa: 2.0, poisson: 0.3 };
+        let c = 1.0 / (2.0 * PI * m.shear_modulus_mpa);
+        let (x, y) = (1.2, -0.7);
+        let r = (x * x + y * y) as f64;
+        let r = r.sqrt();
+        let u = point_load_displacement(&m, [0.0, 0.0, 1.0], [x, y, 0.0]);
+        assert!((u[2] - c * (1.0 - 0.3) / r).abs() < 1e-12);
+        assert!((u[0] + c * 0.5 * (1.0 - 0.6) * x / (r * r)).abs() < 1e-12);
+        let u = point_load_displacement(&m, [1.0, 0.0, 0.0], [x, y, 0.0]);
+        assert!((u[0] - c * ((1.0 - 0.3) / r + 0.3 * x * x / (r * r * r))).abs() < 1e-12);
+        assert!((u[1] - c * 0.3 * x * y / (r * r * r)).abs() < 1e-12);
+        assert!((u[2] - c * 0.5 * (1.0 - 0.6) * x / (r * r)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn depth_kernel_is_reciprocal_between_surface_and_depth_components() {
+        // Betti on the surface: u_x at B from P at A equals u_z at A from Qx at B.
+        let m = Elastic { shear_modulus_mpa: 1.0, poisson: 0.2 };
+        let ab = [0.8, 0.3, 0.0];
+        let ba = [-0.8, -0.3, 0.0];
+        let ux_b = point_load_displacement(&m, [0.0, 0.0, 1.0], ab)[0];
+        let uz_a = point_load_displacement(&m, [1.0, 0.0, 0.0], ba)[2];
+        assert!((ux_b - uz_a).abs() < 1e-12, "{ux_b} vs {uz_a}");
+    }
+
+    /// Navier's equation `(1 - 2 nu) lap u + grad div u = 0` holds inside the body, and the
+    /// surface away from the load is free of traction: checks the depth formulas term by term.
+    #[test]
+    fn depth_kernels_satisfy_navier_and_free_surface() {
+        let m = Elastic { shear_modulus_mpa: 1.0, poisson: 0.27 };
+        for force in [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+            let u = |p: [f64; 3]| point_load_displacement(&m, force, p);
+            let h = 1e-3;
+            let at = [0.7, -0.4, 0.9];
+            let shifted = |p: [f64; 3], k: usize, d: f64| {
+                let mut q = p;
+                q[k] += d;
+                q
+            };
+            // Gradient tensor g[i][k] = d u_i / d x_k by central differences.
+            let grad = |p: [f64; 3]| {
+                let mut g = [[0.0; 3]; 3];
+                for k in 0..3 {
+                    let (a, b) = (u(shifted(p, k, h)), u(shifted(p, k, -h)));
+                    for i in 0..3 {
+                        g[i][k] = (a[i] - b[i]) / (2.0 * h);
+                    }
+                }
+                g
+            };
+            let div = |p: [f64; 3]| {
+                let g = grad(p);
+                g[0][0] + g[1][1] + g[2][2]
+            };
+            for i in 0..3 {
+                let mut lap = 0.0;
+                let mut grad_div = 0.0;
+                for k in 0..3 {
+                    lap += (u(shifted(at, k, h))[i] - 2.0 * u(at)[i] + u(shifted(at, k, -h))[i]) / (h * h);
+                }
+                grad_div += (div(shifted(at, i, h)) - div(shifted(at, i, -h))) / (2.0 * h);
+                let residual = (1.0 - 2.0 * m.poisson) * lap + grad_div;
+                assert!(residual.abs() < 1e-4, "force {force:?}, component {i}: {residual}");
+            }
+            // Free surface: sigma_zx = G (du_x/dz + du_z/dx) and sigma_zz vanish at z = 0+.
+            let g = grad([0.6, 0.5, 2e-3]);
+            let lambda = 2.0 * m.poisson / (1.0 - 2.0 * m.poisson);
+            let szx = g[0][2] + g[2][0];
+            let szy = g[1][2] + g[2][1];
+            let szz = 2.0 * g[2][2] + lambda * (g[0][0] + g[1][1] + g[2][2]);
+            for (name, s) in [("zx", szx), ("zy", szy), ("zz", szz)] {
+                assert!(s.abs() < 2e-3, "force {force:?}: sigma_{name} = {s}");
+            }
+        }
+    }
+}

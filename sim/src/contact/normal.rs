@@ -1,0 +1,213 @@
+//! The normal contact problem: pressures `p >= 0` with gap `g = g0 + u_z(p) >= 0` and
+//! `p g = 0`, by the constrained conjugate gradient of Polonsky & Keer (Wear 231, 1999),
+//! under indentation control (the rigid approach is part of `g0`) or load control (the approach
+//! is found so that the total force `h^2 sum p` equals the load).
+//!
+//! Only candidate cells are solved for: under indentation control the cells with `g0 < 0`
+//! (outside them the gap stays open, since `u_z >= 0` under any `p >= 0`), under load control
+//! every cell. Products are dense on the candidates when there are few, FFT otherwise
+//! ([`ProductChoice`]).
+
+use super::operator::{Component, Operator, Product};
+use crate::error::{Result, SimError};
+
+/// How the normal problem is driven.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Control {
+    /// `g0` already holds the rigid approach (mm); find the pressures.
+    Indentation,
+    /// Total normal force (N); the rigid approach is found with the pressures.
+    Load(f64),
+}
+
+/// When to switch from dense to FFT products, by number of candidate cells.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ProductChoice {
+    /// Dense products up to this many candidate cells, FFT above (measured with
+    /// `cargo bench -p tacsim-sim --bench contact`).
+    pub dense_max_cells: usize,
+}
+
+impl Default for ProductChoice {
+    fn default() -> Self {
+        Self { dense_max_cells: 900 }
+    }
+}
+
+/// Solver settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalSettings {
+    /// Stop when `sum |p_new - p_old| / sum p` falls below this.
+    pub tolerance: f64,
+    /// Give up after this many iterations.
+    pub max_iterations: usize,
+    /// Dense or FFT products.
+    pub products: ProductChoice,
+}
+
+impl Default for NormalSettings {
+    fn default() -> Self {
+        Self { tolerance: 1e-10, max_iterations: 2000, products: ProductChoice::default() }
+    }
+}
+
+/// Result of a normal solve; fields are grid fields (see [`super::grid::Grid`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NormalSolution {
+    /// Contact pressure per cell (MPa), zero off contact.
+    pub pressure: Vec<f64>,
+    /// Gap after deformation per candidate cell (mm); `f64::INFINITY` off the candidates.
+    pub gap: Vec<f64>,
+    /// Rigid approach added to `g0` under load control (mm, positive closes the gap); 0 under
+    /// indentation control.
+    pub approach_mm: f64,
+    /// Total normal force (N).
+    pub force_n: f64,
+    /// Iterations used.
+    pub iterations: usize,
+}
+
+impl NormalSolution {
+    /// Indices of the cells in contact (`p > 0`).
+    pub fn contact_cells(&self) -> Vec<usize> {
+        self.pressure.iter().enumerate().filter(|(_, p)| **p > 0.0).map(|(k, _)| k).collect()
+    }
+}
+
+/// Solves for the pressures. `g0` is the gap per cell (mm, `+inf` where nothing can touch),
+/// `extra` an additional normal displacement (mm, e.g. from tangential tractions), `warm` a
+/// starting pressure field (MPa).
+pub fn solve(
+    op: &Operator,
+    g0: &[f64],
+    extra: Option<&[f64]>,
+    control: Control,
+    warm: Option<&[f64]>,
+    settings: &NormalSettings,
+) -> Result<NormalSolution> {
+    let n = op.grid().len();
+    let area = op.grid().cell_area_mm2();
+    let base: Vec<f64> = (0..n).map(|k| g0[k] + extra.map_or(0.0, |e| e[k])).collect();
+    let candidates: Vec<usize> = match control {
+        Control::Indentation => (0..n).filter(|&k| base[k] < 0.0).collect(),
+        Control::Load(_) => (0..n).filter(|&k| base[k].is_finite()).collect(),
+    };
+    let mut pressure = vec![0.0; n];
+    let mut gap = vec![f64::INFINITY; n];
+    if candidates.is_empty() || matches!(control, Control::Load(l) if l <= 0.0) {
+        for &k in &candidates {
+            gap[k] = base[k];
+        }
+        return Ok(NormalSolution { pressure, gap, approach_mm: 0.0, force_n: 0.0, iterations: 0 });
+    }
+    let product = |src: &[usize], v: &[f64], out: &mut [f64]| {
+        if candidates.len() <= settings.products.dense_max_cells {
+            op.apply(&[(Component::Zz, v)], out, Product::Dense { src, dst: &candidates });
+        } else {
+            op.apply(&[(Component::Zz, v)], out, Product::Fft);
+        }
+    };
+    // Start: the warm pressures on the candidates, else a Jacobi guess.
+    let diag = op.diagonal(Component::Zz);
+    match warm {
+        Some(w) => {
+            for &k in &candidates {
+                pressure[k] = w[k].max(0.0);
+            }
+        }
+        None => {}
+    }
+    if candidates.iter().all(|&k| pressure[k] <= 0.0) {
+        for &k in &candidates {
+            pressure[k] = match control {
+                Control::Indentation => (-base[k]).max(0.0) / diag * 0.5,
+                Control::Load(_) => 1.0,
+            };
+        }
+    }
+    if let Control::Load(load) = control {
+        let total: f64 = candidates.iter().map(|&k| pressure[k]).sum::<f64>() * area;
+        for &k in &candidates {
+            pressure[k] *= load / total;
+        }
+    }
+    let mut u = vec![0.0; n];
+    let mut r = vec![0.0; n];
+    let mut t = vec![0.0; n];
+    let mut g = vec![0.0; n];
+    let (mut delta, mut g_old) = (0.0, 1.0);
+    let mut residual = f64::INFINITY;
+    for iteration in 1..=settings.max_iterations {
+        let active: Vec<usize> = candidates.iter().copied().filter(|&k| pressure[k] > 0.0).collect();
+        product(&active, &pressure, &mut u);
+        for &k in &candidates {
+            g[k] = u[k] + base[k];
+        }
+        if matches!(control, Control::Load(_)) && !active.is_empty() {
+            let g_mean = active.iter().map(|&k| g[k]).sum::<f64>() / active.len() as f64;
+            for &k in &candidates {
+                g[k] -= g_mean;
+            }
+        }
+        let gg: f64 = active.iter().map(|&k| g[k] * g[k]).sum();
+        for &k in &candidates {
+            t[k] = if pressure[k] > 0.0 { g[k] + delta * (gg / g_old) * t[k] } else { 0.0 };
+        }
+        g_old = gg;
+        product(&active, &t, &mut r);
+        if matches!(control, Control::Load(_)) && !active.is_empty() {
+            let r_mean = active.iter().map(|&k| r[k]).sum::<f64>() / active.len() as f64;
+            for &k in &active {
+                r[k] -= r_mean;
+            }
+        }
+        let num: f64 = active.iter().map(|&k| g[k] * t[k]).sum();
+        let den: f64 = active.iter().map(|&k| r[k] * t[k]).sum();
+        let tau = if den > 0.0 { num / den } else { 0.0 };
+        let mut change = 0.0;
+        let mut overlap = false;
+        for &k in &candidates {
+            let old = pressure[k];
+            let mut p = old;
+            if old > 0.0 {
+                p = (old - tau * t[k]).max(0.0);
+            } else if g[k] < 0.0 {
+                p = -tau.max(diag.recip() * 1e-3) * g[k];
+                overlap = true;
+            }
+            pressure[k] = p;
+            change += (p - old).abs();
+        }
+        delta = if overlap { 0.0 } else { 1.0 };
+        if let Control::Load(load) = control {
+            let total: f64 = candidates.iter().map(|&k| pressure[k]).sum::<f64>() * area;
+            if total > 0.0 {
+                for &k in &candidates {
+                    pressure[k] *= load / total;
+                }
+            }
+        }
+        let total: f64 = candidates.iter().map(|&k| pressure[k]).sum();
+        residual = if total > 0.0 { change / total } else { 0.0 };
+        if !residual.is_finite() {
+            break;
+        }
+        if residual < settings.tolerance {
+            let active: Vec<usize> = candidates.iter().copied().filter(|&k| pressure[k] > 0.0).collect();
+            product(&active, &pressure, &mut u);
+            // Under load control the final rescaling changed the pressures slightly: take the
+            // approach from the contact cells again.
+            let approach = if matches!(control, Control::Load(_)) && !active.is_empty() {
+                active.iter().map(|&k| u[k] + base[k]).sum::<f64>() / active.len() as f64
+            } else {
+                0.0
+            };
+            for &k in &candidates {
+                gap[k] = u[k] + base[k] - approach;
+            }
+            let force_n = total * area;
+            return Ok(NormalSolution { pressure, gap, approach_mm: approach, force_n, iterations: iteration });
+        }
+    }
+    Err(SimError::NoConvergence { solver: "normal", iterations: settings.max_iterations, residual })
+}

@@ -1,0 +1,217 @@
+//! The tangential contact problem of one step along a path (Kalker's incremental theory).
+//!
+//! With the pressures `p` of the step, the shear tractions `q` (MPa, on the skin, in the
+//! contact plane) of the previous step `q'`, and the rigid slip increment `w` of each cell
+//! (mm: how far the skin material would move over the stimulus if it did not deform), the slip
+//! of cell `i` in this step is
+//! ```text
+//! s_i = w_i + (A_t (q - q'))_i
+//! ```
+//! Stick cells have `s_i = 0` and `|q_i| <= mu p_i`; slip cells have `|q_i| = mu p_i` with
+//! `q_i` opposite to `s_i`. These are exactly the optimality conditions of the convex problem
+//! ```text
+//! minimise  1/2 q^T A_t q + q^T (w - A_t q')   subject to  |q_i| <= mu p_i
+//! ```
+//! (the gradient is the slip), solved here by projected gradient with Nesterov momentum and
+//! adaptive restart (O'Donoghue & Candes 2015), warm-started from `q'`. The frictional
+//! dissipation of the step, `-sum q_i . s_i h^2 >= 0` (N mm), follows. Normal-tangential
+//! coupling is left to the caller, which alternates the two solves (see [`super::engine`]).
+
+use super::operator::{Component, Operator, Product};
+use crate::error::{Result, SimError};
+
+/// Solver settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TangentialSettings {
+    /// Stop when the projected Jacobi step `|q - P(q - s / A_t(0,0))|` summed over the cells,
+    /// relative to `mu sum p`, falls below this (a measure of the optimality conditions).
+    pub tolerance: f64,
+    /// Give up after this many iterations.
+    pub max_iterations: usize,
+    /// Dense products up to this many contact cells, FFT above.
+    pub dense_max_cells: usize,
+}
+
+impl Default for TangentialSettings {
+    fn default() -> Self {
+        Self { tolerance: 1e-9, max_iterations: 20_000, dense_max_cells: 900 }
+    }
+}
+
+/// Result of one tangential step; fields are grid fields.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TangentialSolution {
+    /// Shear traction on the skin along `x` (MPa).
+    pub qx: Vec<f64>,
+    /// Shear traction on the skin along `y` (MPa).
+    pub qy: Vec<f64>,
+    /// Slip of the step along `x` (mm), zero in stick and off contact.
+    pub slip_x: Vec<f64>,
+    /// Slip of the step along `y` (mm).
+    pub slip_y: Vec<f64>,
+    /// Cells that slip (`|q| = mu p` with non-zero slip).
+    pub slipping: Vec<bool>,
+    /// Total shear force on the skin `h^2 sum q` (N).
+    pub force_n: [f64; 2],
+    /// Frictional dissipation of the step `-h^2 sum q . s` (N mm), `>= 0`.
+    pub dissipation_nmm: f64,
+    /// Iterations used.
+    pub iterations: usize,
+}
+
+/// Projects `(x, y)` onto the disc of radius `r`.
+fn project(x: f64, y: f64, r: f64) -> (f64, f64) {
+    let n2 = x * x + y * y;
+    if n2 <= r * r {
+        (x, y)
+    } else if r <= 0.0 {
+        (0.0, 0.0)
+    } else {
+        let s = r / n2.sqrt();
+        (x * s, y * s)
+    }
+}
+
+/// Solves one step. `pressure` (MPa) and `mu` give the traction bound per cell, `prev` the
+/// previous tractions `(q'_x, q'_y)`, `w` the rigid slip increment per cell (mm). The iteration
+/// starts from `warm` when given, else from `prev`.
+pub fn solve_step(
+    op: &Operator,
+    pressure: &[f64],
+    mu: &[f64],
+    prev: (&[f64], &[f64]),
+    w: (&[f64], &[f64]),
+    warm: Option<(&[f64], &[f64])>,
+    settings: &TangentialSettings,
+) -> Result<TangentialSolution> {
+    let n = op.grid().len();
+    let area = op.grid().cell_area_mm2();
+    let contact: Vec<usize> = (0..n).filter(|&k| pressure[k] > 0.0).collect();
+    let bound: Vec<f64> = (0..n).map(|k| if pressure[k] > 0.0 { mu[k] * pressure[k] } else { 0.0 }).collect();
+    let mut sol = TangentialSolution {
+        qx: vec![0.0; n],
+        qy: vec![0.0; n],
+        slip_x: vec![0.0; n],
+        slip_y: vec![0.0; n],
+        slipping: vec![false; n],
+        force_n: [0.0; 2],
+        dissipation_nmm: 0.0,
+        iterations: 0,
+    };
+    if contact.is_empty() {
+        return Ok(sol);
+    }
+    let dense = contact.len() <= settings.dense_max_cells;
+    // u = A_t q at the contact cells, from tractions on `src`.
+    let displacement = |src: &[usize], qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]| {
+        let product = if dense { Product::Dense { src, dst: &contact } } else { Product::Fft };
+        op.apply(&[(Component::Xx, qx), (Component::Xy, qy)], ux, product);
+        op.apply(&[(Component::Xy, qx), (Component::Yy, qy)], uy, product);
+    };
+    // b = w - A_t q' on the contact cells.
+    let prev_cells: Vec<usize> = (0..n).filter(|&k| prev.0[k] != 0.0 || prev.1[k] != 0.0).collect();
+    let (mut bx, mut by) = (vec![0.0; n], vec![0.0; n]);
+    if !prev_cells.is_empty() {
+        displacement(&prev_cells, prev.0, prev.1, &mut bx, &mut by);
+    }
+    for &k in &contact {
+        bx[k] = w.0[k] - bx[k];
+        by[k] = w.1[k] - by[k];
+    }
+    let total_bound: f64 = contact.iter().map(|&k| bound[k]).sum();
+    // Step 1/L with L the largest eigenvalue of A_t on the contact cells, by power iteration
+    // (a 5% margin covers its slow last digits).
+    let lipschitz = {
+        let (mut vx, mut vy) = (vec![0.0; n], vec![0.0; n]);
+        for &k in &contact {
+            vx[k] = 1.0;
+            vy[k] = 0.5;
+        }
+        let (mut ax, mut ay) = (vec![0.0; n], vec![0.0; n]);
+        let mut lambda = 0.0;
+        for _ in 0..12 {
+            displacement(&contact, &vx, &vy, &mut ax, &mut ay);
+            let norm = contact.iter().map(|&k| ax[k] * ax[k] + ay[k] * ay[k]).sum::<f64>().sqrt();
+            let vnorm = contact.iter().map(|&k| vx[k] * vx[k] + vy[k] * vy[k]).sum::<f64>().sqrt();
+            lambda = norm / vnorm;
+            for &k in &contact {
+                vx[k] = ax[k] / norm;
+                vy[k] = ay[k] / norm;
+            }
+        }
+        1.05 * lambda
+    };
+    let step = 1.0 / lipschitz;
+    // Optimality is measured with the local scale 1/A_t(0,0): the residual is the size of the
+    // projected Jacobi step, relative to mu sum p.
+    let local = 1.0 / op.diagonal(Component::Xx).max(op.diagonal(Component::Yy));
+    // Start from the warm (else previous) tractions, projected on the new bounds.
+    let start = warm.unwrap_or(prev);
+    let (mut qx, mut qy) = (vec![0.0; n], vec![0.0; n]);
+    for &k in &contact {
+        (qx[k], qy[k]) = project(start.0[k], start.1[k], bound[k]);
+    }
+    let (mut yx, mut yy) = (qx.clone(), qy.clone());
+    let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
+    let mut theta = 1.0f64;
+    for iteration in 1..=settings.max_iterations {
+        displacement(&contact, &yx, &yy, &mut ux, &mut uy);
+        let mut kkt = 0.0;
+        let mut restart = 0.0;
+        let theta_next = 0.5 * (1.0 + (1.0 + 4.0 * theta * theta).sqrt());
+        let beta = (theta - 1.0) / theta_next;
+        let mut next = Vec::with_capacity(contact.len());
+        for &k in &contact {
+            let (gx, gy) = (ux[k] + bx[k], uy[k] + by[k]);
+            let (nx, ny) = project(yx[k] - step * gx, yy[k] - step * gy, bound[k]);
+            let (jx, jy) = project(yx[k] - local * gx, yy[k] - local * gy, bound[k]);
+            kkt += (jx - yx[k]).hypot(jy - yy[k]);
+            // Restart when the momentum points uphill.
+            restart += gx * (nx - qx[k]) + gy * (ny - qy[k]);
+            next.push((nx, ny));
+        }
+        let residual = kkt / total_bound;
+        let momentum = if restart > 0.0 { 0.0 } else { beta };
+        theta = if restart > 0.0 { 1.0 } else { theta_next };
+        for (&k, &(nx, ny)) in contact.iter().zip(&next) {
+            yx[k] = nx + momentum * (nx - qx[k]);
+            yy[k] = ny + momentum * (ny - qy[k]);
+            qx[k] = nx;
+            qy[k] = ny;
+        }
+        if momentum > 0.0 {
+            for &k in &contact {
+                (yx[k], yy[k]) = project(yx[k], yy[k], bound[k]);
+            }
+        }
+        if residual < settings.tolerance {
+            sol.iterations = iteration;
+            break;
+        }
+        if !residual.is_finite() || iteration == settings.max_iterations {
+            return Err(SimError::NoConvergence { solver: "tangential", iterations: iteration, residual });
+        }
+    }
+    // Final slip and bookkeeping from the converged tractions.
+    displacement(&contact, &qx, &qy, &mut ux, &mut uy);
+    let mut force = [0.0; 2];
+    let mut dissipation = 0.0;
+    for &k in &contact {
+        let (sx, sy) = (ux[k] + bx[k], uy[k] + by[k]);
+        let on_bound = qx[k].hypot(qy[k]) >= bound[k] * (1.0 - 1e-9);
+        // Stick cells have zero slip up to the solver tolerance; report exact zeros there.
+        if on_bound && sx.hypot(sy) > 0.0 && qx[k] * sx + qy[k] * sy < 0.0 {
+            sol.slip_x[k] = sx;
+            sol.slip_y[k] = sy;
+            sol.slipping[k] = true;
+            dissipation -= (qx[k] * sx + qy[k] * sy) * area;
+        }
+        force[0] += qx[k] * area;
+        force[1] += qy[k] * area;
+    }
+    sol.qx = qx;
+    sol.qy = qy;
+    sol.force_n = force;
+    sol.dissipation_nmm = dissipation;
+    Ok(sol)
+}
