@@ -173,6 +173,37 @@ impl Scene {
         })
     }
 
+    /// Casts rays from `origins` along the common unit direction `dir` (world, mm) and returns,
+    /// per ray, the distance to the first stimulus surface within `max_mm` and the object hit.
+    /// The query pipeline's bounding-volume hierarchy only tests stimuli whose bounds the ray
+    /// reaches.
+    pub fn cast_rays(&self, origins: &[[f64; 3]], dir: [f64; 3], max_mm: f64) -> Vec<Option<(f64, ObjectId)>> {
+        let pipeline = self.broad_phase.as_query_pipeline(
+            &DefaultQueryDispatcher,
+            &self.bodies,
+            &self.colliders,
+            QueryFilter::default(),
+        );
+        let d = rapier3d::math::Vector::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
+        origins
+            .iter()
+            .map(|o| {
+                let ray = Ray::new(rapier3d::math::Vector::new(o[0] as f32, o[1] as f32, o[2] as f32), d);
+                let (handle, toi) = pipeline.cast_ray(&ray, max_mm as f32, true)?;
+                Some((toi as f64, self.object_of(handle)?))
+            })
+            .collect()
+    }
+
+    /// Height of the highest stimulus top in the scene (mm, world `z`), `None` when empty.
+    /// Sensor depths are measured from it.
+    pub fn top_height_mm(&self) -> Option<f64> {
+        self.objects
+            .iter()
+            .filter_map(|o| self.colliders.get(o.handle).map(|c| c.compute_aabb().maxs.z as f64))
+            .reduce(f64::max)
+    }
+
     /// Objects whose bounding boxes reach the axis-aligned box `[min, max]` (world, mm).
     pub fn objects_in_box(&self, min_mm: [f64; 3], max_mm: [f64; 3]) -> Vec<ObjectId> {
         let mut ids: Vec<ObjectId> = self

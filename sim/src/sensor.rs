@@ -33,6 +33,40 @@ pub struct SensorParams {
     pub pins: PinParams,
     /// The camera inside the dome.
     pub camera: CameraParams,
+    /// Elastic model of the skin and the contact grid.
+    pub skin: SkinParams,
+}
+
+/// Elastic influence model of the skin.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SkinModel {
+    /// Elastic half-space with exact rectangle influence coefficients. The default until the
+    /// calibration against real recordings settles the model: it is the validated one (Hertz,
+    /// Cattaneo), but keeps shear local (pins far from the contact barely move).
+    HalfSpace,
+}
+
+/// Elastic properties of the skin and the contact grid.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SkinParams {
+    /// Influence model.
+    pub model: SkinModel,
+    /// Young's modulus (MPa). Elastomer skins: about 1 MPa. Under indentation control on a
+    /// half-space the pin motion does not depend on it, only the forces do.
+    pub youngs_modulus_mpa: f64,
+    /// Poisson's ratio, in [0, 0.5]; elastomers are nearly incompressible.
+    pub poisson: f64,
+    /// Cells across the contact grid (odd). The grid spans the footprint of the undeformed dome
+    /// inside the stimulus plus a margin; accuracy and cost grow with it (see `tacsim bench`).
+    pub cells_across: usize,
+}
+
+impl Default for SkinParams {
+    fn default() -> Self {
+        Self { model: SkinModel::HalfSpace, youngs_modulus_mpa: 1.0, poisson: 0.49, cells_across: 25 }
+    }
 }
 
 /// The hemispherical skin.
@@ -94,6 +128,7 @@ impl Default for SensorParams {
             dome: DomeParams::default(),
             pins: PinParams::default(),
             camera: CameraParams::default(),
+            skin: SkinParams::default(),
         }
     }
 }
@@ -337,6 +372,18 @@ impl SensorParams {
                 "camera.image_size",
                 format!("must be in [{}, {}] px, got {}", IMAGE_SIZE_RANGE.0, IMAGE_SIZE_RANGE.1, c.image_size),
             );
+        }
+        let k = &self.skin;
+        finite("skin.youngs_modulus_mpa", k.youngs_modulus_mpa)?;
+        finite("skin.poisson", k.poisson)?;
+        if !(k.youngs_modulus_mpa > 0.0 && k.youngs_modulus_mpa <= 1.0e6) {
+            return bad("skin.youngs_modulus_mpa", format!("must be in (0, 1e6] MPa, got {}", k.youngs_modulus_mpa));
+        }
+        if !(0.0..=0.5).contains(&k.poisson) {
+            return bad("skin.poisson", format!("must be in [0, 0.5], got {}", k.poisson));
+        }
+        if !(5..=401).contains(&k.cells_across) || k.cells_across % 2 == 0 {
+            return bad("skin.cells_across", format!("must be odd and in [5, 401], got {}", k.cells_across));
         }
         // Every pin tip must be in front of the camera, and the distortion must stay monotonic
         // over the part of the field the pins use (otherwise the image folds over).

@@ -1,0 +1,370 @@
+//! The contact engine: a sensor moving through poses over a scene, carrying contact state
+//! (pressures, shear tractions) from step to step, and the pins that follow.
+//!
+//! One step: initial gap from scene ray casts on the grid (fixed for the whole path, see
+//! [`footprint_grid`]) -> normal solve (warm-started) -> tangential solve with the rigid slip
+//! increment of each cell since the previous step -> (alternate with the normal solve while
+//! the two are coupled) -> pins on demand. What a step does not need is skipped: no contact
+//! means no solve and the cached undeformed pins; zero friction, or a step without tangential
+//! motion on an uncoupled material, means no tangential solve; pins and images only when asked.
+
+use std::sync::Arc;
+
+use nalgebra::Vector3;
+use serde::Serialize;
+
+use super::grid::Grid;
+use super::kernel::Elastic;
+use super::normal::{self, Control, NormalSettings};
+use super::operator::{Component, HalfSpace, Operator, Pairing, Product};
+use super::pin_motion::{CellForces, displaced_pins};
+use super::pose::SensorPose;
+use super::tangential::{self, TangentialSettings};
+use crate::error::{Result, SimError};
+use crate::pins::{PinLayout, PinPose};
+use crate::scene::Scene;
+use crate::sensor::{SensorParams, SkinModel};
+
+/// Cells of the coarse probe used to find the footprint, per side.
+const PROBE_CELLS: usize = 21;
+/// Gap cells are only taken inside this fraction of the dome radius (the flat contact plane
+/// does not describe the dome's flanks).
+const DOME_FRACTION: f64 = 0.95;
+
+/// Everything fixed about a sensor's contact: material, pins, solver settings.
+#[derive(Clone, Debug)]
+pub struct ContactModel {
+    /// The sensor.
+    pub sensor: Arc<SensorParams>,
+    /// Skin material.
+    pub material: Elastic,
+    /// Pins of the undeformed sensor.
+    pub layout: Arc<PinLayout>,
+    /// Normal solver settings.
+    pub normal: NormalSettings,
+    /// Tangential solver settings.
+    pub tangential: TangentialSettings,
+    /// Alternations of normal and tangential solves on coupled materials (1 = Goodman's
+    /// approximation: no coupling).
+    pub coupling_iterations: usize,
+}
+
+impl ContactModel {
+    /// The contact model of a (validated) sensor.
+    pub fn new(sensor: &SensorParams) -> Self {
+        let material = Elastic::from_young(sensor.skin.youngs_modulus_mpa, sensor.skin.poisson);
+        Self {
+            sensor: Arc::new(sensor.clone()),
+            material,
+            layout: Arc::new(PinLayout::new(sensor)),
+            normal: NormalSettings::default(),
+            tangential: TangentialSettings { tolerance: 1e-8, ..TangentialSettings::default() },
+            coupling_iterations: 4,
+        }
+    }
+
+    fn half_space(&self) -> HalfSpace {
+        match self.sensor.skin.model {
+            SkinModel::HalfSpace => HalfSpace { material: self.material, pairing: Pairing::RigidIndenter },
+        }
+    }
+
+    fn dome_radius(&self) -> f64 {
+        self.sensor.dome.outer_radius_mm
+    }
+}
+
+/// What a step found.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct StepReport {
+    /// Whether the skin touches a stimulus.
+    pub in_contact: bool,
+    /// Total force on the skin in the sensor frame (N): shear `x`, `y` and normal (pressing).
+    pub force_n: [f64; 3],
+    /// Cells in contact.
+    pub contact_cells: usize,
+    /// Cells slipping in this step.
+    pub slip_cells: usize,
+    /// Frictional dissipation of the step (N mm).
+    pub dissipation_nmm: f64,
+    /// Normal solver iterations (summed over coupling alternations).
+    pub normal_iterations: usize,
+    /// Tangential solver iterations.
+    pub tangential_iterations: usize,
+    /// Whether the tangential solve ran.
+    pub tangential_solved: bool,
+}
+
+/// The contact grid for a path: square, in the sensor frame, covering the union over `poses`
+/// of the cells where the undeformed dome is inside a stimulus (found by a coarse then a fine
+/// ray probe), plus one fine probe cell of margin, with `cells_across` cells per side. `None`
+/// when no pose touches anything.
+pub fn footprint_grid(model: &ContactModel, scene: &Scene, poses: &[SensorPose]) -> Option<Grid> {
+    let r = model.dome_radius() * DOME_FRACTION;
+    let mut bounds: Option<[f64; 4]> = None;
+    for pose in poses {
+        // Coarse probe: keep cells close enough to touching that a footprint could hide
+        // between probe points (a sphere's gap rises by at most s^2 / (4 R) over half a cell
+        // diagonal), then probe their box finely and keep the cells that overlap.
+        let s = 2.0 * r / PROBE_CELLS as f64;
+        let coarse = Grid::square(PROBE_CELLS, s);
+        let threshold = s * s / (4.0 * model.dome_radius()) * 1.01;
+        let Some(b) = probe_box(model, scene, pose, &coarse, threshold, s) else { continue };
+        let side = (b[2] - b[0]).max(b[3] - b[1]);
+        let fine_s = side / PROBE_CELLS as f64;
+        let fine = Grid {
+            nx: PROBE_CELLS,
+            ny: PROBE_CELLS,
+            cell_mm: fine_s,
+            centre_mm: [0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3])],
+        };
+        let Some(b) = probe_box(model, scene, pose, &fine, 0.0, fine_s) else { continue };
+        bounds = Some(match bounds {
+            None => b,
+            Some(a) => [a[0].min(b[0]), a[1].min(b[1]), a[2].max(b[2]), a[3].max(b[3])],
+        });
+    }
+    let b = bounds?;
+    let n = model.sensor.skin.cells_across;
+    let side = (b[2] - b[0]).max(b[3] - b[1]);
+    Some(Grid { nx: n, ny: n, cell_mm: side / n as f64, centre_mm: [0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3])] })
+}
+
+/// Box `[x0, y0, x1, y1]` of the probe cells with gap below `threshold`, grown by `margin`.
+fn probe_box(
+    model: &ContactModel,
+    scene: &Scene,
+    pose: &SensorPose,
+    probe: &Grid,
+    threshold: f64,
+    margin: f64,
+) -> Option<[f64; 4]> {
+    let gaps = initial_gap(model, scene, pose, probe);
+    let mut b: Option<[f64; 4]> = None;
+    for (k, g) in gaps.iter().enumerate() {
+        if g.0 < threshold {
+            let c = probe.centre(k);
+            b = Some(match b {
+                None => [c[0], c[1], c[0], c[1]],
+                Some(a) => [a[0].min(c[0]), a[1].min(c[1]), a[2].max(c[0]), a[3].max(c[1])],
+            });
+        }
+    }
+    let r = model.dome_radius() * DOME_FRACTION;
+    b.map(|a| [(a[0] - margin).max(-r), (a[1] - margin).max(-r), (a[2] + margin).min(r), (a[3] + margin).min(r)])
+}
+
+/// Sensor-frame point of the undeformed outer dome surface above grid point `c`.
+fn dome_point(dome_radius: f64, c: [f64; 2]) -> Vector3<f64> {
+    let r2 = c[0] * c[0] + c[1] * c[1];
+    Vector3::new(c[0], c[1], (dome_radius * dome_radius - r2).max(0.0).sqrt())
+}
+
+/// Initial gap (mm, along sensor `+z`, negative where the undeformed dome is inside a
+/// stimulus, `+inf` where nothing is below or off the dome) and the friction coefficient of the
+/// stimulus under each grid cell.
+pub fn initial_gap(model: &ContactModel, scene: &Scene, pose: &SensorPose, grid: &Grid) -> Vec<(f64, f64)> {
+    let radius = model.dome_radius();
+    let Some(top) = scene.top_height_mm() else { return vec![(f64::INFINITY, 0.0); grid.len()] };
+    let rot = pose.rotation();
+    let origin = pose.origin_world(radius, top);
+    // Start rays behind the dome surface so that they begin outside every stimulus.
+    let back = pose.depth_mm.max(0.0) + 2.0 * radius;
+    let dir = rot * Vector3::z();
+    let limit = DOME_FRACTION * radius;
+    let mut origins = Vec::with_capacity(grid.len());
+    let mut on_dome = Vec::with_capacity(grid.len());
+    for c in grid.centres() {
+        let inside = c[0].hypot(c[1]) < limit;
+        let p = origin + rot * (dome_point(radius, c) - back * Vector3::z());
+        origins.push([p.x, p.y, p.z]);
+        on_dome.push(inside);
+    }
+    let hits = scene.cast_rays(&origins, [dir.x, dir.y, dir.z], back + 2.0 * radius);
+    hits.iter()
+        .zip(&on_dome)
+        .map(|(hit, &inside)| match (hit, inside) {
+            (Some((toi, id)), true) => (toi - back, scene.objects()[*id].stimulus.entry.friction),
+            _ => (f64::INFINITY, 0.0),
+        })
+        .collect()
+}
+
+/// A sensor moving over a scene with contact history.
+#[derive(Debug)]
+pub struct Simulation<'a> {
+    model: &'a ContactModel,
+    scene: &'a Scene,
+    op: Option<Operator>,
+    pressure: Vec<f64>,
+    qx: Vec<f64>,
+    qy: Vec<f64>,
+    pose: Option<SensorPose>,
+    report: StepReport,
+}
+
+impl<'a> Simulation<'a> {
+    /// A simulation whose grid covers the footprints of `poses` (all poses the path will visit;
+    /// poses outside them are solved on the same grid, with contact cut at its border).
+    pub fn new(model: &'a ContactModel, scene: &'a Scene, poses: &[SensorPose]) -> Self {
+        let op = footprint_grid(model, scene, poses).map(|g| Operator::new(&model.half_space(), g));
+        let n = op.as_ref().map_or(0, |o| o.grid().len());
+        Self {
+            model,
+            scene,
+            op,
+            pressure: vec![0.0; n],
+            qx: vec![0.0; n],
+            qy: vec![0.0; n],
+            pose: None,
+            report: StepReport::default(),
+        }
+    }
+
+    /// The contact grid, `None` when no pose of the path touches anything.
+    pub fn grid(&self) -> Option<&Grid> {
+        self.op.as_ref().map(|o| o.grid())
+    }
+
+    /// Contact pressure per grid cell (MPa).
+    pub fn pressure(&self) -> &[f64] {
+        &self.pressure
+    }
+
+    /// Shear traction on the skin per grid cell (MPa), `x` and `y`.
+    pub fn shear(&self) -> (&[f64], &[f64]) {
+        (&self.qx, &self.qy)
+    }
+
+    /// The last step's report.
+    pub fn report(&self) -> &StepReport {
+        &self.report
+    }
+
+    /// Moves the sensor to `pose` and solves the contact there, given the history so far.
+    pub fn step(&mut self, pose: SensorPose) -> Result<&StepReport> {
+        pose.validate("trajectory", self.model.dome_radius())?;
+        let previous = self.pose.replace(pose);
+        let Some(op) = self.op.as_ref() else {
+            self.report = StepReport::default();
+            return Ok(&self.report);
+        };
+        let grid = *op.grid();
+        let n = grid.len();
+        let (g0, mu): (Vec<f64>, Vec<f64>) = initial_gap(self.model, self.scene, &pose, &grid).into_iter().unzip();
+        if g0.iter().all(|g| *g >= 0.0) {
+            // Lift-off: no contact, no solve, no state.
+            self.pressure.iter_mut().for_each(|v| *v = 0.0);
+            self.qx.iter_mut().for_each(|v| *v = 0.0);
+            self.qy.iter_mut().for_each(|v| *v = 0.0);
+            self.report = StepReport::default();
+            return Ok(&self.report);
+        }
+        let had_contact = self.pressure.iter().any(|p| *p > 0.0);
+        // Rigid slip increment of the skin over the stimulus since the previous pose, per cell
+        // (sensor frame); zero when the contact is new.
+        let (mut wx, mut wy) = (vec![0.0; n], vec![0.0; n]);
+        if let (Some(prev), true) = (previous, had_contact) {
+            let top = self.scene.top_height_mm().unwrap_or(0.0);
+            let radius = self.model.dome_radius();
+            let (r_new, r_old) = (pose.rotation(), prev.rotation());
+            let (o_new, o_old) = (pose.origin_world(radius, top), prev.origin_world(radius, top));
+            for (k, c) in grid.centres().into_iter().enumerate() {
+                let x = dome_point(radius, c);
+                let w = x - r_new.transpose() * (r_old * x + o_old - o_new);
+                wx[k] = w.x;
+                wy[k] = w.y;
+            }
+        }
+        let moving = wx.iter().chain(&wy).any(|w| *w != 0.0);
+        let frictional = mu.iter().any(|m| *m > 0.0);
+        let (p_prev, qx_prev, qy_prev) = (self.pressure.clone(), self.qx.clone(), self.qy.clone());
+        let mut report = StepReport { in_contact: true, ..StepReport::default() };
+        let mut extra: Option<Vec<f64>> = None;
+        let rounds = if op.uncoupled() { 1 } else { self.model.coupling_iterations.max(1) };
+        for _ in 0..rounds {
+            let sol = normal::solve(
+                op,
+                &g0,
+                extra.as_deref(),
+                Control::Indentation,
+                Some(&self.pressure),
+                &self.model.normal,
+            )?;
+            report.normal_iterations += sol.iterations;
+            report.force_n[2] = sol.force_n;
+            self.pressure = sol.pressure;
+            let needs_tangential = frictional && (moving || !op.uncoupled() || qx_prev.iter().any(|q| *q != 0.0));
+            if !needs_tangential {
+                self.qx.iter_mut().for_each(|v| *v = 0.0);
+                self.qy.iter_mut().for_each(|v| *v = 0.0);
+                break;
+            }
+            // Slip from the change of pressure through the coupling terms.
+            let (mut cx, mut cy) = (wx.clone(), wy.clone());
+            if !op.uncoupled() {
+                let dp: Vec<f64> = self.pressure.iter().zip(&p_prev).map(|(a, b)| a - b).collect();
+                let src: Vec<usize> = (0..n).filter(|&k| dp[k] != 0.0).collect();
+                let dst: Vec<usize> = (0..n).filter(|&k| self.pressure[k] > 0.0).collect();
+                let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
+                op.apply(&[(Component::Xz, &dp)], &mut ux, Product::Dense { src: &src, dst: &dst });
+                op.apply(&[(Component::Yz, &dp)], &mut uy, Product::Dense { src: &src, dst: &dst });
+                for &k in &dst {
+                    cx[k] += ux[k];
+                    cy[k] += uy[k];
+                }
+            }
+            let t = tangential::solve_step(
+                op,
+                &self.pressure,
+                &mu,
+                (&qx_prev, &qy_prev),
+                (&cx, &cy),
+                Some((&self.qx, &self.qy)),
+                &self.model.tangential,
+            )?;
+            report.tangential_solved = true;
+            report.tangential_iterations += t.iterations;
+            report.force_n[0] = t.force_n[0];
+            report.force_n[1] = t.force_n[1];
+            report.slip_cells = t.slipping.iter().filter(|s| **s).count();
+            report.dissipation_nmm = t.dissipation_nmm;
+            let change: f64 = t.qx.iter().zip(&self.qx).map(|(a, b)| (a - b).abs()).sum::<f64>()
+                + t.qy.iter().zip(&self.qy).map(|(a, b)| (a - b).abs()).sum::<f64>();
+            let scale: f64 = self.pressure.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+            self.qx = t.qx;
+            self.qy = t.qy;
+            if op.uncoupled() || change / scale < 1e-9 {
+                break;
+            }
+            // Normal displacement from the shear tractions, for the next normal solve.
+            let src: Vec<usize> = (0..n).filter(|&k| self.qx[k] != 0.0 || self.qy[k] != 0.0).collect();
+            let dst: Vec<usize> = (0..n).filter(|&k| g0[k].is_finite()).collect();
+            let mut uz = vec![0.0; n];
+            op.apply(
+                &[(Component::Zx, &self.qx), (Component::Zy, &self.qy)],
+                &mut uz,
+                Product::Dense { src: &src, dst: &dst },
+            );
+            extra = Some(uz);
+        }
+        report.contact_cells = self.pressure.iter().filter(|p| **p > 0.0).count();
+        if report.contact_cells == 0 {
+            report.in_contact = false;
+        }
+        if !self.pressure.iter().chain(&self.qx).chain(&self.qy).all(|v| v.is_finite()) {
+            return Err(SimError::NoConvergence { solver: "contact", iterations: 0, residual: f64::NAN });
+        }
+        self.report = report;
+        Ok(&self.report)
+    }
+
+    /// Pin poses (sensor frame) for the current state: the undeformed layout without contact.
+    pub fn pins(&self) -> Vec<PinPose> {
+        let Some(op) = self.op.as_ref() else {
+            return self.model.layout.pins.iter().map(|p| PinPose { tip: p.tip, axis: p.normal }).collect();
+        };
+        let forces = CellForces::new(op.grid(), &self.pressure, &self.qx, &self.qy);
+        displaced_pins(&self.model.layout, &self.model.material, self.model.dome_radius(), &forces)
+    }
+}

@@ -1,0 +1,97 @@
+//! Paths through poses (press, slide, lift) and running them: the trajectory API.
+
+use image::GrayImage;
+
+use super::engine::{ContactModel, Simulation, StepReport};
+use super::pose::SensorPose;
+use crate::error::{Result, SimError};
+use crate::pins::PinPose;
+use crate::render::PinRenderer;
+use crate::scene::Scene;
+
+/// One pose of a path and whether to capture pins (and an image) there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathStep {
+    /// The pose.
+    pub pose: SensorPose,
+    /// Capture pins (and render, when a renderer is given) after this step.
+    pub capture: bool,
+}
+
+/// A sequence of poses, solved in order with contact history.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Path {
+    /// The steps.
+    pub steps: Vec<PathStep>,
+}
+
+impl Path {
+    /// A tap: straight down onto `target` from out of contact, captured there.
+    pub fn tap(target: SensorPose) -> Self {
+        Self { steps: vec![PathStep { pose: target, capture: true }] }
+    }
+
+    /// The paper's slide: touch down at `target` shifted by `from_mm` (world `x, y`), then slide
+    /// in a straight line to `target` in steps of at most `step_mm`, captured at the end.
+    pub fn slide(target: SensorPose, from_mm: [f64; 2], step_mm: f64) -> Result<Self> {
+        if !(step_mm.is_finite() && step_mm > 0.0) {
+            return Err(SimError::invalid("path", "step_mm", format!("must be a positive number, got {step_mm}")));
+        }
+        if !from_mm.iter().all(|v| v.is_finite()) {
+            return Err(SimError::invalid("path", "slide_from", format!("must be finite, got {from_mm:?}")));
+        }
+        let start = SensorPose { x_mm: target.x_mm + from_mm[0], y_mm: target.y_mm + from_mm[1], ..target };
+        let n = (from_mm[0].hypot(from_mm[1]) / step_mm).ceil().max(1.0) as usize;
+        let mut steps = vec![PathStep { pose: start, capture: false }];
+        steps.extend((1..=n).map(|i| PathStep { pose: start.lerp(&target, i as f64 / n as f64), capture: i == n }));
+        Ok(Self { steps })
+    }
+
+    /// Appends lifting the sensor `height_mm` straight up from the last pose, captured.
+    pub fn then_lift(mut self, height_mm: f64) -> Self {
+        if let Some(last) = self.steps.last().copied() {
+            let pose = SensorPose { depth_mm: last.pose.depth_mm - height_mm, ..last.pose };
+            self.steps.push(PathStep { pose, capture: true });
+        }
+        self
+    }
+
+    /// The poses, in order.
+    pub fn poses(&self) -> Vec<SensorPose> {
+        self.steps.iter().map(|s| s.pose).collect()
+    }
+}
+
+/// What was captured at a step.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Index of the step in the path.
+    pub step: usize,
+    /// The pose.
+    pub pose: SensorPose,
+    /// Contact summary.
+    pub report: StepReport,
+    /// Pin poses (sensor frame).
+    pub pins: Vec<PinPose>,
+    /// The binary image, when a renderer was given.
+    pub image: Option<GrayImage>,
+}
+
+/// Runs `path` over `scene`, returning the captured frames.
+pub fn run(model: &ContactModel, scene: &Scene, path: &Path, renderer: Option<&PinRenderer>) -> Result<Vec<Frame>> {
+    let mut sim = Simulation::new(model, scene, &path.poses());
+    let mut frames = Vec::new();
+    for (i, s) in path.steps.iter().enumerate() {
+        let report = sim.step(s.pose)?.clone();
+        if s.capture {
+            let pins = sim.pins();
+            let image = renderer.map(|r| {
+                let mut img = GrayImage::new(r.size(), r.size());
+                r.render_pins(&pins, &mut img);
+                img
+            });
+            frames.push(Frame { step: i, pose: s.pose, report, pins, image });
+        }
+    }
+    Ok(frames)
+}

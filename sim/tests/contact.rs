@@ -1,0 +1,66 @@
+//! The contact engine on the built-in stimuli: taps, slides with history, lift-off, skipping.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use tacsim_sim::SensorParams;
+use tacsim_sim::contact::engine::{ContactModel, Simulation};
+use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::contact::trajectory::{self, Path};
+use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::stimulus::Catalogue;
+
+fn scene_with(shape: &str) -> Scene {
+    let cat = Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue");
+    let mut scene = Scene::new();
+    scene.add(cat.get(shape).expect("shape"), ObjectPose::default()).expect("add");
+    scene
+}
+
+fn max_pin_shift(a: &[tacsim_sim::pins::PinPose], b: &[tacsim_sim::pins::PinPose]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| (p.tip - q.tip).norm()).fold(0.0, f64::max)
+}
+
+#[test]
+fn tap_and_slide_differ_and_lift_off_restores_pins() {
+    let scene = scene_with("disk");
+    let model = ContactModel::new(&SensorParams::default());
+    let target = SensorPose::new(0.0, 0.0, 2.0, 0.0);
+    let t = Instant::now();
+    let tap = trajectory::run(&model, &scene, &Path::tap(target), None).expect("tap");
+    let tap_time = t.elapsed();
+    let t = Instant::now();
+    let slide =
+        trajectory::run(&model, &scene, &Path::slide(target, [2.5, 0.0], 0.25).expect("path").then_lift(3.0), None)
+            .expect("slide");
+    let slide_time = t.elapsed();
+    let tap = &tap[0];
+    println!("tap: {:?} in {tap_time:?}", tap.report);
+    println!("slide: {:?} in {slide_time:?}", slide[0].report);
+    assert!(tap.report.in_contact && tap.report.force_n[2] > 0.0);
+    assert!(tap.report.force_n[0].abs() < 1e-3 * tap.report.force_n[2], "a centred tap has no net shear");
+    // Sliding towards -x drags the skin: the stimulus pulls it back along +x.
+    let s = &slide[0].report;
+    assert!(s.force_n[0] > 0.1 * s.force_n[2], "{s:?}");
+    assert!(s.force_n[0].hypot(s.force_n[1]) <= 0.5 * s.force_n[2] * (1.0 + 1e-9));
+    let shift = max_pin_shift(&tap.pins, &slide[0].pins);
+    println!("max pin difference tap vs slide: {shift:.4} mm");
+    assert!(shift > 1e-3, "sliding history must show in the pins");
+    // After lift-off every pin is back.
+    let undeformed: Vec<_> = model.layout.pins.iter().map(|p| p.tip).collect();
+    let lifted = &slide[1];
+    assert!(!lifted.report.in_contact);
+    for (p, q) in lifted.pins.iter().zip(&undeformed) {
+        assert!((p.tip - q).norm() < 1e-6);
+    }
+}
+
+#[test]
+fn no_contact_skips_the_solve() {
+    let scene = scene_with("disk");
+    let model = ContactModel::new(&SensorParams::default());
+    let mut sim = Simulation::new(&model, &scene, &[SensorPose::new(200.0, 0.0, 2.0, 0.0)]);
+    assert!(sim.grid().is_none());
+    let r = sim.step(SensorPose::new(200.0, 0.0, 2.0, 0.0)).expect("step").clone();
+    assert!(!r.in_contact && r.normal_iterations == 0);
+}
