@@ -4,9 +4,14 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use tacsim_sim::contact::engine::ContactModel;
+use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::contact::trajectory::{self, Path as SensorPath};
 use tacsim_sim::detect::detect_blobs;
+use tacsim_sim::pins::{PinLayout, PinPose};
 use tacsim_sim::png_io::{PngDepth, write_png};
 use tacsim_sim::realism::Realism;
+use tacsim_sim::scene::{ObjectPose, Scene};
 use tacsim_sim::stimulus::Catalogue;
 use tacsim_sim::{PinRenderer, SensorParams};
 
@@ -38,6 +43,75 @@ pub struct RenderOptions {
     pub one_bit: bool,
     /// Output PNG.
     pub output: PathBuf,
+    /// Press the sensor onto this stimulus (catalogue name); `None` renders the undeformed sensor.
+    pub shape: Option<String>,
+    /// Catalogue directory for `shape` (default: the built-in shapes).
+    pub shapes_dir: Option<PathBuf>,
+    /// Sensor pose over the stimulus.
+    pub pose: SensorPose,
+    /// Touch down this far (mm, world x, y) from the pose and slide to it; `None` taps.
+    pub slide_from: Option<[f64; 2]>,
+    /// Largest slide step (mm).
+    pub step_mm: f64,
+}
+
+/// Parses `x,y,depth,yaw[,rx,ry]` (mm, deg).
+pub fn parse_pose(text: &str) -> Result<SensorPose, String> {
+    let v = parse_list(text)?;
+    match v.as_slice() {
+        [x, y, d, yaw] => Ok(SensorPose::new(*x, *y, *d, *yaw)),
+        [x, y, d, yaw, rx, ry] => {
+            Ok(SensorPose { x_mm: *x, y_mm: *y, depth_mm: *d, yaw_deg: *yaw, rx_deg: *rx, ry_deg: *ry })
+        }
+        _ => Err(format!("expected x,y,depth,yaw or x,y,depth,yaw,rx,ry (mm, deg), got {} values", v.len())),
+    }
+}
+
+/// Parses `dx,dy` (mm).
+pub fn parse_offset(text: &str) -> Result<[f64; 2], String> {
+    match parse_list(text)?.as_slice() {
+        [x, y] => Ok([*x, *y]),
+        v => Err(format!("expected dx,dy (mm), got {} values", v.len())),
+    }
+}
+
+fn parse_list(text: &str) -> Result<Vec<f64>, String> {
+    text.split(',')
+        .map(|t| {
+            let v: f64 = t.trim().parse().map_err(|_| format!("`{}` is not a number", t.trim()))?;
+            if v.is_finite() { Ok(v) } else { Err(format!("`{}` is not finite", t.trim())) }
+        })
+        .collect()
+}
+
+/// Pins of the sensor pressed as `opts` says, with a one-line contact summary.
+fn pressed_pins(sensor: &SensorParams, opts: &RenderOptions) -> Result<(Vec<PinPose>, String)> {
+    let Some(shape) = &opts.shape else { return Ok((PinLayout::new(sensor).poses(), String::new())) };
+    let catalogue = load_catalogue(opts.shapes_dir.as_deref())?;
+    let mut scene = Scene::new();
+    scene.add(catalogue.get(shape)?, ObjectPose::default())?;
+    let path = match opts.slide_from {
+        Some(from) => SensorPath::slide(opts.pose, from, opts.step_mm)?,
+        None => SensorPath::tap(opts.pose),
+    };
+    let model = ContactModel::new(sensor);
+    let frames = trajectory::run(&model, &scene, &path, None).context("solving the contact")?;
+    let frame = frames.last().context("the path captured no frame")?;
+    let r = &frame.report;
+    let summary = if r.in_contact {
+        format!(
+            "; {} over `{shape}`: normal force {:.3} N, shear ({:.3}, {:.3}) N, {} contact cells ({} slipping)",
+            if opts.slide_from.is_some() { "slide" } else { "tap" },
+            r.force_n[2],
+            r.force_n[0],
+            r.force_n[1],
+            r.contact_cells,
+            r.slip_cells
+        )
+    } else {
+        format!("; no contact with `{shape}` at this pose")
+    };
+    Ok((frame.pins.clone(), summary))
 }
 
 /// Loads the sensor of `path` (or the default) and applies a pin-count override.
@@ -59,7 +133,7 @@ pub fn render(opts: &RenderOptions) -> Result<String> {
     let sensor = load_sensor(opts.sensor.as_deref(), opts.pins)?;
     let size = opts.size.unwrap_or(sensor.camera.image_size);
     let renderer = PinRenderer::new(&sensor, size)?;
-    let pins = renderer.layout().poses();
+    let (pins, contact) = pressed_pins(&sensor, opts)?;
     let realism = Realism { seed: opts.seed, ..Realism::default() };
     let (img, depth) = match opts.mode {
         RenderMode::Binary => {
@@ -76,7 +150,7 @@ pub fn render(opts: &RenderOptions) -> Result<String> {
     let blobs =
         if opts.mode == RenderMode::Grey { String::new() } else { format!(", {} blobs", detect_blobs(&img).len()) };
     Ok(format!(
-        "wrote {}: {size}x{size} px, sensor `{}` with {} pins{blobs}",
+        "wrote {}: {size}x{size} px, sensor `{}` with {} pins{blobs}{contact}",
         opts.output.display(),
         sensor.name,
         sensor.pin_count()

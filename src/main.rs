@@ -5,6 +5,8 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{Parser, Subcommand};
 use tacsim::commands::{self, RenderMode, RenderOptions};
+use tacsim::{bench, validation};
+use tacsim_sim::contact::pose::SensorPose;
 
 #[derive(Parser)]
 #[command(name = "tacsim", version, about = "Physics-simulated TacTip data generator and test harness")]
@@ -15,7 +17,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render the undeformed sensor to a PNG.
+    /// Render the sensor to a PNG: undeformed, or tapped / slid onto a stimulus.
     Render {
         /// Sensor TOML (default: the built-in TacTip calibrated to the lab's images).
         #[arg(long)]
@@ -41,6 +43,45 @@ enum Command {
         /// Output PNG.
         #[arg(short, long)]
         output: PathBuf,
+        /// Press onto this stimulus (see `tacsim shapes`); without it the sensor is undeformed.
+        #[arg(long)]
+        shape: Option<String>,
+        /// Catalogue directory for --shape (default: the built-in shapes).
+        #[arg(long)]
+        shapes_dir: Option<PathBuf>,
+        /// Pose over the stimulus: x,y,depth,yaw[,rx,ry] (mm, deg); depth below the top face.
+        #[arg(long, value_parser = commands::parse_pose, default_value = "0,0,2,0", allow_hyphen_values = true)]
+        pose: SensorPose,
+        /// Touch down at pose + dx,dy (mm) and slide to the pose; without it the sensor taps.
+        #[arg(long, value_parser = commands::parse_offset, allow_hyphen_values = true)]
+        slide_from: Option<[f64; 2]>,
+        /// Largest slide step (mm).
+        #[arg(long, default_value_t = 0.25)]
+        step: f64,
+    },
+    /// Run the analytic contact cases (Hertz, Cattaneo-Mindlin) and print errors.
+    Validate {
+        /// Cells across the validation grid (odd).
+        #[arg(long, default_value_t = tacsim_sim::contact::validate::DEFAULT_CELLS)]
+        grid: usize,
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Also run the grid-refinement study (17, 33, 65, 129 cells) with measured orders.
+        #[arg(long)]
+        convergence: bool,
+    },
+    /// Benchmark taps and slides on all cores, and run time against error.
+    Bench {
+        /// Print one JSON object instead of a table.
+        #[arg(long)]
+        json: bool,
+        /// Taps and slides to time.
+        #[arg(long, default_value_t = 200)]
+        samples: usize,
+        /// Write the run-time-vs-error plot (SVG) here.
+        #[arg(long, default_value = "bench.svg")]
+        plot: PathBuf,
     },
     /// List the stimuli with size, material and friction.
     Shapes {
@@ -52,7 +93,21 @@ enum Command {
 
 fn main() -> Result<()> {
     match Cli::parse().command {
-        Command::Render { sensor, size, pins, realism, grey, seed, one_bit, output } => {
+        Command::Render {
+            sensor,
+            size,
+            pins,
+            realism,
+            grey,
+            seed,
+            one_bit,
+            output,
+            shape,
+            shapes_dir,
+            pose,
+            slide_from,
+            step,
+        } => {
             let mode = if realism {
                 RenderMode::Realistic
             } else if grey {
@@ -60,8 +115,31 @@ fn main() -> Result<()> {
             } else {
                 RenderMode::Binary
             };
-            let line = commands::render(&RenderOptions { sensor, size, pins, mode, seed, one_bit, output })?;
+            let line = commands::render(&RenderOptions {
+                sensor,
+                size,
+                pins,
+                mode,
+                seed,
+                one_bit,
+                output,
+                shape,
+                shapes_dir,
+                pose,
+                slide_from,
+                step_mm: step,
+            })?;
             println!("{line}");
+        }
+        Command::Validate { grid, json, convergence } => {
+            let (text, pass) = validation::run(grid, json, convergence)?;
+            print!("{text}");
+            if !pass {
+                std::process::exit(1);
+            }
+        }
+        Command::Bench { json, samples, plot } => {
+            print!("{}", bench::run(samples, json, &plot)?);
         }
         Command::Shapes { dir } => {
             print!("{}", commands::shapes_table(&commands::load_catalogue(dir.as_deref())?));

@@ -56,7 +56,9 @@ pub struct SkinParams {
     /// Young's modulus (MPa). Elastomer skins: about 1 MPa. Under indentation control on a
     /// half-space the pin motion does not depend on it, only the forces do.
     pub youngs_modulus_mpa: f64,
-    /// Poisson's ratio, in [0, 0.5]; elastomers are nearly incompressible.
+    /// Poisson's ratio, in [0, 0.5]. Default 0.5: elastomers are nearly incompressible, and at
+    /// 0.5 the normal and tangential problems decouple (one normal and one tangential solve per
+    /// step); below it they are alternated.
     pub poisson: f64,
     /// Cells across the contact grid (odd). The grid spans the footprint of the undeformed dome
     /// inside the stimulus plus a margin; accuracy and cost grow with it (see `tacsim bench`).
@@ -65,7 +67,7 @@ pub struct SkinParams {
 
 impl Default for SkinParams {
     fn default() -> Self {
-        Self { model: SkinModel::HalfSpace, youngs_modulus_mpa: 1.0, poisson: 0.49, cells_across: 25 }
+        Self { model: SkinModel::HalfSpace, youngs_modulus_mpa: 1.0, poisson: 0.5, cells_across: 25 }
     }
 }
 

@@ -64,3 +64,25 @@ fn no_contact_skips_the_solve() {
     let r = sim.step(SensorPose::new(200.0, 0.0, 2.0, 0.0)).expect("step").clone();
     assert!(!r.in_contact && r.normal_iterations == 0);
 }
+
+#[test]
+fn slide_history_grows_then_saturates_with_gross_sliding() {
+    let scene = scene_with("disk");
+    let model = ContactModel::new(&SensorParams::default());
+    let target = SensorPose::new(5.0, -3.0, 2.0, 30.0);
+    let tap = trajectory::run(&model, &scene, &Path::tap(target), None).expect("tap");
+    let diff = |d: f64| {
+        let frames =
+            trajectory::run(&model, &scene, &Path::slide(target, [d, 0.0], 0.1).expect("path"), None).expect("slide");
+        (max_pin_shift(&tap[0].pins, &frames[0].pins), frames[0].report.slip_cells, frames[0].report.contact_cells)
+    };
+    let (short, short_slip, cells) = diff(0.1);
+    let (long, long_slip, _) = diff(3.0);
+    let (longer, _, _) = diff(5.0);
+    println!(
+        "pin difference: 0.1 mm {short:.4}, 3 mm {long:.4}, 5 mm {longer:.4}; slip cells {short_slip} / {long_slip} of {cells}"
+    );
+    assert!(short < long, "partial slip moves the pins less than gross sliding");
+    assert!(short_slip < cells && long_slip == cells);
+    assert!((longer - long).abs() < 1e-3 * long, "saturated: {long} vs {longer}");
+}

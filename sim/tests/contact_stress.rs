@@ -1,0 +1,159 @@
+//! Numerical stability of the contact engine: Poisson's ratios up to 0.5, indentations from
+//! 0.01 to 8 mm, a 10,000-step back-and-forth slide, and the solver invariants on random
+//! shapes, poses and paths (proptest).
+
+use std::path::PathBuf;
+
+use proptest::prelude::*;
+use tacsim_sim::SensorParams;
+use tacsim_sim::contact::engine::{ContactModel, Simulation};
+use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::stimulus::Catalogue;
+
+fn catalogue() -> Catalogue {
+    Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue")
+}
+
+fn scene_with(shape: &str) -> Scene {
+    let mut scene = Scene::new();
+    scene.add(catalogue().get(shape).expect("shape"), ObjectPose::default()).expect("add");
+    scene
+}
+
+fn model(cells: usize, poisson: f64) -> ContactModel {
+    let mut s = SensorParams::default();
+    s.skin.cells_across = cells;
+    s.skin.poisson = poisson;
+    ContactModel::new(&s)
+}
+
+/// Checks every invariant of the current state; returns the step's dissipation.
+fn check_invariants(sim: &Simulation<'_>, what: &str) {
+    let p = sim.pressure();
+    let (qx, qy) = sim.shear();
+    let g = sim.gap();
+    let mu = sim.friction();
+    let pmax = p.iter().fold(0.0f64, |m, v| m.max(*v));
+    // Gap tolerance: the solver stops at a relative pressure change of 1e-7; the gap it leaves in
+    // contact cells is a tiny fraction of the indentation.
+    let gap_tol = 1e-5;
+    for k in 0..p.len() {
+        assert!(p[k].is_finite() && qx[k].is_finite() && qy[k].is_finite(), "{what}: NaN at cell {k}");
+        assert!(p[k] >= 0.0, "{what}: p < 0 at {k}");
+        assert!(g[k] >= -gap_tol, "{what}: g = {} < 0 at {k}", g[k]);
+        if p[k] > 1e-6 * pmax {
+            assert!(g[k].abs() <= gap_tol, "{what}: p g != 0 at {k}: p {} g {}", p[k], g[k]);
+        }
+        let q = qx[k].hypot(qy[k]);
+        assert!(q <= mu[k] * p[k] * (1.0 + 1e-9) + 1e-15, "{what}: |q| {q} > mu p {} at {k}", mu[k] * p[k]);
+    }
+    let r = sim.report();
+    assert!(r.dissipation_nmm >= 0.0, "{what}: dissipation {}", r.dissipation_nmm);
+    let shear = r.force_n[0].hypot(r.force_n[1]);
+    let mu_max = mu.iter().fold(0.0f64, |m, v| m.max(*v));
+    assert!(shear <= mu_max * r.force_n[2] * (1.0 + 1e-9) + 1e-12, "{what}: shear {shear} > mu N {}", r.force_n[2]);
+}
+
+#[test]
+fn poisson_ratios_up_to_incompressible() {
+    let scene = scene_with("disk");
+    for nu in [0.0, 0.3, 0.45, 0.49, 0.499, 0.5] {
+        let m = model(13, nu);
+        let target = SensorPose::new(0.0, 0.0, 2.0, 0.0);
+        let path: Vec<SensorPose> = (0..=5).map(|i| SensorPose::new(1.0 - 0.2 * i as f64, 0.0, 2.0, 0.0)).collect();
+        let mut sim = Simulation::new(&m, &scene, &path);
+        for pose in &path {
+            sim.step(*pose).unwrap_or_else(|e| panic!("nu {nu}: {e}"));
+            check_invariants(&sim, &format!("nu {nu}"));
+        }
+        assert!(sim.report().force_n[2] > 0.0);
+        let _ = target;
+    }
+}
+
+#[test]
+fn indentations_from_a_hundredth_to_eight_mm() {
+    let scene = scene_with("disk");
+    let m = model(17, 0.5);
+    let mut last = 0.0;
+    for depth in [0.01, 0.03, 0.1, 0.3, 1.0, 2.0, 4.0, 6.0, 8.0] {
+        let pose = SensorPose::new(0.0, 0.0, depth, 0.0);
+        let mut sim = Simulation::new(&m, &scene, &[pose]);
+        let r = sim.step(pose).expect("step").clone();
+        check_invariants(&sim, &format!("depth {depth}"));
+        assert!(r.in_contact && r.force_n[2] > last, "depth {depth}: force {} after {last}", r.force_n[2]);
+        last = r.force_n[2];
+        // Pins stay finite and move less than the indentation plus the lever.
+        for p in sim.pins() {
+            assert!(p.tip.coords.iter().all(|v| v.is_finite()));
+        }
+    }
+}
+
+#[test]
+fn ten_thousand_step_back_and_forth_slide_keeps_invariants_and_returns_on_lift_off() {
+    let scene = scene_with("disk");
+    let m = model(9, 0.5);
+    let steps = 10_000;
+    let pose_at = |i: usize| {
+        // Triangle wave of amplitude 2 mm, 0.05 mm per step.
+        let phase = (i % 160) as f64;
+        let x = if phase < 80.0 { phase * 0.05 - 2.0 } else { 2.0 - (phase - 80.0) * 0.05 };
+        SensorPose::new(x, 0.5 * x, 1.5, 0.0)
+    };
+    let poses: Vec<SensorPose> = (0..steps).map(pose_at).step_by(40).collect();
+    let mut sim = Simulation::new(&m, &scene, &poses);
+    let mut max_ratio = 0.0f64;
+    for i in 0..steps {
+        let r = sim.step(pose_at(i)).expect("step").clone();
+        let ratio = r.force_n[0].hypot(r.force_n[1]) / (0.5 * r.force_n[2]);
+        assert!(ratio <= 1.0 + 1e-9, "step {i}: shear / (mu N) = {ratio}");
+        assert!(r.dissipation_nmm >= 0.0 && r.force_n.iter().all(|f| f.is_finite()), "step {i}: {r:?}");
+        max_ratio = max_ratio.max(ratio);
+        if i % 500 == 0 {
+            check_invariants(&sim, &format!("step {i}"));
+        }
+    }
+    assert!(max_ratio > 0.99, "gross sliding must be reached: {max_ratio}");
+    sim.step(SensorPose::new(0.0, 0.0, -1.0, 0.0)).expect("lift");
+    for (p, pin) in sim.pins().iter().zip(&m.layout.pins) {
+        assert!((p.tip - pin.tip).norm() < 1e-6);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn invariants_hold_on_random_shapes_poses_and_paths(
+        shape in 0usize..7,
+        x in -30.0f64..30.0,
+        y in -30.0f64..30.0,
+        depth in 0.05f64..5.0,
+        yaw in -180.0f64..180.0,
+        rx in -15.0f64..15.0,
+        ry in -15.0f64..15.0,
+        moves in proptest::collection::vec((-0.6f64..0.6, -0.6f64..0.6, -0.3f64..0.3, -5.0f64..5.0), 1..6),
+    ) {
+        let names = catalogue().names();
+        let scene = scene_with(&names[shape % names.len()]);
+        let m = model(11, 0.5);
+        let mut poses = vec![SensorPose { x_mm: x, y_mm: y, depth_mm: depth, yaw_deg: yaw, rx_deg: rx, ry_deg: ry }];
+        for (dx, dy, dd, dyaw) in moves {
+            let last = *poses.last().expect("non-empty");
+            poses.push(SensorPose {
+                x_mm: last.x_mm + dx,
+                y_mm: last.y_mm + dy,
+                depth_mm: (last.depth_mm + dd).clamp(0.05, 5.0),
+                yaw_deg: last.yaw_deg + dyaw,
+                ..last
+            });
+        }
+        let mut sim = Simulation::new(&m, &scene, &poses);
+        for (i, pose) in poses.iter().enumerate() {
+            sim.step(*pose).map_err(|e| TestCaseError::fail(format!("step {i}: {e}")))?;
+            check_invariants(&sim, &format!("step {i} {pose:?}"));
+        }
+    }
+}

@@ -1,0 +1,359 @@
+//! `tacsim bench`: tap and slide throughput on all cores, where the time goes, and run time
+//! against error (grid size against the Hertz and Cattaneo errors, slide step size against the
+//! pin error of a fine-step reference), with an SVG plot.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use image::GrayImage;
+use plotters::prelude::*;
+use rayon::prelude::*;
+use serde::Serialize;
+use tacsim_sim::contact::engine::{ContactModel, Simulation};
+use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::contact::trajectory::{self, Path as SensorPath};
+use tacsim_sim::contact::validate;
+use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::{PinRenderer, SensorParams};
+
+/// Slide length of the paper's protocol (mm).
+pub const SLIDE_MM: f64 = 2.5;
+/// Default slide step (mm).
+pub const STEP_MM: f64 = 0.25;
+
+/// Deterministic generator (splitmix64) for the sample poses.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+}
+
+/// Sample poses over the disk: the paper's tap ranges (depth 1-5 mm, any yaw), centre within
+/// 20 mm of the disk's centre, and a slide direction.
+fn samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
+    let mut rng = Rng(seed);
+    (0..n)
+        .map(|_| {
+            let pose = SensorPose::new(
+                rng.range(-20.0, 20.0),
+                rng.range(-20.0, 20.0),
+                rng.range(1.0, 5.0),
+                rng.range(-180.0, 180.0),
+            );
+            let a = rng.range(0.0, std::f64::consts::TAU);
+            (pose, [SLIDE_MM * a.cos(), SLIDE_MM * a.sin()])
+        })
+        .collect()
+}
+
+/// Time per stage of a tap, single thread (ms per frame).
+#[derive(Debug, Serialize)]
+pub struct Breakdown {
+    /// Footprint probe and grid (ray casts).
+    pub footprint_ms: f64,
+    /// Gap ray casts and the normal and tangential solves.
+    pub solve_ms: f64,
+    /// Pin displacements.
+    pub pins_ms: f64,
+    /// 256x256 render.
+    pub render_ms: f64,
+}
+
+/// One point of the run-time-vs-error curve.
+#[derive(Debug, Serialize)]
+pub struct CurvePoint {
+    /// `grid` (cells across the footprint) or `step` (slide step, mm).
+    pub knob: &'static str,
+    /// The knob's value.
+    pub value: f64,
+    /// Run time per sample, single thread (ms): a tap for `grid`, a slide for `step`.
+    pub ms_per_sample: f64,
+    /// Hertz force relative error on this grid (grid points).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hertz_force_rel_err: Option<f64>,
+    /// Cattaneo shift relative error at `nu = 0` on this grid (grid points).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cattaneo_shift_rel_err: Option<f64>,
+    /// Largest pin-tip difference from a 0.025 mm-step reference (mm; step points).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pin_err_mm: Option<f64>,
+}
+
+/// The answer of `tacsim bench --json`.
+#[derive(Debug, Serialize)]
+pub struct BenchReport {
+    /// Threads used for the throughput figures.
+    pub threads: usize,
+    /// Cells across the footprint (sensor default).
+    pub cells_across: usize,
+    /// Taps per second on all threads (contact solve + pins + 256x256 render).
+    pub tap_frames_per_s: f64,
+    /// Slides per second on all threads (touch down 2.5 mm away, slide in 0.25 mm steps, capture
+    /// pins and a 256x256 image).
+    pub slide_samples_per_s: f64,
+    /// Mean contact cells of the taps.
+    pub mean_contact_cells: f64,
+    /// Hertz force error of the default grid.
+    pub hertz_force_rel_err: f64,
+    /// Where a tap's time goes.
+    pub tap_breakdown: Breakdown,
+    /// Run time against error.
+    pub curve: Vec<CurvePoint>,
+}
+
+fn disk_scene() -> Result<Scene> {
+    let catalogue = crate::embedded::catalogue()?;
+    let mut scene = Scene::new();
+    scene.add(catalogue.get("disk")?, ObjectPose::default())?;
+    Ok(scene)
+}
+
+fn render(renderer: &PinRenderer, pins: &[tacsim_sim::pins::PinPose]) -> GrayImage {
+    let mut img = GrayImage::new(renderer.size(), renderer.size());
+    renderer.render_pins(pins, &mut img);
+    img
+}
+
+fn tap_rate(
+    model: &ContactModel,
+    scene: &Scene,
+    renderer: &PinRenderer,
+    poses: &[(SensorPose, [f64; 2])],
+) -> Result<(f64, f64)> {
+    let start = Instant::now();
+    let cells: Vec<usize> = poses
+        .par_iter()
+        .map(|(pose, _)| {
+            let frames = trajectory::run(model, scene, &SensorPath::tap(*pose), Some(renderer))?;
+            Ok(frames.first().map_or(0, |f| f.report.contact_cells))
+        })
+        .collect::<Result<_>>()?;
+    let rate = poses.len() as f64 / start.elapsed().as_secs_f64();
+    Ok((rate, cells.iter().sum::<usize>() as f64 / cells.len().max(1) as f64))
+}
+
+fn slide_rate(
+    model: &ContactModel,
+    scene: &Scene,
+    renderer: &PinRenderer,
+    poses: &[(SensorPose, [f64; 2])],
+    step: f64,
+) -> Result<f64> {
+    let start = Instant::now();
+    poses.par_iter().try_for_each(|(pose, from)| -> Result<()> {
+        trajectory::run(model, scene, &SensorPath::slide(*pose, *from, step)?, Some(renderer))?;
+        Ok(())
+    })?;
+    Ok(poses.len() as f64 / start.elapsed().as_secs_f64())
+}
+
+fn ms_single<T>(n: usize, mut f: impl FnMut(usize) -> Result<T>) -> Result<f64> {
+    let start = Instant::now();
+    for i in 0..n {
+        f(i)?;
+    }
+    Ok(start.elapsed().as_secs_f64() * 1e3 / n as f64)
+}
+
+/// Runs the benchmark; returns the text to print.
+pub fn run(samples_n: usize, json: bool, plot: &Path) -> Result<String> {
+    anyhow::ensure!(samples_n >= 4, "--samples must be at least 4");
+    let sensor = SensorParams::default();
+    let scene = disk_scene()?;
+    let model = ContactModel::new(&sensor);
+    let renderer = PinRenderer::new(&sensor, 256)?;
+    let poses = samples(samples_n, 1);
+    let (tap_fps, mean_cells) = tap_rate(&model, &scene, &renderer, &poses)?;
+    let slide_sps = slide_rate(&model, &scene, &renderer, &poses, STEP_MM)?;
+
+    // Where a tap's time goes, single thread.
+    let few = &poses[..samples_n.min(40)];
+    let (mut footprint, mut solve, mut pins_t, mut render_t) = (0.0, 0.0, 0.0, 0.0);
+    rayon::ThreadPoolBuilder::new().num_threads(1).build()?.install(|| -> Result<()> {
+        for (pose, _) in few {
+            let t = Instant::now();
+            let mut sim = Simulation::new(&model, &scene, &[*pose]);
+            footprint += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            sim.step(*pose)?;
+            solve += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            let pins = sim.pins();
+            pins_t += t.elapsed().as_secs_f64();
+            let t = Instant::now();
+            std::hint::black_box(render(&renderer, &pins));
+            render_t += t.elapsed().as_secs_f64();
+        }
+        Ok(())
+    })?;
+    let per = |s: f64| s * 1e3 / few.len() as f64;
+    let breakdown = Breakdown {
+        footprint_ms: per(footprint),
+        solve_ms: per(solve),
+        pins_ms: per(pins_t),
+        render_ms: per(render_t),
+    };
+
+    // Run time against error.
+    let mut curve = Vec::new();
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    for cells in [9usize, 13, 17, 25, 33] {
+        let mut s = sensor.clone();
+        s.skin.cells_across = cells;
+        let m = ContactModel::new(&s);
+        let ms = pool.install(|| {
+            ms_single(few.len(), |i| Ok(trajectory::run(&m, &scene, &SensorPath::tap(few[i].0), Some(&renderer))?))
+        })?;
+        curve.push(CurvePoint {
+            knob: "grid",
+            value: cells as f64,
+            ms_per_sample: ms,
+            hertz_force_rel_err: Some(validate::hertz(cells)?.force_rel_err.abs()),
+            cattaneo_shift_rel_err: Some(validate::cattaneo_with(cells, 0.0)?.shift_rel_err.abs()),
+            pin_err_mm: None,
+        });
+    }
+    let slides = &poses[..samples_n.min(8)];
+    let reference: Vec<_> = slides
+        .iter()
+        .map(|(p, f)| trajectory::run(&model, &scene, &SensorPath::slide(*p, *f, 0.025)?, None))
+        .collect::<Result<_, _>>()?;
+    for step in [2.5, 1.0, 0.5, 0.25, 0.1] {
+        let mut err = 0.0f64;
+        let ms = pool.install(|| {
+            ms_single(slides.len(), |i| {
+                let (p, f) = slides[i];
+                let frames = trajectory::run(&model, &scene, &SensorPath::slide(p, f, step)?, Some(&renderer))?;
+                for (a, b) in frames[0].pins.iter().zip(&reference[i][0].pins) {
+                    err = err.max((a.tip - b.tip).norm());
+                }
+                Ok(())
+            })
+        })?;
+        curve.push(CurvePoint {
+            knob: "step",
+            value: step,
+            ms_per_sample: ms,
+            hertz_force_rel_err: None,
+            cattaneo_shift_rel_err: None,
+            pin_err_mm: Some(err),
+        });
+    }
+    let report = BenchReport {
+        threads: rayon::current_num_threads(),
+        cells_across: sensor.skin.cells_across,
+        tap_frames_per_s: tap_fps,
+        slide_samples_per_s: slide_sps,
+        mean_contact_cells: mean_cells,
+        hertz_force_rel_err: validate::hertz(sensor.skin.cells_across)?.force_rel_err,
+        tap_breakdown: breakdown,
+        curve,
+    };
+    draw(&report, plot).with_context(|| format!("writing the plot {}", plot.display()))?;
+    if json {
+        return Ok(serde_json::to_string_pretty(&report)? + "\n");
+    }
+    let b = &report.tap_breakdown;
+    let mut out = format!(
+        "{} threads, {} cells across the footprint (mean {:.0} in contact)\n\
+         taps:   {:>9.1} frames/s  (solve + pins + 256x256 render)\n\
+         slides: {:>9.1} samples/s (touch down {SLIDE_MM} mm away, {STEP_MM} mm steps, capture)\n\
+         a tap, one thread: footprint {:.3} ms, gap + solve {:.3} ms, pins {:.3} ms, render {:.3} ms\n\n\
+         {:<6} {:>7} {:>12} {:>12} {:>12} {:>12}\n",
+        report.threads,
+        report.cells_across,
+        report.mean_contact_cells,
+        report.tap_frames_per_s,
+        report.slide_samples_per_s,
+        b.footprint_ms,
+        b.solve_ms,
+        b.pins_ms,
+        b.render_ms,
+        "knob",
+        "value",
+        "ms/sample",
+        "hertz force",
+        "cattaneo",
+        "pin err mm",
+    );
+    let opt = |v: Option<f64>| v.map_or("-".to_owned(), |x| format!("{x:.2e}"));
+    for p in &report.curve {
+        out.push_str(&format!(
+            "{:<6} {:>7} {:>12.3} {:>12} {:>12} {:>12}\n",
+            p.knob,
+            p.value,
+            p.ms_per_sample,
+            opt(p.hertz_force_rel_err),
+            opt(p.cattaneo_shift_rel_err),
+            opt(p.pin_err_mm)
+        ));
+    }
+    out.push_str(&format!("plot: {}\n", plot.display()));
+    Ok(out)
+}
+
+fn draw(report: &BenchReport, path: &Path) -> Result<()> {
+    let root = SVGBackend::new(path, (1000, 420)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let (left, right) = root.split_horizontally(500);
+    let series = |knob: &str, pick: fn(&CurvePoint) -> Option<f64>| -> Vec<(f64, f64)> {
+        report
+            .curve
+            .iter()
+            .filter(|p| p.knob == knob)
+            .filter_map(|p| pick(p).map(|e| (p.ms_per_sample, e.max(1e-9))))
+            .collect()
+    };
+    for (area, title, knob, lines) in [
+        (
+            &left,
+            "grid: tap time vs error",
+            "grid",
+            vec![
+                ("Hertz force", series("grid", |p| p.hertz_force_rel_err), BLUE),
+                ("Cattaneo shift (nu=0)", series("grid", |p| p.cattaneo_shift_rel_err), RED),
+            ],
+        ),
+        (
+            &right,
+            "slide step: slide time vs pin error (mm)",
+            "step",
+            vec![("pin error", series("step", |p| p.pin_err_mm), GREEN)],
+        ),
+    ] {
+        let _ = knob;
+        let all: Vec<(f64, f64)> = lines.iter().flat_map(|l| l.1.iter().copied()).collect();
+        if all.is_empty() {
+            continue;
+        }
+        let (x0, x1) = all.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
+        let (y0, y1) = all.iter().fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+        let mut chart = ChartBuilder::on(area)
+            .caption(title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(60)
+            .build_cartesian_2d((x0 * 0.8..x1 * 1.25).log_scale(), (y0 * 0.5..y1 * 2.0).log_scale())?;
+        chart.configure_mesh().x_desc("ms per sample (one thread)").y_desc("error").draw()?;
+        for (name, pts, color) in lines {
+            chart
+                .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?
+                .label(name)
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], color));
+            chart.draw_series(pts.iter().map(|p| Circle::new(*p, 3, color.filled())))?;
+        }
+        chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+    }
+    root.present()?;
+    Ok(())
+}
