@@ -115,3 +115,73 @@ fn embedded_shapes_match_the_shapes_directory() {
     assert_eq!(embedded, on_disk, "update src/embedded.rs after adding or removing a shape");
     assert_eq!(tacsim::embedded::catalogue().expect("loads").stimuli.len(), 7);
 }
+
+#[test]
+fn render_tap_and_slide_on_a_shape() {
+    let dir = temp_dir("contact");
+    let (_, blobs) = render_and_count(&dir, "tap.png", &["--shape", "clover", "--pose", "0,0,3,0"]);
+    assert_eq!(blobs, 331);
+    let (_, blobs) =
+        render_and_count(&dir, "slide.png", &["--shape", "clover", "--pose", "0,0,3,0", "--slide-from", "2.5,0"]);
+    assert_eq!(blobs, 331);
+    render_and_count(&dir, "plain.png", &[]);
+    let read = |f: &str| std::fs::read(dir.join(f)).expect("written");
+    assert_ne!(read("tap.png"), read("plain.png"), "pressing moves the pins");
+    assert_ne!(read("tap.png"), read("slide.png"), "sliding history shows");
+    // Same command, same bytes.
+    render_and_count(&dir, "slide2.png", &["--shape", "clover", "--pose", "0,0,3,0", "--slide-from", "2.5,0"]);
+    assert_eq!(read("slide.png"), read("slide2.png"));
+    // Off the stimulus: no contact, the undeformed image.
+    let o = tacsim(&[
+        "render",
+        "--shape",
+        "disk",
+        "--pose",
+        "200,0,2,0",
+        "-o",
+        dir.join("off.png").to_str().expect("utf-8"),
+    ]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("no contact"));
+    assert_eq!(read("off.png"), read("plain.png"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bad_poses_and_shapes_are_clear_errors() {
+    let dir = temp_dir("badpose");
+    let out = dir.join("x.png");
+    let out = out.to_str().expect("utf-8");
+    for (args, needle) in [
+        (vec!["--shape", "clover", "--pose", "0,0,nan,0"], "not finite"),
+        (vec!["--shape", "clover", "--pose", "0,0,3"], "x,y,depth,yaw"),
+        (vec!["--shape", "clover", "--pose", "0,0,15,0"], "pose.depth_mm"),
+        (vec!["--shape", "clover", "--pose", "0,0,3,0,60,0"], "pose.rx_deg"),
+        (vec!["--shape", "nosuch"], "unknown"),
+        (vec!["--shape", "disk", "--slide-from", "1,x"], "not a number"),
+        (vec!["--shape", "disk", "--slide-from", "1,0", "--step", "0"], "step_mm"),
+    ] {
+        let mut a = vec!["render", "-o", out];
+        a.extend(args.iter());
+        let o = tacsim(&a);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(needle), "{args:?}: {err}");
+        assert!(!dir.join("x.png").exists(), "{args:?} wrote a file");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn validate_json_meets_the_bounds() {
+    let o = tacsim(&["validate", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+    let f = |path: &str| v.pointer(path).and_then(|x| x.as_f64()).unwrap_or_else(|| panic!("{path} missing"));
+    assert!(f("/hertz/force_rel_err").abs() <= 0.005);
+    assert!(f("/hertz/radius_rel_err").abs() <= 0.01);
+    assert!(f("/hertz/pmax_rel_err").abs() <= 0.01);
+    assert!(f("/cattaneo/shift_rel_err").abs() <= 0.002);
+    assert!(f("/cattaneo/stick_radius_err_cells") <= 1.0);
+    assert!(f("/grid") >= 5.0 && f("/cells_across_contact") > 10.0);
+    assert!(f("/hertz/seconds") > 0.0 && f("/cattaneo/seconds") > 0.0);
+    assert_eq!(v["pass"], serde_json::Value::Bool(true));
+}
