@@ -384,7 +384,7 @@ impl SensorParams {
         if !(0.0..=0.5).contains(&k.poisson) {
             return bad("skin.poisson", format!("must be in [0, 0.5], got {}", k.poisson));
         }
-        if !(5..=401).contains(&k.cells_across) || k.cells_across % 2 == 0 {
+        if !(5..=401).contains(&k.cells_across) || k.cells_across.is_multiple_of(2) {
             return bad("skin.cells_across", format!("must be odd and in [5, 401], got {}", k.cells_across));
         }
         // Every pin tip must be in front of the camera, and the distortion must stay monotonic

@@ -209,8 +209,7 @@ mod tests {
         let m = Elastic { shear_modulus_mpa: 2.0, poisson: 0.3 };
         let c = 1.0 / (2.0 * PI * m.shear_modulus_mpa);
         let (x, y) = (1.2, -0.7);
-        let r = (x * x + y * y) as f64;
-        let r = r.sqrt();
+        let r = f64::hypot(x, y);
         let u = point_load_displacement(&m, [0.0, 0.0, 1.0], [x, y, 0.0]);
         assert!((u[2] - c * (1.0 - 0.3) / r).abs() < 1e-12);
         assert!((u[0] + c * 0.5 * (1.0 - 0.6) * x / (r * r)).abs() < 1e-12);
@@ -236,6 +235,7 @@ mod tests {
     #[test]
     fn depth_kernels_satisfy_navier_and_free_surface() {
         let m = Elastic { shear_modulus_mpa: 1.0, poisson: 0.27 };
+        #[allow(clippy::needless_range_loop)]
         for force in [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
             let u = |p: [f64; 3]| point_load_displacement(&m, force, p);
             let h = 1e-3;

@@ -109,13 +109,10 @@ pub fn solve(
     };
     // Start: the warm pressures on the candidates, else a Jacobi guess.
     let diag = op.diagonal(Component::Zz);
-    match warm {
-        Some(w) => {
-            for &k in &candidates {
-                pressure[k] = w[k].max(0.0);
-            }
+    if let Some(w) = warm {
+        for &k in &candidates {
+            pressure[k] = w[k].max(0.0);
         }
-        None => {}
     }
     if candidates.iter().all(|&k| pressure[k] <= 0.0) {
         for &k in &candidates {

@@ -115,7 +115,8 @@ impl UnitTables {
 
     /// Cached tables for a grid shape.
     fn get(nx: usize, ny: usize) -> Arc<UnitTables> {
-        static CACHE: OnceLock<Mutex<HashMap<(usize, usize), Arc<UnitTables>>>> = OnceLock::new();
+        type Cache = Mutex<HashMap<(usize, usize), Arc<UnitTables>>>;
+        static CACHE: OnceLock<Cache> = OnceLock::new();
         let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
         let mut map = match cache.lock() {
             Ok(m) => m,
