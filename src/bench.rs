@@ -165,10 +165,15 @@ fn ms_single<T>(n: usize, mut f: impl FnMut(usize) -> Result<T>) -> Result<f64> 
     Ok(start.elapsed().as_secs_f64() * 1e3 / n as f64)
 }
 
-/// Runs the benchmark; returns the text to print.
-pub fn run(samples_n: usize, json: bool, plot: &Path) -> Result<String> {
+/// Runs the benchmark with `cells` across the footprint (`None`: the sensor's default);
+/// returns the text to print.
+pub fn run(samples_n: usize, cells: Option<usize>, json: bool, plot: &Path) -> Result<String> {
     anyhow::ensure!(samples_n >= 4, "--samples must be at least 4");
-    let sensor = SensorParams::default();
+    let mut sensor = SensorParams::default();
+    if let Some(n) = cells {
+        sensor.skin.cells_across = n;
+        sensor.validate("--cells")?;
+    }
     let scene = disk_scene()?;
     let model = ContactModel::new(&sensor);
     let renderer = PinRenderer::new(&sensor, 256)?;

@@ -82,6 +82,10 @@ enum Command {
         /// Write the run-time-vs-error plot (SVG) here.
         #[arg(long, default_value = "bench.svg")]
         plot: PathBuf,
+        /// Cells across the contact footprint for the throughput figures (odd; default: the
+        /// sensor's, 25).
+        #[arg(long)]
+        cells: Option<usize>,
     },
     /// List the stimuli with size, material and friction.
     Shapes {
@@ -138,8 +142,8 @@ fn main() -> Result<()> {
                 std::process::exit(1);
             }
         }
-        Command::Bench { json, samples, plot } => {
-            print!("{}", bench::run(samples, json, &plot)?);
+        Command::Bench { json, samples, plot, cells } => {
+            print!("{}", bench::run(samples, cells, json, &plot)?);
         }
         Command::Shapes { dir } => {
             print!("{}", commands::shapes_table(&commands::load_catalogue(dir.as_deref())?));

@@ -86,3 +86,26 @@ fn slide_history_grows_then_saturates_with_gross_sliding() {
     assert!(short_slip < cells && long_slip == cells);
     assert!((longer - long).abs() < 1e-3 * long, "saturated: {long} vs {longer}");
 }
+
+#[test]
+fn block_grouping_of_far_cells_matches_the_direct_sum() {
+    let scene = scene_with("clover");
+    let model = ContactModel::new(&SensorParams::default());
+    for (pose, from) in
+        [(SensorPose::new(0.0, 0.0, 3.0, 0.0), None), (SensorPose::new(30.0, 5.0, 4.0, 20.0), Some([2.5, 1.0]))]
+    {
+        let path = match from {
+            Some(f) => Path::slide(pose, f, 0.25).expect("path"),
+            None => Path::tap(pose),
+        };
+        let mut sim = Simulation::new(&model, &scene, &path.poses());
+        for s in &path.steps {
+            sim.step(s.pose).expect("step");
+        }
+        let (fast, exact) = (sim.pins(), sim.pins_exact());
+        let moved = exact.iter().zip(&model.layout.pins).map(|(p, q)| (p.tip - q.tip).norm()).fold(0.0, f64::max);
+        let err = max_pin_shift(&fast, &exact);
+        println!("{pose:?}: largest pin motion {moved:.4} mm, block grouping error {err:.2e} mm");
+        assert!(err < 0.01 * moved, "grouping error {err} vs motion {moved}");
+    }
+}

@@ -28,16 +28,15 @@ fn model(cells: usize, poisson: f64) -> ContactModel {
     ContactModel::new(&s)
 }
 
-/// Checks every invariant of the current state; returns the step's dissipation.
-fn check_invariants(sim: &Simulation<'_>, what: &str) {
+/// Checks every invariant of the current state, with gaps to within 1e-4 of the indentation
+/// `depth_mm` (the engine stops the normal solve at a relative pressure change of 1e-5).
+fn check_invariants(sim: &Simulation<'_>, depth_mm: f64, what: &str) {
     let p = sim.pressure();
     let (qx, qy) = sim.shear();
     let g = sim.gap();
     let mu = sim.friction();
     let pmax = p.iter().fold(0.0f64, |m, v| m.max(*v));
-    // Gap tolerance: the solver stops at a relative pressure change of 1e-7; the gap it leaves in
-    // contact cells is a tiny fraction of the indentation.
-    let gap_tol = 1e-5;
+    let gap_tol = 1e-4 * depth_mm.abs() + 1e-6;
     for k in 0..p.len() {
         assert!(p[k].is_finite() && qx[k].is_finite() && qy[k].is_finite(), "{what}: NaN at cell {k}");
         assert!(p[k] >= 0.0, "{what}: p < 0 at {k}");
@@ -65,7 +64,7 @@ fn poisson_ratios_up_to_incompressible() {
         let mut sim = Simulation::new(&m, &scene, &path);
         for pose in &path {
             sim.step(*pose).unwrap_or_else(|e| panic!("nu {nu}: {e}"));
-            check_invariants(&sim, &format!("nu {nu}"));
+            check_invariants(&sim, pose.depth_mm, &format!("nu {nu}"));
         }
         assert!(sim.report().force_n[2] > 0.0);
         let _ = target;
@@ -81,7 +80,7 @@ fn indentations_from_a_hundredth_to_eight_mm() {
         let pose = SensorPose::new(0.0, 0.0, depth, 0.0);
         let mut sim = Simulation::new(&m, &scene, &[pose]);
         let r = sim.step(pose).expect("step").clone();
-        check_invariants(&sim, &format!("depth {depth}"));
+        check_invariants(&sim, depth, &format!("depth {depth}"));
         assert!(r.in_contact && r.force_n[2] > last, "depth {depth}: force {} after {last}", r.force_n[2]);
         last = r.force_n[2];
         // Pins stay finite and move less than the indentation plus the lever.
@@ -112,7 +111,7 @@ fn ten_thousand_step_back_and_forth_slide_keeps_invariants_and_returns_on_lift_o
         assert!(r.dissipation_nmm >= 0.0 && r.force_n.iter().all(|f| f.is_finite()), "step {i}: {r:?}");
         max_ratio = max_ratio.max(ratio);
         if i % 500 == 0 {
-            check_invariants(&sim, &format!("step {i}"));
+            check_invariants(&sim, 1.5, &format!("step {i}"));
         }
     }
     assert!(max_ratio > 0.99, "gross sliding must be reached: {max_ratio}");
@@ -153,7 +152,7 @@ proptest! {
         let mut sim = Simulation::new(&m, &scene, &poses);
         for (i, pose) in poses.iter().enumerate() {
             sim.step(*pose).map_err(|e| TestCaseError::fail(format!("step {i}: {e}")))?;
-            check_invariants(&sim, &format!("step {i} {pose:?}"));
+            check_invariants(&sim, pose.depth_mm, &format!("step {i} {pose:?}"));
         }
     }
 }

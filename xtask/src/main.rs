@@ -3,7 +3,8 @@
 //!   files are up to date);
 //! - `fit-camera [--real PNG]`: fit the camera and ring layout to the lab's undeformed
 //!   reference image and write `sim/presets/tactip-331.toml`;
-//! - `bench`: run the benchmarks (criterion) and print their figures.
+//! - `bench`: run the benchmarks (criterion: renderer, contact operator products) and print
+//!   their figures; `tacsim bench` times whole taps and slides.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -137,7 +138,7 @@ fn fit(real_path: &Path) -> Result<()> {
 fn bench(extra: &[String]) -> Result<()> {
     let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(root())
-        .args(["bench", "-p", "tacsim-sim", "--bench", "render", "--"])
+        .args(["bench", "-p", "tacsim-sim", "--bench", "render", "--bench", "contact", "--"])
         .args(extra)
         .status()
         .context("running cargo bench")?;

@@ -138,26 +138,45 @@ impl Elastic {
 /// surface point force `(qx, qy, p)` (N), on a half-space (Johnson 1985, 3.20 and 3.86; `z`
 /// into the body). Singular at the load point itself.
 pub fn point_load_displacement(m: &Elastic, force: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
-    let [x, y, z] = offset;
-    let [qx, qy, p] = force;
-    let nu = m.poisson;
-    let c = 1.0 / (4.0 * PI * m.shear_modulus_mpa);
-    let rho = (x * x + y * y + z * z).sqrt();
-    let rho3 = rho * rho * rho;
-    let rz = rho + z;
-    let k = 1.0 - 2.0 * nu;
-    // Boussinesq (normal force p).
-    let bx = p * (x * z / rho3 - k * x / (rho * rz));
-    let by = p * (y * z / rho3 - k * y / (rho * rz));
-    let bz = p * (z * z / rho3 + 2.0 * (1.0 - nu) / rho);
-    // Cerruti (tangential force along x, then along y by symmetry).
-    let cx_x = qx * (1.0 / rho + x * x / rho3 + k * (1.0 / rz - x * x / (rho * rz * rz)));
-    let cx_y = qx * (x * y / rho3 - k * x * y / (rho * rz * rz));
-    let cx_z = qx * (x * z / rho3 + k * x / (rho * rz));
-    let cy_y = qy * (1.0 / rho + y * y / rho3 + k * (1.0 / rz - y * y / (rho * rz * rz)));
-    let cy_x = qy * (x * y / rho3 - k * x * y / (rho * rz * rz));
-    let cy_z = qy * (y * z / rho3 + k * y / (rho * rz));
-    [c * (bx + cx_x + cy_x), c * (by + cx_y + cy_y), c * (bz + cx_z + cy_z)]
+    DepthKernel::new(m).displacement(force, offset)
+}
+
+/// [`point_load_displacement`] with the material constants hoisted, for sums over many loads.
+#[derive(Clone, Copy, Debug)]
+pub struct DepthKernel {
+    c: f64,
+    k: f64,
+    two_one_minus_nu: f64,
+}
+
+impl DepthKernel {
+    /// The kernel of material `m`.
+    pub fn new(m: &Elastic) -> Self {
+        let nu = m.poisson;
+        Self { c: 1.0 / (4.0 * PI * m.shear_modulus_mpa), k: 1.0 - 2.0 * nu, two_one_minus_nu: 2.0 * (1.0 - nu) }
+    }
+
+    /// Displacement (mm) at `offset` (lateral x, y; depth z >= 0) from the surface force
+    /// `(qx, qy, p)` (N).
+    #[inline]
+    pub fn displacement(&self, force: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
+        let [x, y, z] = offset;
+        let [qx, qy, p] = force;
+        let k = self.k;
+        let rho = (x * x + y * y + z * z).sqrt();
+        let ir = 1.0 / rho;
+        let ir3 = ir * ir * ir;
+        let irz = 1.0 / (rho + z);
+        let ir_irz = ir * irz;
+        let ir_irz2 = ir_irz * irz;
+        // Boussinesq (normal force p), Cerruti (tangential forces qx, qy).
+        let b = p * (z * ir3 - k * ir_irz);
+        let xy = x * y * (ir3 - k * ir_irz2);
+        let ux = b * x + qx * (ir + x * x * ir3 + k * (irz - x * x * ir_irz2)) + qy * xy;
+        let uy = b * y + qy * (ir + y * y * ir3 + k * (irz - y * y * ir_irz2)) + qx * xy;
+        let uz = p * (z * z * ir3 + self.two_one_minus_nu * ir) + (qx * x + qy * y) * (z * ir3 + k * ir_irz);
+        [self.c * ux, self.c * uy, self.c * uz]
+    }
 }
 
 #[cfg(test)]

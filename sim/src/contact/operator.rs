@@ -171,6 +171,9 @@ pub struct Operator {
     factors: [f64; 4],
     /// Per component, coefficient per offset (mm/MPa).
     coefficients: [Vec<f64>; 8],
+    /// The same with `dx` mirrored (`A(-dx, dy)` at the place of `(dx, dy)`), so that a row of
+    /// sources is a forward, contiguous slice of the table.
+    mirrored: [Vec<f64>; 8],
 }
 
 impl Operator {
@@ -178,8 +181,19 @@ impl Operator {
     pub fn new(model: &HalfSpace, grid: Grid) -> Self {
         let tables = UnitTables::get(grid.nx, grid.ny);
         let factors = model.factors().map(|f| f * grid.cell_mm);
-        let coefficients = Component::ALL.map(|c| tables.values.iter().map(|t| Self::combine(factors, c, t)).collect());
-        Self { grid, tables, factors, coefficients }
+        let coefficients: [Vec<f64>; 8] =
+            Component::ALL.map(|c| tables.values.iter().map(|t| Self::combine(factors, c, t)).collect());
+        let wx = 2 * grid.nx - 1;
+        let mirrored = coefficients.clone().map(|table| {
+            let mut m = table.clone();
+            for (row, out) in table.chunks(wx).zip(m.chunks_mut(wx)) {
+                for (o, v) in out.iter_mut().zip(row.iter().rev()) {
+                    *o = *v;
+                }
+            }
+            m
+        });
+        Self { grid, tables, factors, coefficients, mirrored }
     }
 
     /// The grid.
@@ -231,16 +245,39 @@ impl Operator {
     fn apply_dense(&self, terms: &[(Component, &[f64])], out: &mut [f64], src: &[usize], dst: &[usize]) {
         let (nx, ny) = (self.grid.nx, self.grid.ny);
         let wx = 2 * nx - 1;
-        // Pack the sources once: their column, row and traction per term.
-        let packed: Vec<(usize, usize, usize)> = src.iter().map(|&s| (s, s % nx, s / nx)).collect();
+        // Group the sources into runs of consecutive cells of one row; pack their tractions.
+        // For a run starting at column i0 of row sj, seen from (di, dj), the coefficient of the
+        // t-th cell sits at mirrored[(dj - sj + ny - 1) wx + (i0 + t - di + nx - 1)]: forward.
+        let mut runs: Vec<(usize, usize, usize, usize)> = Vec::new(); // (row, i0, len, start)
+        let mut sorted = src.to_vec();
+        sorted.sort_unstable();
+        for (pos, &s) in sorted.iter().enumerate() {
+            let (i, j) = (s % nx, s / nx);
+            match runs.last_mut() {
+                Some(r) if r.0 == j && r.1 + r.2 == i => r.2 += 1,
+                _ => runs.push((j, i, 1, pos)),
+            }
+        }
+        let values: Vec<Vec<f64>> = terms.iter().map(|(_, t)| sorted.iter().map(|&s| t[s]).collect()).collect();
         for &d in dst {
             let (di, dj) = (d % nx, d / nx);
-            let base = (dj + ny - 1) * wx + di + nx - 1;
             let mut sum = 0.0;
-            for &(c, t) in terms {
-                let coef = &self.coefficients[c as usize];
-                for &(s, si, sj) in &packed {
-                    sum += coef[base - sj * wx - si] * t[s];
+            for ((c, _), vals) in terms.iter().zip(&values) {
+                let coef = &self.mirrored[*c as usize];
+                for &(sj, i0, len, start) in &runs {
+                    let at = (dj + ny - 1 - sj) * wx + i0 + nx - 1 - di;
+                    let row = &coef[at..at + len];
+                    let v = &vals[start..start + len];
+                    // Four partial sums let the compiler vectorise the dot product.
+                    let mut acc = [0.0; 4];
+                    let (rc, vc) = (row.chunks_exact(4), v.chunks_exact(4));
+                    let (rr, vr) = (rc.remainder(), vc.remainder());
+                    for (a, b) in rc.zip(vc) {
+                        for k in 0..4 {
+                            acc[k] += a[k] * b[k];
+                        }
+                    }
+                    sum += acc.iter().sum::<f64>() + rr.iter().zip(vr).map(|(a, b)| a * b).sum::<f64>();
                 }
             }
             out[d] = sum;

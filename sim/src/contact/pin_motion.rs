@@ -13,52 +13,137 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::grid::Grid;
-use super::kernel::{Elastic, point_load_displacement};
+use super::kernel::{DepthKernel, Elastic};
 use crate::pins::{PinLayout, PinPose};
 
 /// Finite-difference step for the rotation (mm).
 const STEP_MM: f64 = 1e-3;
 
-/// Point forces of the loaded cells: position `(x, y)` (mm) and force `(Qx, Qy, P)` (N).
+/// Side of the blocks of cells that far pins see as one point force (cells).
+const BLOCK: usize = 2;
+/// A pin sees a block as one force when farther than this many block diagonals from its
+/// centroid (the monopole's relative error is of order `(diagonal / distance)^2`).
+const FAR_DIAGONALS: f64 = 3.0;
+
+/// A block of loaded cells: their total force at the pressure-weighted centroid, and the range
+/// of its cells.
+#[derive(Clone, Debug)]
+struct Block {
+    x: f64,
+    y: f64,
+    f: [f64; 3],
+    cells: std::ops::Range<usize>,
+}
+
+/// Point forces of the loaded cells, stored as separate arrays (positions `(x, y)` in mm,
+/// forces `(Qx, Qy, P)` in N), grouped in blocks of `BLOCK x BLOCK` cells.
 #[derive(Clone, Debug, Default)]
 pub struct CellForces {
-    points: Vec<([f64; 2], [f64; 3])>,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    f: Vec<[f64; 3]>,
+    blocks: Vec<Block>,
+    far2: f64,
 }
 
 impl CellForces {
     /// Collects the cells with non-zero traction.
     pub fn new(grid: &Grid, pressure: &[f64], qx: &[f64], qy: &[f64]) -> Self {
         let area = grid.cell_area_mm2();
-        let points = (0..grid.len())
-            .filter(|&k| pressure[k] != 0.0 || qx[k] != 0.0 || qy[k] != 0.0)
-            .map(|k| (grid.centre(k), [qx[k] * area, qy[k] * area, pressure[k] * area]))
-            .collect();
-        Self { points }
+        let mut out = Self::default();
+        let diagonal = (BLOCK as f64) * grid.cell_mm * std::f64::consts::SQRT_2;
+        out.far2 = (FAR_DIAGONALS * diagonal).powi(2);
+        for bj in (0..grid.ny).step_by(BLOCK) {
+            for bi in (0..grid.nx).step_by(BLOCK) {
+                let start = out.f.len();
+                let (mut sx, mut sy, mut w) = (0.0, 0.0, 0.0);
+                let mut total = [0.0; 3];
+                for j in bj..(bj + BLOCK).min(grid.ny) {
+                    for i in bi..(bi + BLOCK).min(grid.nx) {
+                        let k = j * grid.nx + i;
+                        if pressure[k] == 0.0 && qx[k] == 0.0 && qy[k] == 0.0 {
+                            continue;
+                        }
+                        let c = grid.centre(k);
+                        let f = [qx[k] * area, qy[k] * area, pressure[k] * area];
+                        out.x.push(c[0]);
+                        out.y.push(c[1]);
+                        out.f.push(f);
+                        let weight = f[2].abs() + f[0].hypot(f[1]);
+                        sx += weight * c[0];
+                        sy += weight * c[1];
+                        w += weight;
+                        for (t, v) in total.iter_mut().zip(f) {
+                            *t += v;
+                        }
+                    }
+                }
+                if out.f.len() > start {
+                    let n = (out.f.len() - start) as f64;
+                    let (x, y) = if w > 0.0 {
+                        (sx / w, sy / w)
+                    } else {
+                        (out.x[start..].iter().sum::<f64>() / n, out.y[start..].iter().sum::<f64>() / n)
+                    };
+                    out.blocks.push(Block { x, y, f: total, cells: start..out.f.len() });
+                }
+            }
+        }
+        out
     }
 
     /// Whether no cell is loaded.
     pub fn is_empty(&self) -> bool {
-        self.points.is_empty()
+        self.f.is_empty()
     }
 
-    /// Displacement (mm, sensor frame) of the sensor-frame point `x` of a dome of outer radius
-    /// `dome_radius_mm`.
-    pub fn displacement(&self, m: &Elastic, dome_radius_mm: f64, x: &Vector3<f64>) -> Vector3<f64> {
-        let depth = dome_radius_mm - x.z;
-        let mut u = [0.0; 3];
-        for (c, f) in &self.points {
-            let d = point_load_displacement(m, *f, [x.x - c[0], x.y - c[1], depth]);
-            for k in 0..3 {
-                u[k] += d[k];
+    /// Displacements (mm, sensor frame) at the sensor-frame points `at` (close together: the
+    /// first decides near and far) of a dome of outer radius `dome_radius_mm`, in one pass.
+    /// Blocks far from the points act as one force; near ones cell by cell. With `exact`, every
+    /// cell acts on its own.
+    pub fn displacements<const N: usize>(
+        &self,
+        kernel: &DepthKernel,
+        dome_radius_mm: f64,
+        at: &[Vector3<f64>; N],
+        exact: bool,
+    ) -> [Vector3<f64>; N] {
+        let mut u = [[0.0; 3]; N];
+        let mut add = |cx: f64, cy: f64, f: [f64; 3]| {
+            for (p, acc) in at.iter().zip(u.iter_mut()) {
+                let d = kernel.displacement(f, [p.x - cx, p.y - cy, dome_radius_mm - p.z]);
+                acc[0] += d[0];
+                acc[1] += d[1];
+                acc[2] += d[2];
+            }
+        };
+        let p0 = at[0];
+        let depth = dome_radius_mm - p0.z;
+        for b in &self.blocks {
+            let d2 = (p0.x - b.x).powi(2) + (p0.y - b.y).powi(2) + depth * depth;
+            if !exact && d2 > self.far2 {
+                add(b.x, b.y, b.f);
+            } else {
+                for k in b.cells.clone() {
+                    add(self.x[k], self.y[k], self.f[k]);
+                }
             }
         }
         // Into the body is sensor -z.
-        Vector3::new(u[0], u[1], -u[2])
+        u.map(|v| Vector3::new(v[0], v[1], -v[2]))
     }
 }
 
-/// Deformed pin poses (sensor frame) for the given cell forces.
-pub fn displaced_pins(layout: &PinLayout, m: &Elastic, dome_radius_mm: f64, forces: &CellForces) -> Vec<PinPose> {
+/// Deformed pin poses (sensor frame) for the given cell forces; `exact` sums every cell for
+/// every pin instead of grouping far cells in blocks.
+pub fn displaced_pins(
+    layout: &PinLayout,
+    m: &Elastic,
+    dome_radius_mm: f64,
+    forces: &CellForces,
+    exact: bool,
+) -> Vec<PinPose> {
+    let kernel = DepthKernel::new(m);
     layout
         .pins
         .par_iter()
@@ -68,18 +153,12 @@ pub fn displaced_pins(layout: &PinLayout, m: &Elastic, dome_radius_mm: f64, forc
                 return undeformed;
             }
             let base = pin.base.coords;
-            let u = forces.displacement(m, dome_radius_mm, &base);
-            // Gradient by forward differences: g[i][k] = d u_i / d x_k.
-            let mut g = [[0.0; 3]; 3];
-            for k in 0..3 {
-                let mut x = base;
-                x[k] += STEP_MM;
-                let du = (forces.displacement(m, dome_radius_mm, &x) - u) / STEP_MM;
-                for i in 0..3 {
-                    g[i][k] = du[i];
-                }
-            }
-            let omega = 0.5 * Vector3::new(g[2][1] - g[1][2], g[0][2] - g[2][0], g[1][0] - g[0][1]);
+            let at =
+                [base, base + Vector3::x() * STEP_MM, base + Vector3::y() * STEP_MM, base + Vector3::z() * STEP_MM];
+            let [u, ux, uy, uz] = forces.displacements(&kernel, dome_radius_mm, &at, exact);
+            // Gradient by forward differences: column k = d u / d x_k.
+            let (gx, gy, gz) = ((ux - u) / STEP_MM, (uy - u) / STEP_MM, (uz - u) / STEP_MM);
+            let omega = 0.5 * Vector3::new(gy.z - gz.y, gz.x - gx.z, gx.y - gy.x);
             let lever = pin.tip.coords - base;
             let axis = (pin.normal + omega.cross(&pin.normal)).normalize();
             PinPose { tip: (pin.tip.coords + u + omega.cross(&lever)).into(), axis }

@@ -34,7 +34,7 @@ pub struct TangentialSettings {
 
 impl Default for TangentialSettings {
     fn default() -> Self {
-        Self { tolerance: 1e-9, max_iterations: 20_000, dense_max_cells: 900 }
+        Self { tolerance: 1e-9, max_iterations: 20_000, dense_max_cells: super::normal::DENSE_MAX_CELLS }
     }
 }
 
@@ -59,6 +59,36 @@ pub struct TangentialSolution {
     pub iterations: usize,
 }
 
+/// An upper bound (5% margin) of the largest eigenvalue of `A_t` restricted to `cells`
+/// (mm/MPa), by power iteration. It bounds the eigenvalues on every subset of `cells` too
+/// (Cauchy interlacing), so one bound serves a whole path.
+pub fn largest_eigenvalue(op: &Operator, cells: &[usize], dense: bool) -> f64 {
+    let n = op.grid().len();
+    let product = if dense { Product::Dense { src: cells, dst: cells } } else { Product::Fft };
+    let (mut vx, mut vy) = (vec![0.0; n], vec![0.0; n]);
+    for &k in cells {
+        vx[k] = 1.0;
+        vy[k] = 0.5;
+    }
+    let (mut ax, mut ay) = (vec![0.0; n], vec![0.0; n]);
+    let mut lambda = 0.0;
+    for _ in 0..12 {
+        op.apply(&[(Component::Xx, &vx), (Component::Xy, &vy)], &mut ax, product);
+        op.apply(&[(Component::Xy, &vx), (Component::Yy, &vy)], &mut ay, product);
+        let norm = cells.iter().map(|&k| ax[k] * ax[k] + ay[k] * ay[k]).sum::<f64>().sqrt();
+        let vnorm = cells.iter().map(|&k| vx[k] * vx[k] + vy[k] * vy[k]).sum::<f64>().sqrt();
+        if norm == 0.0 {
+            break;
+        }
+        lambda = norm / vnorm;
+        for &k in cells {
+            vx[k] = ax[k] / norm;
+            vy[k] = ay[k] / norm;
+        }
+    }
+    1.05 * lambda
+}
+
 /// Projects `(x, y)` onto the disc of radius `r`.
 fn project(x: f64, y: f64, r: f64) -> (f64, f64) {
     let n2 = x * x + y * y;
@@ -74,7 +104,10 @@ fn project(x: f64, y: f64, r: f64) -> (f64, f64) {
 
 /// Solves one step. `pressure` (MPa) and `mu` give the traction bound per cell, `prev` the
 /// previous tractions `(q'_x, q'_y)`, `w` the rigid slip increment per cell (mm). The iteration
-/// starts from `warm` when given, else from `prev`.
+/// starts from `warm` when given, else from `prev`. `lipschitz` is an upper bound of the
+/// largest eigenvalue of `A_t` on the contact cells (mm/MPa), e.g. [`largest_eigenvalue`] on a
+/// superset of them; `None` computes it.
+#[allow(clippy::too_many_arguments)]
 pub fn solve_step(
     op: &Operator,
     pressure: &[f64],
@@ -82,6 +115,7 @@ pub fn solve_step(
     prev: (&[f64], &[f64]),
     w: (&[f64], &[f64]),
     warm: Option<(&[f64], &[f64])>,
+    lipschitz: Option<f64>,
     settings: &TangentialSettings,
 ) -> Result<TangentialSolution> {
     let n = op.grid().len();
@@ -119,27 +153,9 @@ pub fn solve_step(
         by[k] = w.1[k] - by[k];
     }
     let total_bound: f64 = contact.iter().map(|&k| bound[k]).sum();
-    // Step 1/L with L the largest eigenvalue of A_t on the contact cells, by power iteration
-    // (a 5% margin covers its slow last digits).
-    let lipschitz = {
-        let (mut vx, mut vy) = (vec![0.0; n], vec![0.0; n]);
-        for &k in &contact {
-            vx[k] = 1.0;
-            vy[k] = 0.5;
-        }
-        let (mut ax, mut ay) = (vec![0.0; n], vec![0.0; n]);
-        let mut lambda = 0.0;
-        for _ in 0..12 {
-            displacement(&contact, &vx, &vy, &mut ax, &mut ay);
-            let norm = contact.iter().map(|&k| ax[k] * ax[k] + ay[k] * ay[k]).sum::<f64>().sqrt();
-            let vnorm = contact.iter().map(|&k| vx[k] * vx[k] + vy[k] * vy[k]).sum::<f64>().sqrt();
-            lambda = norm / vnorm;
-            for &k in &contact {
-                vx[k] = ax[k] / norm;
-                vy[k] = ay[k] / norm;
-            }
-        }
-        1.05 * lambda
+    let lipschitz = match lipschitz {
+        Some(l) => l,
+        None => largest_eigenvalue(op, &contact, dense),
     };
     let step = 1.0 / lipschitz;
     // Optimality is measured with the local scale 1/A_t(0,0): the residual is the size of the
