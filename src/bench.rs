@@ -69,6 +69,25 @@ pub struct Breakdown {
     pub render_ms: f64,
 }
 
+/// What each skip saves: the time with the skip (as the engine runs) against the time without it
+/// (ms, one thread, mean over the sample poses).
+#[derive(Debug, Serialize)]
+pub struct Skips {
+    /// A step out of contact (gap ray casts only, cached undeformed pins) against a tap's step.
+    pub no_contact_step_ms: [f64; 2],
+    /// A tap's step (normal solve only, tangential skipped) against a slide step on the same
+    /// contact (normal and tangential solves).
+    pub tap_without_tangential_ms: [f64; 2],
+    /// Footprint probe and gap on a scene of one stimulus against the same with 48 more
+    /// stimuli 300 mm away (the query BVH skips them).
+    pub far_stimuli_ms: [f64; 2],
+    /// A tap on the footprint grid (25 cells) against a grid of the same cell size over the
+    /// whole dome (43 cells).
+    pub footprint_grid_ms: [f64; 2],
+    /// Pins only against pins and a 256x256 render.
+    pub no_render_ms: [f64; 2],
+}
+
 /// One point of the run-time-vs-error curve.
 #[derive(Debug, Serialize)]
 pub struct CurvePoint {
@@ -107,6 +126,8 @@ pub struct BenchReport {
     pub hertz_force_rel_err: f64,
     /// Where a tap's time goes.
     pub tap_breakdown: Breakdown,
+    /// What the skips save.
+    pub skips: Skips,
     /// Run time against error.
     pub curve: Vec<CurvePoint>,
 }
@@ -209,6 +230,9 @@ pub fn run(samples_n: usize, cells: Option<usize>, json: bool, plot: &Path) -> R
         render_ms: per(render_t),
     };
 
+    let skips =
+        rayon::ThreadPoolBuilder::new().num_threads(1).build()?.install(|| measure_skips(&sensor, &scene, few))?;
+
     // Run time against error.
     let mut curve = Vec::new();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
@@ -262,6 +286,7 @@ pub fn run(samples_n: usize, cells: Option<usize>, json: bool, plot: &Path) -> R
         mean_contact_cells: mean_cells,
         hertz_force_rel_err: validate::hertz(sensor.skin.cells_across)?.force_rel_err,
         tap_breakdown: breakdown,
+        skips,
         curve,
     };
     draw(&report, plot).with_context(|| format!("writing the plot {}", plot.display()))?;
@@ -273,8 +298,7 @@ pub fn run(samples_n: usize, cells: Option<usize>, json: bool, plot: &Path) -> R
         "{} threads, {} cells across the footprint (mean {:.0} in contact)\n\
          taps:   {:>9.1} frames/s  (solve + pins + 256x256 render)\n\
          slides: {:>9.1} samples/s (touch down {SLIDE_MM} mm away, {STEP_MM} mm steps, capture)\n\
-         a tap, one thread: footprint {:.3} ms, gap + solve {:.3} ms, pins {:.3} ms, render {:.3} ms\n\n\
-         {:<6} {:>7} {:>12} {:>12} {:>12} {:>12}\n",
+         a tap, one thread: footprint {:.3} ms, gap + solve {:.3} ms, pins {:.3} ms, render {:.3} ms\n",
         report.threads,
         report.cells_across,
         report.mean_contact_cells,
@@ -284,13 +308,27 @@ pub fn run(samples_n: usize, cells: Option<usize>, json: bool, plot: &Path) -> R
         b.solve_ms,
         b.pins_ms,
         b.render_ms,
-        "knob",
-        "value",
-        "ms/sample",
-        "hertz force",
-        "cattaneo",
-        "pin err mm",
     );
+    let k = &report.skips;
+    out.push_str(&format!(
+        "skips (with / without, ms, one thread): no contact {:.3} / {:.3}; tap without tangential {:.3} / {:.3}; \
+         48 far stimuli {:.3} / {:.3} (probe + gap, without = with them); footprint grid {:.3} / {:.3}; \
+         no render {:.3} / {:.3}\n\n",
+        k.no_contact_step_ms[0],
+        k.no_contact_step_ms[1],
+        k.tap_without_tangential_ms[0],
+        k.tap_without_tangential_ms[1],
+        k.far_stimuli_ms[0],
+        k.far_stimuli_ms[1],
+        k.footprint_grid_ms[0],
+        k.footprint_grid_ms[1],
+        k.no_render_ms[0],
+        k.no_render_ms[1],
+    ));
+    out.push_str(&format!(
+        "{:<6} {:>7} {:>12} {:>12} {:>12} {:>12}\n",
+        "knob", "value", "ms/sample", "hertz force", "cattaneo", "pin err mm"
+    ));
     let opt = |v: Option<f64>| v.map_or("-".to_owned(), |x| format!("{x:.2e}"));
     for p in &report.curve {
         out.push_str(&format!(
@@ -305,6 +343,83 @@ pub fn run(samples_n: usize, cells: Option<usize>, json: bool, plot: &Path) -> R
     }
     out.push_str(&format!("plot: {}\n", plot.display()));
     Ok(out)
+}
+
+fn measure_skips(sensor: &SensorParams, scene: &Scene, poses: &[(SensorPose, [f64; 2])]) -> Result<Skips> {
+    let model = ContactModel::new(sensor);
+    let n = poses.len();
+    let mean = |total: f64| total * 1e3 / n as f64;
+    let (mut off, mut tap, mut slide) = (0.0, 0.0, 0.0);
+    for (pose, from) in poses {
+        let target = *pose;
+        let start = SensorPose { x_mm: pose.x_mm + 0.1 * from[0], y_mm: pose.y_mm + 0.1 * from[1], ..*pose };
+        let mut sim = Simulation::new(&model, scene, &[start, target]);
+        let t = Instant::now();
+        sim.step(SensorPose { depth_mm: -1.0, ..target })?;
+        off += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        sim.step(start)?;
+        tap += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        sim.step(target)?;
+        slide += t.elapsed().as_secs_f64();
+    }
+    // Far stimuli: the same scene plus 48 disks on a 300 mm lattice.
+    let catalogue = crate::embedded::catalogue()?;
+    let mut crowded = disk_scene()?;
+    for i in 0..7i32 {
+        for j in 0..7i32 {
+            if (i, j) != (3, 3) {
+                let position_mm = [300.0 * (i - 3) as f64, 300.0 * (j - 3) as f64, 0.0];
+                crowded.add(catalogue.get("disk")?, ObjectPose { position_mm, yaw_deg: 0.0 })?;
+            }
+        }
+    }
+    let probe = |s: &Scene| -> f64 {
+        let t = Instant::now();
+        for (pose, _) in poses {
+            let mut sim = Simulation::new(&model, s, &[*pose]);
+            std::hint::black_box(sim.step(SensorPose { depth_mm: -1.0, ..*pose }).map(|r| r.in_contact).ok());
+        }
+        mean(t.elapsed().as_secs_f64())
+    };
+    let far = [probe(scene), probe(&crowded)];
+    // Footprint grid against a whole-dome grid of the same cell size.
+    let tap_ms = |cells: usize| -> Result<f64> {
+        let mut s = sensor.clone();
+        s.skin.cells_across = cells;
+        let m = ContactModel::new(&s);
+        let t = Instant::now();
+        for (pose, _) in poses {
+            let mut sim = Simulation::new(&m, scene, &[*pose]);
+            sim.step(*pose)?;
+        }
+        Ok(mean(t.elapsed().as_secs_f64()))
+    };
+    // Mean footprint over these taps is about 22 mm across against 38 mm of dome: 25 -> 43 cells.
+    let footprint = [tap_ms(sensor.skin.cells_across)?, tap_ms(43)?];
+    // Rendering only when asked.
+    let renderer = PinRenderer::new(sensor, 256)?;
+    let (mut pins_only, mut with_render) = (0.0, 0.0);
+    for (pose, _) in poses {
+        let mut sim = Simulation::new(&model, scene, &[*pose]);
+        sim.step(*pose)?;
+        let t = Instant::now();
+        let pins = sim.pins();
+        pins_only += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let pins2 = sim.pins();
+        std::hint::black_box(render(&renderer, &pins2));
+        with_render += t.elapsed().as_secs_f64();
+        std::hint::black_box(pins);
+    }
+    Ok(Skips {
+        no_contact_step_ms: [mean(off), mean(tap)],
+        tap_without_tangential_ms: [mean(tap), mean(slide)],
+        far_stimuli_ms: far,
+        footprint_grid_ms: footprint,
+        no_render_ms: [mean(pins_only), mean(with_render)],
+    })
 }
 
 fn draw(report: &BenchReport, path: &Path) -> Result<()> {
