@@ -422,8 +422,16 @@ fn measure_skips(sensor: &SensorParams, scene: &Scene, poses: &[(SensorPose, [f6
     })
 }
 
+/// Draws the plot into a string, then writes it atomically.
 fn draw(report: &BenchReport, path: &Path) -> Result<()> {
-    let root = SVGBackend::new(path, (1000, 420)).into_drawing_area();
+    let mut svg = String::new();
+    draw_into(report, &mut svg)?;
+    tacsim_sim::atomic::write_atomic(path, svg.as_bytes())?;
+    Ok(())
+}
+
+fn draw_into(report: &BenchReport, svg: &mut String) -> Result<()> {
+    let root = SVGBackend::with_string(svg, (1000, 420)).into_drawing_area();
     root.fill(&WHITE)?;
     let (left, right) = root.split_horizontally(500);
     let series = |knob: &str, pick: fn(&CurvePoint) -> Option<f64>| -> Vec<(f64, f64)> {

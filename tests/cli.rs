@@ -185,3 +185,28 @@ fn validate_json_meets_the_bounds() {
     assert!(f("/hertz/seconds") > 0.0 && f("/cattaneo/seconds") > 0.0);
     assert_eq!(v["pass"], serde_json::Value::Bool(true));
 }
+
+#[test]
+fn bench_json_reports_rates_breakdown_skips_and_curve() {
+    let dir = temp_dir("bench");
+    let plot = dir.join("bench.svg");
+    let o = tacsim(&["bench", "--json", "--samples", "4", "--cells", "9", "--plot", plot.to_str().expect("utf-8")]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+    for key in ["/tap_frames_per_s", "/slide_samples_per_s", "/tap_breakdown/solve_ms", "/tap_breakdown/pins_ms"] {
+        assert!(v.pointer(key).and_then(|x| x.as_f64()).is_some_and(|x| x > 0.0), "{key}");
+    }
+    assert_eq!(v["cells_across"], 9);
+    for key in
+        ["no_contact_step_ms", "tap_without_tangential_ms", "footprint_grid_ms", "no_render_ms", "far_stimuli_ms"]
+    {
+        assert_eq!(v["skips"][key].as_array().map(|a| a.len()), Some(2), "{key}");
+    }
+    let curve = v["curve"].as_array().expect("curve");
+    assert!(curve.iter().filter(|p| p["knob"] == "grid").count() >= 4);
+    assert!(curve.iter().filter(|p| p["knob"] == "step").count() >= 4);
+    assert!(std::fs::read_to_string(&plot).expect("plot written").contains("<svg"));
+    let bad = tacsim(&["bench", "--cells", "10", "--plot", plot.to_str().expect("utf-8")]);
+    assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("skin.cells_across"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
