@@ -167,6 +167,26 @@ pub fn draw_coverage(discs: &[Disc], size: u32) -> Vec<f32> {
 mod tests {
     use super::*;
 
+    /// Regression: with the old minimum radius of 0.75 px a random sensor lost a pin at 128 px
+    /// (disc r = 0.776 px centred near a pixel corner: four quarters of 0.47 coverage each).
+    /// At the minimum radius every sub-pixel position keeps at least one pixel.
+    #[test]
+    fn smallest_accepted_disc_never_vanishes_at_a_pixel_corner() {
+        let lost = Disc { u: 10.0, v: 10.0, r: 0.776 };
+        let mut img = GrayImage::new(20, 20);
+        draw_binary(&[lost], 20, &mut img);
+        assert!(img.as_raw().iter().all(|&p| p == 0), "0.776 px at a corner renders nothing");
+        let r = crate::render::MIN_PIN_RADIUS_PX;
+        for i in 0..=20 {
+            for j in 0..=20 {
+                let d = Disc { u: 10.0 + i as f64 / 20.0, v: 10.0 + j as f64 / 20.0, r };
+                let mut img = GrayImage::new(20, 20);
+                draw_binary(&[d], 20, &mut img);
+                assert!(img.as_raw().iter().any(|&p| p == 255), "disc {d:?} vanished");
+            }
+        }
+    }
+
     #[test]
     fn box_coverage_matches_known_areas() {
         let d = Disc { u: 0.0, v: 0.0, r: 2.0 };

@@ -10,8 +10,11 @@ use crate::pins::PinLayout;
 use crate::raster;
 use crate::sensor::SensorParams;
 
-/// Smallest projected pin radius the renderer accepts (px): smaller pins alias away.
-pub const MIN_PIN_RADIUS_PX: f64 = 0.75;
+/// Smallest projected pin radius the renderer accepts (px). A disc centred on a pixel corner
+/// covers its four pixels equally, `pi r^2 / 4` each, which is the worst case for the best-covered
+/// pixel; the binary image keeps the pin only if that reaches 1/2, i.e. `r >= sqrt(2 / pi)`
+/// = 0.7979 px. (0.75 px let a pin vanish: see the regression test in `raster`.)
+pub const MIN_PIN_RADIUS_PX: f64 = 0.8;
 /// Smallest gap between two undeformed pins' discs (px). Above sqrt(2), pixels of two pins
 /// are never 8-connected, so the pins stay separate blobs.
 pub const MIN_PIN_GAP_PX: f64 = 1.5;
