@@ -442,11 +442,10 @@ fn draw_into(report: &BenchReport, svg: &mut String) -> Result<()> {
             .filter_map(|p| pick(p).map(|e| (p.ms_per_sample, e.max(1e-9))))
             .collect()
     };
-    for (area, title, knob, lines) in [
+    for (area, title, lines) in [
         (
             &left,
             "grid: tap time vs error",
-            "grid",
             vec![
                 ("Hertz force", series("grid", |p| p.hertz_force_rel_err), BLUE),
                 ("Cattaneo shift (nu=0)", series("grid", |p| p.cattaneo_shift_rel_err), RED),
@@ -455,11 +454,9 @@ fn draw_into(report: &BenchReport, svg: &mut String) -> Result<()> {
         (
             &right,
             "slide step: slide time vs pin error (mm)",
-            "step",
             vec![("pin error", series("step", |p| p.pin_err_mm), GREEN)],
         ),
     ] {
-        let _ = knob;
         let all: Vec<(f64, f64)> = lines.iter().flat_map(|l| l.1.iter().copied()).collect();
         if all.is_empty() {
             continue;
