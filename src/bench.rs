@@ -6,7 +6,6 @@ use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
-use image::GrayImage;
 use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -139,12 +138,6 @@ fn disk_scene() -> Result<Scene> {
     Ok(scene)
 }
 
-fn render(renderer: &PinRenderer, pins: &[tacsim_sim::pins::PinPose]) -> GrayImage {
-    let mut img = GrayImage::new(renderer.size(), renderer.size());
-    renderer.render_pins(pins, &mut img);
-    img
-}
-
 fn tap_rate(
     model: &ContactModel,
     scene: &Scene,
@@ -217,7 +210,7 @@ pub fn run(samples_n: usize, cells: Option<usize>, json: bool, plot: &Path) -> R
             let pins = sim.pins();
             pins_t += t.elapsed().as_secs_f64();
             let t = Instant::now();
-            std::hint::black_box(render(&renderer, &pins));
+            std::hint::black_box(renderer.render(&pins));
             render_t += t.elapsed().as_secs_f64();
         }
         Ok(())
@@ -409,7 +402,7 @@ fn measure_skips(sensor: &SensorParams, scene: &Scene, poses: &[(SensorPose, [f6
         pins_only += t.elapsed().as_secs_f64();
         let t = Instant::now();
         let pins2 = sim.pins();
-        std::hint::black_box(render(&renderer, &pins2));
+        std::hint::black_box(renderer.render(&pins2));
         with_render += t.elapsed().as_secs_f64();
         std::hint::black_box(pins);
     }

@@ -136,11 +136,7 @@ pub fn render(opts: &RenderOptions) -> Result<String> {
     let (pins, contact) = pressed_pins(&sensor, opts)?;
     let realism = Realism { seed: opts.seed, ..Realism::default() };
     let (img, depth) = match opts.mode {
-        RenderMode::Binary => {
-            let mut img = image::GrayImage::new(size, size);
-            renderer.render_pins(&pins, &mut img);
-            (img, if opts.one_bit { PngDepth::OneBit } else { PngDepth::Grey8 })
-        }
+        RenderMode::Binary => (renderer.render(&pins), if opts.one_bit { PngDepth::OneBit } else { PngDepth::Grey8 }),
         RenderMode::Realistic => {
             (realism.render(&renderer, &pins)?, if opts.one_bit { PngDepth::OneBit } else { PngDepth::Grey8 })
         }

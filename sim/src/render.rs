@@ -106,6 +106,13 @@ impl PinRenderer {
         raster::draw_binary(&self.discs(pins), self.camera.size, out);
     }
 
+    /// Renders the binary image of pins at `pins` into a new image.
+    pub fn render(&self, pins: &[PinPose]) -> GrayImage {
+        let mut out = GrayImage::new(self.camera.size, self.camera.size);
+        self.render_pins(pins, &mut out);
+        out
+    }
+
     /// Renders the undeformed sensor into `out` (reusing its buffer).
     pub fn render_undeformed_into(&self, out: &mut GrayImage) {
         raster::draw_binary(&self.undeformed, self.camera.size, out);

@@ -337,8 +337,9 @@ impl<'a> Simulation<'a> {
                 let src: Vec<usize> = (0..n).filter(|&k| dp[k] != 0.0).collect();
                 let dst: Vec<usize> = (0..n).filter(|&k| self.pressure[k] > 0.0).collect();
                 let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
-                op.apply(&[(Component::Xz, &dp)], &mut ux, Product::Dense { src: &src, dst: &dst });
-                op.apply(&[(Component::Yz, &dp)], &mut uy, Product::Dense { src: &src, dst: &dst });
+                let choice = Product::by_size(dst.len(), self.model.tangential.dense_max_cells, &src, &dst);
+                op.apply(&[(Component::Xz, &dp)], &mut ux, choice);
+                op.apply(&[(Component::Yz, &dp)], &mut uy, choice);
                 for &k in &dst {
                     cx[k] += ux[k];
                     cy[k] += uy[k];
@@ -354,8 +355,8 @@ impl<'a> Simulation<'a> {
             }
             if grown || self.lipschitz.is_none() {
                 let cells: Vec<usize> = (0..n).filter(|&k| self.seen[k]).collect();
-                let dense = cells.len() <= self.model.tangential.dense_max_cells;
-                self.lipschitz = Some(tangential::largest_eigenvalue(op, &cells, dense));
+                self.lipschitz =
+                    Some(tangential::largest_eigenvalue(op, &cells, self.model.tangential.dense_max_cells));
             }
             let t = tangential::solve_step(
                 op,
@@ -388,7 +389,7 @@ impl<'a> Simulation<'a> {
             op.apply(
                 &[(Component::Zx, &self.qx), (Component::Zy, &self.qy)],
                 &mut uz,
-                Product::Dense { src: &src, dst: &dst },
+                Product::by_size(dst.len(), self.model.normal.products.dense_max_cells, &src, &dst),
             );
             extra = Some(uz);
         }
@@ -416,7 +417,7 @@ impl<'a> Simulation<'a> {
 
     fn pins_with(&self, exact: bool) -> Vec<PinPose> {
         let Some(op) = self.op.as_ref() else {
-            return self.model.layout.pins.iter().map(|p| PinPose { tip: p.tip, axis: p.normal }).collect();
+            return self.model.layout.poses();
         };
         let forces = CellForces::new(op.grid(), &self.pressure, &self.qx, &self.qy);
         displaced_pins(&self.model.layout, &self.model.material, self.model.dome_radius(), &forces, exact)

@@ -106,11 +106,8 @@ pub fn solve(
         return Ok(NormalSolution { pressure, gap, approach_mm: 0.0, force_n: 0.0, iterations: 0 });
     }
     let product = |src: &[usize], v: &[f64], out: &mut [f64]| {
-        if candidates.len() <= settings.products.dense_max_cells {
-            op.apply(&[(Component::Zz, v)], out, Product::Dense { src, dst: &candidates });
-        } else {
-            op.apply(&[(Component::Zz, v)], out, Product::Fft);
-        }
+        let choice = Product::by_size(candidates.len(), settings.products.dense_max_cells, src, &candidates);
+        op.apply(&[(Component::Zz, v)], out, choice);
     };
     // Start: the warm pressures on the candidates, else a Jacobi guess.
     let diag = op.diagonal(Component::Zz);

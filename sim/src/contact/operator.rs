@@ -162,6 +162,15 @@ pub enum Product<'a> {
     Fft,
 }
 
+impl<'a> Product<'a> {
+    /// Dense over `src -> dst` when the problem has at most `dense_max_cells` cells (`cells`),
+    /// FFT otherwise: the one place the choice is made (crossover measured in
+    /// `crate::contact::normal::DENSE_MAX_CELLS`).
+    pub fn by_size(cells: usize, dense_max_cells: usize, src: &'a [usize], dst: &'a [usize]) -> Self {
+        if cells <= dense_max_cells { Product::Dense { src, dst } } else { Product::Fft }
+    }
+}
+
 /// The influence operator of a [`HalfSpace`] on a [`Grid`].
 #[derive(Debug, Clone)]
 pub struct Operator {
@@ -250,7 +259,9 @@ impl Operator {
         // t-th cell sits at mirrored[(dj - sj + ny - 1) wx + (i0 + t - di + nx - 1)]: forward.
         let mut runs: Vec<(usize, usize, usize, usize)> = Vec::new(); // (row, i0, len, start)
         let mut sorted = src.to_vec();
-        sorted.sort_unstable();
+        if !sorted.is_sorted() {
+            sorted.sort_unstable();
+        }
         for (pos, &s) in sorted.iter().enumerate() {
             let (i, j) = (s % nx, s / nx);
             match runs.last_mut() {

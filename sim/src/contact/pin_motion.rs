@@ -143,15 +143,14 @@ pub fn displaced_pins(
     forces: &CellForces,
     exact: bool,
 ) -> Vec<PinPose> {
+    if forces.is_empty() {
+        return layout.poses();
+    }
     let kernel = DepthKernel::new(m);
     layout
         .pins
         .par_iter()
         .map(|pin| {
-            let undeformed = PinPose { tip: pin.tip, axis: pin.normal };
-            if forces.is_empty() {
-                return undeformed;
-            }
             let base = pin.base.coords;
             let at =
                 [base, base + Vector3::x() * STEP_MM, base + Vector3::y() * STEP_MM, base + Vector3::z() * STEP_MM];

@@ -62,9 +62,10 @@ pub struct TangentialSolution {
 /// An upper bound (5% margin) of the largest eigenvalue of `A_t` restricted to `cells`
 /// (mm/MPa), by power iteration. It bounds the eigenvalues on every subset of `cells` too
 /// (Cauchy interlacing), so one bound serves a whole path.
-pub fn largest_eigenvalue(op: &Operator, cells: &[usize], dense: bool) -> f64 {
+/// Products are dense up to `dense_max_cells` cells.
+pub fn largest_eigenvalue(op: &Operator, cells: &[usize], dense_max_cells: usize) -> f64 {
     let n = op.grid().len();
-    let product = if dense { Product::Dense { src: cells, dst: cells } } else { Product::Fft };
+    let product = Product::by_size(cells.len(), dense_max_cells, cells, cells);
     let (mut vx, mut vy) = (vec![0.0; n], vec![0.0; n]);
     for &k in cells {
         vx[k] = 1.0;
@@ -135,10 +136,9 @@ pub fn solve_step(
     if contact.is_empty() {
         return Ok(sol);
     }
-    let dense = contact.len() <= settings.dense_max_cells;
     // u = A_t q at the contact cells, from tractions on `src`.
     let displacement = |src: &[usize], qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]| {
-        let product = if dense { Product::Dense { src, dst: &contact } } else { Product::Fft };
+        let product = Product::by_size(contact.len(), settings.dense_max_cells, src, &contact);
         op.apply(&[(Component::Xx, qx), (Component::Xy, qy)], ux, product);
         op.apply(&[(Component::Xy, qx), (Component::Yy, qy)], uy, product);
     };
@@ -155,7 +155,7 @@ pub fn solve_step(
     let total_bound: f64 = contact.iter().map(|&k| bound[k]).sum();
     let lipschitz = match lipschitz {
         Some(l) => l,
-        None => largest_eigenvalue(op, &contact, dense),
+        None => largest_eigenvalue(op, &contact, settings.dense_max_cells),
     };
     let step = 1.0 / lipschitz;
     // Optimality is measured with the local scale 1/A_t(0,0): the residual is the size of the

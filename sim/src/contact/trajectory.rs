@@ -85,11 +85,7 @@ pub fn run(model: &ContactModel, scene: &Scene, path: &Path, renderer: Option<&P
         let report = sim.step(s.pose)?.clone();
         if s.capture {
             let pins = sim.pins();
-            let image = renderer.map(|r| {
-                let mut img = GrayImage::new(r.size(), r.size());
-                r.render_pins(&pins, &mut img);
-                img
-            });
+            let image = renderer.map(|r| r.render(&pins));
             frames.push(Frame { step: i, pose: s.pose, report, pins, image });
         }
     }

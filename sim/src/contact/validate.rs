@@ -171,7 +171,7 @@ pub fn cattaneo_with(n: usize, poisson: f64) -> Result<CattaneoReport> {
     let mut warm: Option<(Vec<f64>, Vec<f64>)> = None;
     // The contact area is fixed: one eigenvalue bound serves every shift.
     let contact = normal.contact_cells();
-    let lipschitz = tangential::largest_eigenvalue(&op, &contact, contact.len() <= settings.dense_max_cells);
+    let lipschitz = tangential::largest_eigenvalue(&op, &contact, settings.dense_max_cells);
     let mut force_at =
         |shift: f64, warm: &mut Option<(Vec<f64>, Vec<f64>)>| -> Result<tangential::TangentialSolution> {
             solves += 1;
