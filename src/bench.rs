@@ -14,6 +14,7 @@ use tacsim_sim::contact::pose::SensorPose;
 use tacsim_sim::contact::trajectory::{self, Path as SensorPath};
 use tacsim_sim::contact::validate;
 use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::sensor::SkinModel;
 use tacsim_sim::{PinRenderer, SensorParams};
 
 /// Slide length of the paper's protocol (mm).
@@ -181,12 +182,15 @@ fn ms_single<T>(n: usize, mut f: impl FnMut(usize) -> Result<T>) -> Result<f64> 
 
 /// Runs the benchmark with `cells` across the footprint (`None`: the sensor's default);
 /// returns the text to print.
-pub fn run(samples_n: usize, cells: Option<usize>, json: bool, plot: &Path) -> Result<String> {
+pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json: bool, plot: &Path) -> Result<String> {
     anyhow::ensure!(samples_n >= 4, "--samples must be at least 4");
     let mut sensor = SensorParams::default();
     if let Some(n) = cells {
         sensor.skin.cells_across = n;
         sensor.validate("--cells")?;
+    }
+    if let Some(m) = skin {
+        sensor.skin.model = m;
     }
     let scene = disk_scene()?;
     let model = ContactModel::new(&sensor);

@@ -12,6 +12,7 @@ use tacsim_sim::pins::{PinLayout, PinPose};
 use tacsim_sim::png_io::{PngDepth, write_png};
 use tacsim_sim::realism::Realism;
 use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::sensor::SkinModel;
 use tacsim_sim::stimulus::Catalogue;
 use tacsim_sim::{PinRenderer, SensorParams};
 
@@ -35,6 +36,8 @@ pub struct RenderOptions {
     pub size: Option<u32>,
     /// Pin count override (centred hexagonal: 127, 331, ...).
     pub pins: Option<usize>,
+    /// Elastic model behind the skin; `None` for the sensor's `skin.model`.
+    pub skin: Option<SkinModel>,
     /// Rendering mode.
     pub mode: RenderMode,
     /// Noise seed for the realistic modes.
@@ -130,7 +133,10 @@ pub fn load_sensor(path: Option<&Path>, pins: Option<usize>) -> Result<SensorPar
 
 /// `tacsim render`: renders the undeformed sensor. Returns a one-line summary.
 pub fn render(opts: &RenderOptions) -> Result<String> {
-    let sensor = load_sensor(opts.sensor.as_deref(), opts.pins)?;
+    let mut sensor = load_sensor(opts.sensor.as_deref(), opts.pins)?;
+    if let Some(m) = opts.skin {
+        sensor.skin.model = m;
+    }
     let size = opts.size.unwrap_or(sensor.camera.image_size);
     let renderer = PinRenderer::new(&sensor, size)?;
     let (pins, contact) = pressed_pins(&sensor, opts)?;

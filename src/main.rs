@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 use tacsim::commands::{self, RenderMode, RenderOptions};
 use tacsim::{bench, validation};
 use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::sensor::SkinModel;
 
 #[derive(Parser)]
 #[command(name = "tacsim", version, about = "Physics-simulated TacTip data generator and test harness")]
@@ -28,6 +29,10 @@ enum Command {
         /// Pin count, centred hexagonal (331 default, 127, ...).
         #[arg(long)]
         pins: Option<usize>,
+        /// Elastic model behind the skin: half-space, layer or skin-on-gel (default: the
+        /// sensor's skin.model).
+        #[arg(long)]
+        skin: Option<SkinModel>,
         /// Grey rendering with blur and noise, then the lab's adaptive threshold and mask.
         #[arg(long, conflicts_with = "grey")]
         realism: bool,
@@ -86,6 +91,10 @@ enum Command {
         /// sensor's, 25).
         #[arg(long)]
         cells: Option<usize>,
+        /// Elastic model behind the skin for the throughput figures: half-space, layer or
+        /// skin-on-gel (default: the sensor's).
+        #[arg(long)]
+        skin: Option<SkinModel>,
     },
     /// List the stimuli with size, material and friction.
     Shapes {
@@ -101,6 +110,7 @@ fn main() -> Result<()> {
             sensor,
             size,
             pins,
+            skin,
             realism,
             grey,
             seed,
@@ -123,6 +133,7 @@ fn main() -> Result<()> {
                 sensor,
                 size,
                 pins,
+                skin,
                 mode,
                 seed,
                 one_bit,
@@ -142,8 +153,8 @@ fn main() -> Result<()> {
                 std::process::exit(1);
             }
         }
-        Command::Bench { json, samples, plot, cells } => {
-            print!("{}", bench::run(samples, cells, json, &plot)?);
+        Command::Bench { json, samples, plot, cells, skin } => {
+            print!("{}", bench::run(samples, cells, skin, json, &plot)?);
         }
         Command::Shapes { dir } => {
             print!("{}", commands::shapes_table(&commands::load_catalogue(dir.as_deref())?));

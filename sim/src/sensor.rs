@@ -41,10 +41,36 @@ pub struct SensorParams {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SkinModel {
-    /// Elastic half-space with exact rectangle influence coefficients. The default until the
-    /// calibration against real recordings settles the model: it is the validated one (Hertz,
-    /// Cattaneo), but keeps shear local (pins far from the contact barely move).
+    /// Elastic half-space of the skin material with exact rectangle influence coefficients.
+    /// The default until the calibration against real recordings settles the model: it is the
+    /// validated one (Hertz, Cattaneo), but keeps shear local (pins far from the contact barely
+    /// move). Pins sit at their depth below the contact plane.
     HalfSpace,
+    /// One layer of the skin material, `base_depth_mm` thick, bonded to a rigid base (the
+    /// camera window). Pins sit `dome.skin_thickness_mm` deep under their lateral position.
+    Layer,
+    /// A skin layer (`dome.skin_thickness_mm`, the skin material) over a gel layer (the gel
+    /// material, down to `base_depth_mm`) on a rigid base: the real TacTip build. A stiff skin
+    /// over a soft gel spreads a local shear over the dome (global shear). Pins sit at the
+    /// skin's inner surface under their lateral position.
+    SkinOnGel,
+}
+
+impl SkinModel {
+    /// Every model with its name in sensor files and on the command line.
+    pub const ALL: [(SkinModel, &'static str); 3] =
+        [(SkinModel::HalfSpace, "half-space"), (SkinModel::Layer, "layer"), (SkinModel::SkinOnGel, "skin-on-gel")];
+}
+
+impl std::str::FromStr for SkinModel {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        Self::ALL.iter().find(|(_, name)| *name == s).map(|(m, _)| *m).ok_or_else(|| {
+            let names: Vec<&str> = Self::ALL.iter().map(|(_, n)| *n).collect();
+            format!("unknown skin model `{s}`: use one of {}", names.join(", "))
+        })
+    }
 }
 
 /// Elastic properties of the skin and the contact grid.
@@ -63,11 +89,27 @@ pub struct SkinParams {
     /// Cells across the contact grid (odd). The grid spans the footprint of the undeformed dome
     /// inside the stimulus plus a margin; accuracy and cost grow with it (see `tacsim bench`).
     pub cells_across: usize,
+    /// Layered models: depth of the rigid base below the dome apex (mm). Default 20 mm, the
+    /// camera window at the hemisphere's base plane.
+    pub base_depth_mm: f64,
+    /// `skin-on-gel`: Young's modulus of the gel (MPa). Default 0.1 MPa (a soft silicone gel,
+    /// a tenth of the skin), an assumption until calibrated against real recordings.
+    pub gel_youngs_modulus_mpa: f64,
+    /// `skin-on-gel`: Poisson's ratio of the gel, in [0, 0.5]. Default 0.5.
+    pub gel_poisson: f64,
 }
 
 impl Default for SkinParams {
     fn default() -> Self {
-        Self { model: SkinModel::HalfSpace, youngs_modulus_mpa: 1.0, poisson: 0.5, cells_across: 25 }
+        Self {
+            model: SkinModel::HalfSpace,
+            youngs_modulus_mpa: 1.0,
+            poisson: 0.5,
+            cells_across: 25,
+            base_depth_mm: 20.0,
+            gel_youngs_modulus_mpa: 0.1,
+            gel_poisson: 0.5,
+        }
     }
 }
 
@@ -386,6 +428,30 @@ impl SensorParams {
         }
         if !(5..=401).contains(&k.cells_across) || k.cells_across.is_multiple_of(2) {
             return bad("skin.cells_across", format!("must be odd and in [5, 401], got {}", k.cells_across));
+        }
+        finite("skin.base_depth_mm", k.base_depth_mm)?;
+        finite("skin.gel_youngs_modulus_mpa", k.gel_youngs_modulus_mpa)?;
+        finite("skin.gel_poisson", k.gel_poisson)?;
+        let t = self.dome.skin_thickness_mm;
+        if !(k.base_depth_mm > 2.0 * t && k.base_depth_mm <= 10.0 * self.dome.outer_radius_mm) {
+            return bad(
+                "skin.base_depth_mm",
+                format!(
+                    "must be in (2 skin_thickness = {}, 10 outer_radius = {}] mm, got {}",
+                    2.0 * t,
+                    10.0 * self.dome.outer_radius_mm,
+                    k.base_depth_mm
+                ),
+            );
+        }
+        if !(k.gel_youngs_modulus_mpa > 0.0 && k.gel_youngs_modulus_mpa <= 1.0e6) {
+            return bad(
+                "skin.gel_youngs_modulus_mpa",
+                format!("must be in (0, 1e6] MPa, got {}", k.gel_youngs_modulus_mpa),
+            );
+        }
+        if !(0.0..=0.5).contains(&k.gel_poisson) {
+            return bad("skin.gel_poisson", format!("must be in [0, 0.5], got {}", k.gel_poisson));
         }
         // Every pin tip must be in front of the camera, and the distortion must stay monotonic
         // over the part of the field the pins use (otherwise the image folds over).

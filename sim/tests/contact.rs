@@ -109,3 +109,67 @@ fn block_grouping_of_far_cells_matches_the_direct_sum() {
         assert!(err < 0.01 * moved, "grouping error {err} vs motion {moved}");
     }
 }
+
+/// Mean tip shift (mm) between two frames of the pins whose bases sit within 3 mm of the
+/// axis, and of those beyond 12 mm.
+fn centre_and_rim_shift(model: &ContactModel, a: &[tacsim_sim::pins::PinPose], b: &[tacsim_sim::pins::PinPose]) -> [f64; 2] {
+    let mut sums = [(0.0, 0usize); 2];
+    for ((p, q), pin) in a.iter().zip(b).zip(&model.layout.pins) {
+        let r = pin.base.x.hypot(pin.base.y);
+        let bin = if r < 3.0 { 0 } else if r > 12.0 { 1 } else { continue };
+        sums[bin].0 += (p.tip - q.tip).norm();
+        sums[bin].1 += 1;
+    }
+    sums.map(|(s, n)| s / n as f64)
+}
+
+#[test]
+fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
+    use tacsim_sim::sensor::SkinModel;
+    let scene = scene_with("disk");
+    let target = SensorPose::new(0.0, 0.0, 1.0, 0.0);
+    let mut runs = Vec::new();
+    for (skin, gel) in [
+        (SkinModel::HalfSpace, 0.1),
+        (SkinModel::Layer, 0.1),
+        (SkinModel::SkinOnGel, 1.0),
+        (SkinModel::SkinOnGel, 0.1),
+        (SkinModel::SkinOnGel, 0.01),
+    ] {
+        let mut sensor = SensorParams::default();
+        sensor.skin.model = skin;
+        sensor.skin.gel_youngs_modulus_mpa = gel;
+        let t = Instant::now();
+        let model = ContactModel::new(&sensor);
+        let build = t.elapsed();
+        let t = Instant::now();
+        let tap = trajectory::run(&model, &scene, &Path::tap(target), None).expect("tap");
+        let slide =
+            trajectory::run(&model, &scene, &Path::slide(target, [2.5, 0.0], 0.25).expect("path").then_lift(3.0), None)
+                .expect("slide");
+        let s = slide[0].report.clone();
+        assert!(s.in_contact && s.force_n[2] > 0.0, "{skin:?}: {s:?}");
+        assert!(s.force_n[0].hypot(s.force_n[1]) <= 0.5 * s.force_n[2] * (1.0 + 1e-9), "{skin:?}: {s:?}");
+        assert!(s.force_n[0] > 0.0, "{skin:?}: the stimulus pulls the skin back along +x: {s:?}");
+        let [centre, rim] = centre_and_rim_shift(&model, &tap[0].pins, &slide[0].pins);
+        println!(
+            "{skin:?} gel {gel} MPa: tables {build:?}, tap + slide {:?}, force {:.3?} N, tap vs slide shift: centre {centre:.4} mm, rim {rim:.4} mm, rim/centre {:.3}",
+            t.elapsed(),
+            s.force_n,
+            rim / centre
+        );
+        for (p, q) in slide[1].pins.iter().zip(&model.layout.pins) {
+            assert!((p.tip - q.tip).norm() < 1e-6, "{skin:?}: lift-off restores the pins");
+        }
+        runs.push((s.force_n[2], rim / centre, slide[0].pins.clone()));
+    }
+    // A skin over a gel of the same material is one layer.
+    assert!((runs[1].0 - runs[2].0).abs() < 1e-9 * runs[1].0, "{} vs {}", runs[1].0, runs[2].0);
+    assert!(max_pin_shift(&runs[1].2, &runs[2].2) < 1e-9);
+    // A softer gel: less force for the same indentation, and the stiff skin carries the shear
+    // farther across the dome.
+    for w in runs[2..].windows(2) {
+        assert!(w[1].0 < w[0].0, "force {} then {}", w[0].0, w[1].0);
+        assert!(w[1].1 > w[0].1, "rim/centre {} then {}", w[0].1, w[1].1);
+    }
+}

@@ -14,10 +14,11 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::grid::Grid;
-use super::kernel::Elastic;
+use super::kernel::{DepthKernel, Elastic};
+use super::layered::{Layer, LayeredBody, LayeredKernels};
 use super::normal::{self, Control, NormalSettings};
 use super::operator::{Component, HalfSpace, Operator, Pairing, Product};
-use super::pin_motion::{CellForces, displaced_pins};
+use super::pin_motion::{CellForces, PinKernel, displaced_pins};
 use super::pose::SensorPose;
 use super::tangential::{self, TangentialSettings};
 use crate::error::{Result, SimError};
@@ -38,6 +39,8 @@ pub struct ContactModel {
     pub sensor: Arc<SensorParams>,
     /// Skin material.
     pub material: Elastic,
+    /// The elastic body behind the skin surface ([`crate::sensor::SkinModel`]).
+    pub influence: Influence,
     /// Pins of the undeformed sensor.
     pub layout: Arc<PinLayout>,
     /// Normal solver settings.
@@ -53,9 +56,30 @@ impl ContactModel {
     /// The contact model of a (validated) sensor.
     pub fn new(sensor: &SensorParams) -> Self {
         let material = Elastic::from_young(sensor.skin.youngs_modulus_mpa, sensor.skin.poisson);
+        let skin = &sensor.skin;
+        let gel = Elastic::from_young(skin.gel_youngs_modulus_mpa, skin.gel_poisson);
+        let t = sensor.dome.skin_thickness_mm;
+        let layers = match skin.model {
+            SkinModel::HalfSpace => None,
+            SkinModel::Layer => Some(vec![Layer { thickness_mm: skin.base_depth_mm, material }]),
+            SkinModel::SkinOnGel => Some(vec![
+                Layer { thickness_mm: t, material },
+                Layer { thickness_mm: skin.base_depth_mm - t, material: gel },
+            ]),
+        };
+        let influence = match layers {
+            None => Influence::HalfSpace(HalfSpace { material, pairing: Pairing::RigidIndenter }),
+            // Tables reach every grid offset (at most 2 sqrt(2) 0.95 R) and every pin offset.
+            Some(layers) => Influence::Layered(LayeredKernels::get(
+                &LayeredBody { layers },
+                t,
+                3.0 * sensor.dome.outer_radius_mm,
+            )),
+        };
         Self {
             sensor: Arc::new(sensor.clone()),
             material,
+            influence,
             layout: Arc::new(PinLayout::new(sensor)),
             // Looser than the validation's: the grid's discretisation error (about 1e-3) is far
             // above them (the force of a tap changes by 5e-7 between 1e-7 and 1e-5), and pin
@@ -66,15 +90,25 @@ impl ContactModel {
         }
     }
 
-    fn half_space(&self) -> HalfSpace {
-        match self.sensor.skin.model {
-            SkinModel::HalfSpace => HalfSpace { material: self.material, pairing: Pairing::RigidIndenter },
+    fn operator(&self, grid: Grid) -> Operator {
+        match &self.influence {
+            Influence::HalfSpace(h) => Operator::new(h, grid),
+            Influence::Layered(k) => Operator::layered(k, grid),
         }
     }
 
     fn dome_radius(&self) -> f64 {
         self.sensor.dome.outer_radius_mm
     }
+}
+
+/// The elastic body of a sensor.
+#[derive(Clone, Debug)]
+pub enum Influence {
+    /// A half-space: exact kernels at every depth.
+    HalfSpace(HalfSpace),
+    /// Layers on a rigid base: tabulated kernels, pins at the top layer's bottom.
+    Layered(Arc<LayeredKernels>),
 }
 
 /// What a step found.
@@ -216,7 +250,7 @@ impl<'a> Simulation<'a> {
     /// A simulation whose grid covers the footprints of `poses` (all poses the path will visit;
     /// poses outside them are solved on the same grid, with contact cut at its border).
     pub fn new(model: &'a ContactModel, scene: &'a Scene, poses: &[SensorPose]) -> Self {
-        let op = footprint_grid(model, scene, poses).map(|g| Operator::new(&model.half_space(), g));
+        let op = footprint_grid(model, scene, poses).map(|g| model.operator(g));
         let n = op.as_ref().map_or(0, |o| o.grid().len());
         Self {
             model,
@@ -420,6 +454,10 @@ impl<'a> Simulation<'a> {
             return self.model.layout.poses();
         };
         let forces = CellForces::new(op.grid(), &self.pressure, &self.qx, &self.qy);
-        displaced_pins(&self.model.layout, &self.model.material, self.model.dome_radius(), &forces, exact)
+        let kernel = match &self.model.influence {
+            Influence::HalfSpace(h) => PinKernel::HalfSpace(DepthKernel::new(&h.material)),
+            Influence::Layered(k) => PinKernel::Layered(k),
+        };
+        displaced_pins(&self.model.layout, &kernel, self.model.dome_radius(), &forces, exact)
     }
 }

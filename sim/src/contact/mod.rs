@@ -15,6 +15,7 @@ pub mod engine;
 pub mod fft2;
 pub mod grid;
 pub mod kernel;
+pub mod layered;
 pub mod normal;
 pub mod operator;
 pub mod pin_motion;

@@ -18,6 +18,7 @@ use rustfft::num_complex::Complex64;
 use super::fft2::Fft2;
 use super::grid::Grid;
 use super::kernel::{Elastic, Kernel};
+use super::layered::{LayeredKernels, gauss_legendre};
 
 /// A displacement component from a traction component: `Xz` is `u_x` from pressure `p`, `Zx`
 /// is `u_z` from shear traction `q_x`, and so on.
@@ -129,21 +130,28 @@ impl UnitTables {
         self.spectra.get_or_init(|| {
             let (m, n) = (2 * self.nx, 2 * self.ny);
             let fft = Fft2::new(m, n);
-            let wx = 2 * self.nx - 1;
             let spectra = std::array::from_fn(|k| {
-                // Circulant embedding: offset d sits at index d mod 2n; index n stays zero.
-                let mut a = vec![0.0; m * n];
-                for (idx, v) in self.values.iter().enumerate() {
-                    let dx = (idx % wx) as isize - (self.nx as isize - 1);
-                    let dy = (idx / wx) as isize - (self.ny as isize - 1);
-                    let x = dx.rem_euclid(m as isize) as usize;
-                    let y = dy.rem_euclid(n as isize) as usize;
-                    a[y * m + x] = v[k];
-                }
-                fft.forward(&a)
+                let table: Vec<f64> = self.values.iter().map(|v| v[k]).collect();
+                self.embed(&fft, &table)
             });
             (fft, spectra)
         })
+    }
+
+    /// Spectrum of a table of coefficients per offset, by circulant embedding: offset `d`
+    /// sits at index `d mod 2n`; index `n` stays zero.
+    fn embed(&self, fft: &Fft2, table: &[f64]) -> Vec<Complex64> {
+        let (m, n) = (2 * self.nx, 2 * self.ny);
+        let wx = 2 * self.nx - 1;
+        let mut a = vec![0.0; m * n];
+        for (idx, v) in table.iter().enumerate() {
+            let dx = (idx % wx) as isize - (self.nx as isize - 1);
+            let dy = (idx / wx) as isize - (self.ny as isize - 1);
+            let x = dx.rem_euclid(m as isize) as usize;
+            let y = dy.rem_euclid(n as isize) as usize;
+            a[y * m + x] = *v;
+        }
+        fft.forward(&a)
     }
 }
 
@@ -171,19 +179,34 @@ impl<'a> Product<'a> {
     }
 }
 
-/// The influence operator of a [`HalfSpace`] on a [`Grid`].
+/// The influence operator of a [`HalfSpace`] or of layers on a rigid base
+/// ([`super::layered`]) on a [`Grid`].
 #[derive(Debug, Clone)]
 pub struct Operator {
     grid: Grid,
     tables: Arc<UnitTables>,
     /// Factors times cell size (mm/MPa).
     factors: [f64; 4],
+    /// Layered bodies: the correction to the top layer's half-space, per component and offset
+    /// (mm/MPa), and its spectra (built on first FFT use).
+    correction: Option<Arc<Correction>>,
     /// Per component, coefficient per offset (mm/MPa).
     coefficients: [Vec<f64>; 8],
     /// The same with `dx` mirrored (`A(-dx, dy)` at the place of `(dx, dy)`), so that a row of
     /// sources is a forward, contiguous slice of the table.
     mirrored: [Vec<f64>; 8],
 }
+
+/// The layered correction of an operator.
+#[derive(Debug)]
+struct Correction {
+    coefficients: [Vec<f64>; 8],
+    spectra: OnceLock<[Vec<Complex64>; 8]>,
+}
+
+/// Gauss points per side of a cell for the layered correction (smooth over the top layer's
+/// thickness, so a few points per cell suffice; `layered_coefficients_equal_fine_quadrature`).
+const CORRECTION_GAUSS: usize = 4;
 
 impl Operator {
     /// The operator of `model` on `grid`.
@@ -192,8 +215,68 @@ impl Operator {
         let factors = model.factors().map(|f| f * grid.cell_mm);
         let coefficients: [Vec<f64>; 8] =
             Component::ALL.map(|c| tables.values.iter().map(|t| Self::combine(factors, c, t)).collect());
+        let mirrored = Self::mirror(&grid, &coefficients);
+        Self { grid, tables, factors, correction: None, coefficients, mirrored }
+    }
+
+    /// The operator of layers on a rigid base (a rigid indenter on the top layer): the top
+    /// layer's exact half-space coefficients plus the cell integral (Gauss-Legendre) of the
+    /// tabulated correction.
+    pub fn layered(kernels: &LayeredKernels, grid: Grid) -> Self {
+        let top = kernels.body().layers[0].material;
+        let mut op = Self::new(&HalfSpace { material: top, pairing: Pairing::RigidIndenter }, grid);
+        let (nx, ny, h) = (grid.nx, grid.ny, grid.cell_mm);
+        let wx = 2 * nx - 1;
+        let gl = gauss_legendre(CORRECTION_GAUSS);
+        let area = h * h;
+        let mut corr: [Vec<f64>; 8] = std::array::from_fn(|_| vec![0.0; wx * (2 * ny - 1)]);
+        // Sum over the cell's Gauss points for the offsets of one quadrant, then mirror: the
+        // Gauss points are symmetric, Xy is odd in x and y, Xz/Zx odd in x, Yz/Zy odd in y.
+        for j in 0..ny {
+            for i in 0..nx {
+                let (dx, dy) = (i as f64 * h, j as f64 * h);
+                let mut sum = [0.0; 8];
+                for &(s, ws) in &gl {
+                    for &(t, wt) in &gl {
+                        let (x, y) = (dx - (s - 0.5) * h, dy - (t - 0.5) * h);
+                        let w = ws * wt * area;
+                        let [zz, pr, sh, d] = kernels.surface_radial(x.hypot(y));
+                        let r2 = x * x + y * y;
+                        let (c, sn, c2, s2) = if r2 > 0.0 {
+                            let r = r2.sqrt();
+                            (x / r, y / r, (x * x - y * y) / r2, 2.0 * x * y / r2)
+                        } else {
+                            (0.0, 0.0, 0.0, 0.0)
+                        };
+                        // Zz, Xx, Yy, Xy, Zx, Zy, Xz, Yz.
+                        let v = [zz, sh - c2 * d, sh + c2 * d, -s2 * d, -pr * c, -pr * sn, pr * c, pr * sn];
+                        for (o, v) in sum.iter_mut().zip(v) {
+                            *o += w * v;
+                        }
+                    }
+                }
+                for (sx, sy) in [(1isize, 1isize), (-1, 1), (1, -1), (-1, -1)] {
+                    let at = (sy * j as isize + ny as isize - 1) as usize * wx + (sx * i as isize + nx as isize - 1) as usize;
+                    let signs = [1, 1, 1, sx * sy, sx, sy, sx, sy];
+                    for ((table, v), sign) in corr.iter_mut().zip(sum).zip(signs) {
+                        table[at] = sign as f64 * v;
+                    }
+                }
+            }
+        }
+        for (table, c) in op.coefficients.iter_mut().zip(&corr) {
+            for (a, b) in table.iter_mut().zip(c) {
+                *a += b;
+            }
+        }
+        op.mirrored = Self::mirror(&grid, &op.coefficients);
+        op.correction = Some(Arc::new(Correction { coefficients: corr, spectra: OnceLock::new() }));
+        op
+    }
+
+    fn mirror(grid: &Grid, coefficients: &[Vec<f64>; 8]) -> [Vec<f64>; 8] {
         let wx = 2 * grid.nx - 1;
-        let mirrored = coefficients.clone().map(|table| {
+        coefficients.clone().map(|table| {
             let mut m = table.clone();
             for (row, out) in table.chunks(wx).zip(m.chunks_mut(wx)) {
                 for (o, v) in out.iter_mut().zip(row.iter().rev()) {
@@ -201,8 +284,7 @@ impl Operator {
                 }
             }
             m
-        });
-        Self { grid, tables, factors, coefficients, mirrored }
+        })
     }
 
     /// The grid.
@@ -226,9 +308,10 @@ impl Operator {
         }
     }
 
-    /// Whether the normal-tangential coupling vanishes (`nu = 0.5` or identical bodies).
+    /// Whether the normal-tangential coupling vanishes (a half-space at `nu = 0.5`, or
+    /// identical bodies; layers on a rigid base couple even when incompressible).
     pub fn uncoupled(&self) -> bool {
-        self.factors[3] == 0.0
+        self.factors[3] == 0.0 && self.correction.is_none()
     }
 
     /// Coefficient `A_c` (mm/MPa) for a field cell offset `(dx, dy)` cells from the loaded one.
@@ -297,6 +380,9 @@ impl Operator {
 
     fn apply_fft(&self, terms: &[(Component, &[f64])], out: &mut [f64]) {
         let (fft, spectra) = self.tables.spectra();
+        let corrections = self.correction.as_ref().map(|c| {
+            c.spectra.get_or_init(|| c.coefficients.clone().map(|t| self.tables.embed(fft, &t)))
+        });
         let (nx, ny) = (self.grid.nx, self.grid.ny);
         let m = 2 * nx;
         let mut acc = vec![Complex64::new(0.0, 0.0); fft.spectrum_len()];
@@ -309,6 +395,11 @@ impl Operator {
             for (k, (a, x)) in acc.iter_mut().zip(&ft).enumerate() {
                 let s = [spectra[0][k], spectra[1][k], spectra[2][k], spectra[3][k], spectra[4][k], spectra[5][k]];
                 *a += Self::combine(self.factors, c, &s) * x;
+            }
+            if let Some(corr) = corrections {
+                for (a, (s, x)) in acc.iter_mut().zip(corr[c as usize].iter().zip(&ft)) {
+                    *a += s * x;
+                }
             }
         }
         let mut full = vec![0.0; m * 2 * ny];
@@ -407,5 +498,125 @@ mod tests {
         assert!((2.0 * a.diagonal(Component::Zz) - b.diagonal(Component::Zz)).abs() < 1e-15);
         assert!(a.diagonal(Component::Zz) > a.coefficient(Component::Zz, 1, 0));
         assert!(a.coefficient(Component::Zz, 4, 4) > 0.0);
+    }
+
+    fn layered(layers: &[(f64, f64, f64)], pin_depth: f64, r_max: f64) -> Arc<LayeredKernels> {
+        use crate::contact::layered::{Layer, LayeredBody};
+        let body = LayeredBody {
+            layers: layers
+                .iter()
+                .map(|&(h, e, nu)| Layer { thickness_mm: h, material: Elastic::from_young(e, nu) })
+                .collect(),
+        };
+        LayeredKernels::get(&body, pin_depth, r_max)
+    }
+
+    #[test]
+    fn layered_coefficients_equal_fine_quadrature() {
+        let k = layered(&[(1.5, 1.0, 0.45), (18.5, 0.1, 0.45)], 1.5, 30.0);
+        let h = 0.8;
+        let a = Operator::layered(&k, Grid::square(9, h));
+        let hs = Operator::new(
+            &HalfSpace { material: Elastic::from_young(1.0, 0.45), pairing: Pairing::RigidIndenter },
+            Grid::square(9, h),
+        );
+        let n = 40;
+        for (dx, dy) in [(0isize, 0isize), (1, 0), (-2, 3), (5, -1)] {
+            let mut fine = [0.0; 3];
+            for i in 0..n {
+                for j in 0..n {
+                    let x = dx as f64 * h - h * ((i as f64 + 0.5) / n as f64 - 0.5);
+                    let y = dy as f64 * h - h * ((j as f64 + 0.5) / n as f64 - 0.5);
+                    let w = h * h / (n * n) as f64;
+                    let u = k.surface_correction([w, 0.3 * w, 0.7 * w], x, y);
+                    for (f, v) in fine.iter_mut().zip(u) {
+                        *f += v;
+                    }
+                }
+            }
+            let op = |c1, c2, c3| {
+                a.coefficient(c1, dx, dy) - hs.coefficient(c1, dx, dy) + 0.3 * (a.coefficient(c2, dx, dy) - hs.coefficient(c2, dx, dy))
+                    + 0.7 * (a.coefficient(c3, dx, dy) - hs.coefficient(c3, dx, dy))
+            };
+            let got = [
+                op(Component::Xx, Component::Xy, Component::Xz),
+                op(Component::Xy, Component::Yy, Component::Yz),
+                op(Component::Zx, Component::Zy, Component::Zz),
+            ];
+            let scale = hs.diagonal(Component::Zz);
+            for (g, f) in got.iter().zip(fine) {
+                assert!((g - f).abs() < 1e-4 * scale, "({dx}, {dy}): {got:?} vs {fine:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn thick_layer_operator_is_the_half_space() {
+        let k = layered(&[(400.0, 1.0, 0.3)], 1.5, 12.0);
+        let grid = Grid::square(11, 0.5);
+        let a = Operator::layered(&k, grid);
+        let hs = Operator::new(
+            &HalfSpace { material: Elastic::from_young(1.0, 0.3), pairing: Pairing::RigidIndenter },
+            grid,
+        );
+        // The rigid base 400 mm down shifts every coefficient by about (1 - nu) / (2 pi G H):
+        // a constant offset, below 1% of the self-influence.
+        let scale = hs.diagonal(Component::Zz);
+        for c in Component::ALL {
+            for (dx, dy) in [(0, 0), (3, 1), (-7, 9)] {
+                let (x, y) = (a.coefficient(c, dx, dy), hs.coefficient(c, dx, dy));
+                assert!((x - y).abs() < 1e-2 * scale, "{c:?} ({dx}, {dy}): {x} vs {y}");
+            }
+        }
+    }
+
+    #[test]
+    fn thin_layer_under_uniform_load_compresses_uniaxially_and_far_field_vanishes() {
+        // Layer 0.5 mm on a rigid base, pressure over a 20 mm square: u_z = p h / M in the
+        // middle (M = 2 G (1 - nu) / (1 - 2 nu)), and shear q gives u = q h / G.
+        let (h, nu) = (0.5, 0.3);
+        let k = layered(&[(h, 1.0, nu)], 0.25, 40.0);
+        let n = 81;
+        let grid = Grid::square(n, 0.25);
+        let a = Operator::layered(&k, grid);
+        let m = Elastic::from_young(1.0, nu);
+        let g = m.shear_modulus_mpa;
+        let pwave = 2.0 * g * (1.0 - nu) / (1.0 - 2.0 * nu);
+        let ones = vec![1.0; n * n];
+        let mut u = vec![0.0; n * n];
+        a.apply(&[(Component::Zz, &ones)], &mut u, Product::Fft);
+        let mid = n * n / 2;
+        assert!((u[mid] / (h / pwave) - 1.0).abs() < 1e-3, "{} vs {}", u[mid], h / pwave);
+        a.apply(&[(Component::Xx, &ones)], &mut u, Product::Fft);
+        assert!((u[mid] / (h / g) - 1.0).abs() < 1e-3, "{} vs {}", u[mid], h / g);
+        // Far from a loaded cell (20 layer thicknesses) the surface does not move, where the
+        // half-space would.
+        for c in [Component::Zz, Component::Xx, Component::Zx] {
+            let far = a.coefficient(c, 40, 0).abs();
+            assert!(far < 1e-6 * a.diagonal(Component::Zz), "{c:?}: {far}");
+        }
+    }
+
+    #[test]
+    fn layered_fft_product_equals_dense_product() {
+        let k = layered(&[(1.5, 1.0, 0.5), (18.5, 0.1, 0.5)], 1.5, 30.0);
+        let n = 13;
+        let a = Operator::layered(&k, Grid::square(n, 0.9));
+        assert!(!a.uncoupled(), "an incompressible layer on a rigid base couples");
+        let all: Vec<usize> = (0..n * n).collect();
+        let (p, qx, qy) = (field(n * n, 1), field(n * n, 2), field(n * n, 3));
+        let terms = [(Component::Xx, qx.as_slice()), (Component::Xy, qy.as_slice()), (Component::Xz, p.as_slice())];
+        let mut dense = vec![0.0; n * n];
+        let mut fft = vec![0.0; n * n];
+        a.apply(&terms, &mut dense, Product::Dense { src: &all, dst: &all });
+        a.apply(&terms, &mut fft, Product::Fft);
+        let scale = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (d, f) in dense.iter().zip(&fft) {
+            assert!((d - f).abs() < 1e-12 * scale, "{d} vs {f}");
+        }
+        for (dx, dy) in [(1, 0), (2, -3)] {
+            let (xz, zx) = (a.coefficient(Component::Xz, dx, dy), a.coefficient(Component::Zx, -dx, -dy));
+            assert!((xz - zx).abs() < 1e-12 * xz.abs(), "reciprocity: {xz} vs {zx}");
+        }
     }
 }

@@ -7,13 +7,17 @@
 //! ```
 //! The lever `tip - base` (pin length, mm) amplifies the skin's rotation, which is why the
 //! pins see curvature. Positions are taken relative to the contact plane (the tangent plane at
-//! the apex): a base at sensor point `X` sits at lateral `(X.x, X.y)` and depth `R - X.z`.
+//! the apex): on a half-space a base at sensor point `X` sits at lateral `(X.x, X.y)` and depth
+//! `R - X.z`; on layers ([`super::layered`]) every base sits at the skin's inner surface (the
+//! top layer's bottom) under `(X.x, X.y)`: the dome unrolled onto the contact plane, so that
+//! the pins stay in the skin that carries them.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use super::grid::Grid;
-use super::kernel::{DepthKernel, Elastic};
+use super::kernel::DepthKernel;
+use super::layered::LayeredKernels;
 use crate::pins::{PinLayout, PinPose};
 
 /// Finite-difference step for the rotation (mm).
@@ -33,6 +37,35 @@ struct Block {
     y: f64,
     f: [f64; 3],
     cells: std::ops::Range<usize>,
+}
+
+/// Surface point load to displacement inside the body.
+#[derive(Clone, Copy, Debug)]
+pub enum PinKernel<'a> {
+    /// Boussinesq and Cerruti at depth; bases at their depth below the contact plane.
+    HalfSpace(DepthKernel),
+    /// Tabulated layered kernels; bases at the pin depth of the tables.
+    Layered(&'a LayeredKernels),
+}
+
+impl PinKernel<'_> {
+    /// Displacement (mm, `z` into the body) at `offset` (lateral, depth) from `force`.
+    #[inline]
+    fn displacement(&self, force: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
+        match self {
+            PinKernel::HalfSpace(k) => k.displacement(force, offset),
+            PinKernel::Layered(k) => k.displacement(force, offset),
+        }
+    }
+
+    /// Depth (mm) of the sensor-frame point `p` near the pin base `base` on a dome of outer
+    /// radius `dome_radius_mm`.
+    fn depth(&self, dome_radius_mm: f64, base: &Vector3<f64>, p: &Vector3<f64>) -> f64 {
+        match self {
+            PinKernel::HalfSpace(_) => dome_radius_mm - p.z,
+            PinKernel::Layered(k) => k.pin_depth_mm() + base.z - p.z,
+        }
+    }
 }
 
 /// Point forces of the loaded cells, stored as separate arrays (positions `(x, y)` in mm,
@@ -98,29 +131,28 @@ impl CellForces {
     }
 
     /// Displacements (mm, sensor frame) at the sensor-frame points `at` (close together: the
-    /// first decides near and far) of a dome of outer radius `dome_radius_mm`, in one pass.
-    /// Blocks far from the points act as one force; near ones cell by cell. With `exact`, every
-    /// cell acts on its own.
+    /// first decides near and far; their depths from `depth`), in one pass. Blocks far from
+    /// the points act as one force; near ones cell by cell. With `exact`, every cell acts on
+    /// its own.
     pub fn displacements<const N: usize>(
         &self,
-        kernel: &DepthKernel,
-        dome_radius_mm: f64,
+        kernel: &PinKernel<'_>,
         at: &[Vector3<f64>; N],
+        depth: &[f64; N],
         exact: bool,
     ) -> [Vector3<f64>; N] {
         let mut u = [[0.0; 3]; N];
         let mut add = |cx: f64, cy: f64, f: [f64; 3]| {
-            for (p, acc) in at.iter().zip(u.iter_mut()) {
-                let d = kernel.displacement(f, [p.x - cx, p.y - cy, dome_radius_mm - p.z]);
+            for ((p, z), acc) in at.iter().zip(depth).zip(u.iter_mut()) {
+                let d = kernel.displacement(f, [p.x - cx, p.y - cy, *z]);
                 acc[0] += d[0];
                 acc[1] += d[1];
                 acc[2] += d[2];
             }
         };
         let p0 = at[0];
-        let depth = dome_radius_mm - p0.z;
         for b in &self.blocks {
-            let d2 = (p0.x - b.x).powi(2) + (p0.y - b.y).powi(2) + depth * depth;
+            let d2 = (p0.x - b.x).powi(2) + (p0.y - b.y).powi(2) + depth[0] * depth[0];
             if !exact && d2 > self.far2 {
                 add(b.x, b.y, b.f);
             } else {
@@ -138,7 +170,7 @@ impl CellForces {
 /// every pin instead of grouping far cells in blocks.
 pub fn displaced_pins(
     layout: &PinLayout,
-    m: &Elastic,
+    kernel: &PinKernel<'_>,
     dome_radius_mm: f64,
     forces: &CellForces,
     exact: bool,
@@ -146,7 +178,6 @@ pub fn displaced_pins(
     if forces.is_empty() {
         return layout.poses();
     }
-    let kernel = DepthKernel::new(m);
     layout
         .pins
         .par_iter()
@@ -154,7 +185,8 @@ pub fn displaced_pins(
             let base = pin.base.coords;
             let at =
                 [base, base + Vector3::x() * STEP_MM, base + Vector3::y() * STEP_MM, base + Vector3::z() * STEP_MM];
-            let [u, ux, uy, uz] = forces.displacements(&kernel, dome_radius_mm, &at, exact);
+            let depth = at.map(|p| kernel.depth(dome_radius_mm, &base, &p));
+            let [u, ux, uy, uz] = forces.displacements(kernel, &at, &depth, exact);
             // Gradient by forward differences: column k = d u / d x_k.
             let (gx, gy, gz) = ((ux - u) / STEP_MM, (uy - u) / STEP_MM, (uz - u) / STEP_MM);
             let omega = 0.5 * Vector3::new(gy.z - gz.y, gz.x - gx.z, gx.y - gy.x);
