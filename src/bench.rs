@@ -103,7 +103,8 @@ pub struct CurvePoint {
     /// Cattaneo shift relative error at `nu = 0` on this grid (grid points).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub cattaneo_shift_rel_err: Option<f64>,
-    /// Largest pin-tip difference from a 0.025 mm-step reference (mm; step points).
+    /// Largest pin-tip difference (mm): step points from a 0.025 mm-step reference slide; grid
+    /// points from taps on a 65-cell grid summing every cell on every pin.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pin_err_mm: Option<f64>,
 }
@@ -180,6 +181,9 @@ fn ms_single<T>(n: usize, mut f: impl FnMut(usize) -> Result<T>) -> Result<f64> 
     Ok(start.elapsed().as_secs_f64() * 1e3 / n as f64)
 }
 
+/// Cells across the footprint of the reference taps for the grid rows' pin error.
+const PIN_REFERENCE_CELLS: usize = 65;
+
 /// Runs the benchmark with `cells` across the footprint (`None`: the sensor's default);
 /// returns the text to print.
 pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json: bool, plot: &Path) -> Result<String> {
@@ -233,6 +237,18 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
     // Run time against error.
     let mut curve = Vec::new();
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    // Pin reference for the grid rows: the same taps on a fine grid, every cell on every pin.
+    let fine = {
+        let mut s = sensor.clone();
+        s.skin.cells_across = PIN_REFERENCE_CELLS;
+        ContactModel::new(&s)
+    };
+    let tap_pins = |m: &ContactModel, pose: SensorPose, exact: bool| -> Result<Vec<_>> {
+        let mut sim = Simulation::new(m, &scene, &[pose]);
+        sim.step(pose)?;
+        Ok(if exact { sim.pins_exact() } else { sim.pins() })
+    };
+    let reference: Vec<_> = few.par_iter().map(|(p, _)| tap_pins(&fine, *p, true)).collect::<Result<_>>()?;
     for cells in [9usize, 13, 17, 25, 33] {
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
@@ -240,13 +256,19 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
         let ms = pool.install(|| {
             ms_single(few.len(), |i| Ok(trajectory::run(&m, &scene, &SensorPath::tap(few[i].0), Some(&renderer))?))
         })?;
+        let mut err = 0.0f64;
+        for ((p, _), r) in few.iter().zip(&reference) {
+            for (a, b) in tap_pins(&m, *p, false)?.iter().zip(r) {
+                err = err.max((a.tip - b.tip).norm());
+            }
+        }
         curve.push(CurvePoint {
             knob: "grid",
             value: cells as f64,
             ms_per_sample: ms,
             hertz_force_rel_err: Some(validate::hertz(cells)?.force_rel_err.abs()),
             cattaneo_shift_rel_err: Some(validate::cattaneo_with(cells, 0.0)?.shift_rel_err.abs()),
-            pin_err_mm: None,
+            pin_err_mm: Some(err),
         });
     }
     let slides = &poses[..samples_n.min(8)];
@@ -446,6 +468,7 @@ fn draw_into(report: &BenchReport, svg: &mut String) -> Result<()> {
             vec![
                 ("Hertz force", series("grid", |p| p.hertz_force_rel_err), BLUE),
                 ("Cattaneo shift (nu=0)", series("grid", |p| p.cattaneo_shift_rel_err), RED),
+                ("pin error (mm)", series("grid", |p| p.pin_err_mm), GREEN),
             ],
         ),
         (

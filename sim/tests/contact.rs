@@ -112,11 +112,21 @@ fn block_grouping_of_far_cells_matches_the_direct_sum() {
 
 /// Mean tip shift (mm) between two frames of the pins whose bases sit within 3 mm of the
 /// axis, and of those beyond 12 mm.
-fn centre_and_rim_shift(model: &ContactModel, a: &[tacsim_sim::pins::PinPose], b: &[tacsim_sim::pins::PinPose]) -> [f64; 2] {
+fn centre_and_rim_shift(
+    model: &ContactModel,
+    a: &[tacsim_sim::pins::PinPose],
+    b: &[tacsim_sim::pins::PinPose],
+) -> [f64; 2] {
     let mut sums = [(0.0, 0usize); 2];
     for ((p, q), pin) in a.iter().zip(b).zip(&model.layout.pins) {
         let r = pin.base.x.hypot(pin.base.y);
-        let bin = if r < 3.0 { 0 } else if r > 12.0 { 1 } else { continue };
+        let bin = if r < 3.0 {
+            0
+        } else if r > 12.0 {
+            1
+        } else {
+            continue;
+        };
         sums[bin].0 += (p.tip - q.tip).norm();
         sums[bin].1 += 1;
     }

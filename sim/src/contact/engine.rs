@@ -27,7 +27,7 @@ use crate::scene::Scene;
 use crate::sensor::{SensorParams, SkinModel};
 
 /// Cells of the coarse probe used to find the footprint, per side.
-const PROBE_CELLS: usize = 21;
+const PROBE_CELLS: usize = 15;
 /// Gap cells are only taken inside this fraction of the dome radius (the flat contact plane
 /// does not describe the dome's flanks).
 const DOME_FRACTION: f64 = 0.95;
@@ -70,11 +70,9 @@ impl ContactModel {
         let influence = match layers {
             None => Influence::HalfSpace(HalfSpace { material, pairing: Pairing::RigidIndenter }),
             // Tables reach every grid offset (at most 2 sqrt(2) 0.95 R) and every pin offset.
-            Some(layers) => Influence::Layered(LayeredKernels::get(
-                &LayeredBody { layers },
-                t,
-                3.0 * sensor.dome.outer_radius_mm,
-            )),
+            Some(layers) => {
+                Influence::Layered(LayeredKernels::get(&LayeredBody { layers }, t, 3.0 * sensor.dome.outer_radius_mm))
+            }
         };
         Self {
             sensor: Arc::new(sensor.clone()),

@@ -100,15 +100,19 @@ impl LayeredBody {
             let mut st = [0.0; 4];
             let mut dz = [0.0; 2];
             for (j, c) in coefs.iter().enumerate() {
-                let (s, zeta) =
-                    if j < 2 { (-1.0, z - tops[i]) } else { (1.0, z - tops[i] - l.thickness_mm) };
+                let (s, zeta) = if j < 2 { (-1.0, z - tops[i]) } else { (1.0, z - tops[i] - l.thickness_mm) };
                 let e = (s * k * zeta).exp();
                 let skz = s * k * zeta;
                 let (b, d) = if j % 2 == 0 {
                     ([1.0, s, 2.0 * g * s, 2.0 * g], [s * k, k])
                 } else {
                     (
-                        [-k * zeta, 3.0 - 4.0 * nu - skz, g * (2.0 - 4.0 * nu - 2.0 * skz), 2.0 * g * s * (2.0 - 2.0 * nu - skz)],
+                        [
+                            -k * zeta,
+                            3.0 - 4.0 * nu - skz,
+                            g * (2.0 - 4.0 * nu - 2.0 * skz),
+                            2.0 * g * s * (2.0 - 2.0 * nu - skz),
+                        ],
                         [-k * (1.0 + skz), s * k * (2.0 - 4.0 * nu - skz)],
                     )
                 };
@@ -210,10 +214,7 @@ impl LayeredBody {
         let (b0, _) = basis(0, 0.0);
         let (bz, _) = basis(pin_layer, pin_depth_mm);
         let (c1, d1) = (c[2 * pin_layer], c[2 * pin_layer + 1]);
-        (
-            [c[0] * b0[0] + c[1] * b0[1], c1 * bz[0] + d1 * bz[1]],
-            k * (-c1 * bz[0] + d1 * bz[1]),
-        )
+        ([c[0] * b0[0] + c[1] * b0[1], c1 * bz[0] + d1 * bz[1]], k * (-c1 * bz[0] + d1 * bz[1]))
     }
 
     /// Surface compliances of a half-space of the top layer's material (mm^3/N), in the

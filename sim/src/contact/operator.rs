@@ -256,7 +256,8 @@ impl Operator {
                     }
                 }
                 for (sx, sy) in [(1isize, 1isize), (-1, 1), (1, -1), (-1, -1)] {
-                    let at = (sy * j as isize + ny as isize - 1) as usize * wx + (sx * i as isize + nx as isize - 1) as usize;
+                    let at = (sy * j as isize + ny as isize - 1) as usize * wx
+                        + (sx * i as isize + nx as isize - 1) as usize;
                     let signs = [1, 1, 1, sx * sy, sx, sy, sx, sy];
                     for ((table, v), sign) in corr.iter_mut().zip(sum).zip(signs) {
                         table[at] = sign as f64 * v;
@@ -380,9 +381,10 @@ impl Operator {
 
     fn apply_fft(&self, terms: &[(Component, &[f64])], out: &mut [f64]) {
         let (fft, spectra) = self.tables.spectra();
-        let corrections = self.correction.as_ref().map(|c| {
-            c.spectra.get_or_init(|| c.coefficients.clone().map(|t| self.tables.embed(fft, &t)))
-        });
+        let corrections = self
+            .correction
+            .as_ref()
+            .map(|c| c.spectra.get_or_init(|| c.coefficients.clone().map(|t| self.tables.embed(fft, &t))));
         let (nx, ny) = (self.grid.nx, self.grid.ny);
         let m = 2 * nx;
         let mut acc = vec![Complex64::new(0.0, 0.0); fft.spectrum_len()];
@@ -535,7 +537,8 @@ mod tests {
                 }
             }
             let op = |c1, c2, c3| {
-                a.coefficient(c1, dx, dy) - hs.coefficient(c1, dx, dy) + 0.3 * (a.coefficient(c2, dx, dy) - hs.coefficient(c2, dx, dy))
+                a.coefficient(c1, dx, dy) - hs.coefficient(c1, dx, dy)
+                    + 0.3 * (a.coefficient(c2, dx, dy) - hs.coefficient(c2, dx, dy))
                     + 0.7 * (a.coefficient(c3, dx, dy) - hs.coefficient(c3, dx, dy))
             };
             let got = [

@@ -23,21 +23,14 @@ use crate::pins::{PinLayout, PinPose};
 /// Finite-difference step for the rotation (mm).
 const STEP_MM: f64 = 1e-3;
 
-/// Side of the blocks of cells that far pins see as one point force (cells).
+/// Side of the blocks of cells that far pins see as one point force (cells); blocks of
+/// `SUPER x SUPER` blocks are seen as one force from farther still.
 const BLOCK: usize = 2;
-/// A pin sees a block as one force when farther than this many block diagonals from its
+/// Side of a super-block (blocks).
+const SUPER: usize = 2;
+/// A pin sees a group as one force when farther than this many group diagonals from its
 /// centroid (the monopole's relative error is of order `(diagonal / distance)^2`).
-const FAR_DIAGONALS: f64 = 3.0;
-
-/// A block of loaded cells: their total force at the pressure-weighted centroid, and the range
-/// of its cells.
-#[derive(Clone, Debug)]
-struct Block {
-    x: f64,
-    y: f64,
-    f: [f64; 3],
-    cells: std::ops::Range<usize>,
-}
+const FAR_DIAGONALS: f64 = 2.0;
 
 /// Surface point load to displacement inside the body.
 #[derive(Clone, Copy, Debug)]
@@ -68,15 +61,52 @@ impl PinKernel<'_> {
     }
 }
 
+/// A group of loaded cells (or blocks): their total force at the load-weighted centroid, and
+/// the range of its members.
+#[derive(Clone, Debug)]
+struct Group {
+    x: f64,
+    y: f64,
+    f: [f64; 3],
+    members: std::ops::Range<usize>,
+}
+
+impl Group {
+    /// The group of `members` (positions and forces), weighted by force magnitude.
+    fn of(members: std::ops::Range<usize>, at: impl Fn(usize) -> (f64, f64, [f64; 3])) -> Self {
+        let (mut sx, mut sy, mut w) = (0.0, 0.0, 0.0);
+        let (mut mx, mut my) = (0.0, 0.0);
+        let mut total = [0.0; 3];
+        for k in members.clone() {
+            let (x, y, f) = at(k);
+            let weight = f[2].abs() + f[0].hypot(f[1]);
+            sx += weight * x;
+            sy += weight * y;
+            w += weight;
+            mx += x;
+            my += y;
+            for (t, v) in total.iter_mut().zip(f) {
+                *t += v;
+            }
+        }
+        let n = members.len() as f64;
+        let (x, y) = if w > 0.0 { (sx / w, sy / w) } else { (mx / n, my / n) };
+        Self { x, y, f: total, members }
+    }
+}
+
 /// Point forces of the loaded cells, stored as separate arrays (positions `(x, y)` in mm,
-/// forces `(Qx, Qy, P)` in N), grouped in blocks of `BLOCK x BLOCK` cells.
+/// forces `(Qx, Qy, P)` in N), grouped in blocks of `BLOCK x BLOCK` cells and super-blocks of
+/// `SUPER x SUPER` blocks.
 #[derive(Clone, Debug, Default)]
 pub struct CellForces {
     x: Vec<f64>,
     y: Vec<f64>,
     f: Vec<[f64; 3]>,
-    blocks: Vec<Block>,
+    blocks: Vec<Group>,
+    supers: Vec<Group>,
     far2: f64,
+    super_far2: f64,
 }
 
 impl CellForces {
@@ -86,39 +116,36 @@ impl CellForces {
         let mut out = Self::default();
         let diagonal = (BLOCK as f64) * grid.cell_mm * std::f64::consts::SQRT_2;
         out.far2 = (FAR_DIAGONALS * diagonal).powi(2);
-        for bj in (0..grid.ny).step_by(BLOCK) {
-            for bi in (0..grid.nx).step_by(BLOCK) {
-                let start = out.f.len();
-                let (mut sx, mut sy, mut w) = (0.0, 0.0, 0.0);
-                let mut total = [0.0; 3];
-                for j in bj..(bj + BLOCK).min(grid.ny) {
-                    for i in bi..(bi + BLOCK).min(grid.nx) {
-                        let k = j * grid.nx + i;
-                        if pressure[k] == 0.0 && qx[k] == 0.0 && qy[k] == 0.0 {
-                            continue;
+        out.super_far2 = (FAR_DIAGONALS * diagonal * SUPER as f64).powi(2);
+        let side = BLOCK * SUPER;
+        for sj in (0..grid.ny).step_by(side) {
+            for si in (0..grid.nx).step_by(side) {
+                let first_block = out.blocks.len();
+                for bj in (sj..(sj + side).min(grid.ny)).step_by(BLOCK) {
+                    for bi in (si..(si + side).min(grid.nx)).step_by(BLOCK) {
+                        let start = out.f.len();
+                        for j in bj..(bj + BLOCK).min(grid.ny) {
+                            for i in bi..(bi + BLOCK).min(grid.nx) {
+                                let k = j * grid.nx + i;
+                                if pressure[k] == 0.0 && qx[k] == 0.0 && qy[k] == 0.0 {
+                                    continue;
+                                }
+                                let c = grid.centre(k);
+                                out.x.push(c[0]);
+                                out.y.push(c[1]);
+                                out.f.push([qx[k] * area, qy[k] * area, pressure[k] * area]);
+                            }
                         }
-                        let c = grid.centre(k);
-                        let f = [qx[k] * area, qy[k] * area, pressure[k] * area];
-                        out.x.push(c[0]);
-                        out.y.push(c[1]);
-                        out.f.push(f);
-                        let weight = f[2].abs() + f[0].hypot(f[1]);
-                        sx += weight * c[0];
-                        sy += weight * c[1];
-                        w += weight;
-                        for (t, v) in total.iter_mut().zip(f) {
-                            *t += v;
+                        if out.f.len() > start {
+                            let g = Group::of(start..out.f.len(), |k| (out.x[k], out.y[k], out.f[k]));
+                            out.blocks.push(g);
                         }
                     }
                 }
-                if out.f.len() > start {
-                    let n = (out.f.len() - start) as f64;
-                    let (x, y) = if w > 0.0 {
-                        (sx / w, sy / w)
-                    } else {
-                        (out.x[start..].iter().sum::<f64>() / n, out.y[start..].iter().sum::<f64>() / n)
-                    };
-                    out.blocks.push(Block { x, y, f: total, cells: start..out.f.len() });
+                if out.blocks.len() > first_block {
+                    let blocks = &out.blocks;
+                    let g = Group::of(first_block..blocks.len(), |b| (blocks[b].x, blocks[b].y, blocks[b].f));
+                    out.supers.push(g);
                 }
             }
         }
@@ -151,13 +178,19 @@ impl CellForces {
             }
         };
         let p0 = at[0];
-        for b in &self.blocks {
-            let d2 = (p0.x - b.x).powi(2) + (p0.y - b.y).powi(2) + depth[0] * depth[0];
-            if !exact && d2 > self.far2 {
-                add(b.x, b.y, b.f);
-            } else {
-                for k in b.cells.clone() {
-                    add(self.x[k], self.y[k], self.f[k]);
+        let dist2 = |g: &Group| (p0.x - g.x).powi(2) + (p0.y - g.y).powi(2) + depth[0] * depth[0];
+        for s in &self.supers {
+            if !exact && dist2(s) > self.super_far2 {
+                add(s.x, s.y, s.f);
+                continue;
+            }
+            for b in &self.blocks[s.members.clone()] {
+                if !exact && dist2(b) > self.far2 {
+                    add(b.x, b.y, b.f);
+                } else {
+                    for k in b.members.clone() {
+                        add(self.x[k], self.y[k], self.f[k]);
+                    }
                 }
             }
         }
