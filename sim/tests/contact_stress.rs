@@ -9,6 +9,7 @@ use tacsim_sim::SensorParams;
 use tacsim_sim::contact::engine::{ContactModel, Simulation};
 use tacsim_sim::contact::pose::SensorPose;
 use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::sensor::SkinModel;
 use tacsim_sim::stimulus::Catalogue;
 
 fn catalogue() -> Catalogue {
@@ -22,9 +23,14 @@ fn scene_with(shape: &str) -> Scene {
 }
 
 fn model(cells: usize, poisson: f64) -> ContactModel {
+    model_of(cells, poisson, SkinModel::HalfSpace)
+}
+
+fn model_of(cells: usize, poisson: f64, skin: SkinModel) -> ContactModel {
     let mut s = SensorParams::default();
     s.skin.cells_across = cells;
     s.skin.poisson = poisson;
+    s.skin.model = skin;
     ContactModel::new(&s)
 }
 
@@ -72,18 +78,21 @@ fn poisson_ratios_up_to_incompressible() {
 #[test]
 fn indentations_from_a_hundredth_to_eight_mm() {
     let scene = scene_with("disk");
-    let m = model(17, 0.5);
-    let mut last = 0.0;
-    for depth in [0.01, 0.03, 0.1, 0.3, 1.0, 2.0, 4.0, 6.0, 8.0] {
-        let pose = SensorPose::new(0.0, 0.0, depth, 0.0);
-        let mut sim = Simulation::new(&m, &scene, &[pose]);
-        let r = sim.step(pose).expect("step").clone();
-        check_invariants(&sim, depth, &format!("depth {depth}"));
-        assert!(r.in_contact && r.force_n[2] > last, "depth {depth}: force {} after {last}", r.force_n[2]);
-        last = r.force_n[2];
-        // Pins stay finite and move less than the indentation plus the lever.
-        for p in sim.pins() {
-            assert!(p.tip.coords.iter().all(|v| v.is_finite()));
+    for (skin, _) in SkinModel::ALL {
+        let m = model_of(17, 0.5, skin);
+        let mut last = 0.0;
+        for depth in [0.01, 0.03, 0.1, 0.3, 1.0, 2.0, 4.0, 6.0, 8.0] {
+            let pose = SensorPose::new(0.0, 0.0, depth, 0.0);
+            let mut sim = Simulation::new(&m, &scene, &[pose]);
+            let r = sim.step(pose).expect("step").clone();
+            let what = format!("{skin:?} depth {depth}");
+            check_invariants(&sim, depth, &what);
+            assert!(r.in_contact && r.force_n[2] > last, "{what}: force {} after {last}", r.force_n[2]);
+            last = r.force_n[2];
+            // Pins stay finite.
+            for p in sim.pins() {
+                assert!(p.tip.coords.iter().all(|v| v.is_finite()), "{what}");
+            }
         }
     }
 }
@@ -125,6 +134,7 @@ proptest! {
     #[test]
     fn invariants_hold_on_random_shapes_poses_and_paths(
         shape in 0usize..7,
+        skin in 0usize..3,
         x in -30.0f64..30.0,
         y in -30.0f64..30.0,
         depth in 0.05f64..5.0,
@@ -135,7 +145,7 @@ proptest! {
     ) {
         let names = catalogue().names();
         let scene = scene_with(&names[shape % names.len()]);
-        let m = model(11, 0.5);
+        let m = model_of(11, 0.5, SkinModel::ALL[skin].0);
         let mut poses = vec![SensorPose { x_mm: x, y_mm: y, depth_mm: depth, yaw_deg: yaw, rx_deg: rx, ry_deg: ry }];
         for (dx, dy, dd, dyaw) in moves {
             let last = *poses.last().expect("non-empty");

@@ -261,7 +261,8 @@ pub struct LayeredKernels {
     pin_depth_mm: f64,
     dr_mm: f64,
     surface: Vec<[f64; 4]>,
-    depth: Vec<[f64; 10]>,
+    depth: Vec<[f64; 5]>,
+    depth_dz: Vec<[f64; 5]>,
 }
 
 /// Radial step of the tables (mm): cubic (Catmull-Rom) interpolation errs by about
@@ -357,8 +358,10 @@ impl LayeredKernels {
                 (surf, depth)
             })
             .collect();
-        let (surface, depth) = rows.into_iter().unzip();
-        Self { body: body.clone(), pin_depth_mm, dr_mm, surface, depth }
+        let (surface, both): (Vec<_>, Vec<[f64; 10]>) = rows.into_iter().unzip();
+        let depth = both.iter().map(|b| std::array::from_fn(|j| b[j])).collect();
+        let depth_dz = both.iter().map(|b| std::array::from_fn(|j| b[j + 5])).collect();
+        Self { body: body.clone(), pin_depth_mm, dr_mm, surface, depth, depth_dz }
     }
 
     /// The body.
@@ -408,9 +411,15 @@ impl LayeredKernels {
     /// `(qx, qy, p)` (N).
     pub fn displacement(&self, force: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
         let [x, y, z] = offset;
-        let t = self.lerp(&self.depth, x.hypot(y));
+        let r = x.hypot(y);
+        let mut f = self.lerp(&self.depth, r);
         let dz = z - self.pin_depth_mm;
-        let f: [f64; 5] = std::array::from_fn(|j| t[j] + dz * t[j + 5]);
+        if dz != 0.0 {
+            let d = self.lerp(&self.depth_dz, r);
+            for (v, d) in f.iter_mut().zip(d) {
+                *v += dz * d;
+            }
+        }
         combine(force, x, y, f[0], f[1], f[2], f[3], f[4])
     }
 }
@@ -569,8 +578,13 @@ mod tests {
         for i in 0..400 {
             let r = 0.0173 + i as f64 * 0.0491;
             let (a, e) = (coarse.lerp(&coarse.depth, r), fine.lerp(&fine.depth, r));
+            let (da, de) = (coarse.lerp(&coarse.depth_dz, r), fine.lerp(&fine.depth_dz, r));
+            let dscale = fine.depth_dz[0][0].abs();
+            for (x, y) in da.iter().zip(&de) {
+                assert!((x - y).abs() < 1e-4 * dscale, "r {r}: {da:?} vs {de:?}");
+            }
             let (sa, se) = (coarse.lerp(&coarse.surface, r), fine.lerp(&fine.surface, r));
-            for (x, y) in a[..5].iter().zip(&e[..5]).chain(sa.iter().zip(&se)) {
+            for (x, y) in a.iter().zip(&e).chain(sa.iter().zip(&se)) {
                 assert!((x - y).abs() < 1e-4 * scale, "r {r}: {a:?} vs {e:?}");
             }
         }
