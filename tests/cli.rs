@@ -69,6 +69,19 @@ fn bad_sensor_files_are_clear_errors_and_leave_no_output() {
     assert!(err.contains("bad.toml") && err.contains("dome.outer_radius_mm"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 
+    for (text, field) in [
+        ("[skin]\nmodel = \"skin-on-gel\"\ngel_poisson = 0.7\n", "skin.gel_poisson"),
+        ("[skin]\nbase_depth_mm = 2.0\n", "skin.base_depth_mm"),
+        ("[skin]\ngel_youngs_modulus_mpa = nan\n", "skin.gel_youngs_modulus_mpa"),
+        ("[skin]\nmodel = \"gel\"\n", "model"),
+    ] {
+        std::fs::write(&bad, text).expect("write");
+        let o = tacsim(&["render", "--sensor", bad.to_str().expect("utf-8"), "-o", out_s]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains("bad.toml") && err.contains(field), "{text}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+
     let o = tacsim(&["render", "--sensor", dir.join("missing.toml").to_str().expect("utf-8"), "-o", out_s]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("missing.toml"), "{err}");
@@ -143,6 +156,27 @@ fn render_tap_and_slide_on_a_shape() {
     ]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("no contact"));
     assert_eq!(read("off.png"), read("plain.png"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn render_on_layered_skins() {
+    let dir = temp_dir("layered");
+    let pose = ["--shape", "disk", "--pose", "0,0,1.5,0", "--slide-from", "2.5,0"];
+    let mut images = Vec::new();
+    for skin in ["half-space", "layer", "skin-on-gel"] {
+        let file = format!("{skin}.png");
+        let mut args = pose.to_vec();
+        args.extend(["--skin", skin]);
+        let (_, blobs) = render_and_count(&dir, &file, &args);
+        assert_eq!(blobs, 331, "{skin}");
+        images.push(std::fs::read(dir.join(&file)).expect("written"));
+    }
+    assert_ne!(images[0], images[1]);
+    assert_ne!(images[1], images[2]);
+    let o = tacsim(&["render", "--skin", "gel", "-o", dir.join("x.png").to_str().expect("utf-8")]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("skin-on-gel"), "lists the models: {err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
