@@ -269,6 +269,11 @@ pub struct LayeredKernels {
 /// `(dr / h)^4` for kernels smooth over the top layer's thickness `h` (1e-5 at 1.5 mm; the
 /// quadrature tests hold to 1e-4).
 const TABLE_STEP_MM: f64 = 0.08;
+/// Parity in `r` of the surface functions `[F_zz, F_pr, F_s, F_d]` and of the depth
+/// functions `[F_zz, F_pr, F_zq, F_s, F_d]` (`J1` transforms are odd).
+const SURFACE_PARITY: [f64; 4] = [1.0, -1.0, 1.0, 1.0];
+const DEPTH_PARITY: [f64; 5] = [1.0, -1.0, -1.0, 1.0, 1.0];
+
 /// Gauss points per wavenumber interval.
 const GAUSS_POINTS: usize = 8;
 /// The transforms stop where their integrands have fallen by `exp(-DECAY)`.
@@ -379,15 +384,15 @@ impl LayeredKernels {
         (self.surface.len() - 3) as f64 * self.dr_mm
     }
 
-    /// Catmull-Rom interpolation in `r`; on the first interval the missing row before `r = 0`
-    /// comes from the quadratic through the first three.
+    /// Catmull-Rom interpolation in `r`; on the first interval the row at `r = -dr` comes from
+    /// each function's parity (`J0`, `J2` transforms are even in `r`, `J1` ones odd).
     #[inline]
-    fn lerp<const N: usize>(&self, table: &[[f64; N]], r: f64) -> [f64; N] {
+    fn lerp<const N: usize>(&self, table: &[[f64; N]], parity: &[f64; N], r: f64) -> [f64; N] {
         let t = (r / self.dr_mm).min((table.len() - 3) as f64);
         let i = t as usize;
         let f = t - i as f64;
         let (p1, p2, p3) = (&table[i], &table[i + 1], &table[i + 2]);
-        let p0 = if i > 0 { table[i - 1] } else { std::array::from_fn(|j| 3.0 * p1[j] - 3.0 * p2[j] + p3[j]) };
+        let p0 = if i > 0 { table[i - 1] } else { std::array::from_fn(|j| parity[j] * p2[j]) };
         std::array::from_fn(|j| {
             let (a, b, c, d) = (p0[j], p1[j], p2[j], p3[j]);
             b + 0.5 * f * (c - a + f * (2.0 * a - 5.0 * b + 4.0 * c - d + f * (3.0 * (b - c) + d - a)))
@@ -396,7 +401,7 @@ impl LayeredKernels {
 
     /// Radial functions `[F_zz, F_pr, F_s, F_d]` (mm/N) of the surface correction at `r` (mm).
     pub(crate) fn surface_radial(&self, r: f64) -> [f64; 4] {
-        self.lerp(&self.surface, r)
+        self.lerp(&self.surface, &SURFACE_PARITY, r)
     }
 
     /// Surface displacement correction (mm) to the top layer's half-space at lateral offset
@@ -412,10 +417,10 @@ impl LayeredKernels {
     pub fn displacement(&self, force: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
         let [x, y, z] = offset;
         let r = x.hypot(y);
-        let mut f = self.lerp(&self.depth, r);
+        let mut f = self.lerp(&self.depth, &DEPTH_PARITY, r);
         let dz = z - self.pin_depth_mm;
         if dz != 0.0 {
-            let d = self.lerp(&self.depth_dz, r);
+            let d = self.lerp(&self.depth_dz, &DEPTH_PARITY, r);
             for (v, d) in f.iter_mut().zip(d) {
                 *v += dz * d;
             }
@@ -577,13 +582,15 @@ mod tests {
         let scale = fine.depth[0][0].abs();
         for i in 0..400 {
             let r = 0.0173 + i as f64 * 0.0491;
-            let (a, e) = (coarse.lerp(&coarse.depth, r), fine.lerp(&fine.depth, r));
-            let (da, de) = (coarse.lerp(&coarse.depth_dz, r), fine.lerp(&fine.depth_dz, r));
+            let (a, e) = (coarse.lerp(&coarse.depth, &DEPTH_PARITY, r), fine.lerp(&fine.depth, &DEPTH_PARITY, r));
+            let (da, de) =
+                (coarse.lerp(&coarse.depth_dz, &DEPTH_PARITY, r), fine.lerp(&fine.depth_dz, &DEPTH_PARITY, r));
             let dscale = fine.depth_dz[0][0].abs();
             for (x, y) in da.iter().zip(&de) {
                 assert!((x - y).abs() < 1e-4 * dscale, "r {r}: {da:?} vs {de:?}");
             }
-            let (sa, se) = (coarse.lerp(&coarse.surface, r), fine.lerp(&fine.surface, r));
+            let (sa, se) =
+                (coarse.lerp(&coarse.surface, &SURFACE_PARITY, r), fine.lerp(&fine.surface, &SURFACE_PARITY, r));
             for (x, y) in a.iter().zip(&e).chain(sa.iter().zip(&se)) {
                 assert!((x - y).abs() < 1e-4 * scale, "r {r}: {a:?} vs {e:?}");
             }
