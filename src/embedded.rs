@@ -1,4 +1,4 @@
-//! The built-in stimuli of `shapes/`, compiled into the binary so `tacsim` runs from any
+//! The built-in stimuli of `shapes/` and dataset recipes of `scenarios/datasets/`, compiled into the binary so `tacsim` runs from any
 //! directory without the repository. `cargo xtask shapes` regenerates the files; a test keeps
 //! this list and the directory in step.
 
@@ -15,6 +15,14 @@ pub const SHAPE_FILES: &[(&str, &str)] = &[
     ("spiral-2.obj", include_str!("../shapes/spiral-2.obj")),
     ("square.obj", include_str!("../shapes/square.obj")),
     ("teardrop.obj", include_str!("../shapes/teardrop.obj")),
+];
+
+/// `(name, contents)` of the dataset recipes of `scenarios/datasets/`.
+pub const RECIPES: &[(&str, &str)] = &[
+    ("paper", include_str!("../scenarios/datasets/paper.toml")),
+    ("quick", include_str!("../scenarios/datasets/quick.toml")),
+    ("tilted-surface", include_str!("../scenarios/datasets/tilted-surface.toml")),
+    ("twist", include_str!("../scenarios/datasets/twist.toml")),
 ];
 
 /// The built-in catalogue.

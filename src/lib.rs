@@ -1,10 +1,12 @@
 //! tacsim: the command line and pipeline glue over the simulator crate (`tacsim-sim`).
 //!
-//! [`embedded`] carries the built-in stimuli so the binary runs anywhere; [`commands`] holds
-//! one function per subcommand, called by the thin `main.rs`; [`validation`] and [`bench`] run
-//! the contact checks and benchmarks.
+//! [`embedded`] carries the built-in stimuli and recipes so the binary runs anywhere;
+//! [`commands`] holds one function per subcommand, called by the thin `main.rs`; [`dataset`]
+//! runs `generate` and `merge`; [`validation`] and [`bench`] run the contact checks and
+//! benchmarks.
 
 pub mod bench;
 pub mod commands;
+pub mod dataset;
 pub mod embedded;
 pub mod validation;

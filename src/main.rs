@@ -96,6 +96,48 @@ enum Command {
         #[arg(long)]
         skin: Option<SkinModel>,
     },
+    /// Generate a dataset from a recipe (default: the built-in `quick`): images, targets.csv,
+    /// meta.json. Deterministic for a seed, whatever the threads or shards.
+    Generate {
+        /// Recipe TOML, or a built-in recipe: paper, quick, twist, tilted-surface.
+        recipe: Option<String>,
+        /// Output directory (new or empty; the same dataset with --resume).
+        #[arg(long)]
+        out: PathBuf,
+        /// Sensor TOML (default: the built-in TacTip).
+        #[arg(long)]
+        sensor: Option<PathBuf>,
+        /// Image size (px), overriding the recipe's.
+        #[arg(long)]
+        size: Option<u32>,
+        /// Seed, overriding the recipe's.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Cells across the contact footprint, overriding the recipe's.
+        #[arg(long)]
+        cells: Option<usize>,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Generate shard i of n (i/n, from 0): for job arrays; join with `tacsim merge`.
+        #[arg(long, value_parser = tacsim::dataset::parse_shard)]
+        shard: Option<(usize, usize)>,
+        /// Finish an interrupted run into the same directory.
+        #[arg(long)]
+        resume: bool,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Join the shards of one dataset into a directory equal to the unsharded run.
+    Merge {
+        /// Output directory (new or empty).
+        #[arg(long)]
+        out: PathBuf,
+        /// The shard directories.
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+    },
     /// List the stimuli with size, material and friction.
     Shapes {
         /// Catalogue directory (default: the built-in shapes).
@@ -155,6 +197,24 @@ fn main() -> Result<()> {
         }
         Command::Bench { json, samples, plot, cells, skin } => {
             print!("{}", bench::run(samples, cells, skin, json, &plot)?);
+        }
+        Command::Generate { recipe, out, sensor, size, seed, cells, threads, shard, resume, quiet } => {
+            let opts = tacsim::dataset::GenerateOptions {
+                recipe,
+                out,
+                sensor,
+                size,
+                seed,
+                cells,
+                threads,
+                shard,
+                resume,
+                quiet,
+            };
+            print!("{}", tacsim::dataset::generate(&opts)?);
+        }
+        Command::Merge { out, shards } => {
+            print!("{}", tacsim::dataset::merge(&out, &shards)?);
         }
         Command::Shapes { dir } => {
             print!("{}", commands::shapes_table(&commands::load_catalogue(dir.as_deref())?));

@@ -9,11 +9,24 @@ use crate::error::{Result, SimError};
 
 /// Writes `bytes` to `path` atomically (temp file + fsync + rename).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic_with(path, bytes, true)
+}
+
+/// [`write_atomic`] without the fsync, for bulk files that a rerun regenerates (dataset
+/// images): a killed process never leaves a partial file, but after a power loss a file may be
+/// empty, which `tacsim generate --resume` detects and rewrites.
+pub fn write_atomic_unsynced(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic_with(path, bytes, false)
+}
+
+fn write_atomic_with(path: &Path, bytes: &[u8], sync: bool) -> Result<()> {
     let tmp = temp_path(path);
     let result = (|| {
         let mut file = std::fs::File::create(&tmp).map_err(|e| SimError::io(&tmp, "create", e))?;
         file.write_all(bytes).map_err(|e| SimError::io(&tmp, "write", e))?;
-        file.sync_all().map_err(|e| SimError::io(&tmp, "flush", e))?;
+        if sync {
+            file.sync_all().map_err(|e| SimError::io(&tmp, "flush", e))?;
+        }
         std::fs::rename(&tmp, path).map_err(|e| SimError::io(path, "rename into place", e))
     })();
     if result.is_err() {
@@ -21,6 +34,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
     }
     result
+}
+
+/// Whether `name` is a temporary file left by an interrupted [`write_atomic`].
+pub fn is_temp_name(name: &str) -> bool {
+    name.starts_with('.') && name.ends_with(".tmp")
 }
 
 /// The temporary sibling used by [`write_atomic`]: `.NAME.PID.tmp` in the same directory, so

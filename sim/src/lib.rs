@@ -11,6 +11,7 @@ pub mod atomic;
 pub mod calibration;
 pub mod camera;
 pub mod contact;
+pub mod dataset;
 pub mod detect;
 pub mod error;
 pub mod fit;

@@ -41,7 +41,25 @@ impl Path {
             return Err(SimError::invalid("path", "slide_from", format!("must be finite, got {from_mm:?}")));
         }
         let start = SensorPose { x_mm: target.x_mm + from_mm[0], y_mm: target.y_mm + from_mm[1], ..target };
-        let n = (from_mm[0].hypot(from_mm[1]) / step_mm).ceil().max(1.0) as usize;
+        Self::slide_between(start, target, step_mm, f64::INFINITY)
+    }
+
+    /// Touch down at `start`, then move in a straight line (lateral position, depth, yaw and
+    /// tilt interpolated together) to `target` in steps of at most `step_mm` laterally and
+    /// `step_deg` in yaw, captured at the end. Twisting while sliding is rotational shear.
+    pub fn slide_between(start: SensorPose, target: SensorPose, step_mm: f64, step_deg: f64) -> Result<Self> {
+        if !(step_mm.is_finite() && step_mm > 0.0) {
+            return Err(SimError::invalid("path", "step_mm", format!("must be a positive number, got {step_mm}")));
+        }
+        if step_deg.is_nan() || step_deg <= 0.0 {
+            return Err(SimError::invalid("path", "step_deg", format!("must be positive, got {step_deg}")));
+        }
+        let lateral = (target.x_mm - start.x_mm).hypot(target.y_mm - start.y_mm);
+        let twist = (target.yaw_deg - start.yaw_deg).abs();
+        if !(lateral.is_finite() && twist.is_finite()) {
+            return Err(SimError::invalid("path", "start", format!("must be finite, got {start:?}")));
+        }
+        let n = (lateral / step_mm).ceil().max((twist / step_deg).ceil()).max(1.0) as usize;
         let mut steps = vec![PathStep { pose: start, capture: false }];
         steps.extend((1..=n).map(|i| PathStep { pose: start.lerp(&target, i as f64 / n as f64), capture: i == n }));
         Ok(Self { steps })

@@ -1,0 +1,23 @@
+//! The tacsim dataset format and its loader, shared by the generator (`tacsim-sim`) and the
+//! learning crate (which never depends on the simulator).
+//!
+//! A dataset directory holds:
+//! - `images/image_0.png`: the undeformed reference; `images/image_N.png` (N >= 1): samples;
+//! - `targets.csv`: one [`Row`] per sample, in the lab's column style (`sensor_image`,
+//!   `pose_x..pose_Rz`, `shear_x..shear_Rz`) plus `kind`, `shape`, `pose_id`, `split`,
+//!   `paired`;
+//! - `meta.json`: the [`Meta`]: recipe, sensor, seed, tool version, counts.
+//!
+//! Units: mm and degrees. `pose_*` is the sensor pose relative to the shape's contact location
+//! (depth `pose_z` below the stimulus's top face); `shear_*` is the touch-down offset of a
+//! slide (the sensor touched down at `pose + shear` and slid to `pose`), zero for taps.
+
+pub mod error;
+pub mod loader;
+pub mod meta;
+pub mod row;
+
+pub use error::{DataError, Result};
+pub use loader::Dataset;
+pub use meta::{Meta, Shard};
+pub use row::{Kind, Row, Split};

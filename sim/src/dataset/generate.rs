@@ -1,0 +1,330 @@
+//! Generating a plan into a dataset directory (`tacsim_data` format), in parallel, resumably
+//! and in shards; and merging shards.
+//!
+//! Order of writes: `meta.json` and `targets.csv` (both fully determined by the plan) and the
+//! reference image first, then the sample images, each written atomically. A directory is
+//! complete when every image its rows name exists, which `--resume` finishes and
+//! `tacsim_data::Dataset::open` checks.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+use tacsim_data::row::to_csv;
+use tacsim_data::{Kind, Meta, Row, Shard};
+
+use super::plan::{Plan, REFERENCE_IMAGE, Sample, image_name};
+use crate::atomic::{is_temp_name, write_atomic, write_atomic_unsynced};
+use crate::contact::engine::{ContactModel, Simulation};
+use crate::contact::trajectory::Path as SensorPath;
+use crate::error::{Result, SimError};
+use crate::pins::PinLayout;
+use crate::png_io::{PngDepth, encode_png};
+use crate::render::PinRenderer;
+use crate::scene::Scene;
+use crate::sensor::SensorParams;
+
+/// Tool name and version recorded in `meta.json`.
+pub const TOOL: &str = concat!("tacsim ", env!("CARGO_PKG_VERSION"));
+
+/// What to generate where.
+#[derive(Clone, Debug)]
+pub struct Target {
+    /// Output directory.
+    pub out: PathBuf,
+    /// `(i, n)`: generate shard `i` of `n` (sample indices `i N / n .. (i + 1) N / n`).
+    pub shard: Option<(usize, usize)>,
+    /// Finish an interrupted run of the same dataset in `out`.
+    pub resume: bool,
+}
+
+/// Seconds spent per stage (summed over threads) and counts.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Summary {
+    /// Images written by this run.
+    pub written: usize,
+    /// Images already present (resume).
+    pub skipped: usize,
+    /// Taps and slides written.
+    pub taps: usize,
+    /// Slides written.
+    pub slides: usize,
+    /// Wall time (s).
+    pub wall_s: f64,
+    /// Thread-seconds in taps (contact + pins + render + encode + write).
+    pub tap_s: f64,
+    /// Thread-seconds in slides.
+    pub slide_s: f64,
+    /// Thread-seconds in the contact solve and pins.
+    pub solve_s: f64,
+    /// Thread-seconds rendering.
+    pub render_s: f64,
+    /// Thread-seconds encoding PNG.
+    pub encode_s: f64,
+    /// Thread-seconds writing files.
+    pub write_s: f64,
+}
+
+/// The sensor a recipe runs: `base` with the recipe's grid and skin overrides and image size.
+pub fn recipe_sensor(plan: &Plan, base: &SensorParams) -> Result<SensorParams> {
+    let mut s = base.clone();
+    if let Some(n) = plan.recipe.cells_across {
+        s.skin.cells_across = n;
+    }
+    if let Some(m) = plan.recipe.skin {
+        s.skin.model = m;
+    }
+    s.camera.image_size = plan.recipe.image_size;
+    s.validate("recipe sensor")?;
+    Ok(s)
+}
+
+/// The `meta.json` of a plan (with `shard` set for a shard).
+pub fn meta(plan: &Plan, sensor: &SensorParams, shard: Option<Shard>) -> Result<Meta> {
+    let (taps, slides) = plan.counts();
+    Ok(Meta {
+        format: Meta::FORMAT,
+        tool: TOOL.into(),
+        seed: plan.recipe.seed,
+        image_size: plan.recipe.image_size,
+        samples: plan.len(),
+        taps,
+        slides,
+        reference_image: REFERENCE_IMAGE.into(),
+        recipe: to_json(&plan.recipe, "recipe")?,
+        sensor: to_json(sensor, "sensor")?,
+        shard,
+    })
+}
+
+fn to_json<T: Serialize>(v: &T, what: &str) -> Result<serde_json::Value> {
+    serde_json::to_value(v).map_err(|e| SimError::invalid("meta.json", what, format!("cannot be written as JSON: {e}")))
+}
+
+/// Sample indices of shard `i` of `n` over `len` samples.
+pub fn shard_range(len: usize, i: usize, n: usize) -> std::ops::Range<usize> {
+    (i * len / n)..((i + 1) * len / n)
+}
+
+fn data_err(e: tacsim_data::DataError) -> SimError {
+    SimError::Analysis { source_name: "dataset".into(), reason: e.to_string() }
+}
+
+/// Prepares `target.out` for `meta`: a new (or empty) directory, or the same dataset when
+/// resuming. Refuses a directory holding anything else.
+fn prepare(target: &Target, meta: &Meta) -> Result<()> {
+    let out = &target.out;
+    let images = out.join("images");
+    if out.exists() {
+        let meta_path = out.join("meta.json");
+        if meta_path.exists() {
+            let old = Meta::load(&meta_path).map_err(data_err)?;
+            if old != *meta {
+                return Err(SimError::Analysis {
+                    source_name: out.display().to_string(),
+                    reason: "holds a different dataset (recipe, seed, sensor, size or shard differ); \
+                             choose another --out or delete it"
+                        .into(),
+                });
+            }
+            if !target.resume {
+                return Err(SimError::Analysis {
+                    source_name: out.display().to_string(),
+                    reason: "already holds this dataset; pass --resume to finish an interrupted run".into(),
+                });
+            }
+        } else if std::fs::read_dir(out).map_err(|e| SimError::io(out, "list", e))?.next().is_some() {
+            return Err(SimError::Analysis {
+                source_name: out.display().to_string(),
+                reason: "is not empty and holds no tacsim dataset (meta.json); choose another --out".into(),
+            });
+        }
+    }
+    std::fs::create_dir_all(&images).map_err(|e| SimError::io(&images, "create directory", e))?;
+    // Temporary files of an interrupted run.
+    for entry in std::fs::read_dir(&images).map_err(|e| SimError::io(&images, "list", e))? {
+        let entry = entry.map_err(|e| SimError::io(&images, "list", e))?;
+        if is_temp_name(&entry.file_name().to_string_lossy()) {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+    Ok(())
+}
+
+/// Whether `path` holds a complete PNG of `size` x `size` (a resumed run keeps it).
+fn complete_image(path: &Path, size: u32) -> bool {
+    image::ImageReader::open(path)
+        .ok()
+        .and_then(|r| r.with_guessed_format().ok())
+        .and_then(|r| r.into_dimensions().ok())
+        .is_some_and(|d| d == (size, size))
+        && crate::png_io::read_png(path).is_ok()
+}
+
+/// Everything a sample needs that is shared by all samples.
+pub struct Context<'a> {
+    /// The plan.
+    pub plan: &'a Plan,
+    /// Contact model of the recipe's sensor.
+    pub model: &'a ContactModel,
+    /// One scene per recipe shape, the shape at its origin.
+    pub scenes: &'a [Scene],
+    /// Renderer at the recipe's image size.
+    pub renderer: &'a PinRenderer,
+}
+
+/// Simulates, renders and encodes one sample; returns the PNG bytes and the stage times
+/// `[solve, render, encode]` (s).
+pub fn sample_png(ctx: &Context<'_>, s: &Sample) -> Result<(Vec<u8>, [f64; 3])> {
+    let t0 = Instant::now();
+    let (start, target) = ctx.plan.sensor_poses(s);
+    let path = match s.kind {
+        Kind::Tap => SensorPath::tap(target),
+        Kind::Slide => {
+            let sl = &ctx.plan.recipe.slides;
+            SensorPath::slide_between(start, target, sl.step_mm, sl.step_deg)?
+        }
+    };
+    let scene = &ctx.scenes[ctx.plan.poses[s.pose_id].shape];
+    let mut sim = Simulation::new(ctx.model, scene, &path.poses());
+    for step in &path.steps {
+        sim.step(step.pose)?;
+    }
+    let pins = sim.pins();
+    let t1 = Instant::now();
+    let img = ctx.renderer.render(&pins);
+    let t2 = Instant::now();
+    let png = encode_png(&img, PngDepth::Grey8)?;
+    let t3 = Instant::now();
+    Ok((png, [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()]))
+}
+
+/// Generates `target` (the whole plan or a shard) into its directory. `progress` is called
+/// with the number of images done so far (skipped ones included) after each image.
+pub fn generate(
+    ctx: &Context<'_>,
+    sensor: &SensorParams,
+    target: &Target,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<Summary> {
+    let wall = Instant::now();
+    let plan = ctx.plan;
+    let range = match target.shard {
+        Some((i, n)) => {
+            if n == 0 || i >= n {
+                return Err(SimError::invalid("--shard", "shard", format!("must be i/n with i < n, got {i}/{n}")));
+            }
+            shard_range(plan.len(), i, n)
+        }
+        None => 0..plan.len(),
+    };
+    let shard = target.shard.map(|(index, count)| Shard { index, count, start: range.start, end: range.end });
+    let meta = meta(plan, sensor, shard)?;
+    prepare(target, &meta)?;
+    let out = &target.out;
+    let rows: Vec<Row> = range.clone().map(|i| plan.row(&plan.sample(i))).collect();
+    write_atomic(&out.join("meta.json"), &meta.to_json().map_err(data_err)?)?;
+    write_atomic(&out.join("targets.csv"), &to_csv(&rows).map_err(data_err)?)?;
+    let images = out.join("images");
+    let reference = ctx.renderer.render(&PinLayout::new(sensor).poses());
+    write_atomic(&images.join(REFERENCE_IMAGE), &encode_png(&reference, PngDepth::Grey8)?)?;
+
+    let size = plan.recipe.image_size;
+    let todo: Vec<usize> = if target.resume {
+        range.clone().into_par_iter().filter(|&i| !complete_image(&images.join(image_name(i)), size)).collect()
+    } else {
+        range.clone().collect()
+    };
+    let skipped = range.len() - todo.len();
+    let done = std::sync::atomic::AtomicUsize::new(skipped);
+    progress(skipped);
+    let nanos: [AtomicU64; 6] = Default::default(); // solve, render, encode, write, tap, slide
+    let add = |k: usize, s: f64| nanos[k].fetch_add((s * 1e9) as u64, Ordering::Relaxed);
+    let taps = std::sync::atomic::AtomicUsize::new(0);
+    todo.par_iter().try_for_each(|&i| -> Result<()> {
+        let t = Instant::now();
+        let s = plan.sample(i);
+        let (png, [solve, render, encode]) = sample_png(ctx, &s)?;
+        let tw = Instant::now();
+        write_atomic_unsynced(&images.join(image_name(i)), &png)?;
+        add(0, solve);
+        add(1, render);
+        add(2, encode);
+        add(3, tw.elapsed().as_secs_f64());
+        if s.kind == Kind::Tap {
+            add(4, t.elapsed().as_secs_f64());
+            taps.fetch_add(1, Ordering::Relaxed);
+        } else {
+            add(5, t.elapsed().as_secs_f64());
+        }
+        progress(done.fetch_add(1, Ordering::Relaxed) + 1);
+        Ok(())
+    })?;
+    let secs = |k: usize| nanos[k].load(Ordering::Relaxed) as f64 * 1e-9;
+    let taps = taps.into_inner();
+    Ok(Summary {
+        written: todo.len(),
+        skipped,
+        taps,
+        slides: todo.len() - taps,
+        wall_s: wall.elapsed().as_secs_f64(),
+        tap_s: secs(4),
+        slide_s: secs(5),
+        solve_s: secs(0),
+        render_s: secs(1),
+        encode_s: secs(2),
+        write_s: secs(3),
+    })
+}
+
+/// Joins complete shards of one dataset into `out` (new or empty): images copied, rows
+/// concatenated in sample order, `meta.json` without the shard. The result equals the
+/// unsharded run byte for byte.
+pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
+    let bad = |reason: String| SimError::Analysis { source_name: "tacsim merge".into(), reason };
+    let mut parts = Vec::new();
+    for dir in shards {
+        let ds = tacsim_data::Dataset::open(dir).map_err(data_err)?;
+        let Some(shard) = ds.meta.shard else {
+            return Err(bad(format!("{} is not a shard (its meta.json has no shard)", dir.display())));
+        };
+        parts.push((shard, ds));
+    }
+    let Some((first, _)) = parts.first() else { return Err(bad("no shard directories given".into())) };
+    let count = first.count;
+    parts.sort_by_key(|(s, _)| s.index);
+    for (k, (s, ds)) in parts.iter().enumerate() {
+        if !ds.meta.same_dataset(&parts[0].1.meta) || s.count != count {
+            return Err(bad(format!("{} belongs to a different dataset or shard count", ds.dir.display())));
+        }
+        if s.index != k {
+            return Err(bad(format!("shard {k} of {count} is missing or given twice")));
+        }
+    }
+    if parts.len() != count {
+        return Err(bad(format!("{} of {count} shards given", parts.len())));
+    }
+    let target = Target { out: out.to_owned(), shard: None, resume: false };
+    let meta = Meta { shard: None, ..parts[0].1.meta.clone() };
+    prepare(&target, &meta)?;
+    let images = out.join("images");
+    let mut rows = Vec::new();
+    for (_, ds) in &parts {
+        for r in &ds.rows {
+            let bytes = std::fs::read(ds.image_path(r)).map_err(|e| SimError::io(ds.image_path(r), "read", e))?;
+            write_atomic_unsynced(&images.join(&r.sensor_image), &bytes)?;
+        }
+        rows.extend(ds.rows.iter().cloned());
+    }
+    if rows.len() != meta.samples {
+        return Err(bad(format!("the shards hold {} samples, the dataset {}", rows.len(), meta.samples)));
+    }
+    let reference = parts[0].1.dir.join("images").join(&meta.reference_image);
+    let bytes = std::fs::read(&reference).map_err(|e| SimError::io(&reference, "read", e))?;
+    write_atomic(&images.join(&meta.reference_image), &bytes)?;
+    write_atomic(&out.join("targets.csv"), &to_csv(&rows).map_err(data_err)?)?;
+    write_atomic(&out.join("meta.json"), &meta.to_json().map_err(data_err)?)?;
+    Ok(rows.len())
+}

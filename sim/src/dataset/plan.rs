@@ -1,0 +1,223 @@
+//! The deterministic plan of a recipe: every pose and every sample with its labels, drawn from
+//! ChaCha8 streams keyed by the seed and the item's own indices, so that a sample does not
+//! depend on which others are generated, in what order or on how many threads.
+//!
+//! Sample `i` (image `image_{i+1}.png`) is instance `i mod per_pose` of pose `i / per_pose`:
+//! its taps first, then its slides. Poses are numbered shape by shape.
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use tacsim_data::{Kind, Row, Split};
+
+use super::recipe::{Axes, Recipe};
+use crate::contact::pose::SensorPose;
+use crate::error::{Result, SimError};
+use crate::stimulus::Catalogue;
+
+/// A pose of the plan.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PosePlan {
+    /// Index of the shape in the recipe.
+    pub shape: usize,
+    /// `[x, y, depth, Rx, Ry, Rz]` relative to the contact location (mm, deg).
+    pub pose: [f64; 6],
+    /// Split of the pose.
+    pub split: Split,
+    /// In the paired (supervised) training subset.
+    pub paired: bool,
+}
+
+/// One sample: what to simulate and its labels.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sample {
+    /// Index in the plan.
+    pub index: usize,
+    /// Pose index.
+    pub pose_id: usize,
+    /// Tap or slide.
+    pub kind: Kind,
+    /// Label pose `[x, y, z, Rx, Ry, Rz]` (a tap's includes its depth jitter).
+    pub pose: [f64; 6],
+    /// Label shear `[x, y, z, Rx, Ry, Rz]`: the touch-down offset of a slide.
+    pub shear: [f64; 6],
+}
+
+/// The plan of a recipe.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// The recipe.
+    pub recipe: Recipe,
+    /// Per shape: name and contact location (object frame, mm).
+    pub shapes: Vec<(String, [f64; 2])>,
+    /// The poses, shape by shape.
+    pub poses: Vec<PosePlan>,
+}
+
+/// A ChaCha8 stream for the item with the given indices.
+fn stream(seed: u64, parts: &[u64]) -> ChaCha8Rng {
+    // SplitMix64 over the parts: distinct tuples give unrelated seeds.
+    let mut h = seed;
+    for &p in parts {
+        h = h.wrapping_add(p.wrapping_add(0x9E37_79B9_7F4A_7C15));
+        h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        h ^= h >> 31;
+    }
+    ChaCha8Rng::seed_from_u64(h)
+}
+
+fn draw(rng: &mut ChaCha8Rng, r: [f64; 2]) -> f64 {
+    let u: f64 = rng.random();
+    r[0] + (r[1] - r[0]) * u
+}
+
+impl Plan {
+    /// The plan of a (validated) recipe, with contact locations from `catalogue`.
+    pub fn new(recipe: &Recipe, catalogue: &Catalogue, source_name: &str) -> Result<Self> {
+        let mut shapes = Vec::new();
+        for (i, s) in recipe.shapes.iter().enumerate() {
+            let stim = catalogue
+                .get(&s.name)
+                .map_err(|e| SimError::invalid(source_name, format!("shapes[{i}].name"), format!("{e}")))?;
+            let contact = s.contact_mm.or(stim.entry.contact_mm).unwrap_or([0.0, 0.0]);
+            shapes.push((s.name.clone(), contact));
+        }
+        let n = recipe.poses.per_shape;
+        let p = &recipe.poses;
+        let sp = &recipe.split;
+        let mut poses = Vec::with_capacity(n * shapes.len());
+        for shape in 0..shapes.len() {
+            // Split by pose: a seeded permutation of the shape's poses, cut 60:20:20 (rounded),
+            // the first part of the training poses paired.
+            let mut order: Vec<usize> = (0..n).collect();
+            let mut rng = stream(recipe.seed, &[2, shape as u64]);
+            for k in (1..n).rev() {
+                order.swap(k, rng.random_range(0..=k));
+            }
+            let n_train = (sp.train * n as f64).round() as usize;
+            let n_val = ((sp.val * n as f64).round() as usize).min(n - n_train);
+            let n_paired = if sp.paired_fraction > 0.0 && n_train > 0 {
+                ((sp.paired_fraction * n_train as f64).round() as usize).clamp(1, n_train)
+            } else {
+                0
+            };
+            let mut rank = vec![0; n];
+            for (r, &k) in order.iter().enumerate() {
+                rank[k] = r;
+            }
+            for (k, &r) in rank.iter().enumerate() {
+                let id = shape * n + k;
+                let mut rng = stream(recipe.seed, &[1, id as u64]);
+                let pose = [
+                    draw(&mut rng, p.x_mm),
+                    draw(&mut rng, p.y_mm),
+                    draw(&mut rng, p.depth_mm),
+                    draw(&mut rng, p.rx_deg),
+                    draw(&mut rng, p.ry_deg),
+                    draw(&mut rng, p.yaw_deg),
+                ];
+                let split = if r < n_train {
+                    Split::Train
+                } else if r < n_train + n_val {
+                    Split::Val
+                } else {
+                    Split::Test
+                };
+                poses.push(PosePlan { shape, pose, split, paired: r < n_paired });
+            }
+        }
+        Ok(Self { recipe: recipe.clone(), shapes, poses })
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.poses.len() * self.recipe.per_pose()
+    }
+
+    /// Whether the plan has no samples.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Number of taps and of slides.
+    pub fn counts(&self) -> (usize, usize) {
+        (self.poses.len() * self.recipe.taps.per_pose, self.poses.len() * self.recipe.slides.per_pose)
+    }
+
+    /// Sample `index` (< `len()`).
+    pub fn sample(&self, index: usize) -> Sample {
+        let per = self.recipe.per_pose();
+        let (pose_id, k) = (index / per, index % per);
+        let base = self.poses[pose_id].pose;
+        let taps = self.recipe.taps.per_pose;
+        if k < taps {
+            let mut rng = stream(self.recipe.seed, &[3, pose_id as u64, k as u64]);
+            let j = self.recipe.taps.depth_jitter_mm;
+            let mut pose = base;
+            pose[2] += draw(&mut rng, [-0.5 * j, 0.5 * j]);
+            Sample { index, pose_id, kind: Kind::Tap, pose, shear: [0.0; 6] }
+        } else {
+            let s = &self.recipe.slides;
+            let mut rng = stream(self.recipe.seed, &[4, pose_id as u64, (k - taps) as u64]);
+            let axes = s.axes[rng.random_range(0..s.axes.len())];
+            let dx = draw(&mut rng, s.offset_mm);
+            let dy = draw(&mut rng, s.offset_mm);
+            let twist = draw(&mut rng, s.twist_deg);
+            let (sx, sy) = match axes {
+                Axes::X => (dx, 0.0),
+                Axes::Y => (0.0, dy),
+                Axes::Both => (dx, dy),
+            };
+            Sample { index, pose_id, kind: Kind::Slide, pose: base, shear: [sx, sy, 0.0, 0.0, 0.0, twist] }
+        }
+    }
+
+    /// The sensor poses (scene frame) of a sample: touch-down and target (equal for a tap).
+    pub fn sensor_poses(&self, s: &Sample) -> (SensorPose, SensorPose) {
+        let [cx, cy] = self.shapes[self.poses[s.pose_id].shape].1;
+        let [x, y, z, rx, ry, rz] = s.pose;
+        let target = SensorPose { x_mm: cx + x, y_mm: cy + y, depth_mm: z, yaw_deg: rz, rx_deg: rx, ry_deg: ry };
+        let start = SensorPose {
+            x_mm: target.x_mm + s.shear[0],
+            y_mm: target.y_mm + s.shear[1],
+            yaw_deg: target.yaw_deg + s.shear[5],
+            ..target
+        };
+        (start, target)
+    }
+
+    /// The `targets.csv` row of a sample.
+    pub fn row(&self, s: &Sample) -> Row {
+        let p = &self.poses[s.pose_id];
+        let [pose_x, pose_y, pose_z, pose_rx, pose_ry, pose_rz] = s.pose;
+        let [shear_x, shear_y, shear_z, shear_rx, shear_ry, shear_rz] = s.shear;
+        Row {
+            sensor_image: image_name(s.index),
+            pose_x,
+            pose_y,
+            pose_z,
+            pose_rx,
+            pose_ry,
+            pose_rz,
+            shear_x,
+            shear_y,
+            shear_z,
+            shear_rx,
+            shear_ry,
+            shear_rz,
+            kind: s.kind,
+            shape: self.shapes[p.shape].0.clone(),
+            pose_id: s.pose_id,
+            split: p.split,
+            paired: p.paired,
+        }
+    }
+}
+
+/// File name of sample `index`'s image (the lab's numbering: `image_0.png` is the reference).
+pub fn image_name(index: usize) -> String {
+    format!("image_{}.png", index + 1)
+}
+
+/// File name of the undeformed reference image.
+pub const REFERENCE_IMAGE: &str = "image_0.png";

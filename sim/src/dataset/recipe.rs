@@ -1,0 +1,326 @@
+//! Dataset recipes: which shapes, how many poses and instances, the ranges they are drawn
+//! from, and the split. Every field has a default (the paper's protocol) and unknown fields
+//! are errors. Units: mm and degrees.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Result, SimError};
+use crate::sensor::SkinModel;
+
+/// A dataset recipe (`scenarios/datasets/*.toml`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Recipe {
+    /// Name, shown in progress and recorded in `meta.json`.
+    pub name: String,
+    /// Seed of every random draw.
+    pub seed: u64,
+    /// Image side (px).
+    pub image_size: u32,
+    /// Cells across the contact footprint (odd), overriding the sensor's `skin.cells_across`:
+    /// the accuracy/speed knob (`tacsim bench` gives the error of each).
+    pub cells_across: Option<usize>,
+    /// Elastic model behind the skin, overriding the sensor's `skin.model`.
+    pub skin: Option<SkinModel>,
+    /// The stimuli, each pressed around its contact location.
+    pub shapes: Vec<ShapeSpec>,
+    /// Poses per shape and the ranges they are drawn from.
+    pub poses: PoseSpec,
+    /// Tap instances per pose.
+    pub taps: TapSpec,
+    /// Slide instances per pose.
+    pub slides: SlideSpec,
+    /// Split by pose.
+    pub split: SplitSpec,
+}
+
+/// A stimulus of the recipe.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ShapeSpec {
+    /// Catalogue name (`tacsim shapes`).
+    pub name: String,
+    /// Contact location (object frame, mm) the poses are relative to; default: the catalogue's
+    /// (a point on the edge), or the object's origin when it has none.
+    #[serde(default)]
+    pub contact_mm: Option<[f64; 2]>,
+}
+
+/// Pose ranges, relative to the contact location. Each range is `[low, high]`, drawn
+/// uniformly.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PoseSpec {
+    /// Poses per shape.
+    pub per_shape: usize,
+    /// Lateral x (mm).
+    pub x_mm: [f64; 2],
+    /// Lateral y (mm).
+    pub y_mm: [f64; 2],
+    /// Depth below the stimulus's top face (mm).
+    pub depth_mm: [f64; 2],
+    /// Yaw about the sensor axis (deg).
+    pub yaw_deg: [f64; 2],
+    /// Tilt about x (deg).
+    pub rx_deg: [f64; 2],
+    /// Tilt about y (deg).
+    pub ry_deg: [f64; 2],
+}
+
+/// Taps: pressed straight down onto the pose.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TapSpec {
+    /// Instances per pose.
+    pub per_pose: usize,
+    /// Spread of the tap depth (mm): each tap's depth is the pose's plus a uniform draw from
+    /// `[-jitter/2, jitter/2]`.
+    pub depth_jitter_mm: f64,
+}
+
+/// Which lateral axes a slide's touch-down offset uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Axes {
+    /// Offset along x only.
+    X,
+    /// Offset along y only.
+    Y,
+    /// Offset along both.
+    Both,
+}
+
+/// Slides: touch down at `pose + offset` (and twist), slide to the pose, capture.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SlideSpec {
+    /// Instances per pose.
+    pub per_pose: usize,
+    /// Range of each used offset component (mm).
+    pub offset_mm: [f64; 2],
+    /// Axis choices, one drawn uniformly per slide.
+    pub axes: Vec<Axes>,
+    /// Range of the yaw offset at touch-down (deg): rotational shear; `[0, 0]` for none.
+    pub twist_deg: [f64; 2],
+    /// Largest lateral step along the slide (mm); accuracy/speed knob (`tacsim bench`).
+    pub step_mm: f64,
+    /// Largest yaw step along the slide (deg).
+    pub step_deg: f64,
+}
+
+/// Split by pose, and the paired (supervised) part of the training poses.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SplitSpec {
+    /// Fraction of each shape's poses for training.
+    pub train: f64,
+    /// Fraction for validation.
+    pub val: f64,
+    /// Fraction for testing.
+    pub test: f64,
+    /// Fraction of the training poses whose tap/slide pairs stay paired (at least one when
+    /// positive); the rest form the unpaired subset.
+    pub paired_fraction: f64,
+}
+
+impl Default for Recipe {
+    fn default() -> Self {
+        Self {
+            name: "paper".into(),
+            seed: 0,
+            image_size: 256,
+            cells_across: None,
+            skin: None,
+            shapes: ["disk", "clover", "teardrop"]
+                .into_iter()
+                .map(|n| ShapeSpec { name: n.into(), contact_mm: None })
+                .collect(),
+            poses: PoseSpec::default(),
+            taps: TapSpec::default(),
+            slides: SlideSpec::default(),
+            split: SplitSpec::default(),
+        }
+    }
+}
+
+impl Default for PoseSpec {
+    fn default() -> Self {
+        Self {
+            per_shape: 200,
+            x_mm: [-5.0, 5.0],
+            y_mm: [-5.0, 5.0],
+            depth_mm: [1.0, 6.0],
+            yaw_deg: [-45.0, 45.0],
+            rx_deg: [0.0, 0.0],
+            ry_deg: [0.0, 0.0],
+        }
+    }
+}
+
+impl Default for TapSpec {
+    fn default() -> Self {
+        Self { per_pose: 50, depth_jitter_mm: 1.0 }
+    }
+}
+
+impl Default for SlideSpec {
+    fn default() -> Self {
+        Self {
+            per_pose: 150,
+            offset_mm: [-2.5, 2.5],
+            axes: vec![Axes::X, Axes::Y, Axes::Both],
+            twist_deg: [0.0, 0.0],
+            step_mm: 0.25,
+            step_deg: 1.0,
+        }
+    }
+}
+
+impl Default for SplitSpec {
+    fn default() -> Self {
+        Self { train: 0.6, val: 0.2, test: 0.2, paired_fraction: 0.1 }
+    }
+}
+
+impl Recipe {
+    /// Parses and validates a recipe; `source_name` names it in errors.
+    pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self> {
+        let r: Recipe = toml::from_str(text)
+            .map_err(|e| SimError::Toml { source_name: source_name.into(), message: e.to_string() })?;
+        r.validate(source_name)?;
+        Ok(r)
+    }
+
+    /// Loads and validates a recipe file.
+    pub fn load(path: &std::path::Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| SimError::io(path, "read", e))?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// Checks every value, naming the field of the first bad one. Shape names are checked
+    /// against the catalogue when the plan is made. `dome_radius_mm` bounds the depth.
+    pub fn validate(&self, src: &str) -> Result<()> {
+        let bad = |field: &str, reason: String| Err(SimError::invalid(src, field, reason));
+        if !(16..=2048).contains(&self.image_size) {
+            return bad("image_size", format!("must be in [16, 2048] px, got {}", self.image_size));
+        }
+        if let Some(n) = self.cells_across
+            && (!(5..=401).contains(&n) || n % 2 == 0)
+        {
+            return bad("cells_across", format!("must be odd and in [5, 401], got {n}"));
+        }
+        if self.shapes.is_empty() {
+            return bad("shapes", "must list at least one shape".into());
+        }
+        for (i, s) in self.shapes.iter().enumerate() {
+            if let Some(c) = s.contact_mm
+                && !c.iter().all(|v| v.is_finite())
+            {
+                return bad(&format!("shapes[{i}].contact_mm"), format!("must be finite, got {c:?}"));
+            }
+        }
+        let p = &self.poses;
+        if p.per_shape == 0 {
+            return bad("poses.per_shape", "must be at least 1".into());
+        }
+        let range = |field: &str, r: [f64; 2], lo: f64, hi: f64| -> Result<()> {
+            if !r.iter().all(|v| v.is_finite()) {
+                return bad(field, format!("must be finite, got {r:?}"));
+            }
+            if r[0] > r[1] {
+                return bad(field, format!("is inverted: [{}, {}] has low above high", r[0], r[1]));
+            }
+            if r[0] < lo || r[1] > hi {
+                return bad(field, format!("must lie within [{lo}, {hi}], got {r:?}"));
+            }
+            Ok(())
+        };
+        range("poses.x_mm", p.x_mm, -50.0, 50.0)?;
+        range("poses.y_mm", p.y_mm, -50.0, 50.0)?;
+        range("poses.yaw_deg", p.yaw_deg, -360.0, 360.0)?;
+        range("poses.rx_deg", p.rx_deg, -45.0, 45.0)?;
+        range("poses.ry_deg", p.ry_deg, -45.0, 45.0)?;
+        let t = &self.taps;
+        if !(t.depth_jitter_mm.is_finite() && t.depth_jitter_mm >= 0.0) {
+            return bad("taps.depth_jitter_mm", format!("must be >= 0 mm, got {}", t.depth_jitter_mm));
+        }
+        range("poses.depth_mm", p.depth_mm, 0.5 * t.depth_jitter_mm, f64::INFINITY).map_err(|e| match e {
+            SimError::Invalid { source_name, reason, .. } => SimError::Invalid {
+                source_name,
+                field: "poses.depth_mm".into(),
+                reason: format!("{reason} (the low end must leave room for half the tap depth jitter)"),
+            },
+            other => other,
+        })?;
+        if p.depth_mm[0] <= 0.0 {
+            return bad("poses.depth_mm", format!("must be above 0 mm (in contact), got {:?}", p.depth_mm));
+        }
+        let s = &self.slides;
+        if t.per_pose == 0 && s.per_pose == 0 {
+            return bad("taps.per_pose", "taps.per_pose and slides.per_pose cannot both be 0".into());
+        }
+        range("slides.offset_mm", s.offset_mm, -20.0, 20.0)?;
+        range("slides.twist_deg", s.twist_deg, -90.0, 90.0)?;
+        if s.axes.is_empty() {
+            return bad("slides.axes", "must list at least one of \"x\", \"y\", \"both\"".into());
+        }
+        if !(s.step_mm.is_finite() && s.step_mm > 0.0) {
+            return bad("slides.step_mm", format!("must be a positive number of mm, got {}", s.step_mm));
+        }
+        if !(s.step_deg.is_finite() && s.step_deg > 0.0) {
+            return bad("slides.step_deg", format!("must be a positive number of degrees, got {}", s.step_deg));
+        }
+        let sp = &self.split;
+        for (field, v) in [("split.train", sp.train), ("split.val", sp.val), ("split.test", sp.test)] {
+            if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
+                return bad(field, format!("must be a fraction in [0, 1], got {v}"));
+            }
+        }
+        if ((sp.train + sp.val + sp.test) - 1.0).abs() > 1e-9 {
+            return bad("split", format!("train + val + test must be 1, got {} + {} + {}", sp.train, sp.val, sp.test));
+        }
+        if !(sp.paired_fraction.is_finite() && (0.0..=1.0).contains(&sp.paired_fraction)) {
+            return bad("split.paired_fraction", format!("must be a fraction in [0, 1], got {}", sp.paired_fraction));
+        }
+        Ok(())
+    }
+
+    /// Samples per pose.
+    pub fn per_pose(&self) -> usize {
+        self.taps.per_pose + self.slides.per_pose
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_the_papers_protocol() {
+        let r = Recipe::default();
+        r.validate("default").expect("valid");
+        assert_eq!(r.shapes.len() * r.poses.per_shape * r.taps.per_pose, 30_000);
+        assert_eq!(r.shapes.len() * r.poses.per_shape * r.slides.per_pose, 90_000);
+    }
+
+    #[test]
+    fn bad_recipes_name_the_field() {
+        for (text, field) in [
+            ("[poses]\nx_mm = [5.0, -5.0]\n", "poses.x_mm"),
+            ("[poses]\ndepth_mm = [1.0, nan]\n", "poses.depth_mm"),
+            ("[poses]\nper_shape = 0\n", "poses.per_shape"),
+            ("[poses]\nper_shape = -3\n", "per_shape"),
+            ("[taps]\nper_pose = 0\n[slides]\nper_pose = 0\n", "taps.per_pose"),
+            ("[slides]\nstep_mm = 0.0\n", "slides.step_mm"),
+            ("[split]\ntrain = 0.7\n", "split"),
+            ("colour = 3\n", "colour"),
+            ("[slides]\naxes = [\"z\"]\n", "axes"),
+            ("shapes = []\n", "shapes"),
+            ("image_size = 4\n", "image_size"),
+            ("cells_across = 12\n", "cells_across"),
+        ] {
+            let e = Recipe::from_toml_str(text, "r.toml").expect_err(text).to_string();
+            assert!(e.contains("r.toml") && e.contains(field), "{text}: {e}");
+        }
+    }
+}

@@ -1,0 +1,150 @@
+//! `tacsim generate` and `tacsim merge`: dataset recipes to image folders, with a progress bar.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use tacsim_sim::PinRenderer;
+use tacsim_sim::contact::engine::ContactModel;
+use tacsim_sim::dataset::generate::{self, Context, Summary, Target};
+use tacsim_sim::dataset::plan::Plan;
+use tacsim_sim::dataset::recipe::Recipe;
+use tacsim_sim::scene::{ObjectPose, Scene};
+
+use crate::commands::load_catalogue;
+use crate::embedded::RECIPES;
+
+/// Options of `tacsim generate`.
+#[derive(Clone, Debug, Default)]
+pub struct GenerateOptions {
+    /// Recipe file, or the name of a built-in recipe (`paper`, `quick`, ...); `None`: `quick`.
+    pub recipe: Option<String>,
+    /// Output directory.
+    pub out: PathBuf,
+    /// Sensor TOML (default: the built-in calibrated TacTip).
+    pub sensor: Option<PathBuf>,
+    /// Image size override (px).
+    pub size: Option<u32>,
+    /// Seed override.
+    pub seed: Option<u64>,
+    /// Contact grid override (cells across the footprint).
+    pub cells: Option<usize>,
+    /// Worker threads (default: all cores).
+    pub threads: Option<usize>,
+    /// `(i, n)`: shard `i` of `n`.
+    pub shard: Option<(usize, usize)>,
+    /// Finish an interrupted run.
+    pub resume: bool,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+/// Parses `i/n`.
+pub fn parse_shard(s: &str) -> Result<(usize, usize), String> {
+    let (i, n) = s.split_once('/').ok_or_else(|| format!("expected i/n (for example 0/4), got `{s}`"))?;
+    let i: usize = i.trim().parse().map_err(|_| format!("shard index `{i}` is not a number"))?;
+    let n: usize = n.trim().parse().map_err(|_| format!("shard count `{n}` is not a number"))?;
+    if n == 0 || i >= n {
+        return Err(format!("shard {i}/{n}: need 0 <= i < n"));
+    }
+    Ok((i, n))
+}
+
+/// Loads a recipe: a file, else a built-in name. Returns it with its source name.
+pub fn load_recipe(arg: Option<&str>) -> Result<(Recipe, String)> {
+    let arg = arg.unwrap_or("quick");
+    let path = Path::new(arg);
+    if path.exists() {
+        return Ok((Recipe::load(path)?, path.display().to_string()));
+    }
+    match RECIPES.iter().find(|(n, _)| *n == arg) {
+        Some((name, text)) => {
+            let source = format!("built-in recipe {name} (scenarios/datasets/{name}.toml)");
+            Ok((Recipe::from_toml_str(text, &source)?, source))
+        }
+        None => anyhow::bail!(
+            "recipe `{arg}` is neither a file nor a built-in recipe ({})",
+            RECIPES.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+        ),
+    }
+}
+
+/// `tacsim generate`: returns the summary lines to print.
+pub fn generate(opts: &GenerateOptions) -> Result<String> {
+    let (mut recipe, source) = load_recipe(opts.recipe.as_deref())?;
+    if let Some(s) = opts.size {
+        recipe.image_size = s;
+    }
+    if let Some(s) = opts.seed {
+        recipe.seed = s;
+    }
+    if let Some(c) = opts.cells {
+        recipe.cells_across = Some(c);
+    }
+    recipe.validate(&source)?;
+    let catalogue = load_catalogue(None)?;
+    let plan = Plan::new(&recipe, &catalogue, &source)?;
+    let base = crate::commands::load_sensor(opts.sensor.as_deref(), None)?;
+    let sensor = generate::recipe_sensor(&plan, &base)?;
+    let model = ContactModel::new(&sensor);
+    let renderer = PinRenderer::new(&sensor, recipe.image_size)?;
+    let scenes = plan
+        .shapes
+        .iter()
+        .map(|(name, _)| -> Result<Scene> {
+            let mut scene = Scene::new();
+            scene.add(catalogue.get(name)?, ObjectPose::default())?;
+            Ok(scene)
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let ctx = Context { plan: &plan, model: &model, scenes: &scenes, renderer: &renderer };
+    let target = Target { out: opts.out.clone(), shard: opts.shard, resume: opts.resume };
+    let total = match opts.shard {
+        Some((i, n)) => generate::shard_range(plan.len(), i, n).len(),
+        None => plan.len(),
+    };
+    let bar = if opts.quiet { ProgressBar::hidden() } else { ProgressBar::new(total as u64) };
+    bar.set_style(
+        ProgressStyle::with_template("{prefix} [{bar:30}] {pos}/{len} images, {per_sec}, ETA {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(recipe.name.clone());
+    let run = || generate::generate(&ctx, &sensor, &target, &|done| bar.set_position(done as u64));
+    let summary = match opts.threads {
+        Some(n) => rayon::ThreadPoolBuilder::new().num_threads(n).build()?.install(run),
+        None => run(),
+    }
+    .with_context(|| format!("generating {} into {}", recipe.name, opts.out.display()))?;
+    bar.finish_and_clear();
+    Ok(report(&recipe, &opts.out, total, &summary))
+}
+
+fn report(recipe: &Recipe, out: &Path, total: usize, s: &Summary) -> String {
+    let per = |n: usize, secs: f64| if secs > 0.0 { n as f64 / secs } else { 0.0 };
+    let busy = s.solve_s + s.render_s + s.encode_s + s.write_s;
+    let pct = |v: f64| if busy > 0.0 { 100.0 * v / busy } else { 0.0 };
+    format!(
+        "{}: {total} images in {} ({} written, {} already there) in {:.1} s, {:.0} images/s\n\
+         per thread: taps {:.0}/s, slides {:.0}/s; time in contact + pins {:.0}%, render {:.0}%, \
+         PNG encode {:.0}%, write {:.0}%\n",
+        recipe.name,
+        out.display(),
+        s.written,
+        s.skipped,
+        s.wall_s,
+        per(s.written, s.wall_s),
+        per(s.taps, s.tap_s),
+        per(s.slides, s.slide_s),
+        pct(s.solve_s),
+        pct(s.render_s),
+        pct(s.encode_s),
+        pct(s.write_s),
+    )
+}
+
+/// `tacsim merge`: joins shards into `out`.
+pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<String> {
+    let n = generate::merge(out, shards)?;
+    Ok(format!("merged {} shards: {n} images in {}\n", shards.len(), out.display()))
+}

@@ -1,0 +1,194 @@
+//! `tacsim generate` and `tacsim merge` end to end: determinism whatever the threads or shards,
+//! resume after a kill, the format's promises, and clear errors for bad recipes.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+use tacsim_data::loader::Subset;
+use tacsim_data::{Dataset, Kind, Split};
+
+fn tacsim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tacsim")).args(args).output().expect("tacsim runs")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tacsim-data-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+/// Every file under `dir` (relative path -> bytes).
+fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![dir.to_owned()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("list") {
+            let p = e.expect("entry").path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p.strip_prefix(dir).expect("under dir").to_string_lossy().into_owned();
+                out.insert(rel, std::fs::read(&p).expect("read"));
+            }
+        }
+    }
+    out
+}
+
+fn generate(out: &Path, extra: &[&str]) {
+    let mut args = vec!["generate", "quick", "--quiet", "--out", s(out)];
+    args.extend_from_slice(extra);
+    let o = tacsim(&args);
+    assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn same_seed_same_bytes_whatever_threads_and_shards() {
+    let root = temp_dir("determinism");
+    let (a, b, c) = (root.join("a"), root.join("b"), root.join("c"));
+    generate(&a, &["--threads", "2"]);
+    generate(&b, &["--threads", "1"]);
+    let fa = files(&a);
+    assert_eq!(fa.len(), 300 + 1 + 2, "300 images, the reference, targets.csv and meta.json");
+    assert!(fa == files(&b), "1 thread and 2 threads give the same bytes");
+    generate(&c, &["--threads", "2", "--seed", "1"]);
+    assert_ne!(fa["targets.csv"], files(&c)["targets.csv"], "another seed, other poses");
+
+    let shards: Vec<PathBuf> = (0..3).map(|i| root.join(format!("shard{i}"))).collect();
+    for (i, d) in shards.iter().enumerate() {
+        generate(d, &["--shard", &format!("{i}/3")]);
+    }
+    let merged = root.join("merged");
+    let mut args = vec!["merge", "--out", s(&merged)];
+    args.extend(shards.iter().map(|p| s(p)));
+    let o = tacsim(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(fa == files(&merged), "merged shards equal the single run");
+    // Merging an incomplete set is refused.
+    let o = tacsim(&["merge", "--out", s(&root.join("bad")), s(&shards[0]), s(&shards[2])]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("shard"));
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn killed_run_resumes_to_the_same_bytes() {
+    let root = temp_dir("resume");
+    let (full, cut) = (root.join("full"), root.join("cut"));
+    generate(&full, &[]);
+    let mut child = Command::new(env!("CARGO_BIN_EXE_tacsim"))
+        .args(["generate", "quick", "--quiet", "--threads", "1", "--out", s(&cut)])
+        .spawn()
+        .expect("spawn");
+    let start = Instant::now();
+    let images = cut.join("images");
+    loop {
+        let n = std::fs::read_dir(&images).map(|d| d.count()).unwrap_or(0);
+        if n >= 40 || start.elapsed() > Duration::from_secs(60) {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    let partial = std::fs::read_dir(&images).expect("images").count();
+    println!("killed after {partial} files");
+    // Without --resume the directory is refused; with it the run completes.
+    let o = tacsim(&["generate", "quick", "--quiet", "--out", s(&cut)]);
+    if partial < 301 {
+        assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("--resume"));
+    }
+    generate(&cut, &["--resume"]);
+    assert!(files(&full) == files(&cut), "resumed run equals the uninterrupted one");
+    // A different recipe never overwrites it.
+    let o = tacsim(&["generate", "quick", "--quiet", "--seed", "7", "--resume", "--out", s(&cut)]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("different dataset"));
+    assert!(files(&full) == files(&cut), "nothing changed");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn rows_images_labels_pairs_and_splits_keep_their_promises() {
+    let root = temp_dir("promises");
+    generate(&root, &[]);
+    let ds = Dataset::open(&root).expect("complete dataset");
+    assert_eq!(ds.rows.len(), 300);
+    assert_eq!(ds.reference().expect("reference").dimensions(), (256, 256));
+    let mut split_of: HashMap<usize, Split> = HashMap::new();
+    let mut pose_of: HashMap<usize, [f64; 6]> = HashMap::new();
+    for r in &ds.rows {
+        let img = ds.image(r).expect("image");
+        assert_eq!(img.dimensions(), (256, 256));
+        assert!(img.as_raw().iter().all(|&p| p == 0 || p == 255), "binary");
+        // Recipe ranges (quick = the paper's: x, y in [-5, 5], yaw [-45, 45], depth [1, 6]
+        // widened by half the 1 mm tap jitter; slide offsets in [-2.5, 2.5]).
+        assert!((-5.0..=5.0).contains(&r.pose_x) && (-5.0..=5.0).contains(&r.pose_y), "{r:?}");
+        assert!((-45.0..=45.0).contains(&r.pose_rz) && (0.5..=6.5).contains(&r.pose_z), "{r:?}");
+        assert!(r.pose_rx == 0.0 && r.pose_ry == 0.0 && r.shear_z == 0.0 && r.shear_rz == 0.0);
+        match r.kind {
+            Kind::Tap => assert!(r.shear_x == 0.0 && r.shear_y == 0.0),
+            Kind::Slide => {
+                assert!((-2.5..=2.5).contains(&r.shear_x) && (-2.5..=2.5).contains(&r.shear_y), "{r:?}");
+                assert!(r.shear_x != 0.0 || r.shear_y != 0.0);
+                assert!((1.0..=6.0).contains(&r.pose_z));
+            }
+        }
+        assert_eq!(*split_of.entry(r.pose_id).or_insert(r.split), r.split, "a pose lies in one split");
+        if r.kind == Kind::Slide {
+            pose_of.insert(r.pose_id, r.pose());
+        }
+    }
+    let count = |sp: Split| split_of.values().filter(|&&v| v == sp).count();
+    assert_eq!((count(Split::Train), count(Split::Val), count(Split::Test)), (9, 3, 3), "60:20:20 of 5 poses x 3");
+    // True pairs share the pose; the paired subset is part of the training poses.
+    let pairs = ds.true_pairs(Split::Train, Subset::Paired);
+    assert_eq!(pairs.len(), 3 * 15, "one paired training pose per shape, 15 slides each");
+    for (t, sl) in pairs {
+        let (t, sl) = (&ds.rows[t], &ds.rows[sl]);
+        assert_eq!((t.kind, sl.kind), (Kind::Tap, Kind::Slide));
+        assert_eq!(t.pose_id, sl.pose_id);
+        assert!(t.paired && sl.paired && t.split == Split::Train);
+        assert_eq!(&t.pose()[..2], &pose_of[&t.pose_id][..2]);
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn bad_recipes_and_outputs_are_clear_errors() {
+    let root = temp_dir("bad");
+    std::fs::create_dir_all(&root).expect("dir");
+    let recipe = root.join("r.toml");
+    for (text, needle) in [
+        ("[[shapes]]\nname = \"cube\"\n", "shapes[0].name"),
+        ("[poses]\nx_mm = [5.0, -5.0]\n", "poses.x_mm"),
+        ("[taps]\nper_pose = -1\n", "per_pose"),
+        ("[poses]\nyaw_deg = [nan, 1.0]\n", "poses.yaw_deg"),
+        ("[slides]\nspeed = 3\n", "speed"),
+        ("[split]\ntrain = 0.9\n", "split"),
+    ] {
+        std::fs::write(&recipe, text).expect("write");
+        let out = root.join("never");
+        let o = tacsim(&["generate", s(&recipe), "--quiet", "--out", s(&out)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains("r.toml") && err.contains(needle), "{text}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        assert!(!out.exists(), "nothing written for a bad recipe");
+    }
+    let o = tacsim(&["generate", "nosuch", "--quiet", "--out", s(&root.join("x"))]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("paper, quick"));
+    // A directory holding something else, or a file in the way.
+    std::fs::write(root.join("notes.txt"), "mine").expect("write");
+    let o = tacsim(&["generate", "--quiet", "--out", s(&root)]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("not empty"));
+    assert_eq!(std::fs::read(root.join("notes.txt")).expect("kept"), b"mine");
+    let o = tacsim(&["generate", "--quiet", "--out", s(&root.join("notes.txt"))]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("notes.txt"));
+    let o = tacsim(&["generate", "--quiet", "--shard", "3/3", "--out", s(&root.join("y"))]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("i < n"));
+    let _ = std::fs::remove_dir_all(&root);
+}
