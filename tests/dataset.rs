@@ -155,6 +155,17 @@ fn rows_images_labels_pairs_and_splits_keep_their_promises() {
         assert!(t.paired && sl.paired && t.split == Split::Train);
         assert_eq!(&t.pose()[..2], &pose_of[&t.pose_id][..2]);
     }
+    // The unpaired subset is re-paired every epoch, the same way for the same seed and epoch.
+    let unpaired_slides = ds.indices(Split::Train, Subset::Unpaired, Kind::Slide);
+    let e0 = ds.epoch_pairs(5, 0);
+    assert_eq!(e0, ds.epoch_pairs(5, 0));
+    assert_ne!(e0, ds.epoch_pairs(5, 1));
+    assert_ne!(e0, ds.epoch_pairs(6, 0));
+    assert_eq!(e0.iter().map(|p| p.1).collect::<Vec<_>>(), unpaired_slides, "every unpaired slide once");
+    for (t, _) in &e0 {
+        let r = &ds.rows[*t];
+        assert!(r.kind == Kind::Tap && r.split == Split::Train && !r.paired, "{r:?}");
+    }
     let _ = std::fs::remove_dir_all(&root);
 }
 
