@@ -13,11 +13,13 @@
 //! slide (the sensor touched down at `pose + shear` and slid to `pose`), zero for taps.
 
 pub mod error;
+pub mod lab;
 pub mod loader;
 pub mod meta;
 pub mod row;
 
 pub use error::{DataError, Result};
+pub use lab::{LabFolder, LabSample};
 pub use loader::Dataset;
 pub use meta::{Meta, Shard};
 pub use row::{Kind, Row, Split};

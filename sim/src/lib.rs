@@ -8,6 +8,7 @@
 //! [`sensor`], image coordinates in [`camera`], the world frame in [`scene`].
 
 pub mod atomic;
+pub mod calibrate;
 pub mod calibration;
 pub mod camera;
 pub mod contact;
@@ -24,6 +25,7 @@ pub mod render;
 pub mod scene;
 pub mod sensor;
 pub mod stimulus;
+pub mod tracking;
 
 pub use error::{Result, SimError};
 pub use render::PinRenderer;

@@ -1,0 +1,76 @@
+//! Real observations: the reference pins of a lab folder's undeformed image and, per sample,
+//! each reference pin's tracked displacement (px of the real images).
+
+use rayon::prelude::*;
+use tacsim_data::{LabFolder, LabSample};
+
+use crate::calibration::pin_area_range;
+use crate::detect::detect_pins;
+use crate::error::{Result, SimError};
+use crate::png_io::read_png;
+use crate::tracking::{Tracking, track};
+
+/// Pin spacing of the lab's 420 px images (px), scaled with the image size.
+pub const SPACING_PX420: f64 = 17.5;
+
+/// One tracked real sample.
+#[derive(Clone, Debug)]
+pub struct Observation {
+    /// The sample's labels.
+    pub sample: LabSample,
+    /// Tracking of the reference pins.
+    pub tracking: Tracking,
+}
+
+/// The reference and the tracked samples of a lab folder.
+#[derive(Clone, Debug)]
+pub struct Observations {
+    /// Image side (px).
+    pub size: u32,
+    /// Reference pin centres (px).
+    pub reference: Vec<[f64; 2]>,
+    /// The samples other than the reference.
+    pub samples: Vec<Observation>,
+}
+
+/// Pin centres of a binary image (px).
+pub fn pin_centres(img: &image::GrayImage) -> Vec<[f64; 2]> {
+    let (lo, hi) = pin_area_range(img.width());
+    detect_pins(img, lo, hi).iter().map(|b| b.centroid).collect()
+}
+
+impl Observations {
+    /// Tracks every sample of `folder` against its reference image `reference_image`; samples
+    /// naming the reference are skipped.
+    pub fn track(folder: &LabFolder, reference_image: &str) -> Result<Self> {
+        let ref_path = folder.dir.join("images").join(reference_image);
+        let reference_img = read_png(&ref_path)?;
+        let (w, h) = reference_img.dimensions();
+        if w != h {
+            return Err(SimError::Image { path: ref_path, reason: format!("must be square, is {w}x{h}") });
+        }
+        let reference = pin_centres(&reference_img);
+        let spacing = SPACING_PX420 * w as f64 / 420.0;
+        let samples = folder
+            .samples
+            .par_iter()
+            .filter(|s| s.image != reference_image)
+            .map(|s| -> Result<Observation> {
+                let path = folder.image_path(s);
+                let img = read_png(&path)?;
+                if img.dimensions() != (w, h) {
+                    return Err(SimError::Image {
+                        path,
+                        reason: format!("is {}x{}, the reference {w}x{h}", img.width(), img.height()),
+                    });
+                }
+                let detected = pin_centres(&img);
+                // The lab's recordings move pins by under half a spacing as a whole (the largest
+                // shift of a tracked sample is about 0.3 spacing): start from no shift.
+                let tracking = track(&reference, &detected, spacing, [0.0, 0.0]);
+                Ok(Observation { sample: s.clone(), tracking })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Self { size: w, reference, samples })
+    }
+}

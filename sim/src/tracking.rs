@@ -1,0 +1,281 @@
+//! Pin tracking between a reference image's pins and a deformed image's detected pins.
+//!
+//! Pins of a TacTip move by up to about half their spacing between images, and more as a
+//! whole when the skin is sheared, so plain nearest neighbours mismatch. The tracker:
+//! 1. starts from `start_shift` (zero for recordings whose pins move by less than half a
+//!    spacing as a whole; [`global_shift`] estimates a larger one);
+//! 2. predicts each pin's position from the shift and, in later passes, from the median
+//!    displacement of its matched reference neighbours (the skin moves smoothly);
+//! 3. assigns detections to predictions by minimum total squared distance (Kuhn-Munkres), a
+//!    pin farther than `MATCH_FRACTION` of the spacing from every free detection staying
+//!    unmatched: a whole-image assignment cannot slide the lattice by one pin, as nearest
+//!    neighbours can;
+//! 4. rejects matches whose displacement departs from their neighbours' median by more than
+//!    `SMOOTH_FRACTION` of the spacing.
+//!
+//! Pins left without a trustworthy match are reported as unmatched, never guessed.
+//! Coordinates are image pixels.
+
+/// Largest distance from prediction to detection for a match, in pin spacings.
+const MATCH_FRACTION: f64 = 0.45;
+/// Largest departure of a pin's displacement from its neighbours' median, in pin spacings.
+const SMOOTH_FRACTION: f64 = 0.35;
+/// Neighbours used for the smooth prediction and check.
+const NEIGHBOURS: usize = 6;
+/// Prediction-assignment passes.
+const PASSES: usize = 3;
+
+/// The result of tracking.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tracking {
+    /// Per reference pin: its displacement (px), or `None` when unmatched.
+    pub displacement: Vec<Option<[f64; 2]>>,
+    /// Per reference pin: index of the matched detection.
+    pub matched: Vec<Option<usize>>,
+    /// Global shift (px): the median displacement of the matched pins.
+    pub global_shift: [f64; 2],
+}
+
+impl Tracking {
+    /// Reference pins without a match.
+    pub fn unmatched(&self) -> usize {
+        self.matched.iter().filter(|m| m.is_none()).count()
+    }
+}
+
+fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+}
+
+/// A uniform bucket grid over points, for nearest-neighbour queries.
+struct Buckets {
+    cell: f64,
+    origin: [f64; 2],
+    nx: usize,
+    ny: usize,
+    cells: Vec<Vec<usize>>,
+}
+
+impl Buckets {
+    fn new(points: &[[f64; 2]], cell: f64) -> Self {
+        let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+        for p in points {
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        if points.is_empty() {
+            lo = [0.0; 2];
+            hi = [0.0; 2];
+        }
+        let nx = ((hi[0] - lo[0]) / cell).floor() as usize + 1;
+        let ny = ((hi[1] - lo[1]) / cell).floor() as usize + 1;
+        let mut cells = vec![Vec::new(); nx * ny];
+        for (i, p) in points.iter().enumerate() {
+            let (cx, cy) = (((p[0] - lo[0]) / cell) as usize, ((p[1] - lo[1]) / cell) as usize);
+            cells[cy * nx + cx].push(i);
+        }
+        Self { cell, origin: lo, nx, ny, cells }
+    }
+
+    /// The nearest point to `q` within `radius` (squared distance, index).
+    fn nearest(&self, points: &[[f64; 2]], q: [f64; 2], radius: f64) -> Option<(f64, usize)> {
+        let r = (radius / self.cell).ceil() as isize;
+        let cx = ((q[0] - self.origin[0]) / self.cell).floor() as isize;
+        let cy = ((q[1] - self.origin[1]) / self.cell).floor() as isize;
+        let mut best: Option<(f64, usize)> = None;
+        for y in (cy - r).max(0)..=(cy + r).min(self.ny as isize - 1) {
+            for x in (cx - r).max(0)..=(cx + r).min(self.nx as isize - 1) {
+                for &i in &self.cells[y as usize * self.nx + x as usize] {
+                    let d = dist2(points[i], q);
+                    if d <= radius * radius && best.is_none_or(|b| d < b.0) {
+                        best = Some((d, i));
+                    }
+                }
+            }
+        }
+        best
+    }
+}
+
+/// Global shift (px) of `detected` relative to `reference` by a coarse search within
+/// `max_shift` px (step a quarter spacing), then median refinement.
+pub fn global_shift(reference: &[[f64; 2]], detected: &[[f64; 2]], spacing: f64, max_shift: f64) -> [f64; 2] {
+    let cap = 0.5 * spacing;
+    let buckets = Buckets::new(detected, spacing);
+    let score = |s: [f64; 2]| -> f64 {
+        reference
+            .iter()
+            .map(|p| buckets.nearest(detected, [p[0] + s[0], p[1] + s[1]], cap).map_or(cap * cap, |(d, _)| d))
+            .sum()
+    };
+    let step = 0.25 * spacing;
+    let n = (max_shift / step).ceil() as i64;
+    let mut best = ([0.0, 0.0], score([0.0, 0.0]));
+    for j in -n..=n {
+        for i in -n..=n {
+            let s = [i as f64 * step, j as f64 * step];
+            let v = score(s);
+            if v < best.1 {
+                best = (s, v);
+            }
+        }
+    }
+    let mut shift = best.0;
+    for _ in 0..4 {
+        let (mut dx, mut dy) = (Vec::new(), Vec::new());
+        for p in reference {
+            let q = [p[0] + shift[0], p[1] + shift[1]];
+            if let Some((_, i)) = buckets.nearest(detected, q, cap) {
+                dx.push(detected[i][0] - p[0]);
+                dy.push(detected[i][1] - p[1]);
+            }
+        }
+        shift = [median(dx), median(dy)];
+    }
+    shift
+}
+
+/// Minimum-cost assignment of `predicted` points to `detected` ones within `radius`.
+fn assign(predicted: &[[f64; 2]], detected: &[[f64; 2]], radius: f64) -> Vec<Option<usize>> {
+    use pathfinding::kuhn_munkres::kuhn_munkres_min;
+    use pathfinding::matrix::Matrix;
+    let (n, m) = (predicted.len(), detected.len());
+    if n == 0 {
+        return Vec::new();
+    }
+    // Costs in hundredths of px^2; one private "unmatched" column per row.
+    const SCALE: f64 = 100.0;
+    const FORBIDDEN: i64 = 1 << 40;
+    let miss = (radius * radius * SCALE).round() as i64;
+    let mut w = Matrix::new(n, m + n, FORBIDDEN);
+    for (i, p) in predicted.iter().enumerate() {
+        w[(i, m + i)] = miss;
+        for (k, d) in detected.iter().enumerate() {
+            let d2 = dist2(*p, *d);
+            if d2 < radius * radius {
+                w[(i, k)] = (d2 * SCALE).round() as i64;
+            }
+        }
+    }
+    let (_, cols) = kuhn_munkres_min(&w);
+    cols.into_iter().map(|k| (k < m).then_some(k)).collect()
+}
+
+/// Tracks `reference` pins into `detected` pins (px) starting from `start_shift` (px);
+/// `spacing` is the typical distance between neighbouring pins (px).
+pub fn track(reference: &[[f64; 2]], detected: &[[f64; 2]], spacing: f64, start_shift: [f64; 2]) -> Tracking {
+    let n = reference.len();
+    let shift = start_shift;
+    // Neighbours of each reference pin (excluding itself), nearest first.
+    let neighbours: Vec<Vec<usize>> = (0..n)
+        .map(|i| {
+            let mut d: Vec<(f64, usize)> =
+                (0..n).filter(|&j| j != i).map(|j| (dist2(reference[i], reference[j]), j)).collect();
+            d.sort_by(|a, b| a.0.total_cmp(&b.0));
+            d.into_iter().take(NEIGHBOURS).map(|(_, j)| j).collect()
+        })
+        .collect();
+    let radius = MATCH_FRACTION * spacing;
+    let mut disp: Vec<Option<[f64; 2]>> = vec![None; n];
+    let mut matched: Vec<Option<usize>> = vec![None; n];
+    for pass in 0..PASSES {
+        // Predicted displacement: the global shift, then the neighbours' median.
+        let predict = |i: usize| -> [f64; 2] {
+            if pass == 0 {
+                return shift;
+            }
+            let (dx, dy): (Vec<f64>, Vec<f64>) =
+                neighbours[i].iter().filter_map(|&j| disp[j]).map(|d| (d[0], d[1])).unzip();
+            if dx.len() >= 2 { [median(dx), median(dy)] } else { disp[i].unwrap_or(shift) }
+        };
+        let predicted: Vec<[f64; 2]> =
+            (0..n).map(predict).zip(reference).map(|(d, p)| [p[0] + d[0], p[1] + d[1]]).collect();
+        let new_matched = assign(&predicted, detected, radius);
+        matched = new_matched;
+        disp = (0..n)
+            .map(|i| matched[i].map(|k| [detected[k][0] - reference[i][0], detected[k][1] - reference[i][1]]))
+            .collect();
+    }
+    // Smoothness check against the neighbours' median.
+    let limit2 = (SMOOTH_FRACTION * spacing).powi(2);
+    let checked: Vec<bool> = (0..n)
+        .map(|i| {
+            let Some(d) = disp[i] else { return false };
+            let (dx, dy): (Vec<f64>, Vec<f64>) =
+                neighbours[i].iter().filter_map(|&j| disp[j]).map(|d| (d[0], d[1])).unzip();
+            dx.len() < 2 || dist2(d, [median(dx), median(dy)]) <= limit2
+        })
+        .collect();
+    for i in 0..n {
+        if !checked[i] {
+            disp[i] = None;
+            matched[i] = None;
+        }
+    }
+    let (dx, dy): (Vec<f64>, Vec<f64>) = disp.iter().flatten().map(|d| (d[0], d[1])).unzip();
+    Tracking { displacement: disp, matched, global_shift: [median(dx), median(dy)] }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lattice() -> Vec<[f64; 2]> {
+        let mut v = Vec::new();
+        for j in -8..=8 {
+            for i in -8..=8 {
+                let (x, y) = (i as f64 * 18.0 + if j % 2 == 0 { 0.0 } else { 9.0 }, j as f64 * 15.6);
+                if x.hypot(y) < 150.0 {
+                    v.push([210.0 + x, 210.0 + y]);
+                }
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn recovers_a_large_shift_plus_a_smooth_swirl_and_reports_missing_pins() {
+        let r = lattice();
+        // A shift of 1.5 spacings plus a local swirl of up to 0.45 spacing.
+        let moved: Vec<[f64; 2]> = r
+            .iter()
+            .map(|p| {
+                let (x, y) = (p[0] - 210.0, p[1] - 210.0);
+                let w = 8.0 * (-(x * x + y * y) / (2.0 * 60.0f64.powi(2))).exp();
+                [p[0] + 27.0 - w * y / 60.0, p[1] - 10.0 + w * x / 60.0]
+            })
+            .collect();
+        // Drop every 13th detection, add two specks.
+        let mut detected: Vec<[f64; 2]> =
+            moved.iter().enumerate().filter(|(i, _)| i % 13 != 5).map(|(_, p)| *p).collect();
+        detected.push([5.0, 5.0]);
+        detected.push([400.0, 30.0]);
+        let start = global_shift(&r, &detected, 18.0, 60.0);
+        let t = track(&r, &detected, 18.0, start);
+        assert!((t.global_shift[0] - 27.0).abs() < 1.0 && (t.global_shift[1] + 10.0).abs() < 1.0, "{t:?}");
+        let mut right = 0;
+        for (i, d) in t.displacement.iter().enumerate() {
+            if let Some(d) = d {
+                let truth = [moved[i][0] - r[i][0], moved[i][1] - r[i][1]];
+                assert!(dist2(*d, truth) < 1e-12, "pin {i}: {d:?} vs {truth:?}");
+                right += 1;
+            } else {
+                continue;
+            }
+        }
+        let dropped = (0..r.len()).filter(|i| i % 13 == 5).count();
+        assert_eq!(t.unmatched(), dropped, "exactly the dropped pins are unmatched");
+        assert_eq!(right + dropped, r.len());
+    }
+}

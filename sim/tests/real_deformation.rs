@@ -1,0 +1,42 @@
+//! Tracking the real recordings of `../shared/data/real-tactip-surface3d`: how many pins are
+//! tracked, and the frame mapping from the labels to the image. Skips, saying so, where the
+//! shared data is absent (set `TACSIM_SHARED`).
+
+use std::path::PathBuf;
+
+use tacsim_data::LabFolder;
+use tacsim_sim::calibrate::frame;
+use tacsim_sim::calibrate::observe::Observations;
+
+fn folder() -> Option<PathBuf> {
+    let shared = std::env::var_os("TACSIM_SHARED")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared"));
+    let dir = shared.join("data/real-tactip-surface3d");
+    if dir.join("targets.csv").exists() {
+        Some(dir)
+    } else {
+        println!("SKIPPED: {} not found (set TACSIM_SHARED to the shared/ folder)", dir.display());
+        None
+    }
+}
+
+#[test]
+fn real_pins_are_tracked_and_the_label_frame_is_found() {
+    let Some(dir) = folder() else { return };
+    let lab = LabFolder::open(&dir).expect("lab folder");
+    let obs = Observations::track(&lab, "image_0.png").expect("tracking");
+    let n = obs.reference.len();
+    let tracked: Vec<usize> = obs.samples.iter().map(|o| n - o.tracking.unmatched()).collect();
+    let mean = tracked.iter().sum::<usize>() as f64 / tracked.len() as f64;
+    let min = tracked.iter().min().copied().unwrap_or(0);
+    println!("{} reference pins; tracked per sample: mean {mean:.1}, min {min}", n);
+    let shifts: Vec<f64> =
+        obs.samples.iter().map(|o| o.tracking.global_shift[0].hypot(o.tracking.global_shift[1])).collect();
+    println!("global shift: max {:.1} px", shifts.iter().fold(0.0f64, |m, v| m.max(*v)));
+    // Most pins are tracked in every sample; those that move more than the match radius near
+    // a deep contact are reported unmatched, not guessed.
+    assert!(mean > 250.0 && min > 150, "mean {mean}, min {min}");
+    let f = frame::fit(&obs).expect("frame fit");
+    println!("{f:?}");
+}
