@@ -23,7 +23,7 @@ const SMOOTH_FRACTION: f64 = 0.35;
 /// Neighbours used for the smooth prediction and check.
 const NEIGHBOURS: usize = 6;
 /// Prediction-assignment passes.
-const PASSES: usize = 3;
+const PASSES: usize = 8;
 
 /// The result of tracking.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,7 +47,8 @@ fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
     (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
+/// Median of `v` (0 when empty).
+pub(crate) fn median(mut v: Vec<f64>) -> f64 {
     if v.is_empty() {
         return 0.0;
     }

@@ -3,6 +3,9 @@
 //!   files are up to date);
 //! - `fit-camera [--real PNG]`: fit the camera and ring layout to the lab's undeformed
 //!   reference image and write `sim/presets/tactip-331.toml`;
+//! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]]`: track
+//!   the lab's recordings and compare the simulated pin motion with the real one (undeformed
+//!   positions, radial profiles by depth, per-sample errors);
 //! - `bench`: run the benchmarks (criterion: renderer, contact operator products) and print
 //!   their figures; `tacsim bench` times whole taps and slides.
 
@@ -35,8 +38,12 @@ fn main() -> Result<()> {
             fit(&real)
         }
         Some("bench") => bench(&args[1..]),
+        Some("real-compare") => real_compare(&args[1..]),
         _ => {
-            eprintln!("usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args]");
+            eprintln!(
+                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | \
+                 real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]]"
+            );
             bail!("unknown or missing command")
         }
     }
@@ -144,6 +151,79 @@ fn bench(extra: &[String]) -> Result<()> {
         .context("running cargo bench")?;
     if !status.success() {
         bail!("cargo bench failed");
+    }
+    Ok(())
+}
+
+fn flag<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
+    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).map(String::as_str)
+}
+
+fn real_compare(args: &[String]) -> Result<()> {
+    use tacsim_sim::calibrate::evaluate::Simulator;
+    use tacsim_sim::calibrate::model::{Deformation, LabelFrame};
+    use tacsim_sim::calibrate::observe::Observations;
+    let dir =
+        flag(args, "--real").map(PathBuf::from).unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d"));
+    let lab = tacsim_data::LabFolder::open(&dir)?;
+    let obs = Observations::track(&lab, "image_0.png")?;
+    let n = obs.reference.len();
+    let tracked: Vec<usize> = obs.samples.iter().map(|o| n - o.tracking.unmatched()).collect();
+    println!(
+        "{}: {} recordings, {n} reference pins, tracked per recording: mean {:.1}, min {}",
+        dir.display(),
+        obs.samples.len(),
+        tracked.iter().sum::<usize>() as f64 / tracked.len().max(1) as f64,
+        tracked.iter().min().copied().unwrap_or(0)
+    );
+    let base = SensorParams::default();
+    let mut d = Deformation::of(&base, 0.5);
+    if let Some(m) = flag(args, "--skin") {
+        d.model = m.parse().map_err(anyhow::Error::msg)?;
+    }
+    if let Some(v) = flag(args, "--depth-offset") {
+        d.depth_offset_mm = v.parse()?;
+    }
+    if let Some(v) = flag(args, "--friction") {
+        d.friction = v.parse()?;
+    }
+    let cat = Catalogue::load_dir(&root().join("shapes"))?;
+    let disk = cat.get("disk")?;
+    let sim = Simulator::new(&base, &d, 17, &obs, &disk)?;
+    let (rms, matched) = sim.undeformed_rms(&obs);
+    println!("{d:?}\nundeformed: {matched} pins matched, RMS {rms:.2} px from the real reference");
+    println!("radial displacement (px, outward), real / simulated untilted tap, recordings tilted < 8 deg:");
+    println!("depth      r 0-25%        25-50%        50-75%        75-100%");
+    for (band, row) in sim.radial_profiles(&obs, 8.0)?.iter().enumerate() {
+        let cells: Vec<String> = row.iter().map(|(re, si, _)| format!("{re:5.1} / {si:5.1}")).collect();
+        println!("{}-{} mm   {}", band + 1, band + 2, cells.join("   "));
+    }
+    let all: Vec<usize> = (0..obs.samples.len()).collect();
+    // `--frame DEG` or `--frame DEGm`: labels rotated by DEG (mirrored first with `m`).
+    let frame = match flag(args, "--frame") {
+        Some(f) => LabelFrame::new(f.trim_end_matches('m').parse()?, f.ends_with('m')),
+        None => LabelFrame::IDENTITY,
+    };
+    let errs = sim.errors(&obs, &all, &frame)?;
+    for (name, zmax, tmax) in
+        [("depth <= 2.5 mm, tilt < 8 deg", 2.5, 8.0), ("depth <= 2.5 mm", 2.5, 90.0), ("all", f64::INFINITY, 90.0)]
+    {
+        let sel: Vec<_> = errs
+            .iter()
+            .zip(&obs.samples)
+            .filter(|(_, o)| o.sample.pose[2] <= zmax && o.sample.pose[3].abs().max(o.sample.pose[4].abs()) < tmax)
+            .map(|(e, _)| e)
+            .collect();
+        let mean = |f: &dyn Fn(&&tacsim_sim::calibrate::model::SampleError) -> f64| {
+            sel.iter().map(f).sum::<f64>() / sel.len().max(1) as f64
+        };
+        println!(
+            "{name}: {} recordings, mean error {:.2} px against mean real motion {:.2} px, mean relative error {:.2}",
+            sel.len(),
+            mean(&|e| e.error_px),
+            mean(&|e| e.real_px),
+            mean(&|e| e.relative())
+        );
     }
     Ok(())
 }

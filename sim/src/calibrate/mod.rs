@@ -1,6 +1,8 @@
-//! Calibrating the deformation model against real recordings (`tacsim calibrate`): track the
-//! real pins ([`observe`]), find how the labels' axes map to the sensor's ([`frame`]), and fit
-//! the skin model and its parameters to the real pin displacements.
+//! Comparing (and, to come, calibrating) the deformation model against real recordings: track
+//! the real pins ([`observe`]), simulate the same recordings with a label frame and
+//! deformation parameters ([`model`]), and measure the difference ([`evaluate`];
+//! `cargo xtask real-compare` prints it).
 
-pub mod frame;
+pub mod evaluate;
+pub mod model;
 pub mod observe;

@@ -1,0 +1,270 @@
+//! The simulated counterpart of a lab recording: the same labels on a flat surface, the pin
+//! displacements in the real image's pixels, and their error against the tracked real ones.
+//!
+//! The recording's labels live in the robot's frame; a [`LabelFrame`] (found from the data,
+//! see [`super::frame`]) maps their lateral axes to the sensor's. Tilts are rotation vectors:
+//! under an orthogonal map `M` their lateral part maps by `det(M) M` and the twist by
+//! `det(M)`.
+
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+use tacsim_data::LabSample;
+
+use crate::contact::engine::{ContactModel, Simulation};
+use crate::contact::pose::SensorPose;
+use crate::contact::trajectory::Path as SensorPath;
+use crate::error::Result;
+use crate::render::PinRenderer;
+use crate::scene::{ObjectPose, Scene};
+use crate::sensor::{SensorParams, SkinModel};
+use crate::stimulus::Stimulus;
+use crate::tracking::median;
+
+/// An orthogonal map from the labels' lateral axes to the sensor's (row-major).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LabelFrame {
+    /// `sensor = m * label` for lateral vectors.
+    pub m: [[f64; 2]; 2],
+}
+
+impl LabelFrame {
+    /// The identity.
+    pub const IDENTITY: LabelFrame = LabelFrame { m: [[1.0, 0.0], [0.0, 1.0]] };
+
+    /// Rotation by `deg`, mirrored (`y -> -y` first) when `mirrored`.
+    pub fn new(deg: f64, mirrored: bool) -> Self {
+        let (s, c) = deg.to_radians().sin_cos();
+        let f = if mirrored { -1.0 } else { 1.0 };
+        LabelFrame { m: [[c, -s * f], [s, c * f]] }
+    }
+
+    fn det(&self) -> f64 {
+        self.m[0][0] * self.m[1][1] - self.m[0][1] * self.m[1][0]
+    }
+
+    fn apply(&self, v: [f64; 2]) -> [f64; 2] {
+        [self.m[0][0] * v[0] + self.m[0][1] * v[1], self.m[1][0] * v[0] + self.m[1][1] * v[1]]
+    }
+
+    /// Touch-down and target sensor poses of a recording on a flat top face at the origin,
+    /// with `depth_offset_mm` added to the labelled depth.
+    pub fn poses(&self, s: &LabSample, depth_offset_mm: f64) -> (SensorPose, SensorPose) {
+        let d = self.det();
+        let tilt = self.apply([s.pose[3], s.pose[4]]);
+        let offset = self.apply([s.shear[0], s.shear[1]]);
+        let target = SensorPose {
+            x_mm: 0.0,
+            y_mm: 0.0,
+            depth_mm: s.pose[2] + depth_offset_mm,
+            yaw_deg: d * s.pose[5],
+            rx_deg: d * tilt[0],
+            ry_deg: d * tilt[1],
+        };
+        let start = SensorPose { x_mm: offset[0], y_mm: offset[1], yaw_deg: target.yaw_deg + d * s.shear[5], ..target };
+        (start, target)
+    }
+}
+
+/// The deformation parameters a calibration fits.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Deformation {
+    /// Elastic model.
+    pub model: SkinModel,
+    /// Pin length (mm). The skin thickness changes with it so that the pin tips, and with
+    /// them the undeformed image, stay where the camera fit put them.
+    pub pin_length_mm: f64,
+    /// Skin-on-gel: gel modulus over skin modulus.
+    pub gel_ratio: f64,
+    /// Layered models: depth of the rigid base (mm).
+    pub base_depth_mm: f64,
+    /// Friction coefficient between skin and surface.
+    pub friction: f64,
+    /// Added to the labelled depth (mm): where the robot's zero sits against first touch.
+    pub depth_offset_mm: f64,
+}
+
+impl Deformation {
+    /// The parameters of `sensor` (friction of the surface `friction`).
+    pub fn of(sensor: &SensorParams, friction: f64) -> Self {
+        let k = &sensor.skin;
+        Self {
+            model: k.model,
+            pin_length_mm: sensor.pins.length_mm,
+            gel_ratio: k.gel_youngs_modulus_mpa / k.youngs_modulus_mpa,
+            base_depth_mm: k.base_depth_mm,
+            friction,
+            depth_offset_mm: 0.0,
+        }
+    }
+
+    /// `base` with these parameters (validated).
+    pub fn sensor(&self, base: &SensorParams) -> Result<SensorParams> {
+        let mut s = base.clone();
+        let tip_depth = base.dome.skin_thickness_mm + base.pins.length_mm;
+        s.pins.length_mm = self.pin_length_mm;
+        s.dome.skin_thickness_mm = tip_depth - self.pin_length_mm;
+        s.skin.model = self.model;
+        s.skin.gel_youngs_modulus_mpa = self.gel_ratio * base.skin.youngs_modulus_mpa;
+        s.skin.base_depth_mm = self.base_depth_mm;
+        s.validate("calibration")?;
+        Ok(s)
+    }
+}
+
+/// A flat surface (the top of `disk`, at the origin) with friction `friction`.
+pub fn flat_scene(disk: &Stimulus, friction: f64) -> Result<Scene> {
+    let mut stim = disk.clone();
+    stim.entry.friction = friction;
+    let mut scene = Scene::new();
+    scene.add(Arc::new(stim), ObjectPose::default())?;
+    Ok(scene)
+}
+
+/// Image positions (px) of the pin tips of `pins` (`None` where a tip leaves the view).
+fn tip_pixels(renderer: &PinRenderer, pins: &[crate::pins::PinPose]) -> Vec<Option<[f64; 2]>> {
+    pins.iter().map(|p| renderer.camera().project(&p.tip)).collect()
+}
+
+/// Simulated pin-tip displacements (px, per sensor pin) of a recording: touch down, slide in
+/// steps of at most `step_mm`, capture.
+pub fn simulate(
+    model: &ContactModel,
+    scene: &Scene,
+    renderer: &PinRenderer,
+    frame: &LabelFrame,
+    depth_offset_mm: f64,
+    sample: &LabSample,
+    step_mm: f64,
+) -> Result<Vec<Option<[f64; 2]>>> {
+    let (start, target) = frame.poses(sample, depth_offset_mm);
+    let path = SensorPath::slide_between(start, target, step_mm, 2.0)?;
+    let mut sim = Simulation::new(model, scene, &path.poses());
+    for s in &path.steps {
+        sim.step(s.pose)?;
+    }
+    let rest = tip_pixels(renderer, &model.layout.poses());
+    let moved = tip_pixels(renderer, &sim.pins());
+    Ok(rest
+        .iter()
+        .zip(&moved)
+        .map(|(a, b)| match (a, b) {
+            (Some(a), Some(b)) => Some([b[0] - a[0], b[1] - a[1]]),
+            _ => None,
+        })
+        .collect())
+}
+
+/// For each real reference pin, the sensor pin whose undeformed image lies nearest, within
+/// `radius` px (the camera fit puts them within a pixel).
+pub fn match_reference(
+    renderer: &PinRenderer,
+    layout_pins: &[crate::pins::PinPose],
+    reference: &[[f64; 2]],
+    radius: f64,
+) -> Vec<Option<usize>> {
+    let sim = tip_pixels(renderer, layout_pins);
+    reference
+        .iter()
+        .map(|r| {
+            sim.iter()
+                .enumerate()
+                .filter_map(|(i, p)| p.map(|p| (i, (p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2))))
+                .filter(|(_, d2)| *d2 <= radius * radius)
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(i, _)| i)
+        })
+        .collect()
+}
+
+/// Error of one sample: over the reference pins tracked in the real image and simulated,
+/// mean `|d_sim - d_real|` (px), mean `|d_real|` (px), and the global shifts (median
+/// displacement, px) of both.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SampleError {
+    /// Mean per-pin displacement error (px).
+    pub error_px: f64,
+    /// Mean real displacement magnitude (px).
+    pub real_px: f64,
+    /// Pins compared.
+    pub pins: usize,
+    /// Real global shift (px).
+    pub real_shift: [f64; 2],
+    /// Simulated global shift over the same pins (px).
+    pub sim_shift: [f64; 2],
+}
+
+impl SampleError {
+    /// Error relative to the real displacement magnitude.
+    pub fn relative(&self) -> f64 {
+        if self.real_px > 0.0 { self.error_px / self.real_px } else { 0.0 }
+    }
+}
+
+/// Compares simulated displacements (per sensor pin) with tracked real ones (per reference
+/// pin), through `reference_to_sim`.
+pub fn compare(sim: &[Option<[f64; 2]>], real: &[Option<[f64; 2]>], reference_to_sim: &[Option<usize>]) -> SampleError {
+    let mut pairs = Vec::new();
+    for (r, m) in real.iter().zip(reference_to_sim) {
+        if let (Some(r), Some(i)) = (r, m)
+            && let Some(s) = sim[*i]
+        {
+            pairs.push((*r, s));
+        }
+    }
+    let n = pairs.len();
+    if n == 0 {
+        return SampleError::default();
+    }
+    let error = pairs.iter().map(|(r, s)| (r[0] - s[0]).hypot(r[1] - s[1])).sum::<f64>() / n as f64;
+    let real_px = pairs.iter().map(|(r, _)| r[0].hypot(r[1])).sum::<f64>() / n as f64;
+    let col = |which: usize, axis: usize| {
+        median(pairs.iter().map(|p| if which == 0 { p.0[axis] } else { p.1[axis] }).collect())
+    };
+    SampleError {
+        error_px: error,
+        real_px,
+        pins: n,
+        real_shift: [col(0, 0), col(0, 1)],
+        sim_shift: [col(1, 0), col(1, 1)],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> LabSample {
+        LabSample {
+            image: "x.png".into(),
+            pose: [0.0, 0.0, 2.0, 10.0, -4.0, 0.0],
+            shear: [3.0, 1.0, 0.0, 0.0, 0.0, 5.0],
+        }
+    }
+
+    #[test]
+    fn label_frames_map_offsets_as_vectors_and_tilts_as_rotation_vectors() {
+        let (start, target) = LabelFrame::IDENTITY.poses(&sample(), 0.5);
+        assert_eq!((start.x_mm, start.y_mm, start.yaw_deg, target.depth_mm), (3.0, 1.0, 5.0, 2.5));
+        assert_eq!((target.rx_deg, target.ry_deg), (10.0, -4.0));
+        // A quarter turn: x -> y, y -> -x, for offsets and tilts alike.
+        let (s, t) = LabelFrame::new(90.0, false).poses(&sample(), 0.0);
+        assert!((s.x_mm + 1.0).abs() < 1e-12 && (s.y_mm - 3.0).abs() < 1e-12);
+        assert!((t.rx_deg - 4.0).abs() < 1e-12 && (t.ry_deg - 10.0).abs() < 1e-12 && s.yaw_deg == 5.0);
+        // A mirror y -> -y flips the offset's y, and the tilt about x and the twist (axial).
+        let (s, t) = LabelFrame::new(0.0, true).poses(&sample(), 0.0);
+        assert_eq!((s.x_mm, s.y_mm, s.yaw_deg), (3.0, -1.0, -5.0));
+        assert_eq!((t.rx_deg, t.ry_deg), (-10.0, -4.0));
+    }
+
+    #[test]
+    fn a_new_pin_length_keeps_the_tips_where_the_camera_fit_put_them() {
+        let base = SensorParams::default();
+        let mut d = Deformation::of(&base, 0.5);
+        d.pin_length_mm = 1.2;
+        let s = d.sensor(&base).expect("valid");
+        let tip = |p: &SensorParams| p.dome.outer_radius_mm - p.dome.skin_thickness_mm - p.pins.length_mm;
+        assert!((tip(&s) - tip(&base)).abs() < 1e-12);
+        assert_eq!(s.pins.length_mm, 1.2);
+    }
+}
