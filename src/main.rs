@@ -138,6 +138,19 @@ enum Command {
         #[arg(required = true)]
         shards: Vec<PathBuf>,
     },
+    /// Run closed-loop exploration scenarios (in parallel): a table, a JSON report and a plot
+    /// per run; exits non-zero when any criterion fails.
+    Run {
+        /// Scenario TOML files (`scenarios/explore/*.toml`).
+        #[arg(required = true)]
+        scenarios: Vec<PathBuf>,
+        /// Directory for `report.json` and one SVG plot per run.
+        #[arg(long, default_value = "explore-report")]
+        out: PathBuf,
+        /// Print the JSON report instead of the table.
+        #[arg(long)]
+        json: bool,
+    },
     /// List the stimuli with size, material and friction.
     Shapes {
         /// Catalogue directory (default: the built-in shapes).
@@ -215,6 +228,13 @@ fn main() -> Result<()> {
         }
         Command::Merge { out, shards } => {
             print!("{}", tacsim::dataset::merge(&out, &shards)?);
+        }
+        Command::Run { scenarios, out, json } => {
+            let (text, pass) = tacsim::explore::report::run_files(&scenarios, &out, json)?;
+            print!("{text}");
+            if !pass {
+                std::process::exit(1);
+            }
         }
         Command::Shapes { dir } => {
             print!("{}", commands::shapes_table(&commands::load_catalogue(dir.as_deref())?));

@@ -165,6 +165,16 @@ pub fn footprint_grid(model: &ContactModel, scene: &Scene, poses: &[SensorPose])
     Some(Grid { nx: n, ny: n, cell_mm: side / n as f64, centre_mm: [0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3])] })
 }
 
+/// A square grid centred on the apex covering the footprint of a flat surface pressed
+/// `depth_mm` deep (the circle of radius `sqrt(2 R depth)`) plus a tenth, within the dome;
+/// `cells_across` from the sensor. Every untilted contact up to that depth lies inside.
+pub fn contact_disk_grid(model: &ContactModel, depth_mm: f64) -> Grid {
+    let r = model.dome_radius();
+    let half = ((2.0 * r * depth_mm.max(0.01)).sqrt() * 1.1).min(DOME_FRACTION * r);
+    let n = model.sensor.skin.cells_across;
+    Grid { nx: n, ny: n, cell_mm: 2.0 * half / n as f64, centre_mm: [0.0, 0.0] }
+}
+
 /// Box `[x0, y0, x1, y1]` of the probe cells with gap below `threshold`, grown by `margin`.
 fn probe_box(
     model: &ContactModel,
@@ -248,7 +258,14 @@ impl<'a> Simulation<'a> {
     /// A simulation whose grid covers the footprints of `poses` (all poses the path will visit;
     /// poses outside them are solved on the same grid, with contact cut at its border).
     pub fn new(model: &'a ContactModel, scene: &'a Scene, poses: &[SensorPose]) -> Self {
-        let op = footprint_grid(model, scene, poses).map(|g| model.operator(g));
+        Self::with_grid(model, scene, footprint_grid(model, scene, poses))
+    }
+
+    /// A simulation on a given contact grid (sensor frame), for paths not known in advance
+    /// (closed-loop exploration): [`contact_disk_grid`] covers every contact up to a depth.
+    /// `None`: nothing can touch.
+    pub fn with_grid(model: &'a ContactModel, scene: &'a Scene, grid: Option<Grid>) -> Self {
+        let op = grid.map(|g| model.operator(g));
         let n = op.as_ref().map_or(0, |o| o.grid().len());
         Self {
             model,

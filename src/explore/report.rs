@@ -1,0 +1,113 @@
+//! Run reports: a table, one JSON object for all runs, and a plot per run (trajectory over
+//! the shape with the start marked; reconstruction beside the truth).
+
+use std::path::Path;
+
+use anyhow::Result;
+use plotters::prelude::*;
+use serde::Serialize;
+
+use super::run::RunReport;
+
+/// All runs of one `tacsim run`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    /// Whether every run passed.
+    pub pass: bool,
+    /// The runs, in the order given.
+    pub runs: Vec<RunReport>,
+}
+
+/// `tacsim run`: loads every scenario first (a bad file stops before any run), runs them in
+/// parallel, writes `out/report.json` and `out/NAME.svg`; returns the text to print and
+/// whether every run passed.
+pub fn run_files(files: &[std::path::PathBuf], out: &Path, json: bool) -> Result<(String, bool)> {
+    use rayon::prelude::*;
+    let scenarios = files.iter().map(|f| super::scenario::Scenario::load(f)).collect::<Result<Vec<_>>>()?;
+    let catalogue = crate::commands::load_catalogue(None)?;
+    let sensor = tacsim_sim::SensorParams::default();
+    let runs = scenarios.par_iter().map(|s| super::run::run(s, &sensor, &catalogue)).collect::<Result<Vec<_>>>()?;
+    std::fs::create_dir_all(out)
+        .map_err(|e| anyhow::anyhow!("{}: cannot create the report directory: {e}", out.display()))?;
+    for r in &runs {
+        plot(r, &out.join(format!("{}.svg", r.name)))?;
+    }
+    let summary = Summary { pass: runs.iter().all(|r| r.pass), runs };
+    let text = serde_json::to_string_pretty(&summary)? + "\n";
+    tacsim_sim::atomic::write_atomic(&out.join("report.json"), text.as_bytes())?;
+    let shown =
+        if json { text } else { table(&summary.runs) + &format!("report: {}\n", out.join("report.json").display()) };
+    Ok((shown, summary.pass))
+}
+
+/// The table printed by `tacsim run`.
+pub fn table(runs: &[RunReport]) -> String {
+    let mut out = format!(
+        "{:<22} {:<10} {:>5} {:>6} {:>9} {:>9} {:>8} {:>6} {:>8}  result\n",
+        "scenario", "shape", "steps", "done", "mean mm", "max mm", "yaw deg", "IoU", "steps/s"
+    );
+    for r in runs {
+        out += &format!(
+            "{:<22} {:<10} {:>5} {:>6.3} {:>9.3} {:>9.3} {:>8.2} {:>6.3} {:>8.0}  {}\n",
+            r.name,
+            r.shape,
+            r.steps,
+            r.completion,
+            r.mean_deviation_mm,
+            r.max_deviation_mm,
+            r.mean_yaw_error_deg,
+            r.iou,
+            r.steps_per_s,
+            if r.pass { "pass".to_string() } else { format!("FAIL: {}", r.failures.join("; ")) }
+        );
+    }
+    out
+}
+
+/// Writes the plot of a run as SVG.
+pub fn plot(r: &RunReport, path: &Path) -> Result<()> {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (1000, 500)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (left, right) = root.split_horizontally(500);
+        let b = r.footprint.3;
+        let side = (b[2] - b[0]).max(b[3] - b[1]);
+        let (x0, y0) = (0.5 * (b[0] + b[2] - side), 0.5 * (b[1] + b[3] - side));
+        let outline: Vec<(f64, f64)> = r.contour.iter().chain(r.contour.first()).map(|p| (p[0], p[1])).collect();
+        for (area, title) in
+            [(&left, format!("{}: trajectory", r.name)), (&right, "reconstruction (grey) vs truth".into())]
+        {
+            let mut chart = ChartBuilder::on(area)
+                .caption(title, ("sans-serif", 18))
+                .margin(10)
+                .x_label_area_size(30)
+                .y_label_area_size(40)
+                .build_cartesian_2d(x0..x0 + side, y0..y0 + side)?;
+            chart.configure_mesh().x_desc("x (mm)").y_desc("y (mm)").draw()?;
+            if std::ptr::eq(area, &right) {
+                let (fp, nx, _, bounds) = &r.footprint;
+                // Every fourth raster cell (2 mm) keeps the file small.
+                let cell = (bounds[2] - bounds[0]) / *nx as f64;
+                let rects = fp.iter().enumerate().filter(|(k, f)| **f && (k % nx) % 4 == 0 && (k / nx) % 4 == 0).map(
+                    |(k, _)| {
+                        let (i, j) = ((k % nx) as f64, (k / nx) as f64);
+                        let (x, y) = (bounds[0] + i * cell, bounds[1] + j * cell);
+                        Rectangle::new([(x, y), (x + 4.0 * cell, y + 4.0 * cell)], RGBColor(190, 190, 190).filled())
+                    },
+                );
+                chart.draw_series(rects)?;
+            }
+            chart.draw_series(LineSeries::new(outline.clone(), BLACK.stroke_width(2)))?;
+            if std::ptr::eq(area, &left) {
+                chart.draw_series(LineSeries::new(r.trajectory.iter().map(|p| (p[0], p[1])), BLUE.stroke_width(1)))?;
+                if let Some(s) = r.trajectory.first() {
+                    chart.draw_series(std::iter::once(Circle::new((s[0], s[1]), 6, RED.filled())))?;
+                }
+            }
+        }
+        root.present()?;
+    }
+    tacsim_sim::atomic::write_atomic(path, svg.as_bytes())?;
+    Ok(())
+}

@@ -1,0 +1,226 @@
+//! One closed-loop run: touch down on the edge, then perceive, servo and move until the
+//! trajectory closes on its start or the step limit, with the contact engine carrying history
+//! along every sub-step; and the metrics of the run.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use serde::Serialize;
+use tacsim_sim::SensorParams;
+use tacsim_sim::contact::engine::{ContactModel, Simulation, contact_disk_grid};
+use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::stimulus::Catalogue;
+
+use super::control::Servo;
+use super::perception::{Corruption, oracle, wrap_deg};
+use super::reconstruct::{Fusion, iou};
+use super::robot::Robot;
+use super::scenario::{PerceptionKind, Scenario};
+
+/// What a run achieved, with the pass/fail verdict per criterion.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunReport {
+    /// Scenario name.
+    pub name: String,
+    /// Stimulus.
+    pub shape: String,
+    /// Perception used.
+    pub perception: PerceptionKind,
+    /// Servo steps taken.
+    pub steps: usize,
+    /// Whether the trajectory closed on its start.
+    pub closed: bool,
+    /// Fraction of the contour covered.
+    pub completion: f64,
+    /// Mean distance of the sensor centre from its reference line off the contour (mm).
+    pub mean_deviation_mm: f64,
+    /// Largest such distance (mm).
+    pub max_deviation_mm: f64,
+    /// Mean absolute angle between the sensor's `x` axis and the edge (deg).
+    pub mean_yaw_error_deg: f64,
+    /// IoU of the reconstructed footprint with the true one.
+    pub iou: f64,
+    /// Distance travelled (mm) and simulated time at the scenario's speed (s).
+    pub travelled_mm: f64,
+    /// Simulated time (s).
+    pub sim_time_s: f64,
+    /// Contact-engine sub-steps solved.
+    pub substeps: usize,
+    /// Wall time (s) and servo steps per second.
+    pub wall_s: f64,
+    /// Servo steps per wall second.
+    pub steps_per_s: f64,
+    /// Whether every criterion holds.
+    pub pass: bool,
+    /// The criteria that failed.
+    pub failures: Vec<String>,
+    /// Sensor poses after each step: `[x, y, yaw]` (mm, deg); the first is the start.
+    pub trajectory: Vec<[f64; 3]>,
+    /// The true contour (world mm), for plots.
+    #[serde(skip)]
+    pub contour: Vec<[f64; 2]>,
+    /// The reconstructed footprint raster and its bounds `[x0, y0, x1, y1]`.
+    #[serde(skip)]
+    pub footprint: (Vec<bool>, usize, usize, [f64; 4]),
+}
+
+/// Arc length along a closed polyline of the point nearest `p`.
+fn arc_position(outline: &[[f64; 2]], cumulative: &[f64], p: [f64; 2]) -> f64 {
+    let mut best = (f64::INFINITY, 0.0);
+    for (k, a) in outline.iter().enumerate() {
+        let b = outline[(k + 1) % outline.len()];
+        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+        let len2 = dx * dx + dy * dy;
+        let t = if len2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+        let q = [a[0] + t * dx, a[1] + t * dy];
+        let d2 = (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2);
+        if d2 < best.0 {
+            best = (d2, cumulative[k] + t * len2.sqrt());
+        }
+    }
+    best.1
+}
+
+/// Runs `scenario` with `sensor` on the stimuli of `catalogue`.
+pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) -> Result<RunReport> {
+    let wall = Instant::now();
+    let stim = catalogue.get(&scenario.shape).with_context(|| format!("scenario {}: field `shape`", scenario.name))?;
+    let mut stim = (*stim).clone();
+    if let Some(f) = scenario.friction {
+        stim.entry.friction = f;
+    }
+    let contact_mm = stim.entry.contact_mm;
+    let mut scene = Scene::new();
+    let object = scene.add(Arc::new(stim), ObjectPose::default())?;
+    let outline = scene.contour_world(object).into_iter().max_by_key(|l| l.len()).unwrap_or_default();
+    let mut cumulative = vec![0.0; outline.len() + 1];
+    for k in 0..outline.len() {
+        let (a, b) = (outline[k], outline[(k + 1) % outline.len()]);
+        cumulative[k + 1] = cumulative[k] + (b[0] - a[0]).hypot(b[1] - a[1]);
+    }
+    let perimeter = cumulative[outline.len()];
+
+    // Start on the edge nearest the start point, aligned with it, at the offset reference.
+    let start = scenario.start_mm.or(contact_mm).unwrap_or([1e3, 0.0]);
+    let e = scene.edge(object, start[0], start[1]);
+    let n = [e.tangent[1], -e.tangent[0]];
+    let r = scenario.control.offset_ref_mm;
+    let pose0 = SensorPose {
+        x_mm: e.point[0] + r * n[0],
+        y_mm: e.point[1] + r * n[1],
+        depth_mm: scenario.depth_mm,
+        yaw_deg: e.tangent[1].atan2(e.tangent[0]).to_degrees(),
+        rx_deg: 0.0,
+        ry_deg: 0.0,
+    };
+    pose0.validate(&scenario.name, sensor.dome.outer_radius_mm)?;
+
+    let model = ContactModel::new(sensor);
+    let grid = contact_disk_grid(&model, scenario.depth_mm);
+    let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
+    // A flat face pressed `d` into the dome touches within about sqrt(R d) (Hertz); inside
+    // that radius, no contact means no material.
+    let reach = 0.9 * (sensor.dome.outer_radius_mm * scenario.depth_mm).sqrt();
+    let mut fusion = Fusion::default();
+    let mut robot = Robot::new(pose0, scenario.substep_mm);
+    let mut servo = Servo::new(&scenario.control, scenario.step_mm);
+    let mut corruption = Corruption::new(&scenario.noise, scenario.seed);
+    sim.step(pose0)?;
+    fusion.add_patch(&grid, sim.pressure(), &pose0, reach);
+    let mut substeps = 1;
+    let mut trajectory = vec![[pose0.x_mm, pose0.y_mm, pose0.yaw_deg]];
+    let (mut deviations, mut yaw_errors) = (Vec::new(), Vec::new());
+    let s0 = arc_position(&outline, &cumulative, [pose0.x_mm, pose0.y_mm]);
+    let (mut last_s, mut progress) = (s0, 0.0f64);
+    let mut closed = false;
+    let mut steps = 0;
+    while steps < scenario.max_steps {
+        let truth = oracle(&scene, object, &robot.pose);
+        let estimate = match scenario.perception {
+            PerceptionKind::Oracle => corruption.apply(truth),
+        };
+        let target = servo.next(&robot.pose, &estimate);
+        for p in robot.move_to(target) {
+            sim.step(p)?;
+            substeps += 1;
+        }
+        steps += 1;
+        let pose = robot.pose;
+        fusion.add_patch(&grid, sim.pressure(), &pose, reach);
+        trajectory.push([pose.x_mm, pose.y_mm, pose.yaw_deg]);
+        let now = oracle(&scene, object, &pose);
+        deviations.push((now.offset_mm - r).abs());
+        yaw_errors.push(wrap_deg(now.angle_deg).abs());
+        let s = arc_position(&outline, &cumulative, [pose.x_mm, pose.y_mm]);
+        let mut ds = s - last_s;
+        if ds > 0.5 * perimeter {
+            ds -= perimeter;
+        } else if ds < -0.5 * perimeter {
+            ds += perimeter;
+        }
+        progress += ds;
+        last_s = s;
+        if progress >= perimeter - 0.5 * scenario.step_mm {
+            closed = true;
+            break;
+        }
+    }
+    let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
+    let (lo, hi) = outline.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), p| {
+        ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])])
+    });
+    let bounds = [lo[0] - 5.0, lo[1] - 5.0, hi[0] + 5.0, hi[1] + 5.0];
+    let (fp, nx, ny) = fusion.footprint(bounds);
+    let stimulus = &scene.objects()[object].stimulus;
+    let iou = iou(&fp, nx, bounds, |x, y| stimulus.contour.contains([x, y]));
+    let c = &scenario.criteria;
+    let mut report = RunReport {
+        name: scenario.name.clone(),
+        shape: scenario.shape.clone(),
+        perception: scenario.perception,
+        steps,
+        closed,
+        completion: (progress / perimeter).clamp(0.0, 1.0),
+        mean_deviation_mm: mean(&deviations),
+        max_deviation_mm: deviations.iter().fold(0.0, |m, v| m.max(*v)),
+        mean_yaw_error_deg: mean(&yaw_errors),
+        iou,
+        travelled_mm: robot.travelled_mm,
+        sim_time_s: robot.travelled_mm / scenario.speed_mm_s,
+        substeps,
+        wall_s: 0.0,
+        steps_per_s: 0.0,
+        pass: false,
+        failures: Vec::new(),
+        trajectory,
+        contour: outline,
+        footprint: (fp, nx, ny, bounds),
+    };
+    let checks = [
+        (
+            report.closed && report.completion >= c.completion,
+            format!("completion {:.3} (closed: {}) < {}", report.completion, report.closed, c.completion),
+        ),
+        (
+            report.mean_deviation_mm <= c.mean_deviation_mm,
+            format!("mean deviation {:.3} mm > {}", report.mean_deviation_mm, c.mean_deviation_mm),
+        ),
+        (
+            report.max_deviation_mm <= c.max_deviation_mm,
+            format!("max deviation {:.3} mm > {}", report.max_deviation_mm, c.max_deviation_mm),
+        ),
+        (
+            report.mean_yaw_error_deg <= c.yaw_error_deg,
+            format!("mean yaw error {:.2} deg > {}", report.mean_yaw_error_deg, c.yaw_error_deg),
+        ),
+        (report.iou >= c.iou, format!("IoU {:.3} < {}", report.iou, c.iou)),
+    ];
+    report.failures = checks.into_iter().filter(|(ok, _)| !ok).map(|(_, why)| why).collect();
+    report.pass = report.failures.is_empty();
+    report.wall_s = wall.elapsed().as_secs_f64();
+    report.steps_per_s = steps as f64 / report.wall_s.max(1e-9);
+    let _ = ny;
+    Ok(report)
+}

@@ -1,0 +1,203 @@
+//! Exploration scenario files: the shape, where and how to start, the servo, the perception
+//! and the pass criteria. Every field has a default; unknown fields are errors.
+
+use std::path::Path;
+
+use anyhow::{Context, Result, bail};
+use serde::{Deserialize, Serialize};
+
+/// How the pose relative to the edge is estimated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PerceptionKind {
+    /// The true pose from the shape's geometry; no image is rendered.
+    Oracle,
+}
+
+/// A scenario (`scenarios/explore/*.toml`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Scenario {
+    /// Name in reports (default: the file stem).
+    pub name: String,
+    /// Stimulus (`tacsim shapes`).
+    pub shape: String,
+    /// Start point near the edge (world mm); default: the catalogue's contact location, or the
+    /// contour point nearest `+x`.
+    pub start_mm: Option<[f64; 2]>,
+    /// Pressing depth (mm).
+    pub depth_mm: f64,
+    /// Robot speed (mm/s), for the simulated time.
+    pub speed_mm_s: f64,
+    /// Distance moved along the edge per servo step (mm).
+    pub step_mm: f64,
+    /// Largest contact-engine sub-step within a move (mm).
+    pub substep_mm: f64,
+    /// Friction coefficient, overriding the stimulus's.
+    pub friction: Option<f64>,
+    /// Perception.
+    pub perception: PerceptionKind,
+    /// Noise added to the estimates.
+    pub noise: Noise,
+    /// Servo gains and references.
+    pub control: Control,
+    /// Step limit.
+    pub max_steps: usize,
+    /// Seed of the noise.
+    pub seed: u64,
+    /// Pass criteria.
+    pub criteria: Criteria,
+}
+
+/// Gaussian noise on the perceived pose.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Noise {
+    /// Standard deviation of the lateral offset (mm).
+    pub offset_mm: f64,
+    /// Standard deviation of the edge angle (deg).
+    pub angle_deg: f64,
+    /// Estimates arrive this many steps late.
+    pub latency_steps: usize,
+}
+
+/// The PI servo of the lab's tactile servoing.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Control {
+    /// Lateral offset reference (mm, positive off the material).
+    pub offset_ref_mm: f64,
+    /// Proportional gain on the lateral offset.
+    pub kp_offset: f64,
+    /// Integral gain on the lateral offset.
+    pub ki_offset: f64,
+    /// Proportional gain on the edge angle.
+    pub kp_angle: f64,
+    /// Integral gain on the edge angle.
+    pub ki_angle: f64,
+    /// Clip of each integral term's contribution (mm, deg).
+    pub integral_clip: f64,
+}
+
+/// What a run must achieve.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Criteria {
+    /// Smallest fraction of the contour covered before closing.
+    pub completion: f64,
+    /// Largest mean distance of the sensor centre from the contour (mm).
+    pub mean_deviation_mm: f64,
+    /// Largest distance of the sensor centre from the contour (mm).
+    pub max_deviation_mm: f64,
+    /// Largest mean yaw error against the edge (deg).
+    pub yaw_error_deg: f64,
+    /// Smallest IoU of the reconstructed footprint with the true one.
+    pub iou: f64,
+}
+
+impl Default for Scenario {
+    fn default() -> Self {
+        Self {
+            name: String::new(),
+            shape: "disk".into(),
+            start_mm: None,
+            depth_mm: 1.5,
+            speed_mm_s: 20.0,
+            step_mm: 2.0,
+            substep_mm: 0.5,
+            friction: None,
+            perception: PerceptionKind::Oracle,
+            noise: Noise::default(),
+            control: Control::default(),
+            max_steps: 600,
+            seed: 0,
+            criteria: Criteria::default(),
+        }
+    }
+}
+
+impl Default for Noise {
+    fn default() -> Self {
+        Self { offset_mm: 0.0, angle_deg: 0.0, latency_steps: 0 }
+    }
+}
+
+impl Default for Control {
+    fn default() -> Self {
+        Self { offset_ref_mm: 0.0, kp_offset: 0.5, ki_offset: 0.3, kp_angle: 0.5, ki_angle: 0.1, integral_clip: 5.0 }
+    }
+}
+
+impl Default for Criteria {
+    fn default() -> Self {
+        Self { completion: 0.95, mean_deviation_mm: 1.0, max_deviation_mm: 3.0, yaw_error_deg: 10.0, iou: 0.9 }
+    }
+}
+
+impl Scenario {
+    /// Loads and validates a scenario file; the name defaults to the file stem.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+        let mut s: Scenario = toml::from_str(&text).with_context(|| format!("{}: bad scenario", path.display()))?;
+        if s.name.is_empty() {
+            s.name = path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+        }
+        s.validate().with_context(|| format!("{}: bad scenario", path.display()))?;
+        Ok(s)
+    }
+
+    /// Checks every value, naming the field.
+    pub fn validate(&self) -> Result<()> {
+        let positive = |field: &str, v: f64| -> Result<()> {
+            if !(v.is_finite() && v > 0.0) {
+                bail!("field `{field}` must be a positive number, got {v}");
+            }
+            Ok(())
+        };
+        positive("depth_mm", self.depth_mm)?;
+        if self.depth_mm > 8.0 {
+            bail!("field `depth_mm` must be at most 8 mm, got {}", self.depth_mm);
+        }
+        positive("speed_mm_s", self.speed_mm_s)?;
+        positive("step_mm", self.step_mm)?;
+        positive("substep_mm", self.substep_mm)?;
+        if let Some(f) = self.friction
+            && !(f.is_finite() && f >= 0.0)
+        {
+            bail!("field `friction` must be >= 0, got {f}");
+        }
+        if let Some(p) = self.start_mm
+            && !p.iter().all(|v| v.is_finite())
+        {
+            bail!("field `start_mm` must be finite, got {p:?}");
+        }
+        for (field, v) in [
+            ("noise.offset_mm", self.noise.offset_mm),
+            ("noise.angle_deg", self.noise.angle_deg),
+            ("control.kp_offset", self.control.kp_offset),
+            ("control.ki_offset", self.control.ki_offset),
+            ("control.kp_angle", self.control.kp_angle),
+            ("control.ki_angle", self.control.ki_angle),
+            ("control.integral_clip", self.control.integral_clip),
+            ("criteria.mean_deviation_mm", self.criteria.mean_deviation_mm),
+            ("criteria.max_deviation_mm", self.criteria.max_deviation_mm),
+            ("criteria.yaw_error_deg", self.criteria.yaw_error_deg),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                bail!("field `{field}` must be a finite number >= 0, got {v}");
+            }
+        }
+        if !self.control.offset_ref_mm.is_finite() {
+            bail!("field `control.offset_ref_mm` must be finite");
+        }
+        for (field, v) in [("criteria.completion", self.criteria.completion), ("criteria.iou", self.criteria.iou)] {
+            if !(0.0..=1.0).contains(&v) {
+                bail!("field `{field}` must be a fraction in [0, 1], got {v}");
+            }
+        }
+        if self.max_steps == 0 {
+            bail!("field `max_steps` must be at least 1");
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,108 @@
+//! Closed-loop exploration: every scenario of `scenarios/explore/` meets its criteria, runs
+//! are deterministic, bad scenarios are clear errors, and the loop's contact carries sliding
+//! history.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use rayon::prelude::*;
+use tacsim::explore::run::run;
+use tacsim::explore::scenario::Scenario;
+use tacsim_sim::SensorParams;
+use tacsim_sim::contact::engine::{ContactModel, Simulation, contact_disk_grid};
+use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::scene::{ObjectPose, Scene};
+
+fn scenarios() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/explore");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("scenarios/explore")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    files
+}
+
+#[test]
+fn every_scenario_meets_its_criteria() {
+    let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
+    let sensor = SensorParams::default();
+    let files = scenarios();
+    assert!(files.len() >= 7, "one scenario per shape at least");
+    let reports: Vec<_> = files
+        .par_iter()
+        .map(|f| run(&Scenario::load(f).expect("scenario"), &sensor, &catalogue).expect("run"))
+        .collect();
+    print!("{}", tacsim::explore::report::table(&reports));
+    let shapes: std::collections::BTreeSet<&str> = reports.iter().map(|r| r.shape.as_str()).collect();
+    assert_eq!(shapes.len(), 7, "all seven shapes: {shapes:?}");
+    for r in &reports {
+        assert!(r.pass, "{}: {:?}", r.name, r.failures);
+    }
+}
+
+#[test]
+fn a_run_is_deterministic_for_its_seed() {
+    let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/explore/disk-oracle-noisy.toml");
+    let mut s = Scenario::load(&file).expect("scenario");
+    s.max_steps = 30;
+    let sensor = SensorParams::default();
+    let (a, b) = (run(&s, &sensor, &catalogue).expect("run"), run(&s, &sensor, &catalogue).expect("run"));
+    assert_eq!(a.trajectory, b.trajectory);
+    s.seed = 2;
+    assert_ne!(a.trajectory, run(&s, &sensor, &catalogue).expect("run").trajectory, "the seed drives the noise");
+}
+
+#[test]
+fn the_same_pose_by_another_path_gives_other_pins() {
+    // Sliding history in the loop's contact: touch down at the pose, or 2 mm before it along
+    // the edge and slide there.
+    let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
+    let mut scene = Scene::new();
+    scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("add");
+    let model = ContactModel::new(&SensorParams::default());
+    let grid = contact_disk_grid(&model, 1.5);
+    let pose = SensorPose::new(50.0, 0.0, 1.5, 90.0);
+    let mut direct = Simulation::with_grid(&model, &scene, Some(grid));
+    direct.step(pose).expect("step");
+    let mut slid = Simulation::with_grid(&model, &scene, Some(grid));
+    for k in 0..=8 {
+        slid.step(SensorPose { y_mm: -2.0 + 0.25 * k as f64, ..pose }).expect("step");
+    }
+    let shift = direct.pins().iter().zip(&slid.pins()).map(|(a, b)| (a.tip - b.tip).norm()).fold(0.0, f64::max);
+    assert!(shift > 0.01, "history must show in the pins: {shift} mm");
+}
+
+#[test]
+fn bad_scenarios_are_clear_errors_and_failures_exit_non_zero() {
+    let dir = std::env::temp_dir().join(format!("tacsim-explore-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let tacsim = |args: &[&str]| Command::new(env!("CARGO_BIN_EXE_tacsim")).args(args).output().expect("runs");
+    for (text, needle) in [
+        ("shape = \"disk\"\nspeed = 3\n", "speed"),
+        ("depth_mm = -1.0\n", "depth_mm"),
+        ("perception = \"telepathy\"\n", "perception"),
+        ("[criteria]\niou = 1.5\n", "criteria.iou"),
+    ] {
+        let f = dir.join("bad.toml");
+        std::fs::write(&f, text).expect("write");
+        let o = tacsim(&["run", f.to_str().expect("utf-8"), "--out", dir.join("out").to_str().expect("utf-8")]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains("bad.toml") && err.contains(needle), "{text}: {err}");
+    }
+    let f = dir.join("unknown-shape.toml");
+    std::fs::write(&f, "shape = \"cube\"\nmax_steps = 5\n").expect("write");
+    let o = tacsim(&["run", f.to_str().expect("utf-8"), "--out", dir.join("out").to_str().expect("utf-8")]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("cube"));
+    // A run that misses its criteria (step limit before closing) exits 1 and still reports.
+    let f = dir.join("short.toml");
+    std::fs::write(&f, "shape = \"disk\"\nmax_steps = 5\n").expect("write");
+    let out = dir.join("short-out");
+    let o = tacsim(&["run", f.to_str().expect("utf-8"), "--out", out.to_str().expect("utf-8")]);
+    assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("FAIL: completion"));
+    assert!(out.join("report.json").is_file() && out.join("short.svg").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}
