@@ -68,3 +68,175 @@ impl Corruption {
         self.queue.front().copied().unwrap_or(noisy)
     }
 }
+
+/// Model-free edge estimate from the sensor's image: detect the pins, track them against the
+/// undeformed image (nearest neighbours), take the pins whose neighbourhood dilated by more
+/// than `CONTACT_FRACTION` of the largest dilation as the contact patch, and read the edge off the
+/// patch: the direction from the apex to the patch's centroid is the inward edge normal, and
+/// the patch's share of the pins within the contact radius `a = sqrt(R d)` (a flat face
+/// pressed `d` deep) gives the offset through the area of a disc segment.
+#[derive(Clone, Debug)]
+pub struct Geometric {
+    renderer: tacsim_sim::PinRenderer,
+    reference_px: Vec<[f64; 2]>,
+    /// Rest position (contact-plane mm, sensor frame) of each reference pin.
+    rest_mm: Vec<[f64; 2]>,
+    spacing_px: f64,
+    radius_mm: f64,
+    /// The six nearest reference pins of each reference pin.
+    neighbours: Vec<Vec<usize>>,
+    /// Where each reference pin was last seen (px): pins are tracked frame to frame, so a
+    /// slide's drag, which builds up over many frames, never has to be matched in one jump.
+    last: Vec<Option<[f64; 2]>>,
+}
+
+/// Share of the largest local dilation above which a pin counts as in contact.
+const CONTACT_FRACTION: f64 = 0.3;
+
+impl Geometric {
+    /// Perception for `sensor` pressed `depth_mm` deep, rendering at `size` px.
+    pub fn new(sensor: &tacsim_sim::SensorParams, depth_mm: f64, size: u32) -> anyhow::Result<Self> {
+        use tacsim_sim::pins::PinLayout;
+        let renderer = tacsim_sim::PinRenderer::new(sensor, size)?;
+        let layout = PinLayout::new(sensor);
+        let reference_px = pin_centres(&renderer.render(&layout.poses()));
+        // Rest positions: the layout pin whose projected tip is nearest each detected pin.
+        let tips: Vec<Option<[f64; 2]>> = layout.pins.iter().map(|p| renderer.camera().project(&p.tip)).collect();
+        let rest_mm = reference_px
+            .iter()
+            .map(|r| {
+                let best = tips
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, t)| t.map(|t| (i, (t[0] - r[0]).powi(2) + (t[1] - r[1]).powi(2))))
+                    .min_by(|a, b| a.1.total_cmp(&b.1))
+                    .map_or(0, |(i, _)| i);
+                let b = layout.pins[best].base;
+                [b.x, b.y]
+            })
+            .collect();
+        let spacing_px = 17.5 * size as f64 / 420.0;
+        let radius_mm = (sensor.dome.outer_radius_mm * depth_mm).sqrt();
+        let neighbours = reference_px
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let mut d: Vec<(f64, usize)> = reference_px
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, _)| *j != i)
+                    .map(|(j, q)| ((q[0] - p[0]).hypot(q[1] - p[1]), j))
+                    .collect();
+                d.sort_by(|a, b| a.0.total_cmp(&b.0));
+                d.into_iter().take(6).map(|(_, j)| j).collect()
+            })
+            .collect();
+        let last = reference_px.iter().map(|p| Some(*p)).collect();
+        Ok(Self { renderer, reference_px, rest_mm, spacing_px, radius_mm, neighbours, last })
+    }
+
+    /// The estimate from the current pins; `None` when no pin shows contact.
+    pub fn estimate(&mut self, pins: &[tacsim_sim::pins::PinPose]) -> Option<EdgeEstimate> {
+        self.estimate_with(pins, CONTACT_FRACTION)
+    }
+
+    /// [`Geometric::estimate`] with another contact threshold (share of the largest motion).
+    pub fn estimate_with(&mut self, pins: &[tacsim_sim::pins::PinPose], fraction: f64) -> Option<EdgeEstimate> {
+        let img = self.renderer.render(pins);
+        let detected = pin_centres(&img);
+        // Track from where each pin was last seen (its reference position when lost).
+        let from: Vec<[f64; 2]> = self.last.iter().zip(&self.reference_px).map(|(l, r)| l.unwrap_or(*r)).collect();
+        let step = tacsim_sim::tracking::track_nearest(&from, &detected, self.spacing_px);
+        self.last = from.iter().zip(&step).map(|(f, d)| d.map(|d| [f[0] + d[0], f[1] + d[1]])).collect();
+        let disp: Vec<Option<[f64; 2]>> =
+            self.last.iter().zip(&self.reference_px).map(|(l, r)| l.map(|l| [l[0] - r[0], l[1] - r[1]])).collect();
+        // Local dilation: how much each pin's neighbourhood grew in the image (pins pressed
+        // towards the camera spread apart). A sideways drag (sliding shear) moves a
+        // neighbourhood without growing it, so the signal ignores the shear.
+        let mags: Vec<Option<f64>> = self
+            .neighbours
+            .iter()
+            .enumerate()
+            .map(|(i, nb)| {
+                let di = disp[i]?;
+                let pi = [self.reference_px[i][0] + di[0], self.reference_px[i][1] + di[1]];
+                let (mut sum, mut n) = (0.0, 0);
+                for &j in nb {
+                    if let Some(dj) = disp[j] {
+                        let pj = [self.reference_px[j][0] + dj[0], self.reference_px[j][1] + dj[1]];
+                        let rest = (self.reference_px[j][0] - self.reference_px[i][0])
+                            .hypot(self.reference_px[j][1] - self.reference_px[i][1]);
+                        sum += (pj[0] - pi[0]).hypot(pj[1] - pi[1]) / rest;
+                        n += 1;
+                    }
+                }
+                (n >= 3).then(|| (sum / n as f64 - 1.0).max(0.0))
+            })
+            .collect();
+        let max = mags.iter().flatten().fold(0.0f64, |m, v| m.max(*v));
+        if max <= 0.0 {
+            return None;
+        }
+        // The pins in contact and those not, within the contact disc.
+        let (mut inn, mut out): (Vec<[f64; 2]>, Vec<[f64; 2]>) = (Vec::new(), Vec::new());
+        for (m, r) in mags.iter().zip(&self.rest_mm) {
+            if r[0].hypot(r[1]) > self.radius_mm {
+                continue;
+            }
+            // An untracked pin inside the disc moved too far to match: contact.
+            if m.is_none_or(|m| m > fraction * max) { inn.push(*r) } else { out.push(*r) }
+        }
+        let (contact, within) = (inn.len(), inn.len() + out.len());
+        if contact == 0 || within == 0 {
+            return None;
+        }
+        let mean = |v: &[[f64; 2]]| {
+            let n = v.len().max(1) as f64;
+            [v.iter().map(|p| p[0]).sum::<f64>() / n, v.iter().map(|p| p[1]).sum::<f64>() / n]
+        };
+        let (ci, co) = (mean(&inn), mean(&out));
+        // The edge runs along the long axis of the smaller part (a disc segment is long along
+        // its chord); the inward normal points from the free pins to the touching ones.
+        let part = if inn.len() <= out.len() { &inn } else { &out };
+        let c = mean(part);
+        let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+        for p in part {
+            let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+            sxx += dx * dx;
+            syy += dy * dy;
+            sxy += dx * dy;
+        }
+        let along = 0.5 * (2.0 * sxy).atan2(sxx - syy);
+        let mut n = [-along.sin(), along.cos()];
+        if part.len() < 3 || (n[0] * (ci[0] - co[0]) + n[1] * (ci[1] - co[1])).abs() < 1e-12 {
+            n = [ci[0] - co[0], ci[1] - co[1]];
+        } else if n[0] * (ci[0] - co[0]) + n[1] * (ci[1] - co[1]) < 0.0 {
+            n = [-n[0], -n[1]];
+        }
+        let (cx, cy) = (n[0], n[1]);
+        // Inward normal (towards the material), sensor frame; the sensor frame's y is world -y
+        // at zero yaw, so angles in the sensor's contact plane are measured with y flipped.
+        let normal_deg = (-cy).atan2(cx).to_degrees();
+        let tangent_deg = normal_deg - 90.0;
+        // Offset from the covered share of the disc: segment area fraction f(h) for a line at
+        // distance h from the centre (material beyond it), solved by bisection.
+        let share = (contact as f64 / within as f64).clamp(0.0, 1.0);
+        let a = self.radius_mm;
+        let f = |h: f64| {
+            let h = h.clamp(-a, a);
+            (a * a * (h / a).acos() - h * (a * a - h * h).sqrt()) / (std::f64::consts::PI * a * a)
+        };
+        let (mut lo, mut hi) = (-a, a);
+        for _ in 0..50 {
+            let mid = 0.5 * (lo + hi);
+            if f(mid) > share { lo = mid } else { hi = mid }
+        }
+        Some(EdgeEstimate { offset_mm: 0.5 * (lo + hi), angle_deg: wrap_deg(tangent_deg) })
+    }
+}
+
+/// Pin centres (px) of a binary image.
+fn pin_centres(img: &image::GrayImage) -> Vec<[f64; 2]> {
+    let (lo, hi) = tacsim_sim::calibration::pin_area_range(img.width());
+    tacsim_sim::detect::detect_pins(img, lo, hi).iter().map(|b| b.centroid).collect()
+}

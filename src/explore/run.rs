@@ -14,7 +14,7 @@ use tacsim_sim::scene::{ObjectPose, Scene};
 use tacsim_sim::stimulus::Catalogue;
 
 use super::control::Servo;
-use super::perception::{Corruption, oracle, wrap_deg};
+use super::perception::{Corruption, EdgeEstimate, Geometric, oracle, wrap_deg};
 use super::reconstruct::{Fusion, iou};
 use super::robot::Robot;
 use super::scenario::{PerceptionKind, Scenario};
@@ -127,8 +127,21 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let mut robot = Robot::new(pose0, scenario.substep_mm);
     let mut servo = Servo::new(&scenario.control, scenario.step_mm);
     let mut corruption = Corruption::new(&scenario.noise, scenario.seed);
+    let mut geometric = match scenario.perception {
+        PerceptionKind::Geometric => Some(Geometric::new(sensor, scenario.depth_mm, scenario.image_size)?),
+        PerceptionKind::Oracle => None,
+    };
+    // Without contact the geometric estimate says "the edge is a contact radius inward".
+    let searching =
+        EdgeEstimate { offset_mm: (sensor.dome.outer_radius_mm * scenario.depth_mm).sqrt(), angle_deg: 0.0 };
     sim.step(pose0)?;
     fusion.add_patch(&grid, sim.pressure(), &pose0, reach);
+    // The robot starts on the edge, aligned with it: image-based perception takes its first
+    // estimate there as its zero (a tare), as a robot would at a known start.
+    let tare = match &mut geometric {
+        Some(g) => g.estimate(&sim.pins()).map_or((0.0, 0.0), |e| (e.offset_mm - r, e.angle_deg)),
+        None => (0.0, 0.0),
+    };
     let mut substeps = 1;
     let mut trajectory = vec![[pose0.x_mm, pose0.y_mm, pose0.yaw_deg]];
     let (mut deviations, mut yaw_errors) = (Vec::new(), Vec::new());
@@ -137,10 +150,14 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let mut closed = false;
     let mut steps = 0;
     while steps < scenario.max_steps {
-        let truth = oracle(&scene, object, &robot.pose);
-        let estimate = match scenario.perception {
-            PerceptionKind::Oracle => corruption.apply(truth),
+        let fresh = match &mut geometric {
+            None => oracle(&scene, object, &robot.pose),
+            Some(g) => g.estimate(&sim.pins()).map_or(searching, |e| EdgeEstimate {
+                offset_mm: e.offset_mm - tare.0,
+                angle_deg: wrap_deg(e.angle_deg - tare.1),
+            }),
         };
+        let estimate = corruption.apply(fresh);
         let target = servo.next(&robot.pose, &estimate);
         for p in robot.move_to(target) {
             sim.step(p)?;

@@ -12,6 +12,9 @@ use serde::{Deserialize, Serialize};
 pub enum PerceptionKind {
     /// The true pose from the shape's geometry; no image is rendered.
     Oracle,
+    /// Model-free: the contact patch read off the tracked pins of the rendered image
+    /// ([`super::perception::Geometric`]).
+    Geometric,
 }
 
 /// A scenario (`scenarios/explore/*.toml`).
@@ -37,6 +40,8 @@ pub struct Scenario {
     pub friction: Option<f64>,
     /// Perception.
     pub perception: PerceptionKind,
+    /// Image size (px) for image-based perception.
+    pub image_size: u32,
     /// Noise added to the estimates.
     pub noise: Noise,
     /// Servo gains and references.
@@ -107,6 +112,7 @@ impl Default for Scenario {
             substep_mm: 0.5,
             friction: None,
             perception: PerceptionKind::Oracle,
+            image_size: 256,
             noise: Noise::default(),
             control: Control::default(),
             max_steps: 600,
