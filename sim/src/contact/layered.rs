@@ -429,19 +429,26 @@ impl LayeredKernels {
     }
 }
 
+/// `(cos theta, sin theta, cos 2 theta, sin 2 theta)` of the offset `(x, y)`; zeros at the
+/// origin, where the angular terms of the kernels vanish.
+#[inline]
+pub(crate) fn angular(x: f64, y: f64) -> (f64, f64, f64, f64) {
+    let r2 = x * x + y * y;
+    if r2 > 0.0 {
+        let r = r2.sqrt();
+        (x / r, y / r, (x * x - y * y) / r2, 2.0 * x * y / r2)
+    } else {
+        (0.0, 0.0, 0.0, 0.0)
+    }
+}
+
 /// Displacement from the radial kernels: `u_z = P zz + (Q . e_r) zq`,
 /// `u_h = P pr e_r + Q (s - d cos 2 theta ...)`.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn combine(force: [f64; 3], x: f64, y: f64, zz: f64, pr: f64, zq: f64, s: f64, d: f64) -> [f64; 3] {
     let [qx, qy, p] = force;
-    let r2 = x * x + y * y;
-    let (c, sn, c2, s2) = if r2 > 0.0 {
-        let r = r2.sqrt();
-        (x / r, y / r, (x * x - y * y) / r2, 2.0 * x * y / r2)
-    } else {
-        (0.0, 0.0, 0.0, 0.0)
-    };
+    let (c, sn, c2, s2) = angular(x, y);
     [
         p * pr * c + qx * (s - c2 * d) - qy * s2 * d,
         p * pr * sn - qx * s2 * d + qy * (s + c2 * d),

@@ -18,7 +18,7 @@ use rustfft::num_complex::Complex64;
 use super::fft2::Fft2;
 use super::grid::Grid;
 use super::kernel::{Elastic, Kernel};
-use super::layered::{LayeredKernels, gauss_legendre};
+use super::layered::{LayeredKernels, angular, gauss_legendre};
 
 /// A displacement component from a traction component: `Xz` is `u_x` from pressure `p`, `Zx`
 /// is `u_z` from shear traction `q_x`, and so on.
@@ -241,13 +241,7 @@ impl Operator {
                         let (x, y) = (dx - (s - 0.5) * h, dy - (t - 0.5) * h);
                         let w = ws * wt * area;
                         let [zz, pr, sh, d] = kernels.surface_radial(x.hypot(y));
-                        let r2 = x * x + y * y;
-                        let (c, sn, c2, s2) = if r2 > 0.0 {
-                            let r = r2.sqrt();
-                            (x / r, y / r, (x * x - y * y) / r2, 2.0 * x * y / r2)
-                        } else {
-                            (0.0, 0.0, 0.0, 0.0)
-                        };
+                        let (c, sn, c2, s2) = angular(x, y);
                         // Zz, Xx, Yy, Xy, Zx, Zy, Xz, Yz.
                         let v = [zz, sh - c2 * d, sh + c2 * d, -s2 * d, -pr * c, -pr * sn, pr * c, pr * sn];
                         for (o, v) in sum.iter_mut().zip(v) {
@@ -475,21 +469,27 @@ mod tests {
     fn fft_product_equals_dense_product() {
         let n = 13;
         let a = op(0.3, Pairing::RigidIndenter, n, 0.3);
-        let all: Vec<usize> = (0..n * n).collect();
         let (p, qx, qy) = (field(n * n, 1), field(n * n, 2), field(n * n, 3));
         for terms in [
             vec![(Component::Zz, p.as_slice()), (Component::Zx, qx.as_slice()), (Component::Zy, qy.as_slice())],
             vec![(Component::Xx, qx.as_slice()), (Component::Xy, qy.as_slice()), (Component::Xz, p.as_slice())],
             vec![(Component::Xy, qx.as_slice()), (Component::Yy, qy.as_slice()), (Component::Yz, p.as_slice())],
         ] {
-            let mut dense = vec![0.0; n * n];
-            let mut fft = vec![0.0; n * n];
-            a.apply(&terms, &mut dense, Product::Dense { src: &all, dst: &all });
-            a.apply(&terms, &mut fft, Product::Fft);
-            let scale = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for (d, f) in dense.iter().zip(&fft) {
-                assert!((d - f).abs() < 1e-12 * scale, "{d} vs {f}");
-            }
+            assert_fft_equals_dense(&a, &terms);
+        }
+    }
+
+    /// The FFT product of `terms` equals the dense product over the whole grid (1e-12).
+    fn assert_fft_equals_dense(a: &Operator, terms: &[(Component, &[f64])]) {
+        let n = a.grid().len();
+        let all: Vec<usize> = (0..n).collect();
+        let mut dense = vec![0.0; n];
+        let mut fft = vec![0.0; n];
+        a.apply(terms, &mut dense, Product::Dense { src: &all, dst: &all });
+        a.apply(terms, &mut fft, Product::Fft);
+        let scale = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (d, f) in dense.iter().zip(&fft) {
+            assert!((d - f).abs() < 1e-12 * scale, "{d} vs {f}");
         }
     }
 
@@ -606,17 +606,11 @@ mod tests {
         let n = 13;
         let a = Operator::layered(&k, Grid::square(n, 0.9));
         assert!(!a.uncoupled(), "an incompressible layer on a rigid base couples");
-        let all: Vec<usize> = (0..n * n).collect();
         let (p, qx, qy) = (field(n * n, 1), field(n * n, 2), field(n * n, 3));
-        let terms = [(Component::Xx, qx.as_slice()), (Component::Xy, qy.as_slice()), (Component::Xz, p.as_slice())];
-        let mut dense = vec![0.0; n * n];
-        let mut fft = vec![0.0; n * n];
-        a.apply(&terms, &mut dense, Product::Dense { src: &all, dst: &all });
-        a.apply(&terms, &mut fft, Product::Fft);
-        let scale = dense.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        for (d, f) in dense.iter().zip(&fft) {
-            assert!((d - f).abs() < 1e-12 * scale, "{d} vs {f}");
-        }
+        assert_fft_equals_dense(
+            &a,
+            &[(Component::Xx, qx.as_slice()), (Component::Xy, qy.as_slice()), (Component::Xz, p.as_slice())],
+        );
         for (dx, dy) in [(1, 0), (2, -3)] {
             let (xz, zx) = (a.coefficient(Component::Xz, dx, dy), a.coefficient(Component::Zx, -dx, -dy));
             assert!((xz - zx).abs() < 1e-12 * xz.abs(), "reciprocity: {xz} vs {zx}");
