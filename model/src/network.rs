@@ -1,0 +1,284 @@
+//! The paper's networks (Methods, Fig. 2), at 256x256 by default: kernel 4, stride 2, batch
+//! norm and ReLU after every layer but the outputs, sigmoid on the images, weights from
+//! N(0, 0.02).
+//!
+//! - Shear encoder `E_S`: Conv 32, 64, 64, 128, then two Conv heads to the pose code and the
+//!   shear code (8x8x64 each).
+//! - Tap decoder `D_T`: TConv 64, 64, 32, 32, 1 from the pose code to the unsheared image.
+//! - Shear decoder `D_S`: TConv 128, 64, 64, 32, 1 from the pose and shear codes (stacked,
+//!   8x8x128) to the sheared image.
+//! - Tap encoder `E_T`: Conv 32, 32, 64, 64, 64 from an unsheared image to its pose code.
+//!
+//! [`Size`] scales the number of stride-2 stages for 128 and 64 px inputs with the same 8x8
+//! codes: each halving of the input drops the first encoder stage and the last decoder stage
+//! before the output.
+//!
+//! Parameter counts (burn's `num_params`, batch-norm running statistics included; printed by
+//! `cargo test -p tacsim-model network -- --nocapture`):
+//!
+//! | size | E_S | D_T | D_S | E_T |
+//! |---|---|---|---|---|
+//! | 256 | 494,112 | 181,697 | 493,473 | 182,016 |
+//! | 128 | 461,696 | 165,153 | 461,057 | 165,472 |
+//! | 64 | 395,840 | 132,737 | 395,201 | 133,056 |
+
+use burn::module::{Initializer, Module};
+use burn::nn::conv::{Conv2d, Conv2dConfig, ConvTranspose2d, ConvTranspose2dConfig};
+use burn::nn::{BatchNorm, BatchNormConfig, PaddingConfig2d};
+use burn::tensor::activation::{relu, sigmoid};
+use burn::tensor::{Device, Tensor};
+
+/// Image side the networks take.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Size {
+    /// 256x256 (the paper's).
+    S256,
+    /// 128x128 (the lab's usual network size).
+    S128,
+    /// 64x64.
+    S64,
+}
+
+impl Size {
+    /// Side (px).
+    pub fn px(self) -> usize {
+        match self {
+            Size::S256 => 256,
+            Size::S128 => 128,
+            Size::S64 => 64,
+        }
+    }
+
+    /// Stages dropped relative to 256 px.
+    fn dropped(self) -> usize {
+        match self {
+            Size::S256 => 0,
+            Size::S128 => 1,
+            Size::S64 => 2,
+        }
+    }
+}
+
+/// Channels of the latent codes (8x8 each).
+pub const CODE_CHANNELS: usize = 64;
+
+fn init() -> Initializer {
+    Initializer::Normal { mean: 0.0, std: 0.02 }
+}
+
+fn conv(cin: usize, cout: usize, device: &Device) -> Conv2d {
+    Conv2dConfig::new([cin, cout], [4, 4])
+        .with_stride([2, 2])
+        .with_padding(PaddingConfig2d::Explicit(1, 1, 1, 1))
+        .with_initializer(init())
+        .init(device)
+}
+
+fn tconv(cin: usize, cout: usize, device: &Device) -> ConvTranspose2d {
+    ConvTranspose2dConfig::new([cin, cout], [4, 4])
+        .with_stride([2, 2])
+        .with_padding([1, 1])
+        .with_initializer(init())
+        .init(device)
+}
+
+/// A stack of stride-2 convolutions, each with batch norm and ReLU.
+#[derive(Module, Debug)]
+pub struct ConvStack {
+    convs: Vec<Conv2d>,
+    norms: Vec<BatchNorm>,
+}
+
+impl ConvStack {
+    fn new(cin: usize, channels: &[usize], device: &Device) -> Self {
+        let mut prev = cin;
+        let (mut convs, mut norms) = (Vec::new(), Vec::new());
+        for &c in channels {
+            convs.push(conv(prev, c, device));
+            norms.push(BatchNormConfig::new(c).init(device));
+            prev = c;
+        }
+        Self { convs, norms }
+    }
+
+    fn forward(&self, mut x: Tensor<4>) -> Tensor<4> {
+        for (c, n) in self.convs.iter().zip(&self.norms) {
+            x = relu(n.forward(c.forward(x)));
+        }
+        x
+    }
+}
+
+/// A stack of stride-2 transposed convolutions, batch norm and ReLU after each but the last,
+/// sigmoid at the end.
+#[derive(Module, Debug)]
+pub struct Upsampler {
+    tconvs: Vec<ConvTranspose2d>,
+    norms: Vec<BatchNorm>,
+}
+
+impl Upsampler {
+    fn new(cin: usize, channels: &[usize], device: &Device) -> Self {
+        let mut prev = cin;
+        let (mut tconvs, mut norms) = (Vec::new(), Vec::new());
+        for (k, &c) in channels.iter().enumerate() {
+            tconvs.push(tconv(prev, c, device));
+            if k + 1 < channels.len() {
+                norms.push(BatchNormConfig::new(c).init(device));
+            }
+            prev = c;
+        }
+        Self { tconvs, norms }
+    }
+
+    fn forward(&self, mut x: Tensor<4>) -> Tensor<4> {
+        let last = self.tconvs.len() - 1;
+        for (k, t) in self.tconvs.iter().enumerate() {
+            x = t.forward(x);
+            x = if k < last { relu(self.norms[k].forward(x)) } else { sigmoid(x) };
+        }
+        x
+    }
+}
+
+/// Drops the first `n` encoder stages (or, for decoders, the stages before the output).
+fn encoder_channels(full: &[usize], size: Size) -> Vec<usize> {
+    full[size.dropped()..].to_vec()
+}
+
+fn decoder_channels(full: &[usize], size: Size) -> Vec<usize> {
+    let keep = full.len() - size.dropped();
+    let mut v: Vec<usize> = full[..keep - 1].to_vec();
+    v.push(*full.last().unwrap_or(&1));
+    v
+}
+
+/// Shear encoder `E_S`: sheared image to (pose code, shear code).
+#[derive(Module, Debug)]
+pub struct ShearEncoder {
+    trunk: ConvStack,
+    pose: Conv2d,
+    pose_norm: BatchNorm,
+    shear: Conv2d,
+    shear_norm: BatchNorm,
+}
+
+impl ShearEncoder {
+    /// The encoder for `size` inputs.
+    pub fn new(size: Size, device: &Device) -> Self {
+        let ch = encoder_channels(&[32, 64, 64, 128], size);
+        let last = *ch.last().unwrap_or(&128);
+        Self {
+            trunk: ConvStack::new(1, &ch, device),
+            pose: conv(last, CODE_CHANNELS, device),
+            pose_norm: BatchNormConfig::new(CODE_CHANNELS).init(device),
+            shear: conv(last, CODE_CHANNELS, device),
+            shear_norm: BatchNormConfig::new(CODE_CHANNELS).init(device),
+        }
+    }
+
+    /// `[batch, 1, s, s]` to two `[batch, 64, 8, 8]` codes.
+    pub fn forward(&self, x: Tensor<4>) -> (Tensor<4>, Tensor<4>) {
+        let h = self.trunk.forward(x);
+        (
+            relu(self.pose_norm.forward(self.pose.forward(h.clone()))),
+            relu(self.shear_norm.forward(self.shear.forward(h))),
+        )
+    }
+}
+
+/// Tap decoder `D_T`: pose code to unsheared image.
+#[derive(Module, Debug)]
+pub struct TapDecoder {
+    up: Upsampler,
+}
+
+impl TapDecoder {
+    /// The decoder for `size` outputs.
+    pub fn new(size: Size, device: &Device) -> Self {
+        Self { up: Upsampler::new(CODE_CHANNELS, &decoder_channels(&[64, 64, 32, 32, 1], size), device) }
+    }
+
+    /// `[batch, 64, 8, 8]` to `[batch, 1, s, s]` in `(0, 1)`.
+    pub fn forward(&self, pose: Tensor<4>) -> Tensor<4> {
+        self.up.forward(pose)
+    }
+}
+
+/// Shear decoder `D_S`: pose and shear codes to sheared image.
+#[derive(Module, Debug)]
+pub struct ShearDecoder {
+    up: Upsampler,
+}
+
+impl ShearDecoder {
+    /// The decoder for `size` outputs.
+    pub fn new(size: Size, device: &Device) -> Self {
+        Self { up: Upsampler::new(2 * CODE_CHANNELS, &decoder_channels(&[128, 64, 64, 32, 1], size), device) }
+    }
+
+    /// Two `[batch, 64, 8, 8]` codes to `[batch, 1, s, s]` in `(0, 1)`.
+    pub fn forward(&self, pose: Tensor<4>, shear: Tensor<4>) -> Tensor<4> {
+        self.up.forward(Tensor::cat(vec![pose, shear], 1))
+    }
+}
+
+/// Tap encoder `E_T`: unsheared image to pose code.
+#[derive(Module, Debug)]
+pub struct TapEncoder {
+    trunk: ConvStack,
+}
+
+impl TapEncoder {
+    /// The encoder for `size` inputs.
+    pub fn new(size: Size, device: &Device) -> Self {
+        Self { trunk: ConvStack::new(1, &encoder_channels(&[32, 32, 64, 64, 64], size), device) }
+    }
+
+    /// `[batch, 1, s, s]` to `[batch, 64, 8, 8]`.
+    pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        self.trunk.forward(x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shapes_follow_the_paper_at_every_size_and_parameter_counts_are_documented() {
+        let device = Device::flex();
+        let mut counts = Vec::new();
+        for size in [Size::S256, Size::S128, Size::S64] {
+            let s = size.px();
+            let x = Tensor::<4>::zeros([2, 1, s, s], &device);
+            let (es, dt, ds, et) = (
+                ShearEncoder::new(size, &device),
+                TapDecoder::new(size, &device),
+                ShearDecoder::new(size, &device),
+                TapEncoder::new(size, &device),
+            );
+            let (pose, shear) = es.forward(x.clone());
+            assert_eq!(pose.dims(), [2, CODE_CHANNELS, 8, 8], "{size:?}");
+            assert_eq!(shear.dims(), [2, CODE_CHANNELS, 8, 8]);
+            assert_eq!(dt.forward(pose.clone()).dims(), [2, 1, s, s]);
+            assert_eq!(ds.forward(pose, shear).dims(), [2, 1, s, s]);
+            assert_eq!(et.forward(x).dims(), [2, CODE_CHANNELS, 8, 8]);
+            counts.push((size, es.num_params(), dt.num_params(), ds.num_params(), et.num_params()));
+        }
+        for c in &counts {
+            println!("{:?}: E_S {}, D_T {}, D_S {}, E_T {}", c.0, c.1, c.2, c.3, c.4);
+        }
+        // 256 px, by hand: E_S convs (1-32-64-64-128, then two 128-64 heads, 4x4 kernels with
+        // bias) plus batch norms (burn counts 4 values per channel: scale, shift and the two
+        // running statistics).
+        let conv = |a: usize, b: usize| 16 * a * b + b;
+        let es = conv(1, 32)
+            + conv(32, 64)
+            + conv(64, 64)
+            + conv(64, 128)
+            + 2 * conv(128, 64)
+            + 4 * (32 + 64 + 64 + 128 + 64 + 64);
+        assert_eq!(counts[0].1, es);
+    }
+}
