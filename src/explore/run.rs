@@ -238,6 +238,5 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     report.pass = report.failures.is_empty();
     report.wall_s = wall.elapsed().as_secs_f64();
     report.steps_per_s = steps as f64 / report.wall_s.max(1e-9);
-    let _ = ny;
     Ok(report)
 }
