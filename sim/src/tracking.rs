@@ -147,6 +147,18 @@ pub fn global_shift(reference: &[[f64; 2]], detected: &[[f64; 2]], spacing: f64,
     shift
 }
 
+/// The `k` nearest other points of each point, nearest first.
+pub fn nearest_neighbours(points: &[[f64; 2]], k: usize) -> Vec<Vec<usize>> {
+    (0..points.len())
+        .map(|i| {
+            let mut d: Vec<(f64, usize)> =
+                (0..points.len()).filter(|&j| j != i).map(|j| (dist2(points[i], points[j]), j)).collect();
+            d.sort_by(|a, b| a.0.total_cmp(&b.0));
+            d.into_iter().take(k).map(|(_, j)| j).collect()
+        })
+        .collect()
+}
+
 /// Fast tracking for small motions (every pin within `MATCH_FRACTION` of a spacing of its
 /// reference, as in shallow closed-loop contact): mutual nearest neighbours, one pass, no
 /// assignment. Per reference pin: displacement or `None`.
@@ -196,15 +208,7 @@ fn assign(predicted: &[[f64; 2]], detected: &[[f64; 2]], radius: f64) -> Vec<Opt
 pub fn track(reference: &[[f64; 2]], detected: &[[f64; 2]], spacing: f64, start_shift: [f64; 2]) -> Tracking {
     let n = reference.len();
     let shift = start_shift;
-    // Neighbours of each reference pin (excluding itself), nearest first.
-    let neighbours: Vec<Vec<usize>> = (0..n)
-        .map(|i| {
-            let mut d: Vec<(f64, usize)> =
-                (0..n).filter(|&j| j != i).map(|j| (dist2(reference[i], reference[j]), j)).collect();
-            d.sort_by(|a, b| a.0.total_cmp(&b.0));
-            d.into_iter().take(NEIGHBOURS).map(|(_, j)| j).collect()
-        })
-        .collect();
+    let neighbours = nearest_neighbours(reference, NEIGHBOURS);
     let radius = MATCH_FRACTION * spacing;
     let mut disp: Vec<Option<[f64; 2]>> = vec![None; n];
     let mut matched: Vec<Option<usize>> = vec![None; n];

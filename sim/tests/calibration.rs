@@ -3,6 +3,8 @@
 //! structure, ring radii within 1 px RMS, mean blob area within 15%. Skips, saying so, where
 //! the shared data is absent. Set `TACSIM_SHARED` to point at another `shared/` folder.
 
+mod common;
+
 use std::path::PathBuf;
 
 use tacsim_sim::SensorParams;
@@ -12,16 +14,7 @@ use tacsim_sim::realism::Realism;
 use tacsim_sim::render::PinRenderer;
 
 fn reference() -> Option<PathBuf> {
-    let shared = std::env::var_os("TACSIM_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared"));
-    let path = shared.join("data/real-tactip-surface3d/images/image_0.png");
-    if path.exists() {
-        Some(path)
-    } else {
-        println!("SKIPPED: real reference {} not found (set TACSIM_SHARED to the shared/ folder)", path.display());
-        None
-    }
+    common::shared("data/real-tactip-surface3d/images/image_0.png")
 }
 
 #[test]

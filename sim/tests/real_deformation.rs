@@ -3,22 +3,15 @@
 //! shared data is absent (set `TACSIM_SHARED`). `cargo xtask real-compare` prints the
 //! comparison of the deformed pins.
 
+mod common;
+
 use std::path::PathBuf;
 
 use tacsim_data::LabFolder;
 use tacsim_sim::calibrate::observe::Observations;
 
 fn folder() -> Option<PathBuf> {
-    let shared = std::env::var_os("TACSIM_SHARED")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared"));
-    let dir = shared.join("data/real-tactip-surface3d");
-    if dir.join("targets.csv").exists() {
-        Some(dir)
-    } else {
-        println!("SKIPPED: {} not found (set TACSIM_SHARED to the shared/ folder)", dir.display());
-        None
-    }
+    common::shared("data/real-tactip-surface3d")
 }
 
 #[test]

@@ -80,7 +80,7 @@ pub struct Geometric {
     renderer: tacsim_sim::PinRenderer,
     reference_px: Vec<[f64; 2]>,
     /// Rest position (contact-plane mm, sensor frame) of each reference pin.
-    rest_mm: Vec<[f64; 2]>,
+    rest_mm: Vec<Option<[f64; 2]>>,
     spacing_px: f64,
     radius_mm: f64,
     /// The six nearest reference pins of each reference pin.
@@ -99,38 +99,16 @@ impl Geometric {
         use tacsim_sim::pins::PinLayout;
         let renderer = tacsim_sim::PinRenderer::new(sensor, size)?;
         let layout = PinLayout::new(sensor);
-        let reference_px = pin_centres(&renderer.render(&layout.poses()));
-        // Rest positions: the layout pin whose projected tip is nearest each detected pin.
-        let tips: Vec<Option<[f64; 2]>> = layout.pins.iter().map(|p| renderer.camera().project(&p.tip)).collect();
-        let rest_mm = reference_px
-            .iter()
-            .map(|r| {
-                let best = tips
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(i, t)| t.map(|t| (i, (t[0] - r[0]).powi(2) + (t[1] - r[1]).powi(2))))
-                    .min_by(|a, b| a.1.total_cmp(&b.1))
-                    .map_or(0, |(i, _)| i);
-                let b = layout.pins[best].base;
-                [b.x, b.y]
-            })
-            .collect();
+        let reference_px = tacsim_sim::calibrate::observe::pin_centres(&renderer.render(&layout.poses()));
         let spacing_px = 17.5 * size as f64 / 420.0;
+        // Rest positions: the layout pin whose projected tip is nearest each detected pin.
+        let rest_mm =
+            tacsim_sim::calibrate::model::match_reference(&renderer, &layout.poses(), &reference_px, spacing_px)
+                .into_iter()
+                .map(|m| m.map(|i| [layout.pins[i].base.x, layout.pins[i].base.y]))
+                .collect();
         let radius_mm = (sensor.dome.outer_radius_mm * depth_mm).sqrt();
-        let neighbours = reference_px
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let mut d: Vec<(f64, usize)> = reference_px
-                    .iter()
-                    .enumerate()
-                    .filter(|(j, _)| *j != i)
-                    .map(|(j, q)| ((q[0] - p[0]).hypot(q[1] - p[1]), j))
-                    .collect();
-                d.sort_by(|a, b| a.0.total_cmp(&b.0));
-                d.into_iter().take(6).map(|(_, j)| j).collect()
-            })
-            .collect();
+        let neighbours = tacsim_sim::tracking::nearest_neighbours(&reference_px, 6);
         let last = reference_px.iter().map(|p| Some(*p)).collect();
         Ok(Self { renderer, reference_px, rest_mm, spacing_px, radius_mm, neighbours, last })
     }
@@ -143,13 +121,11 @@ impl Geometric {
     /// [`Geometric::estimate`] with another contact threshold (share of the largest motion).
     pub fn estimate_with(&mut self, pins: &[tacsim_sim::pins::PinPose], fraction: f64) -> Option<EdgeEstimate> {
         let img = self.renderer.render(pins);
-        let detected = pin_centres(&img);
+        let detected = tacsim_sim::calibrate::observe::pin_centres(&img);
         // Track from where each pin was last seen (its reference position when lost).
         let from: Vec<[f64; 2]> = self.last.iter().zip(&self.reference_px).map(|(l, r)| l.unwrap_or(*r)).collect();
         let step = tacsim_sim::tracking::track_nearest(&from, &detected, self.spacing_px);
         self.last = from.iter().zip(&step).map(|(f, d)| d.map(|d| [f[0] + d[0], f[1] + d[1]])).collect();
-        let disp: Vec<Option<[f64; 2]>> =
-            self.last.iter().zip(&self.reference_px).map(|(l, r)| l.map(|l| [l[0] - r[0], l[1] - r[1]])).collect();
         // Local dilation: how much each pin's neighbourhood grew in the image (pins pressed
         // towards the camera spread apart). A sideways drag (sliding shear) moves a
         // neighbourhood without growing it, so the signal ignores the shear.
@@ -158,12 +134,10 @@ impl Geometric {
             .iter()
             .enumerate()
             .map(|(i, nb)| {
-                let di = disp[i]?;
-                let pi = [self.reference_px[i][0] + di[0], self.reference_px[i][1] + di[1]];
+                let pi = self.last[i]?;
                 let (mut sum, mut n) = (0.0, 0);
                 for &j in nb {
-                    if let Some(dj) = disp[j] {
-                        let pj = [self.reference_px[j][0] + dj[0], self.reference_px[j][1] + dj[1]];
+                    if let Some(pj) = self.last[j] {
                         let rest = (self.reference_px[j][0] - self.reference_px[i][0])
                             .hypot(self.reference_px[j][1] - self.reference_px[i][1]);
                         sum += (pj[0] - pi[0]).hypot(pj[1] - pi[1]) / rest;
@@ -180,6 +154,7 @@ impl Geometric {
         // The pins in contact and those not, within the contact disc.
         let (mut inn, mut out): (Vec<[f64; 2]>, Vec<[f64; 2]>) = (Vec::new(), Vec::new());
         for (m, r) in mags.iter().zip(&self.rest_mm) {
+            let Some(r) = r else { continue };
             if r[0].hypot(r[1]) > self.radius_mm {
                 continue;
             }
@@ -233,10 +208,4 @@ impl Geometric {
         }
         Some(EdgeEstimate { offset_mm: 0.5 * (lo + hi), angle_deg: wrap_deg(tangent_deg) })
     }
-}
-
-/// Pin centres (px) of a binary image.
-fn pin_centres(img: &image::GrayImage) -> Vec<[f64; 2]> {
-    let (lo, hi) = tacsim_sim::calibration::pin_area_range(img.width());
-    tacsim_sim::detect::detect_pins(img, lo, hi).iter().map(|b| b.centroid).collect()
 }
