@@ -20,6 +20,6 @@ pub mod row;
 
 pub use error::{DataError, Result};
 pub use lab::{LabFolder, LabSample};
-pub use loader::Dataset;
+pub use loader::{Dataset, Subset};
 pub use meta::{Meta, Shard};
 pub use row::{Kind, Row, Split};

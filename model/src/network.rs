@@ -90,7 +90,8 @@ pub struct ConvStack {
 }
 
 impl ConvStack {
-    fn new(cin: usize, channels: &[usize], device: &Device) -> Self {
+    /// Stride-2 convolutions from `cin` channels through `channels`.
+    pub(crate) fn new(cin: usize, channels: &[usize], device: &Device) -> Self {
         let mut prev = cin;
         let (mut convs, mut norms) = (Vec::new(), Vec::new());
         for &c in channels {
@@ -101,7 +102,8 @@ impl ConvStack {
         Self { convs, norms }
     }
 
-    fn forward(&self, mut x: Tensor<4>) -> Tensor<4> {
+    /// Runs the stack.
+    pub(crate) fn forward(&self, mut x: Tensor<4>) -> Tensor<4> {
         for (c, n) in self.convs.iter().zip(&self.norms) {
             x = relu(n.forward(c.forward(x)));
         }
@@ -142,7 +144,7 @@ impl Upsampler {
 }
 
 /// Drops the first `n` encoder stages (or, for decoders, the stages before the output).
-fn encoder_channels(full: &[usize], size: Size) -> Vec<usize> {
+pub(crate) fn encoder_channels(full: &[usize], size: Size) -> Vec<usize> {
     full[size.dropped()..].to_vec()
 }
 

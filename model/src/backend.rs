@@ -1,0 +1,88 @@
+//! Which burn device the networks run on. `flex` is the default CPU backend (it trains these
+//! networks far faster than `ndarray`, whose transposed convolution is 30-60x slower); `ndarray`
+//! stays selectable; `wgpu` and `cuda` are there for GPU users behind the crate features of the
+//! same names.
+
+use std::fmt;
+use std::str::FromStr;
+
+use burn::tensor::Device;
+
+/// A burn backend.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Backend {
+    /// burn's `flex` CPU backend (default).
+    #[default]
+    Flex,
+    /// burn's `ndarray` CPU backend (deprecated in burn 0.22, kept selectable).
+    Ndarray,
+    /// The default wgpu device (feature `wgpu`).
+    #[cfg(feature = "wgpu")]
+    Wgpu,
+    /// The first CUDA device (feature `cuda`).
+    #[cfg(feature = "cuda")]
+    Cuda,
+}
+
+impl Backend {
+    /// The plain (inference) device.
+    pub fn device(self) -> Device {
+        match self {
+            Backend::Flex => Device::flex(),
+            #[allow(deprecated)] // burn-ndarray is deprecated in 0.22 but kept selectable.
+            Backend::Ndarray => Device::ndarray(),
+            #[cfg(feature = "wgpu")]
+            Backend::Wgpu => Device::wgpu(burn::tensor::DeviceKind::DefaultDevice),
+            #[cfg(feature = "cuda")]
+            Backend::Cuda => Device::cuda(0),
+        }
+    }
+
+    /// The device with autodiff, for training.
+    pub fn training_device(self) -> Device {
+        self.device().autodiff()
+    }
+
+    /// Names accepted by [`FromStr`].
+    pub fn names() -> &'static [&'static str] {
+        &[
+            "flex",
+            "ndarray",
+            #[cfg(feature = "wgpu")]
+            "wgpu",
+            #[cfg(feature = "cuda")]
+            "cuda",
+        ]
+    }
+}
+
+impl FromStr for Backend {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "flex" => Ok(Backend::Flex),
+            "ndarray" => Ok(Backend::Ndarray),
+            #[cfg(feature = "wgpu")]
+            "wgpu" => Ok(Backend::Wgpu),
+            #[cfg(feature = "cuda")]
+            "cuda" => Ok(Backend::Cuda),
+            "wgpu" | "cuda" => Err(format!("backend `{s}` needs the `{s}` feature: rebuild with --features {s}")),
+            _ => Err(format!("unknown backend `{s}`: use one of {}", Backend::names().join(", "))),
+        }
+    }
+}
+
+impl fmt::Display for Backend {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let name = match self {
+            Backend::Flex => "flex",
+            Backend::Ndarray => "ndarray",
+            #[cfg(feature = "wgpu")]
+            Backend::Wgpu => "wgpu",
+            #[cfg(feature = "cuda")]
+            Backend::Cuda => "cuda",
+        };
+        f.write_str(name)
+    }
+}

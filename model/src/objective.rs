@@ -1,0 +1,207 @@
+//! The paper's losses and per-module objectives (Methods, "Formulation").
+//!
+//! With `x_s` sheared and `x_t` tap images and the mappings of [`crate::unshear`]:
+//!
+//! - cycle consistency `L_cyc = E|x_s - K(M(x_s); z_s(x_s))|^2 + E|x_t - M(K(x_t; z_s(x_s')))|^2`
+//!   (forward and backward cycles; the backward cycle borrows the shear code of the batch's
+//!   sheared sample `x_s'`, unpaired in the self-supervised phase);
+//! - reconstruction `L_rec = E|x_s - N(x_s)|^2`;
+//! - supervised `L_sup = E|x_t - M(x_s)|^2` on true pairs;
+//! - patch `L_patch = E|crops(x_t) - crops(M(x_s))|_1` over `patch_count` random square crops
+//!   per image, weighted by lambda = `patch_weight`;
+//! - weight regularisation `l1 sum|w| + l2 sum w^2` over every conv and linear weight.
+//!
+//! The squared norms are per-pixel means (MSE). Per-module objectives: E_S minimises every
+//! term, E_T `L_cyc`, D_T `L_cyc + L_sup + lambda L_patch` and D_S `L_rec` alone. One backward
+//! pass over the sum gives exactly these gradients because the cycles run through a copy of
+//! D_S whose parameters take no gradient: gradients still flow through it to E_T and E_S, but
+//! D_S itself learns only from `L_rec`.
+
+use burn::module::{Module, ModuleVisitor, Param};
+use burn::tensor::{Device, Tensor, TensorData};
+use rand::Rng;
+
+use crate::unshear::Unshear;
+
+/// The loss terms of one step (batch means), for logs and tests.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StepLosses {
+    /// Forward cycle `x_s -> M -> K -> x_s`.
+    pub cycle_forward: f64,
+    /// Backward cycle `x_t -> K -> M -> x_t`.
+    pub cycle_backward: f64,
+    /// Sheared reconstruction `L_rec`.
+    pub reconstruction: f64,
+    /// Supervised L2 `L_sup`.
+    pub supervised: f64,
+    /// L1 patch loss (unweighted).
+    pub patch: f64,
+    /// Weight regularisation (weighted).
+    pub regularisation: f64,
+    /// The sum that was minimised.
+    pub total: f64,
+}
+
+/// Weights of the terms that are not on/off by phase.
+#[derive(Clone, Copy, Debug)]
+pub struct Weights {
+    /// lambda of the patch loss.
+    pub patch: f64,
+    /// L1 weight penalty.
+    pub l1: f64,
+    /// L2 weight penalty.
+    pub l2: f64,
+}
+
+/// Mean squared error (a scalar tensor).
+pub fn mse(a: Tensor<4>, b: Tensor<4>) -> Tensor<1> {
+    (a - b).square().mean()
+}
+
+fn scalar(t: &Tensor<1>) -> f64 {
+    t.clone().into_scalar::<f32>() as f64
+}
+
+/// The self-supervised objective on a batch of unpaired sheared and tap images.
+pub fn self_supervised(model: &Unshear, sheared: Tensor<4>, taps: Tensor<4>, w: Weights) -> (Tensor<1>, StepLosses) {
+    let ds_cycle = model.ds.clone().no_grad();
+    let (pose, shear) = model.es.forward(sheared.clone());
+    // Forward cycle: x_s -> M(x_s) -> K(M(x_s); z_s).
+    let unsheared = model.dt.forward(pose.clone());
+    let back = ds_cycle.forward(model.et.forward(unsheared), shear.clone());
+    let cycle_forward = mse(back, sheared.clone());
+    // Reconstruction through the trained D_S.
+    let reconstruction = mse(model.ds.forward(pose, shear.clone()), sheared);
+    // Backward cycle: x_t -> K(x_t; z_s) -> M(K(x_t)).
+    let k = ds_cycle.forward(model.et.forward(taps.clone()), shear);
+    let cycle_backward = mse(model.unshear(k), taps);
+    let (total, reg) =
+        with_regularisation(cycle_forward.clone() + cycle_backward.clone() + reconstruction.clone(), model, w);
+    let losses = StepLosses {
+        cycle_forward: scalar(&cycle_forward),
+        cycle_backward: scalar(&cycle_backward),
+        reconstruction: scalar(&reconstruction),
+        regularisation: reg,
+        total: scalar(&total),
+        ..StepLosses::default()
+    };
+    (total, losses)
+}
+
+/// The supervised objective on true pairs; `mask` is the patch-crop coverage of
+/// [`patch_mask`] (or `None` when the patch loss is off).
+pub fn supervised(
+    model: &Unshear,
+    sheared: Tensor<4>,
+    taps: Tensor<4>,
+    mask: Option<(Tensor<4>, f64)>,
+    w: Weights,
+) -> (Tensor<1>, StepLosses) {
+    let (pose, shear) = model.es.forward(sheared.clone());
+    let unsheared = model.dt.forward(pose.clone());
+    let reconstruction = mse(model.ds.forward(pose, shear), sheared);
+    let sup = mse(unsheared.clone(), taps.clone());
+    let (mut total, reg) = with_regularisation(reconstruction.clone() + sup.clone(), model, w);
+    let mut patch_value = 0.0;
+    if let Some((mask, norm)) = mask {
+        let patch = ((unsheared - taps).abs() * mask).sum().div_scalar(norm);
+        patch_value = scalar(&patch);
+        total = total + patch.mul_scalar(w.patch);
+    }
+    let losses = StepLosses {
+        reconstruction: scalar(&reconstruction),
+        supervised: scalar(&sup),
+        patch: patch_value,
+        regularisation: reg,
+        total: scalar(&total),
+        ..StepLosses::default()
+    };
+    (total, losses)
+}
+
+/// Coverage mask of `count` random `crop x crop` squares per image of a `[batch, 1, side,
+/// side]` batch, and the normaliser `batch * count * crop^2`: `sum(mask * |a - b|) / norm`
+/// is the mean L1 over all crops, crops overlapping where they fall.
+pub fn patch_mask<R: Rng>(
+    batch: usize,
+    side: usize,
+    count: usize,
+    crop: usize,
+    rng: &mut R,
+    device: &Device,
+) -> (Tensor<4>, f64) {
+    let mut mask = vec![0f32; batch * side * side];
+    let span = side - crop + 1;
+    for b in 0..batch {
+        let img = &mut mask[b * side * side..(b + 1) * side * side];
+        for _ in 0..count {
+            let (x0, y0) = (rng.random_range(0..span), rng.random_range(0..span));
+            for y in y0..y0 + crop {
+                for v in &mut img[y * side + x0..y * side + x0 + crop] {
+                    *v += 1.0;
+                }
+            }
+        }
+    }
+    let norm = (batch * count * crop * crop) as f64;
+    (Tensor::from_data(TensorData::new(mask, [batch, 1, side, side]), device), norm)
+}
+
+/// `loss` plus the weight regularisation of `module`, and the regularisation's value.
+pub fn with_regularisation<M: Module>(loss: Tensor<1>, module: &M, w: Weights) -> (Tensor<1>, f64) {
+    match regularisation(module, w) {
+        Some(reg) => {
+            let value = scalar(&reg);
+            (loss + reg, value)
+        }
+        None => (loss, 0.0),
+    }
+}
+
+/// `l1 sum|w| + l2 sum w^2` over the module's weights of rank 2 and above (convolutions and
+/// linear layers; biases and batch-norm parameters are not penalised); `None` when both
+/// weights are 0.
+pub fn regularisation<M: Module>(module: &M, w: Weights) -> Option<Tensor<1>> {
+    if w.l1 == 0.0 && w.l2 == 0.0 {
+        return None;
+    }
+    struct Penalty {
+        l1: f64,
+        l2: f64,
+        sum: Option<Tensor<1>>,
+    }
+    impl ModuleVisitor for Penalty {
+        fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+            if D < 2 {
+                return;
+            }
+            let v = param.val();
+            let term = v.clone().abs().sum().mul_scalar(self.l1) + v.square().sum().mul_scalar(self.l2);
+            self.sum = Some(match self.sum.take() {
+                Some(s) => s + term,
+                None => term,
+            });
+        }
+    }
+    let mut p = Penalty { l1: w.l1, l2: w.l2, sum: None };
+    module.visit(&mut p);
+    p.sum
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::SeedableRng;
+
+    #[test]
+    fn patch_mask_is_the_mean_l1_over_crops() {
+        let device = Device::flex();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+        let (mask, norm) = patch_mask(2, 16, 5, 4, &mut rng, &device);
+        // |a - b| = 1 everywhere: every crop's mean L1 is 1.
+        let ones = Tensor::<4>::ones([2, 1, 16, 16], &device);
+        let v = (ones * mask.clone()).sum().div_scalar(norm).into_scalar::<f32>();
+        assert!((v - 1.0).abs() < 1e-6, "{v}");
+        assert_eq!(mask.sum().into_scalar::<f32>() as f64, norm);
+    }
+}

@@ -1,0 +1,416 @@
+//! Training loops: the shear-removal model's two phases (or one, for the baseline and the
+//! no-label model) and the pose network, seeded, checkpointed and resumable.
+//!
+//! Every random draw comes from a ChaCha8 stream keyed by the config's seed and the position
+//! in training: the batch order of an epoch by `(seed, phase, epoch)`, the image shifts and
+//! patch crops of a step by `(seed, phase, epoch, batch)`. A run resumed from any checkpoint
+//! therefore sees the same batches as an uninterrupted one. (Floating-point results can still
+//! differ with the backend and its thread count.)
+
+use burn::module::Module;
+use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
+use burn::tensor::{Device, Tensor};
+use rand::seq::SliceRandom;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use tacsim_data::{Kind, Split, Subset};
+
+use crate::backend::Backend;
+use crate::checkpoint::{RunDir, canonical_ids, load_weights, read_json, save_weights, write_json};
+use crate::config::{Mode, PoseConfig, UnshearConfig};
+use crate::data::Corpus;
+use crate::error::{ModelError, Result};
+use crate::objective::{self, StepLosses, Weights};
+use crate::posenet::PoseNet;
+use crate::unshear::Unshear;
+
+/// Name of the self-supervised phase in logs.
+pub const SELF_SUPERVISED: &str = "self-supervised";
+/// Name of the supervised phase in logs.
+pub const SUPERVISED: &str = "supervised";
+
+/// Receives training progress (the command line shows it as a progress bar).
+pub trait Progress {
+    /// A phase starts: `total` steps, of which `done` are already done (resume).
+    fn phase(&mut self, _name: &str, _total: u64, _done: u64) {}
+    /// One step finished with these losses.
+    fn step(&mut self, _losses: &StepLosses) {}
+    /// A line of information.
+    fn message(&mut self, _text: &str) {}
+    /// Asked after every step: `true` saves a checkpoint and stops the run with
+    /// [`ModelError::Interrupted`] (Ctrl-C on the command line).
+    fn stop(&self) -> bool {
+        false
+    }
+}
+
+/// Progress that goes nowhere.
+pub struct Silent;
+
+impl Progress for Silent {}
+
+/// The mean losses of one epoch.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EpochLog {
+    /// Phase name.
+    pub phase: String,
+    /// Epoch within the phase (from 0).
+    pub epoch: usize,
+    /// Steps taken.
+    pub steps: usize,
+    /// Learning rate.
+    pub lr: f64,
+    /// Mean of each loss over the epoch's steps.
+    pub mean: StepLosses,
+}
+
+/// Where a run stands; saved in every checkpoint.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrainState {
+    /// Index of the current phase.
+    pub phase: usize,
+    /// Epoch within the phase.
+    pub epoch: usize,
+    /// Next batch of the epoch.
+    pub batch: usize,
+    /// Sum of the losses of the current epoch's finished steps.
+    pub partial: StepLosses,
+    /// Finished epochs.
+    pub history: Vec<EpochLog>,
+    /// The run has finished.
+    pub done: bool,
+}
+
+fn add(a: &mut StepLosses, b: &StepLosses) {
+    a.cycle_forward += b.cycle_forward;
+    a.cycle_backward += b.cycle_backward;
+    a.reconstruction += b.reconstruction;
+    a.supervised += b.supervised;
+    a.patch += b.patch;
+    a.regularisation += b.regularisation;
+    a.total += b.total;
+}
+
+fn scaled(a: &StepLosses, k: f64) -> StepLosses {
+    StepLosses {
+        cycle_forward: a.cycle_forward * k,
+        cycle_backward: a.cycle_backward * k,
+        reconstruction: a.reconstruction * k,
+        supervised: a.supervised * k,
+        patch: a.patch * k,
+        regularisation: a.regularisation * k,
+        total: a.total * k,
+    }
+}
+
+/// A ChaCha8 stream for a position in training.
+pub fn stream(seed: u64, keys: &[u64]) -> ChaCha8Rng {
+    let mut s = seed ^ 0x5DEE_CE66_D1CE_4E5B;
+    for &k in keys {
+        s = s.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(29) ^ k.wrapping_add(0x632B_E59B_D9B4_E019);
+    }
+    ChaCha8Rng::seed_from_u64(s)
+}
+
+/// One phase of a training loop.
+struct PhasePlan<'a, T> {
+    name: &'static str,
+    epochs: usize,
+    /// The epoch's items (unshuffled).
+    items: Box<dyn Fn(usize) -> Vec<T> + 'a>,
+    /// The epoch's learning rate.
+    lr: Box<dyn Fn(usize) -> f64 + 'a>,
+}
+
+struct LoopSettings {
+    batch: usize,
+    max_batches: usize,
+    seed: u64,
+    checkpoint_steps: usize,
+    adam: AdamConfig,
+}
+
+/// A module with its optimizer and where training stands.
+struct Session<M> {
+    model: M,
+    optim: ModuleOptimizer,
+    state: TrainState,
+}
+
+/// Runs the phases from the session's state, checkpointing into `run`, and returns the
+/// trained module.
+fn run_loop<M: Module, T: Copy>(
+    run: &RunDir,
+    session: Session<M>,
+    phases: &[PhasePlan<'_, T>],
+    s: &LoopSettings,
+    progress: &mut dyn Progress,
+    mut step: impl FnMut(&M, &str, &[T], &mut ChaCha8Rng) -> (Tensor<1>, StepLosses),
+) -> Result<(M, TrainState)> {
+    let Session { mut model, mut optim, mut state } = session;
+    let batches_of = |n: usize| {
+        let full = n / s.batch + usize::from(n % s.batch >= 2);
+        if s.max_batches > 0 { full.min(s.max_batches) } else { full }
+    };
+    while state.phase < phases.len() {
+        let plan = &phases[state.phase];
+        let per_epoch: Vec<usize> = (0..plan.epochs).map(|e| batches_of((plan.items)(e).len())).collect();
+        if per_epoch.iter().all(|&b| b == 0) {
+            return Err(ModelError::Insufficient(format!(
+                "phase `{}` has no batch of at least 2 samples: the dataset is too small for it",
+                plan.name
+            )));
+        }
+        let done: usize = per_epoch[..state.epoch.min(plan.epochs)].iter().sum::<usize>() + state.batch;
+        progress.phase(plan.name, per_epoch.iter().sum::<usize>() as u64, done as u64);
+        if state.epoch == 0 && state.batch == 0 {
+            optim = s.adam.init();
+        }
+        let mut since_save = 0;
+        while state.epoch < plan.epochs {
+            let epoch = state.epoch;
+            let mut items = (plan.items)(epoch);
+            items.shuffle(&mut stream(s.seed, &[state.phase as u64, epoch as u64]));
+            let lr = (plan.lr)(epoch);
+            let nb = per_epoch[epoch];
+            while state.batch < nb {
+                let b = state.batch;
+                let chunk = &items[b * s.batch..((b + 1) * s.batch).min(items.len())];
+                let mut rng = stream(s.seed, &[state.phase as u64, epoch as u64, b as u64, 1]);
+                let (loss, losses) = step(&model, plan.name, chunk, &mut rng);
+                if !losses.total.is_finite() {
+                    return Err(ModelError::Insufficient(format!(
+                        "phase `{}` epoch {epoch} batch {b}: the loss is {} (diverged): lower the learning rate",
+                        plan.name, losses.total
+                    )));
+                }
+                let grads = GradientsParams::from_grads(loss.backward(), &model);
+                model = optim.step(lr, model, grads);
+                add(&mut state.partial, &losses);
+                progress.step(&losses);
+                state.batch += 1;
+                since_save += 1;
+                if progress.stop() && state.batch < nb {
+                    run.save_checkpoint(&model, &optim, &state)?;
+                    return Err(ModelError::Interrupted { dir: run.dir.clone() });
+                }
+                if s.checkpoint_steps > 0 && since_save >= s.checkpoint_steps && state.batch < nb {
+                    run.save_checkpoint(&model, &optim, &state)?;
+                    since_save = 0;
+                }
+            }
+            state.history.push(EpochLog {
+                phase: plan.name.to_string(),
+                epoch,
+                steps: nb,
+                lr,
+                mean: scaled(&state.partial, 1.0 / nb.max(1) as f64),
+            });
+            state.partial = StepLosses::default();
+            state.epoch += 1;
+            state.batch = 0;
+            if state.epoch == plan.epochs {
+                state.phase += 1;
+                state.epoch = 0;
+            }
+            run.save_checkpoint(&model, &optim, &state)?;
+            since_save = 0;
+            if progress.stop() && state.phase < phases.len() {
+                return Err(ModelError::Interrupted { dir: run.dir.clone() });
+            }
+            if state.epoch == 0 {
+                break;
+            }
+        }
+    }
+    state.done = true;
+    run.save_checkpoint(&model, &optim, &state)?;
+    save_weights(&model, &run.weights())?;
+    Ok((model, state))
+}
+
+/// Prepares a run directory: writes the config, or (on resume) checks it is the same and
+/// loads the newest checkpoint.
+fn open_run<M: Module, C: Serialize + for<'de> Deserialize<'de> + PartialEq>(
+    out: &std::path::Path,
+    config: &C,
+    resume: bool,
+    model: M,
+    optim: ModuleOptimizer,
+) -> Result<(RunDir, M, ModuleOptimizer, TrainState)> {
+    let run = RunDir::create(out)?;
+    let path = run.config();
+    if path.is_file() {
+        if !resume {
+            return Err(ModelError::checkpoint(
+                out,
+                "already holds a training run: add --resume to continue it, or choose another --out",
+            ));
+        }
+        let saved: C = read_json(&path)?;
+        if saved != *config {
+            return Err(ModelError::checkpoint(
+                &path,
+                "the run was started with another config: resume with the same options, or choose another --out",
+            ));
+        }
+        if let Some(dir) = run.latest_checkpoint() {
+            let (model, optim, state) = RunDir::load_checkpoint(&dir, model, optim)?;
+            return Ok((run, model, optim, state));
+        }
+    } else {
+        write_json(&path, config)?;
+    }
+    Ok((run, model, optim, TrainState::default()))
+}
+
+fn adam(beta1: f64, beta2: f64, epsilon: f64) -> AdamConfig {
+    AdamConfig::new().with_beta_1(beta1 as f32).with_beta_2(beta2 as f32).with_epsilon(epsilon as f32)
+}
+
+/// Random shifts for `n` samples, each component uniform in `[-max, max]` px.
+fn shifts(n: usize, max: i32, rng: &mut ChaCha8Rng) -> Vec<(i32, i32)> {
+    (0..n)
+        .map(|_| if max > 0 { (rng.random_range(-max..=max), rng.random_range(-max..=max)) } else { (0, 0) })
+        .collect()
+}
+
+/// Trains the shear-removal model on `corpus` into the run directory `out`.
+///
+/// `init` starts from saved weights (fine-tuning a simulator-trained model on real data).
+/// With `resume` an interrupted run continues from its newest checkpoint.
+pub fn train_unshear(
+    corpus: &Corpus,
+    cfg: &UnshearConfig,
+    backend: Backend,
+    out: &std::path::Path,
+    resume: bool,
+    init: Option<&std::path::Path>,
+    progress: &mut dyn Progress,
+) -> Result<(Unshear, TrainState)> {
+    cfg.validate()?;
+    if corpus.side() != cfg.size {
+        return Err(ModelError::config(
+            "size",
+            format!("the data was loaded at {} px, the config says {}", corpus.side(), cfg.size),
+        ));
+    }
+    let device = backend.training_device();
+    device.seed(cfg.seed);
+    let mut model = canonical_ids(Unshear::new(cfg.net_size()?, &device));
+    if let Some(path) = init {
+        model = load_weights(model, path)?;
+    }
+    let settings = LoopSettings {
+        batch: cfg.batch,
+        max_batches: cfg.max_batches_per_epoch,
+        seed: cfg.seed,
+        checkpoint_steps: cfg.checkpoint_steps,
+        adam: adam(cfg.beta1, cfg.beta2, cfg.epsilon),
+    };
+    let (run, model, optim, state) = open_run(out, cfg, resume, model, settings.adam.init())?;
+    if state.done {
+        progress.message("the run had already finished");
+        return Ok((model, state));
+    }
+    let labelled = match cfg.mode {
+        Mode::SemiSupervised => corpus.labelled_pairs(cfg.label_fraction)?,
+        Mode::Baseline => corpus.dataset.true_pairs(Split::Train, Subset::All),
+        Mode::SelfSupervised => Vec::new(),
+    };
+    let ss = PhasePlan {
+        name: SELF_SUPERVISED,
+        epochs: cfg.self_supervised_epochs,
+        items: Box::new(|e| corpus.dataset.epoch_pairs(cfg.seed, e as u64)),
+        lr: Box::new(|_| cfg.lr_self_supervised),
+    };
+    let half = cfg.supervised_epochs / 2;
+    let sup = PhasePlan {
+        name: SUPERVISED,
+        epochs: cfg.supervised_epochs,
+        items: Box::new(|_| labelled.clone()),
+        lr: Box::new(
+            move |e| if e >= half && half > 0 { cfg.lr_supervised * cfg.lr_step_factor } else { cfg.lr_supervised },
+        ),
+    };
+    let phases: Vec<PhasePlan<'_, (usize, usize)>> = match cfg.mode {
+        Mode::SemiSupervised => vec![ss, sup],
+        Mode::SelfSupervised => vec![ss],
+        Mode::Baseline => vec![sup],
+    };
+    let w = Weights { patch: cfg.patch_weight, l1: cfg.l1, l2: cfg.l2 };
+    let (max_shift, side, crop) = (cfg.max_shift_px(), cfg.size, cfg.patch_px());
+    let (model, state) =
+        run_loop(&run, Session { model, optim, state }, &phases, &settings, progress, |m, phase, chunk, rng| {
+            let sh = shifts(chunk.len(), max_shift, rng);
+            let taps: Vec<usize> = chunk.iter().map(|p| p.0).collect();
+            let slides: Vec<usize> = chunk.iter().map(|p| p.1).collect();
+            let (t, s) = (corpus.batch(&taps, &sh, &device), corpus.batch(&slides, &sh, &device));
+            if phase == SUPERVISED {
+                let mask = (w.patch > 0.0)
+                    .then(|| objective::patch_mask(chunk.len(), side, cfg.patch_count, crop, rng, &device));
+                objective::supervised(m, s, t, mask, w)
+            } else {
+                objective::self_supervised(m, s, t, w)
+            }
+        })?;
+    Ok((model, state))
+}
+
+/// Trains the pose network on the training taps of `corpus` into `out`.
+pub fn train_posenet(
+    corpus: &Corpus,
+    cfg: &PoseConfig,
+    backend: Backend,
+    out: &std::path::Path,
+    resume: bool,
+    progress: &mut dyn Progress,
+) -> Result<(PoseNet, TrainState)> {
+    cfg.validate()?;
+    if corpus.side() != cfg.size {
+        return Err(ModelError::config(
+            "size",
+            format!("the data was loaded at {} px, the config says {}", corpus.side(), cfg.size),
+        ));
+    }
+    let device = backend.training_device();
+    device.seed(cfg.seed);
+    let model = canonical_ids(PoseNet::new(cfg.net_size()?, cfg.hidden, &device));
+    let settings = LoopSettings {
+        batch: cfg.batch,
+        max_batches: cfg.max_batches_per_epoch,
+        seed: cfg.seed,
+        checkpoint_steps: cfg.checkpoint_steps,
+        adam: AdamConfig::new(),
+    };
+    let (run, model, optim, state) = open_run(out, cfg, resume, model, settings.adam.init())?;
+    write_json(&out.join("scale.json"), &corpus.scale)?;
+    if state.done {
+        progress.message("the run had already finished");
+        return Ok((model, state));
+    }
+    let taps = corpus.dataset.indices(Split::Train, Subset::All, Kind::Tap);
+    let half = cfg.epochs / 2;
+    let phases = vec![PhasePlan {
+        name: "posenet",
+        epochs: cfg.epochs,
+        items: Box::new(|_| taps.clone()),
+        lr: Box::new(move |e| if e >= half && half > 0 { cfg.lr * cfg.lr_step_factor } else { cfg.lr }),
+    }];
+    let max_shift = cfg.max_shift_px();
+    run_loop(&run, Session { model, optim, state }, &phases, &settings, progress, |m, _, chunk, rng| {
+        let sh = shifts(chunk.len(), max_shift, rng);
+        let x = corpus.batch(chunk, &sh, &device);
+        let poses: Vec<_> = chunk.iter().map(|&r| corpus.pose(r)).collect();
+        let y = corpus.scale.targets(&poses, &device);
+        let loss = (m.forward(x) - y).square().mean();
+        let v = loss.clone().into_scalar::<f32>() as f64;
+        (loss, StepLosses { supervised: v, total: v, ..StepLosses::default() })
+    })
+}
+
+/// The inference device for a backend (no autodiff).
+pub fn inference_device(backend: Backend) -> Device {
+    backend.device()
+}

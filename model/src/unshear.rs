@@ -1,0 +1,72 @@
+//! The shear-removal model: the four networks of [`crate::network`] and the paper's mappings
+//! between the tap domain T and the sheared domain S (Methods, "Formulation"):
+//!
+//! - `M: S -> T`, `M(x_s) = D_T(pose(E_S(x_s)))`: removes shear ([`Unshear::unshear`]);
+//! - `N: S -> S`, `N(x_s) = D_S(E_S(x_s))`: reconstructs the sheared input
+//!   ([`Unshear::reconstruct`]);
+//! - `K: T -> S`, `K(x_t; z_s) = D_S(E_T(x_t), z_s)`: adds the shear code `z_s` of a sheared
+//!   sample to a tap image ([`Unshear::shear`]).
+
+use burn::module::Module;
+use burn::tensor::{Device, Tensor};
+
+use crate::network::{ShearDecoder, ShearEncoder, Size, TapDecoder, TapEncoder};
+
+/// The paper's model: shear encoder, tap decoder, shear decoder and tap encoder.
+#[derive(Module, Debug)]
+pub struct Unshear {
+    /// `E_S`: sheared image to pose and shear codes.
+    pub es: ShearEncoder,
+    /// `D_T`: pose code to unsheared image.
+    pub dt: TapDecoder,
+    /// `D_S`: pose and shear codes to sheared image.
+    pub ds: ShearDecoder,
+    /// `E_T`: unsheared image to pose code.
+    pub et: TapEncoder,
+}
+
+impl Unshear {
+    /// A freshly initialised model for `size` images, N(0, 0.02) weights.
+    pub fn new(size: Size, device: &Device) -> Self {
+        Self {
+            es: ShearEncoder::new(size, device),
+            dt: TapDecoder::new(size, device),
+            ds: ShearDecoder::new(size, device),
+            et: TapEncoder::new(size, device),
+        }
+    }
+
+    /// `E_S(x_s)`: the pose and shear codes of sheared images.
+    pub fn codes(&self, sheared: Tensor<4>) -> (Tensor<4>, Tensor<4>) {
+        self.es.forward(sheared)
+    }
+
+    /// `M(x_s)`: the unsheared images.
+    pub fn unshear(&self, sheared: Tensor<4>) -> Tensor<4> {
+        self.dt.forward(self.es.forward(sheared).0)
+    }
+
+    /// `N(x_s)`: the reconstructed sheared images.
+    pub fn reconstruct(&self, sheared: Tensor<4>) -> Tensor<4> {
+        let (pose, shear) = self.es.forward(sheared);
+        self.ds.forward(pose, shear)
+    }
+
+    /// `K(x_t; z_s)`: tap images with the shear code `z_s` added.
+    pub fn shear(&self, taps: Tensor<4>, shear_code: Tensor<4>) -> Tensor<4> {
+        self.ds.forward(self.et.forward(taps), shear_code)
+    }
+
+    /// Disentanglement ablation 1: the unsheared image decoded from the *shear* code,
+    /// `D_T(shear(E_S(x_s)))`.
+    pub fn unshear_from_shear_code(&self, sheared: Tensor<4>) -> Tensor<4> {
+        self.dt.forward(self.es.forward(sheared).1)
+    }
+
+    /// Disentanglement ablation 2: the sheared image decoded from the pose code alone (shear
+    /// code zeroed), `D_S(pose(E_S(x_s)), 0)`.
+    pub fn reconstruct_from_pose_code(&self, sheared: Tensor<4>) -> Tensor<4> {
+        let (pose, shear) = self.es.forward(sheared);
+        self.ds.forward(pose, shear.zeros_like())
+    }
+}

@@ -1,0 +1,134 @@
+//! Training, checkpoints, resume and evaluation on a tiny synthetic dataset at 64 px.
+
+mod common;
+
+use burn::module::Module;
+use burn::tensor::{Device, Tensor};
+use tacsim_model::Backend;
+use tacsim_model::checkpoint::load_weights;
+use tacsim_model::config::{Mode, PoseConfig, UnshearConfig};
+use tacsim_model::data::Corpus;
+use tacsim_model::eval::evaluate;
+use tacsim_model::images::to_images;
+use tacsim_model::network::Size;
+use tacsim_model::train::{EpochLog, Silent, train_posenet, train_unshear};
+use tacsim_model::unshear::Unshear;
+
+fn corpus(name: &str) -> (std::path::PathBuf, Corpus) {
+    let dir = common::scratch(name);
+    let data = dir.join("data");
+    // 12 poses: 8 train (2 paired), 2 val, 2 test; 2 taps and 4 slides each.
+    common::write_dataset(&data, 64, 12, 2, 4, 2);
+    let corpus = Corpus::open(&data, 64).expect("open synthetic dataset");
+    (dir, corpus)
+}
+
+fn small(mode: Mode) -> UnshearConfig {
+    UnshearConfig {
+        mode,
+        size: 64,
+        batch: 8,
+        self_supervised_epochs: 4,
+        supervised_epochs: 4,
+        lr_self_supervised: 2e-3,
+        lr_supervised: 2e-3,
+        label_fraction: 0.25,
+        patch_count: 10,
+        ..UnshearConfig::default()
+    }
+}
+
+fn phase(history: &[EpochLog], name: &str) -> Vec<EpochLog> {
+    history.iter().filter(|e| e.phase == name).cloned().collect()
+}
+
+fn outputs(model: &Unshear, x: Tensor<4>) -> Vec<Vec<f32>> {
+    to_images(model.valid().unshear(x))
+}
+
+#[test]
+fn unshear_model_losses_fall_in_both_phases_and_checkpoints_reload_to_identical_outputs() {
+    let (dir, corpus) = corpus("unshear");
+    let cfg = small(Mode::SemiSupervised);
+    let run = dir.join("semi");
+    let (model, state) = train_unshear(&corpus, &cfg, Backend::Flex, &run, false, None, &mut Silent).expect("train");
+    assert!(state.done);
+    let ss = phase(&state.history, "self-supervised");
+    let sup = phase(&state.history, "supervised");
+    assert_eq!((ss.len(), sup.len()), (4, 4));
+    for e in state.history.iter() {
+        println!("{} {}: {:?}", e.phase, e.epoch, e.mean);
+    }
+    let (first, last) = (&ss[0].mean, &ss[3].mean);
+    assert!(last.total < 0.7 * first.total, "self-supervised total {} -> {}", first.total, last.total);
+    assert!(last.cycle_backward < first.cycle_backward && last.reconstruction < first.reconstruction);
+    assert!(
+        sup[3].mean.supervised < sup[0].mean.supervised,
+        "supervised {} -> {}",
+        sup[0].mean.supervised,
+        sup[3].mean.supervised
+    );
+    assert!(sup[0].mean.patch > 0.0 && ss[0].mean.supervised == 0.0);
+    // The supervised phase's learning rate steps down after half its epochs.
+    assert_eq!((sup[1].lr, sup[2].lr), (2e-3, 2e-3 * 0.1));
+
+    // Reload into a fresh network: identical outputs; inference is deterministic.
+    let device = Device::flex();
+    let x = corpus.batch(&[0, 3, 7], &[(0, 0); 3], &device);
+    let fresh = Unshear::new(Size::S64, &device);
+    let loaded = load_weights(fresh, &run.join("model.safetensors")).expect("reload");
+    let a = outputs(&model, x.clone());
+    assert!(a == outputs(&loaded, x.clone()), "reloaded weights give other outputs");
+    assert!(a == outputs(&model, x), "valid() inference is not deterministic");
+
+    // Weights of another size are refused with a message that says why.
+    let err = load_weights(Unshear::new(Size::S128, &device), &run.join("model.safetensors")).expect_err("size");
+    assert!(err.to_string().contains("another image size"), "{err}");
+}
+
+#[test]
+fn baseline_and_posenet_losses_fall() {
+    let (dir, corpus) = corpus("baseline");
+    let cfg = UnshearConfig { supervised_epochs: 3, ..small(Mode::Baseline) };
+    let (_, state) =
+        train_unshear(&corpus, &cfg, Backend::Flex, &dir.join("base"), false, None, &mut Silent).expect("baseline");
+    let h = &state.history;
+    assert_eq!(h.len(), 3);
+    assert!(h.iter().all(|e| e.phase == "supervised"));
+    assert!(h[2].mean.supervised < h[0].mean.supervised, "{:?}", h);
+
+    let pcfg = PoseConfig { size: 64, batch: 4, epochs: 6, lr: 1e-3, hidden: 32, ..PoseConfig::default() };
+    let (_, state) =
+        train_posenet(&corpus, &pcfg, Backend::Flex, &dir.join("pose"), false, &mut Silent).expect("posenet");
+    let h = &state.history;
+    assert!(h[5].mean.total < 0.7 * h[0].mean.total, "posenet {} -> {}", h[0].mean.total, h[5].mean.total);
+}
+
+#[test]
+fn evaluation_writes_the_report_with_every_table() {
+    let (dir, corpus) = corpus("eval");
+    let semi = small(Mode::SemiSupervised);
+    let base = UnshearConfig { supervised_epochs: 2, ..small(Mode::Baseline) };
+    train_unshear(&corpus, &semi, Backend::Flex, &dir.join("semi"), false, None, &mut Silent).expect("semi");
+    train_unshear(&corpus, &base, Backend::Flex, &dir.join("baseline"), false, None, &mut Silent).expect("baseline");
+    let pcfg = PoseConfig { size: 64, batch: 4, epochs: 2, hidden: 16, ..PoseConfig::default() };
+    train_posenet(&corpus, &pcfg, Backend::Flex, &dir.join("posenet"), false, &mut Silent).expect("posenet");
+    let out = dir.join("report");
+    let runs = [dir.join("semi"), dir.join("baseline"), dir.join("posenet")];
+    let report = evaluate(&corpus, &runs, Backend::Flex, 0, &out).expect("evaluate");
+    assert_eq!(report.test_pairs, 8);
+    assert_eq!(report.models.len(), 2);
+    assert!(report.pose_tap.is_some() && report.models.iter().all(|m| m.pose.is_some()));
+    assert!(report.input_vs_gt.ssim < 0.99 && report.input_vs_gt.ssim > 0.0);
+    assert_eq!(report.checks.len(), 5, "{:?}", report.checks);
+    for f in ["report.json", "report.md", "grid.png"] {
+        assert!(out.join(f).is_file(), "{f}");
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).expect("md");
+    assert!(md.contains("Pose MAE") && md.contains("ablations") && md.contains("92.5%"));
+    let grid = image::open(out.join("grid.png")).expect("grid").into_luma8();
+    assert_eq!(grid.width() as usize, 4 * (64 + 4) + 4);
+    // A run directory without weights is a clear error.
+    let err = evaluate(&corpus, &[dir.join("nothing")], Backend::Flex, 0, &out).expect_err("missing");
+    assert!(err.to_string().contains("model.safetensors"), "{err}");
+}
