@@ -21,6 +21,8 @@ pub const SHAPE_FILES: &[(&str, &str)] = &[
 pub const RECIPES: &[(&str, &str)] = &[
     ("paper", include_str!("../scenarios/datasets/paper.toml")),
     ("quick", include_str!("../scenarios/datasets/quick.toml")),
+    ("study", include_str!("../scenarios/datasets/study.toml")),
+    ("study-quick", include_str!("../scenarios/datasets/study-quick.toml")),
     ("tilted-surface", include_str!("../scenarios/datasets/tilted-surface.toml")),
     ("twist", include_str!("../scenarios/datasets/twist.toml")),
 ];

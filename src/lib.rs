@@ -3,11 +3,12 @@
 //! [`embedded`] carries the built-in stimuli and recipes so the binary runs anywhere;
 //! [`commands`] holds one function per subcommand, called by the thin `main.rs`; [`dataset`]
 //! runs `generate` and `merge`; [`explore`] is the closed-loop contour follower (`run`); [`validation`] and [`bench`] run the contact checks and
-//! benchmarks.
+//! benchmarks; [`learn`] trains and evaluates the networks of `tacsim-model`.
 
 pub mod bench;
 pub mod commands;
 pub mod dataset;
 pub mod embedded;
 pub mod explore;
+pub mod learn;
 pub mod validation;

@@ -32,7 +32,9 @@ pub struct UnshearConfig {
     pub size: usize,
     /// Batch size (paper: 32).
     pub batch: usize,
-    /// Epochs of the self-supervised phase (paper: 50).
+    /// Epochs of the self-supervised phase (paper: 50). 0 with `--init` from a
+    /// self-supervised run continues that run with the supervised phase (how a study shares
+    /// one self-supervised phase among its label fractions).
     pub self_supervised_epochs: usize,
     /// Epochs of the supervised phase (paper: 50).
     pub supervised_epochs: usize,

@@ -23,9 +23,10 @@ pub struct Preprocess {
 }
 
 impl Preprocess {
-    /// Resize only, keeping binary images binary by thresholding at half grey.
+    /// Resize only: an area-weighted average, kept grey (at 64 px a 331-pin image has pins
+    /// under 2 px apart, and thresholding would merge them).
     pub fn resize(side: u32) -> Self {
-        Self { crop: None, side, threshold: Some(128) }
+        Self { crop: None, side, threshold: None }
     }
 
     /// Applies the crop, resize and threshold to one image. Images already at the side with no

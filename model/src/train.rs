@@ -155,6 +155,10 @@ fn run_loop<M: Module, T: Copy>(
     };
     while state.phase < phases.len() {
         let plan = &phases[state.phase];
+        if plan.epochs == 0 {
+            state.phase += 1;
+            continue;
+        }
         let per_epoch: Vec<usize> = (0..plan.epochs).map(|e| batches_of((plan.items)(e).len())).collect();
         if per_epoch.iter().all(|&b| b == 0) {
             return Err(ModelError::Insufficient(format!(

@@ -6,8 +6,12 @@
 //! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]]`: track
 //!   the lab's recordings and compare the simulated pin motion with the real one (undeformed
 //!   positions, radial profiles by depth, per-sample errors);
+//! - `reproduce [--quick] [--out DIR]`: the paper's study end to end (dataset, every model,
+//!   evaluation report); see [`reproduce`];
 //! - `bench`: run the benchmarks (criterion: renderer, contact operator products) and print
 //!   their figures; `tacsim bench` times whole taps and slides.
+
+mod reproduce;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -39,9 +43,10 @@ fn main() -> Result<()> {
         }
         Some("bench") => bench(&args[1..]),
         Some("real-compare") => real_compare(&args[1..]),
+        Some("reproduce") => reproduce::run(&args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | \
+                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | reproduce [--quick] [--out DIR] | \
                  real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]]"
             );
             bail!("unknown or missing command")

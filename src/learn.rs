@@ -1,0 +1,253 @@
+//! `tacsim train` and `tacsim eval`: the command-line edge of the learning crate
+//! (`tacsim-model`), with progress bars, Ctrl-C that saves a checkpoint, and config files.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{Context as _, Result, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::de::DeserializeOwned;
+use tacsim_model::Backend;
+use tacsim_model::config::{Mode, PoseConfig, UnshearConfig};
+use tacsim_model::data::Corpus;
+use tacsim_model::eval;
+use tacsim_model::objective::StepLosses;
+use tacsim_model::train::{self, Progress, TrainState};
+
+/// Which network `tacsim train` trains.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Network {
+    /// The semi-supervised shear-removal model (or, with --no-labels, self-supervised only).
+    Unshear,
+    /// The fully supervised baseline (supervised phase on every training pair).
+    Baseline,
+    /// The pose network on tap images.
+    Posenet,
+}
+
+/// Options of `tacsim train`.
+#[derive(Clone, Debug)]
+pub struct TrainOptions {
+    /// The network.
+    pub network: Network,
+    /// Dataset directory (`tacsim generate` output).
+    pub data: PathBuf,
+    /// Run directory.
+    pub out: PathBuf,
+    /// Config file (TOML, fields of `UnshearConfig` or `PoseConfig`); flags override it.
+    pub config: Option<PathBuf>,
+    /// Image side (px).
+    pub size: Option<usize>,
+    /// Epochs: both phases of the unshear model, or the pose network's.
+    pub epochs: Option<usize>,
+    /// At most this many batches per epoch.
+    pub max_batches: Option<usize>,
+    /// Batch size.
+    pub batch: Option<usize>,
+    /// Fraction of training poses with labels (unshear).
+    pub label_fraction: Option<f64>,
+    /// Self-supervised phase only (unshear).
+    pub no_labels: bool,
+    /// Patch-loss weight 0 (unshear ablation).
+    pub no_patch: bool,
+    /// Multiply the learning rates.
+    pub lr_scale: Option<f64>,
+    /// Seed.
+    pub seed: Option<u64>,
+    /// Backend.
+    pub backend: Backend,
+    /// Continue an interrupted run.
+    pub resume: bool,
+    /// Start from these weights (fine-tuning).
+    pub init: Option<PathBuf>,
+    /// No progress bar.
+    pub quiet: bool,
+}
+
+fn load_config<C: DeserializeOwned + Default>(path: Option<&Path>) -> Result<C> {
+    match path {
+        None => Ok(C::default()),
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| format!("{}: could not read the config", p.display()))?;
+            toml::from_str(&text).with_context(|| format!("{}: not a valid training config", p.display()))
+        }
+    }
+}
+
+/// Resolves the unshear config from the file and flags.
+pub fn unshear_config(o: &TrainOptions) -> Result<UnshearConfig> {
+    let mut c: UnshearConfig = load_config(o.config.as_deref())?;
+    c.mode = match (o.network, o.no_labels) {
+        (Network::Baseline, _) => Mode::Baseline,
+        (_, true) => Mode::SelfSupervised,
+        _ => c.mode,
+    };
+    if let Some(v) = o.size {
+        c.size = v;
+    }
+    if let Some(v) = o.epochs {
+        c.self_supervised_epochs = v;
+        c.supervised_epochs = v;
+    }
+    if let Some(v) = o.max_batches {
+        c.max_batches_per_epoch = v;
+    }
+    if let Some(v) = o.batch {
+        c.batch = v;
+    }
+    if let Some(v) = o.label_fraction {
+        c.label_fraction = v;
+    }
+    if o.no_patch {
+        c.patch_weight = 0.0;
+    }
+    if let Some(k) = o.lr_scale {
+        c.lr_self_supervised *= k;
+        c.lr_supervised *= k;
+    }
+    if let Some(v) = o.seed {
+        c.seed = v;
+    }
+    c.validate()?;
+    Ok(c)
+}
+
+/// Resolves the pose-network config from the file and flags.
+pub fn pose_config(o: &TrainOptions) -> Result<PoseConfig> {
+    let mut c: PoseConfig = load_config(o.config.as_deref())?;
+    if let Some(v) = o.size {
+        c.size = v;
+    }
+    if let Some(v) = o.epochs {
+        c.epochs = v;
+    }
+    if let Some(v) = o.max_batches {
+        c.max_batches_per_epoch = v;
+    }
+    if let Some(v) = o.batch {
+        c.batch = v;
+    }
+    if let Some(k) = o.lr_scale {
+        c.lr *= k;
+    }
+    if let Some(v) = o.seed {
+        c.seed = v;
+    }
+    c.validate()?;
+    Ok(c)
+}
+
+/// A progress bar with the running loss and rate; Ctrl-C asks the loop to stop.
+struct Bar {
+    bar: Option<ProgressBar>,
+    stop: Arc<AtomicBool>,
+    recent: Vec<f64>,
+}
+
+impl Bar {
+    fn new(quiet: bool) -> Self {
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        // A second handler cannot be installed (tests call this repeatedly): then Ctrl-C
+        // simply ends the process and the last periodic checkpoint remains.
+        let _ = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst));
+        Self { bar: (!quiet).then(ProgressBar::hidden), stop, recent: Vec::new() }
+    }
+}
+
+impl Progress for Bar {
+    fn phase(&mut self, name: &str, total: u64, done: u64) {
+        if let Some(bar) = &mut self.bar {
+            let b = ProgressBar::new(total);
+            b.set_style(
+                ProgressStyle::with_template("{prefix:>16} [{bar:30}] {pos}/{len} steps, {per_sec}, eta {eta} {msg}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar())
+                    .progress_chars("=> "),
+            );
+            b.set_prefix(name.to_string());
+            b.set_position(done);
+            *bar = b;
+        }
+        self.recent.clear();
+    }
+
+    fn step(&mut self, losses: &StepLosses) {
+        self.recent.push(losses.total);
+        if self.recent.len() > 20 {
+            self.recent.remove(0);
+        }
+        if let Some(bar) = &self.bar {
+            let mean = self.recent.iter().sum::<f64>() / self.recent.len() as f64;
+            bar.set_message(format!("loss {mean:.4}"));
+            bar.inc(1);
+        }
+    }
+
+    fn message(&mut self, text: &str) {
+        match &self.bar {
+            Some(bar) => bar.println(text),
+            None => eprintln!("{text}"),
+        }
+    }
+
+    fn stop(&self) -> bool {
+        self.stop.load(Ordering::SeqCst)
+    }
+}
+
+fn summary(out: &Path, state: &TrainState) -> String {
+    let mut s = format!("trained into {}\n", out.display());
+    for e in &state.history {
+        s.push_str(&format!(
+            "  {:<16} epoch {:>3}: {} steps, lr {:.2e}, loss {:.5} (cycle {:.5}/{:.5}, rec {:.5}, sup {:.5}, patch {:.5})\n",
+            e.phase,
+            e.epoch,
+            e.steps,
+            e.lr,
+            e.mean.total,
+            e.mean.cycle_forward,
+            e.mean.cycle_backward,
+            e.mean.reconstruction,
+            e.mean.supervised,
+            e.mean.patch
+        ));
+    }
+    s
+}
+
+/// Runs `tacsim train`.
+pub fn train(o: &TrainOptions) -> Result<String> {
+    let mut bar = Bar::new(o.quiet);
+    match o.network {
+        Network::Unshear | Network::Baseline => {
+            let cfg = unshear_config(o)?;
+            let corpus = Corpus::open(&o.data, cfg.size)?;
+            let (_, state) = train::train_unshear(&corpus, &cfg, o.backend, &o.out, o.resume, o.init.as_deref(), &mut bar)?;
+            Ok(summary(&o.out, &state))
+        }
+        Network::Posenet => {
+            if o.init.is_some() || o.no_labels || o.no_patch || o.label_fraction.is_some() {
+                bail!("--init, --no-labels, --no-patch and --label-fraction apply to the unshear model, not posenet");
+            }
+            let cfg = pose_config(o)?;
+            let corpus = Corpus::open(&o.data, cfg.size)?;
+            let (_, state) = train::train_posenet(&corpus, &cfg, o.backend, &o.out, o.resume, &mut bar)?;
+            Ok(summary(&o.out, &state))
+        }
+    }
+}
+
+/// Runs `tacsim eval`: every run against the test split of `data`, report into `out`.
+pub fn evaluate(data: &Path, runs: &[PathBuf], out: &Path, max_pairs: usize, backend: Backend) -> Result<String> {
+    let size = runs
+        .iter()
+        .find_map(|r| {
+            let text = std::fs::read_to_string(r.join("config.json")).ok()?;
+            serde_json::from_str::<serde_json::Value>(&text).ok()?.get("size")?.as_u64()
+        })
+        .with_context(|| "no run directory with a config.json among the runs: give the --out directories of `tacsim train`")?;
+    let corpus = Corpus::open(data, size as usize)?;
+    let report = eval::evaluate(&corpus, runs, backend, max_pairs, out)?;
+    Ok(format!("{}\nreport: {}\n", eval::markdown(&report), out.join("report.md").display()))
+}
