@@ -12,6 +12,7 @@ use tacsim_model::Backend;
 use tacsim_model::config::{Mode, PoseConfig, UnshearConfig};
 use tacsim_model::data::Corpus;
 use tacsim_model::eval;
+use tacsim_model::images::Preprocess;
 use tacsim_model::objective::StepLosses;
 use tacsim_model::train::{self, Progress, TrainState};
 
@@ -63,6 +64,34 @@ pub struct TrainOptions {
     pub init: Option<PathBuf>,
     /// No progress bar.
     pub quiet: bool,
+    /// Lab folders only: crop and threshold before/after resizing.
+    pub lab: LabOptions,
+}
+
+/// The lab's preprocessing for recording folders (`targets.csv` + `images/` without a
+/// `meta.json`); `tacsim generate` datasets only get resized.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LabOptions {
+    /// Crop `[left, top, width, height]` (px).
+    pub crop: Option<[u32; 4]>,
+    /// Threshold after resizing (0-255).
+    pub threshold: Option<u8>,
+}
+
+impl LabOptions {
+    fn open(&self, dir: &Path, side: usize) -> Result<Corpus> {
+        let pre = Preprocess { crop: self.crop, side: side as u32, threshold: self.threshold };
+        Ok(Corpus::open_any(dir, &pre)?)
+    }
+}
+
+/// Parses `left,top,width,height`.
+pub fn parse_crop(s: &str) -> Result<[u32; 4], String> {
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<u32>().map_err(|_| format!("crop `{s}`: `{p}` is not a whole number of px")))
+        .collect::<Result<_, _>>()?;
+    <[u32; 4]>::try_from(v).map_err(|_| format!("crop `{s}`: give left,top,width,height"))
 }
 
 fn load_config<C: DeserializeOwned + Default>(path: Option<&Path>) -> Result<C> {
@@ -222,7 +251,7 @@ pub fn train(o: &TrainOptions) -> Result<String> {
     match o.network {
         Network::Unshear | Network::Baseline => {
             let cfg = unshear_config(o)?;
-            let corpus = Corpus::open(&o.data, cfg.size)?;
+            let corpus = o.lab.open(&o.data, cfg.size)?;
             let (_, state) = train::train_unshear(&corpus, &cfg, o.backend, &o.out, o.resume, o.init.as_deref(), &mut bar)?;
             Ok(summary(&o.out, &state))
         }
@@ -231,7 +260,7 @@ pub fn train(o: &TrainOptions) -> Result<String> {
                 bail!("--init, --no-labels, --no-patch and --label-fraction apply to the unshear model, not posenet");
             }
             let cfg = pose_config(o)?;
-            let corpus = Corpus::open(&o.data, cfg.size)?;
+            let corpus = o.lab.open(&o.data, cfg.size)?;
             let (_, state) = train::train_posenet(&corpus, &cfg, o.backend, &o.out, o.resume, &mut bar)?;
             Ok(summary(&o.out, &state))
         }
@@ -239,7 +268,7 @@ pub fn train(o: &TrainOptions) -> Result<String> {
 }
 
 /// Runs `tacsim eval`: every run against the test split of `data`, report into `out`.
-pub fn evaluate(data: &Path, runs: &[PathBuf], out: &Path, max_pairs: usize, backend: Backend) -> Result<String> {
+pub fn evaluate(data: &Path, runs: &[PathBuf], out: &Path, max_pairs: usize, backend: Backend, lab: LabOptions) -> Result<String> {
     let size = runs
         .iter()
         .find_map(|r| {
@@ -247,7 +276,7 @@ pub fn evaluate(data: &Path, runs: &[PathBuf], out: &Path, max_pairs: usize, bac
             serde_json::from_str::<serde_json::Value>(&text).ok()?.get("size")?.as_u64()
         })
         .with_context(|| "no run directory with a config.json among the runs: give the --out directories of `tacsim train`")?;
-    let corpus = Corpus::open(data, size as usize)?;
+    let corpus = lab.open(data, size as usize)?;
     let report = eval::evaluate(&corpus, runs, backend, max_pairs, out)?;
     Ok(format!("{}\nreport: {}\n", eval::markdown(&report), out.join("report.md").display()))
 }

@@ -158,7 +158,8 @@ enum Command {
         /// unshear, baseline or posenet.
         #[arg(value_enum)]
         network: tacsim::learn::Network,
-        /// Dataset directory.
+        /// Dataset directory (`tacsim generate` output) or a lab recording folder (targets.csv +
+        /// images/, no meta.json).
         #[arg(long)]
         data: PathBuf,
         /// Run directory (config, checkpoints, model.safetensors).
@@ -203,6 +204,12 @@ enum Command {
         /// Start from these weights (for example a simulator-trained model.safetensors).
         #[arg(long)]
         init: Option<PathBuf>,
+        /// Lab recording folders: crop left,top,width,height (px) before resizing.
+        #[arg(long, value_parser = tacsim::learn::parse_crop)]
+        crop: Option<[u32; 4]>,
+        /// Lab recording folders: threshold (0-255) after resizing.
+        #[arg(long)]
+        threshold: Option<u8>,
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
@@ -210,7 +217,7 @@ enum Command {
     /// Evaluate trained runs on a dataset's test split: the paper's tables beside its numbers,
     /// as report.md, report.json and grid.png.
     Eval {
-        /// Dataset directory.
+        /// Dataset directory or lab recording folder.
         #[arg(long)]
         data: PathBuf,
         /// Output directory.
@@ -222,6 +229,12 @@ enum Command {
         /// Backend.
         #[arg(long, default_value = "flex")]
         backend: tacsim_model::Backend,
+        /// Lab recording folders: crop left,top,width,height (px) before resizing.
+        #[arg(long, value_parser = tacsim::learn::parse_crop)]
+        crop: Option<[u32; 4]>,
+        /// Lab recording folders: threshold (0-255) after resizing.
+        #[arg(long)]
+        threshold: Option<u8>,
         /// Run directories of `tacsim train` (shear-removal models and one pose network).
         #[arg(required = true)]
         runs: Vec<PathBuf>,
@@ -328,6 +341,8 @@ fn main() -> Result<()> {
             backend,
             resume,
             init,
+            crop,
+            threshold,
             quiet,
         } => {
             let opts = tacsim::learn::TrainOptions {
@@ -348,11 +363,13 @@ fn main() -> Result<()> {
                 resume,
                 init,
                 quiet,
+                lab: tacsim::learn::LabOptions { crop, threshold },
             };
             print!("{}", tacsim::learn::train(&opts)?);
         }
-        Command::Eval { data, out, max_pairs, backend, runs } => {
-            print!("{}", tacsim::learn::evaluate(&data, &runs, &out, max_pairs, backend)?);
+        Command::Eval { data, out, max_pairs, backend, crop, threshold, runs } => {
+            let lab = tacsim::learn::LabOptions { crop, threshold };
+            print!("{}", tacsim::learn::evaluate(&data, &runs, &out, max_pairs, backend, lab)?);
         }
         Command::Shapes { dir } => {
             print!("{}", commands::shapes_table(&commands::load_catalogue(dir.as_deref())?));

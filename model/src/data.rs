@@ -8,7 +8,7 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use burn::tensor::{Device, Tensor};
-use tacsim_data::{Dataset, Kind, Row, Split, Subset};
+use tacsim_data::{Dataset, Kind, LabFolder, Meta, Row, Split, Subset};
 
 use crate::error::{ModelError, Result};
 use crate::images::{ImageSet, Preprocess};
@@ -40,6 +40,74 @@ impl Corpus {
         Ok(Self { dataset, images, scale })
     }
 
+    /// Opens a lab recording folder (`targets.csv` + `images/`, as in
+    /// `../shared/data/real-tactip-surface3d/`) with the lab's preprocessing `pre` (crop,
+    /// resize, threshold), so that a simulator-trained model can be fine-tuned or evaluated on
+    /// real recordings. Recordings with zero shear count as taps, the others as slides; each
+    /// recording is its own pose, split 60:20:20 by its index (3 of every 5 train, then val,
+    /// then test); none is paired.
+    pub fn open_lab(dir: &Path, pre: &Preprocess) -> Result<Self> {
+        let folder = LabFolder::open(dir)?;
+        let rows: Vec<Row> = folder
+            .samples
+            .iter()
+            .enumerate()
+            .map(|(i, s)| Row {
+                sensor_image: s.image.clone(),
+                pose_x: s.pose[0],
+                pose_y: s.pose[1],
+                pose_z: s.pose[2],
+                pose_rx: s.pose[3],
+                pose_ry: s.pose[4],
+                pose_rz: s.pose[5],
+                shear_x: s.shear[0],
+                shear_y: s.shear[1],
+                shear_z: s.shear[2],
+                shear_rx: s.shear[3],
+                shear_ry: s.shear[4],
+                shear_rz: s.shear[5],
+                kind: if s.shear.iter().all(|v| *v == 0.0) { Kind::Tap } else { Kind::Slide },
+                shape: "lab".into(),
+                pose_id: i,
+                split: match i % 5 {
+                    0..=2 => Split::Train,
+                    3 => Split::Val,
+                    _ => Split::Test,
+                },
+                paired: false,
+            })
+            .collect();
+        let images = ImageSet::load(rows.len(), pre, |k| {
+            let path = folder.image_path(&folder.samples[k]);
+            let img = image::open(&path)
+                .map_err(|e| ModelError::checkpoint(&path, format!("not a readable image: {e}")))?
+                .into_luma8();
+            Ok((img, path.display().to_string()))
+        })?;
+        let taps = rows.iter().filter(|r| r.kind == Kind::Tap).count();
+        let meta = Meta {
+            format: Meta::FORMAT,
+            tool: "lab folder".into(),
+            seed: 0,
+            image_size: pre.side,
+            samples: rows.len(),
+            taps,
+            slides: rows.len() - taps,
+            reference_image: "image_0.png".into(),
+            recipe: serde_json::Value::Null,
+            sensor: serde_json::Value::Null,
+            shard: None,
+        };
+        let scale = PoseScale::covering(&rows.iter().map(pose_of).collect::<Vec<_>>());
+        Ok(Self { dataset: Dataset { dir: dir.to_owned(), meta, rows }, images, scale })
+    }
+
+    /// Opens `dir` as a `tacsim generate` dataset when it holds a `meta.json`, else as a lab
+    /// folder with the preprocessing `pre`.
+    pub fn open_any(dir: &Path, pre: &Preprocess) -> Result<Self> {
+        if dir.join("meta.json").is_file() { Self::open(dir, pre.side as usize) } else { Self::open_lab(dir, pre) }
+    }
+
     /// Image side (px).
     pub fn side(&self) -> usize {
         self.images.side()
@@ -55,21 +123,26 @@ impl Corpus {
         pose_of(&self.dataset.rows[row])
     }
 
-    /// True `(tap, slide)` pairs for the supervised phase: those of the first
-    /// `ceil(fraction * training poses)` paired training poses. Errors when the dataset's
-    /// paired subset is smaller than that.
+    /// True `(tap, slide)` pairs for the supervised phase at a label `fraction` of the
+    /// training poses. The dataset's paired subset holds its recipe's `split.paired_fraction`
+    /// of them (the paper's 10%); a smaller fraction keeps the first
+    /// `floor(paired * fraction / paired_fraction)` (at least one) of those poses, so that
+    /// 10%, 8% and 5% of a 10% subset of 3 poses use 3, 2 and 1. A fraction above the
+    /// dataset's is an error.
     pub fn labelled_pairs(&self, fraction: f64) -> Result<Vec<(usize, usize)>> {
         let train = self.poses(Split::Train, Subset::All);
         let paired = self.poses(Split::Train, Subset::Paired);
-        let want = (fraction * train.len() as f64).ceil() as usize;
-        if want > paired.len() {
+        let have = recipe_paired_fraction(&self.dataset.meta.recipe)
+            .unwrap_or(paired.len() as f64 / train.len().max(1) as f64);
+        if paired.is_empty() || fraction > have + 1e-9 {
             return Err(ModelError::Insufficient(format!(
-                "label_fraction {fraction} needs {want} paired training poses but {} has {} of {} (its recipe's split.paired_fraction): lower label_fraction or generate with a larger paired_fraction",
+                "label_fraction {fraction} is more than {} holds ({} of {} training poses paired, split.paired_fraction {have}): lower label_fraction or generate with a larger paired_fraction",
                 self.dataset.dir.display(),
                 paired.len(),
                 train.len()
             )));
         }
+        let want = ((paired.len() as f64 * fraction / have + 1e-9).floor() as usize).clamp(1, paired.len());
         let keep: BTreeSet<(String, usize)> = paired.into_iter().take(want).collect();
         Ok(self
             .dataset
@@ -98,6 +171,11 @@ fn key(r: &Row) -> (String, usize) {
 /// The pose label of a row: `pose_x`, `pose_y` (mm) and `pose_rz` (deg).
 pub fn pose_of(r: &Row) -> Pose {
     Pose { x_mm: r.pose_x, y_mm: r.pose_y, yaw_deg: r.pose_rz }
+}
+
+/// The recipe's `split.paired_fraction`, if the meta holds a recipe.
+fn recipe_paired_fraction(recipe: &serde_json::Value) -> Option<f64> {
+    recipe.get("split")?.get("paired_fraction")?.as_f64()
 }
 
 /// The recipe's pose ranges (`poses.x_mm`, `poses.y_mm`, `poses.yaw_deg`), if the meta holds

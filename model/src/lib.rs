@@ -13,6 +13,7 @@
 //! - [`backend`]: which burn device runs the networks.
 
 pub mod backend;
+pub mod bench;
 pub mod checkpoint;
 pub mod config;
 pub mod data;

@@ -12,12 +12,14 @@
 //! - weight regularisation `l1 sum|w| + l2 sum w^2` over every conv and linear weight.
 //!
 //! The squared norms are per-pixel means (MSE). Per-module objectives: E_S minimises every
-//! term, E_T `L_cyc`, D_T `L_cyc + L_sup + lambda L_patch` and D_S `L_rec` alone. One backward
-//! pass over the sum gives exactly these gradients because the cycles run through a copy of
-//! D_S whose parameters take no gradient: gradients still flow through it to E_T and E_S, but
-//! D_S itself learns only from `L_rec`.
+//! term, E_T `L_cyc`, D_T `L_cyc + L_sup + lambda L_patch` and D_S `L_rec` alone. In the
+//! supervised phase one backward pass over the sum gives exactly these gradients. In the
+//! self-supervised phase the cycles run through D_S, so its gradients come from a second,
+//! small backward pass of `L_rec` alone on the same codes (detached), and replace the ones the
+//! sum gave it.
 
 use burn::module::{Module, ModuleVisitor, Param};
+use burn::optim::GradientsParams;
 use burn::tensor::{Device, Tensor, TensorData};
 use rand::Rng;
 
@@ -62,21 +64,19 @@ fn scalar(t: &Tensor<1>) -> f64 {
     t.clone().into_scalar::<f32>() as f64
 }
 
-/// The self-supervised objective on a batch of unpaired sheared and tap images.
-pub fn self_supervised(model: &Unshear, sheared: Tensor<4>, taps: Tensor<4>, w: Weights) -> (Tensor<1>, StepLosses) {
-    let ds_cycle = model.ds.clone().no_grad();
+/// The self-supervised objective on a batch of unpaired sheared and tap images: the
+/// gradients of every module's objective, and the loss values.
+pub fn self_supervised(model: &Unshear, sheared: Tensor<4>, taps: Tensor<4>, w: Weights) -> (GradientsParams, StepLosses) {
     let (pose, shear) = model.es.forward(sheared.clone());
     // Forward cycle: x_s -> M(x_s) -> K(M(x_s); z_s).
     let unsheared = model.dt.forward(pose.clone());
-    let back = ds_cycle.forward(model.et.forward(unsheared), shear.clone());
+    let back = model.ds.forward(model.et.forward(unsheared), shear.clone());
     let cycle_forward = mse(back, sheared.clone());
-    // Reconstruction through the trained D_S.
-    let reconstruction = mse(model.ds.forward(pose, shear.clone()), sheared);
+    let reconstruction = mse(model.ds.forward(pose.clone(), shear.clone()), sheared.clone());
     // Backward cycle: x_t -> K(x_t; z_s) -> M(K(x_t)).
-    let k = ds_cycle.forward(model.et.forward(taps.clone()), shear);
+    let k = model.ds.forward(model.et.forward(taps.clone()), shear.clone());
     let cycle_backward = mse(model.unshear(k), taps);
-    let (total, reg) =
-        with_regularisation(cycle_forward.clone() + cycle_backward.clone() + reconstruction.clone(), model, w);
+    let (total, reg) = with_regularisation(cycle_forward.clone() + cycle_backward.clone() + reconstruction.clone(), model, w);
     let losses = StepLosses {
         cycle_forward: scalar(&cycle_forward),
         cycle_backward: scalar(&cycle_backward),
@@ -85,18 +85,38 @@ pub fn self_supervised(model: &Unshear, sheared: Tensor<4>, taps: Tensor<4>, w: 
         total: scalar(&total),
         ..StepLosses::default()
     };
-    (total, losses)
+    let mut grads = GradientsParams::from_grads(total.backward(), model);
+    // D_S learns from L_rec (and its own weight penalty) alone.
+    let (rec_ds, _) = with_regularisation(mse(model.ds.forward(pose.detach(), shear.detach()), sheared), &model.ds, w);
+    let mut rec_grads = GradientsParams::from_grads(rec_ds.backward(), &model.ds);
+    replace_grads(&model.ds, &mut grads, &mut rec_grads);
+    (grads, losses)
+}
+
+/// Replaces the gradients of `module`'s parameters in `into` by those in `from`.
+fn replace_grads<M: Module>(module: &M, into: &mut GradientsParams, from: &mut GradientsParams) {
+    struct Replace<'a>(&'a mut GradientsParams, &'a mut GradientsParams);
+    impl ModuleVisitor for Replace<'_> {
+        fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+            let _ = self.0.remove::<D>(param.id);
+            if let Some(g) = self.1.remove::<D>(param.id) {
+                self.0.register::<D>(param.id, g);
+            }
+        }
+    }
+    module.visit(&mut Replace(into, from));
 }
 
 /// The supervised objective on true pairs; `mask` is the patch-crop coverage of
-/// [`patch_mask`] (or `None` when the patch loss is off).
+/// [`patch_mask`] (or `None` when the patch loss is off). Returns the gradients and the loss
+/// values.
 pub fn supervised(
     model: &Unshear,
     sheared: Tensor<4>,
     taps: Tensor<4>,
     mask: Option<(Tensor<4>, f64)>,
     w: Weights,
-) -> (Tensor<1>, StepLosses) {
+) -> (GradientsParams, StepLosses) {
     let (pose, shear) = model.es.forward(sheared.clone());
     let unsheared = model.dt.forward(pose.clone());
     let reconstruction = mse(model.ds.forward(pose, shear), sheared);
@@ -116,7 +136,7 @@ pub fn supervised(
         total: scalar(&total),
         ..StepLosses::default()
     };
-    (total, losses)
+    (GradientsParams::from_grads(total.backward(), model), losses)
 }
 
 /// Coverage mask of `count` random `crop x crop` squares per image of a `[batch, 1, side,
@@ -191,7 +211,48 @@ pub fn regularisation<M: Module>(module: &M, w: Weights) -> Option<Tensor<1>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::network::Size;
+    use burn::tensor::Distribution;
     use rand::SeedableRng;
+
+    /// Every gradient a `GradientsParams` holds for a module's parameters, flattened.
+    fn grads_of<M: Module>(m: &M, grads: &GradientsParams) -> Vec<f32> {
+        struct Collect<'a>(&'a GradientsParams, Vec<f32>);
+        impl ModuleVisitor for Collect<'_> {
+            fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
+                if let Some(g) = self.0.get::<D>(param.id) {
+                    self.1.extend(g.into_data().try_to_vec::<f32>().unwrap_or_default());
+                }
+            }
+        }
+        let mut c = Collect(grads, Vec::new());
+        m.visit(&mut c);
+        c.1
+    }
+
+    /// The per-module objectives: the gradients handed to the optimizer give D_S exactly the
+    /// gradient of `L_rec`, while E_S, E_T and D_T learn from the cycles too.
+    #[test]
+    fn shear_decoder_learns_from_the_reconstruction_loss_alone() {
+        let device = Device::flex().autodiff();
+        let model = Unshear::new(Size::S64, &device);
+        let s = Tensor::<4>::random([4, 1, 64, 64], Distribution::Uniform(0.0, 1.0), &device);
+        let t = Tensor::<4>::random([4, 1, 64, 64], Distribution::Uniform(0.0, 1.0), &device);
+        let w = Weights { patch: 0.1, l1: 0.0, l2: 0.0 };
+        let (grads, _) = self_supervised(&model, s.clone(), t, w);
+        let (pose, shear) = model.es.forward(s.clone());
+        let rec = GradientsParams::from_grads(mse(model.ds.forward(pose, shear), s).backward(), &model);
+        let (from_step, from_rec) = (grads_of(&model.ds, &grads), grads_of(&model.ds, &rec));
+        assert!(!from_rec.is_empty() && from_rec.iter().any(|g| *g != 0.0));
+        assert_eq!(from_step.len(), from_rec.len());
+        let err = from_step.iter().zip(&from_rec).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        let scale = from_rec.iter().map(|g| g.abs()).fold(0.0f32, f32::max);
+        assert!(err <= 1e-5 * scale, "D_S gradient differs from L_rec's: {err} (scale {scale})");
+        // Every other module learns from the step too.
+        for g in [grads_of(&model.es, &grads), grads_of(&model.et, &grads), grads_of(&model.dt, &grads)] {
+            assert!(g.iter().any(|v| *v != 0.0));
+        }
+    }
 
     #[test]
     fn patch_mask_is_the_mean_l1_over_crops() {

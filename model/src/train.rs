@@ -9,7 +9,7 @@
 
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
-use burn::tensor::{Device, Tensor};
+use burn::tensor::Device;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -146,7 +146,7 @@ fn run_loop<M: Module, T: Copy>(
     phases: &[PhasePlan<'_, T>],
     s: &LoopSettings,
     progress: &mut dyn Progress,
-    mut step: impl FnMut(&M, &str, &[T], &mut ChaCha8Rng) -> (Tensor<1>, StepLosses),
+    mut step: impl FnMut(&M, &str, &[T], &mut ChaCha8Rng) -> (GradientsParams, StepLosses),
 ) -> Result<(M, TrainState)> {
     let Session { mut model, mut optim, mut state } = session;
     let batches_of = |n: usize| {
@@ -182,14 +182,13 @@ fn run_loop<M: Module, T: Copy>(
                 let b = state.batch;
                 let chunk = &items[b * s.batch..((b + 1) * s.batch).min(items.len())];
                 let mut rng = stream(s.seed, &[state.phase as u64, epoch as u64, b as u64, 1]);
-                let (loss, losses) = step(&model, plan.name, chunk, &mut rng);
+                let (grads, losses) = step(&model, plan.name, chunk, &mut rng);
                 if !losses.total.is_finite() {
                     return Err(ModelError::Insufficient(format!(
                         "phase `{}` epoch {epoch} batch {b}: the loss is {} (diverged): lower the learning rate",
                         plan.name, losses.total
                     )));
                 }
-                let grads = GradientsParams::from_grads(loss.backward(), &model);
                 model = optim.step(lr, model, grads);
                 add(&mut state.partial, &losses);
                 progress.step(&losses);
@@ -410,7 +409,7 @@ pub fn train_posenet(
         let y = corpus.scale.targets(&poses, &device);
         let loss = (m.forward(x) - y).square().mean();
         let v = loss.clone().into_scalar::<f32>() as f64;
-        (loss, StepLosses { supervised: v, total: v, ..StepLosses::default() })
+        (GradientsParams::from_grads(loss.backward(), m), StepLosses { supervised: v, total: v, ..StepLosses::default() })
     })
 }
 

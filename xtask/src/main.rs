@@ -8,6 +8,8 @@
 //!   positions, radial profiles by depth, per-sample errors);
 //! - `reproduce [--quick] [--out DIR]`: the paper's study end to end (dataset, every model,
 //!   evaluation report); see [`reproduce`];
+//! - `bench-model [--quick]`: training samples/s and inference images/s of the networks on
+//!   flex at 256, 128 and 64 px and on ndarray at 64 px; writes `docs/model-bench.json`;
 //! - `bench`: run the benchmarks (criterion: renderer, contact operator products) and print
 //!   their figures; `tacsim bench` times whole taps and slides.
 
@@ -44,9 +46,10 @@ fn main() -> Result<()> {
         Some("bench") => bench(&args[1..]),
         Some("real-compare") => real_compare(&args[1..]),
         Some("reproduce") => reproduce::run(&args[1..]),
+        Some("bench-model") => bench_model(&args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | reproduce [--quick] [--out DIR] | \
+                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] | \
                  real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]]"
             );
             bail!("unknown or missing command")
@@ -229,6 +232,40 @@ fn real_compare(args: &[String]) -> Result<()> {
             mean(&|e| e.real_px),
             mean(&|e| e.relative())
         );
+    }
+    Ok(())
+}
+
+/// `cargo xtask bench-model [--quick]`: throughput of the networks (`tacsim_model::bench`).
+/// `--quick` measures 64 px on flex only.
+fn bench_model(args: &[String]) -> Result<()> {
+    use tacsim_model::Backend;
+    let quick = args.iter().any(|a| a == "--quick");
+    let mut cases = vec![(Backend::Flex, 64)];
+    if !quick {
+        cases = vec![(Backend::Flex, 256), (Backend::Flex, 128), (Backend::Flex, 64), (Backend::Ndarray, 64)];
+    }
+    println!("| backend | size | batch | self-supervised samples/s | supervised samples/s | posenet samples/s | inference images/s |");
+    println!("|---|---|---|---|---|---|---|");
+    let mut rows = Vec::new();
+    for (backend, size) in cases {
+        let r = tacsim_model::bench::measure(backend, size)?;
+        println!(
+            "| {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} |",
+            r.backend,
+            r.size,
+            r.batch,
+            r.self_supervised_samples_per_s,
+            r.supervised_samples_per_s,
+            r.posenet_samples_per_s,
+            r.inference_images_per_s
+        );
+        rows.push(r);
+    }
+    if !quick {
+        let path = root().join("docs/model-bench.json");
+        write_atomic(&path, &serde_json::to_vec_pretty(&rows)?)?;
+        println!("wrote {}", path.display());
     }
     Ok(())
 }

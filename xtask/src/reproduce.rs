@@ -7,9 +7,9 @@
 //!
 //! | | `--quick` | full (CPU scale) |
 //! |---|---|---|
-//! | recipe | `study-quick` (2,400 images at 128 px) | `study` (4,800 images at 128 px) |
+//! | recipe | `study-quick` (2,880 images at 128 px, 180 poses) | `study` (7,200 images at 128 px, 360 poses) |
 //! | network size | 64 px (images averaged down, grey) | 128 px |
-//! | self-supervised / supervised / baseline epochs | 3 / 10 / 5 | 6 / 20 / 10 |
+//! | self-supervised / supervised / baseline / pose epochs | 3 / 10 / 5 / 15 | 4 / 20 / 6 / 20 |
 //! | learning rates | 4x the paper's | 4x the paper's |
 //!
 //! The learning rates are raised because a CPU-scale study takes hundreds of steps where the
@@ -33,7 +33,7 @@ struct Plan {
 const QUICK: Plan =
     Plan { recipe: "study-quick", size: 64, ss_epochs: 3, sup_epochs: 10, baseline_epochs: 5, pose_epochs: 15, max_pairs: 360 };
 const FULL: Plan =
-    Plan { recipe: "study", size: 128, ss_epochs: 6, sup_epochs: 20, baseline_epochs: 10, pose_epochs: 20, max_pairs: 400 };
+    Plan { recipe: "study", size: 128, ss_epochs: 4, sup_epochs: 20, baseline_epochs: 6, pose_epochs: 20, max_pairs: 400 };
 
 /// Learning-rate factor of CPU-scale studies.
 const LR_SCALE: f64 = 4.0;
@@ -85,11 +85,11 @@ pub fn run(args: &[String]) -> Result<()> {
         .unwrap_or_else(|| crate::root().join("target").join(if quick { "reproduce-quick" } else { "reproduce" }));
     let started = std::time::Instant::now();
     let data = out.join("data");
-    let mut gen = vec![s("generate"), s(plan.recipe), s("--out"), s(data.display()), s("-q")];
+    let mut generate = vec![s("generate"), s(plan.recipe), s("--out"), s(data.display()), s("-q")];
     if data.join("meta.json").is_file() {
-        gen.push(s("--resume"));
+        generate.push(s("--resume"));
     }
-    tacsim(&gen)?;
+    tacsim(&generate)?;
     let runs = out.join("runs");
     let lr_ss = 5e-5 * LR_SCALE;
     let lr_s = 2.5e-5 * LR_SCALE;
