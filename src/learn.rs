@@ -98,7 +98,8 @@ fn load_config<C: DeserializeOwned + Default>(path: Option<&Path>) -> Result<C> 
     match path {
         None => Ok(C::default()),
         Some(p) => {
-            let text = std::fs::read_to_string(p).with_context(|| format!("{}: could not read the config", p.display()))?;
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("{}: could not read the config", p.display()))?;
             toml::from_str(&text).with_context(|| format!("{}: not a valid training config", p.display()))
         }
     }
@@ -252,7 +253,8 @@ pub fn train(o: &TrainOptions) -> Result<String> {
         Network::Unshear | Network::Baseline => {
             let cfg = unshear_config(o)?;
             let corpus = o.lab.open(&o.data, cfg.size)?;
-            let (_, state) = train::train_unshear(&corpus, &cfg, o.backend, &o.out, o.resume, o.init.as_deref(), &mut bar)?;
+            let (_, state) =
+                train::train_unshear(&corpus, &cfg, o.backend, &o.out, o.resume, o.init.as_deref(), &mut bar)?;
             Ok(summary(&o.out, &state))
         }
         Network::Posenet => {
@@ -268,14 +270,23 @@ pub fn train(o: &TrainOptions) -> Result<String> {
 }
 
 /// Runs `tacsim eval`: every run against the test split of `data`, report into `out`.
-pub fn evaluate(data: &Path, runs: &[PathBuf], out: &Path, max_pairs: usize, backend: Backend, lab: LabOptions) -> Result<String> {
+pub fn evaluate(
+    data: &Path,
+    runs: &[PathBuf],
+    out: &Path,
+    max_pairs: usize,
+    backend: Backend,
+    lab: LabOptions,
+) -> Result<String> {
     let size = runs
         .iter()
         .find_map(|r| {
             let text = std::fs::read_to_string(r.join("config.json")).ok()?;
             serde_json::from_str::<serde_json::Value>(&text).ok()?.get("size")?.as_u64()
         })
-        .with_context(|| "no run directory with a config.json among the runs: give the --out directories of `tacsim train`")?;
+        .with_context(
+            || "no run directory with a config.json among the runs: give the --out directories of `tacsim train`",
+        )?;
     let corpus = lab.open(data, size as usize)?;
     let report = eval::evaluate(&corpus, runs, backend, max_pairs, out)?;
     Ok(format!("{}\nreport: {}\n", eval::markdown(&report), out.join("report.md").display()))

@@ -105,7 +105,8 @@ fn a_lab_folder_trains_the_pose_network_with_the_labs_preprocessing() {
         std::fs::copy(real.join("images").join(name), lab.join("images").join(name)).expect("copy image");
     }
     let out = dir.join("pose");
-    let args = ["train", "posenet", "--data", s(&lab), "--out", s(&out), "--size", "64", "--epochs", "2", "--batch", "8"];
+    let args =
+        ["train", "posenet", "--data", s(&lab), "--out", s(&out), "--size", "64", "--epochs", "2", "--batch", "8"];
     let text = ok(&[&args[..], &["--crop", "10,10,400,400", "--threshold", "128", "-q"]].concat());
     assert!(text.contains("posenet"), "{text}");
     assert!(out.join("model.safetensors").is_file());

@@ -22,7 +22,9 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
 fn every_rust_file_has_module_docs() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let mut files = Vec::new();
-    for dir in ["src", "tests", "sim/src", "sim/tests", "sim/benches", "data/src", "model/src", "model/tests", "xtask/src"] {
+    for dir in
+        ["src", "tests", "sim/src", "sim/tests", "sim/benches", "data/src", "model/src", "model/tests", "xtask/src"]
+    {
         rust_files(&root.join(dir), &mut files);
     }
     assert!(files.len() > 20, "found only {} files", files.len());

@@ -66,7 +66,12 @@ fn scalar(t: &Tensor<1>) -> f64 {
 
 /// The self-supervised objective on a batch of unpaired sheared and tap images: the
 /// gradients of every module's objective, and the loss values.
-pub fn self_supervised(model: &Unshear, sheared: Tensor<4>, taps: Tensor<4>, w: Weights) -> (GradientsParams, StepLosses) {
+pub fn self_supervised(
+    model: &Unshear,
+    sheared: Tensor<4>,
+    taps: Tensor<4>,
+    w: Weights,
+) -> (GradientsParams, StepLosses) {
     let (pose, shear) = model.es.forward(sheared.clone());
     // Forward cycle: x_s -> M(x_s) -> K(M(x_s); z_s).
     let unsheared = model.dt.forward(pose.clone());
@@ -76,7 +81,8 @@ pub fn self_supervised(model: &Unshear, sheared: Tensor<4>, taps: Tensor<4>, w: 
     // Backward cycle: x_t -> K(x_t; z_s) -> M(K(x_t)).
     let k = model.ds.forward(model.et.forward(taps.clone()), shear.clone());
     let cycle_backward = mse(model.unshear(k), taps);
-    let (total, reg) = with_regularisation(cycle_forward.clone() + cycle_backward.clone() + reconstruction.clone(), model, w);
+    let (total, reg) =
+        with_regularisation(cycle_forward.clone() + cycle_backward.clone() + reconstruction.clone(), model, w);
     let losses = StepLosses {
         cycle_forward: scalar(&cycle_forward),
         cycle_backward: scalar(&cycle_backward),

@@ -361,7 +361,8 @@ pub fn train_unshear(
     Ok((model, state))
 }
 
-/// Trains the pose network on the training taps of `corpus` into `out`.
+/// Trains the pose network on the training taps of `corpus` into `out` (on the slides when
+/// the data has no taps, as a lab folder of slid recordings).
 pub fn train_posenet(
     corpus: &Corpus,
     cfg: &PoseConfig,
@@ -393,7 +394,13 @@ pub fn train_posenet(
         progress.message("the run had already finished");
         return Ok((model, state));
     }
-    let taps = corpus.dataset.indices(Split::Train, Subset::All, Kind::Tap);
+    let mut taps = corpus.dataset.indices(Split::Train, Subset::All, Kind::Tap);
+    if taps.is_empty() {
+        // A lab folder where every recording slid (as the shared surface recordings): learn
+        // the pose from all of them.
+        taps = corpus.dataset.indices(Split::Train, Subset::All, Kind::Slide);
+        progress.message("no tap images in the training split: training the pose network on the slides");
+    }
     let half = cfg.epochs / 2;
     let phases = vec![PhasePlan {
         name: "posenet",
@@ -409,7 +416,10 @@ pub fn train_posenet(
         let y = corpus.scale.targets(&poses, &device);
         let loss = (m.forward(x) - y).square().mean();
         let v = loss.clone().into_scalar::<f32>() as f64;
-        (GradientsParams::from_grads(loss.backward(), m), StepLosses { supervised: v, total: v, ..StepLosses::default() })
+        (
+            GradientsParams::from_grads(loss.backward(), m),
+            StepLosses { supervised: v, total: v, ..StepLosses::default() },
+        )
     })
 }
 

@@ -245,7 +245,9 @@ fn bench_model(args: &[String]) -> Result<()> {
     if !quick {
         cases = vec![(Backend::Flex, 256), (Backend::Flex, 128), (Backend::Flex, 64), (Backend::Ndarray, 64)];
     }
-    println!("| backend | size | batch | self-supervised samples/s | supervised samples/s | posenet samples/s | inference images/s |");
+    println!(
+        "| backend | size | batch | self-supervised samples/s | supervised samples/s | posenet samples/s | inference images/s |"
+    );
     println!("|---|---|---|---|---|---|---|");
     let mut rows = Vec::new();
     for (backend, size) in cases {

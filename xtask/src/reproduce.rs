@@ -30,10 +30,24 @@ struct Plan {
     max_pairs: usize,
 }
 
-const QUICK: Plan =
-    Plan { recipe: "study-quick", size: 64, ss_epochs: 3, sup_epochs: 10, baseline_epochs: 5, pose_epochs: 15, max_pairs: 360 };
-const FULL: Plan =
-    Plan { recipe: "study", size: 128, ss_epochs: 4, sup_epochs: 20, baseline_epochs: 6, pose_epochs: 20, max_pairs: 400 };
+const QUICK: Plan = Plan {
+    recipe: "study-quick",
+    size: 64,
+    ss_epochs: 3,
+    sup_epochs: 10,
+    baseline_epochs: 5,
+    pose_epochs: 15,
+    max_pairs: 360,
+};
+const FULL: Plan = Plan {
+    recipe: "study",
+    size: 128,
+    ss_epochs: 4,
+    sup_epochs: 20,
+    baseline_epochs: 6,
+    pose_epochs: 20,
+    max_pairs: 400,
+};
 
 /// Learning-rate factor of CPU-scale studies.
 const LR_SCALE: f64 = 4.0;
@@ -119,7 +133,13 @@ pub fn run(args: &[String]) -> Result<()> {
         names.push(dir);
     }
     let base = runs.join("baseline");
-    train("baseline", &data, &base, &format!("{common}mode = \"baseline\"\nsupervised_epochs = {}\n", plan.baseline_epochs), &[])?;
+    train(
+        "baseline",
+        &data,
+        &base,
+        &format!("{common}mode = \"baseline\"\nsupervised_epochs = {}\n", plan.baseline_epochs),
+        &[],
+    )?;
     names.push(base);
     let pose = runs.join("posenet");
     train("posenet", &data, &pose, &format!("size = {}\nepochs = {}\n", plan.size, plan.pose_epochs), &[])?;
