@@ -9,7 +9,6 @@
 
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
-use burn::tensor::Device;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -421,9 +420,4 @@ pub fn train_posenet(
             StepLosses { supervised: v, total: v, ..StepLosses::default() },
         )
     })
-}
-
-/// The inference device for a backend (no autodiff).
-pub fn inference_device(backend: Backend) -> Device {
-    backend.device()
 }
