@@ -70,11 +70,13 @@ pub struct TrainOptions {
 
 /// The lab's preprocessing for recording folders (`targets.csv` + `images/` without a
 /// `meta.json`); `tacsim generate` datasets only get resized.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, clap::Args)]
 pub struct LabOptions {
-    /// Crop `[left, top, width, height]` (px).
+    /// Lab recording folders: crop left,top,width,height (px) before resizing.
+    #[arg(long, value_parser = parse_crop)]
     pub crop: Option<[u32; 4]>,
-    /// Threshold after resizing (0-255).
+    /// Lab recording folders: threshold (0-255) after resizing.
+    #[arg(long)]
     pub threshold: Option<u8>,
 }
 

@@ -204,12 +204,8 @@ enum Command {
         /// Start from these weights (for example a simulator-trained model.safetensors).
         #[arg(long)]
         init: Option<PathBuf>,
-        /// Lab recording folders: crop left,top,width,height (px) before resizing.
-        #[arg(long, value_parser = tacsim::learn::parse_crop)]
-        crop: Option<[u32; 4]>,
-        /// Lab recording folders: threshold (0-255) after resizing.
-        #[arg(long)]
-        threshold: Option<u8>,
+        #[command(flatten)]
+        lab: tacsim::learn::LabOptions,
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
@@ -229,12 +225,8 @@ enum Command {
         /// Backend.
         #[arg(long, default_value = "flex")]
         backend: tacsim_model::Backend,
-        /// Lab recording folders: crop left,top,width,height (px) before resizing.
-        #[arg(long, value_parser = tacsim::learn::parse_crop)]
-        crop: Option<[u32; 4]>,
-        /// Lab recording folders: threshold (0-255) after resizing.
-        #[arg(long)]
-        threshold: Option<u8>,
+        #[command(flatten)]
+        lab: tacsim::learn::LabOptions,
         /// Run directories of `tacsim train` (shear-removal models and one pose network).
         #[arg(required = true)]
         runs: Vec<PathBuf>,
@@ -341,8 +333,7 @@ fn main() -> Result<()> {
             backend,
             resume,
             init,
-            crop,
-            threshold,
+            lab,
             quiet,
         } => {
             let opts = tacsim::learn::TrainOptions {
@@ -363,12 +354,11 @@ fn main() -> Result<()> {
                 resume,
                 init,
                 quiet,
-                lab: tacsim::learn::LabOptions { crop, threshold },
+                lab,
             };
             print!("{}", tacsim::learn::train(&opts)?);
         }
-        Command::Eval { data, out, max_pairs, backend, crop, threshold, runs } => {
-            let lab = tacsim::learn::LabOptions { crop, threshold };
+        Command::Eval { data, out, max_pairs, backend, lab, runs } => {
             print!("{}", tacsim::learn::evaluate(&data, &runs, &out, max_pairs, backend, lab)?);
         }
         Command::Shapes { dir } => {

@@ -278,6 +278,19 @@ fn shifts(n: usize, max: i32, rng: &mut ChaCha8Rng) -> Vec<(i32, i32)> {
         .collect()
 }
 
+/// The training device, seeded, after checking the data was loaded at the config's size.
+fn seeded_device(corpus: &Corpus, size: usize, backend: Backend, seed: u64) -> Result<burn::tensor::Device> {
+    if corpus.side() != size {
+        return Err(ModelError::config(
+            "size",
+            format!("the data was loaded at {} px, the config says {size}", corpus.side()),
+        ));
+    }
+    let device = backend.training_device();
+    device.seed(seed);
+    Ok(device)
+}
+
 /// Trains the shear-removal model on `corpus` into the run directory `out`.
 ///
 /// `init` starts from saved weights (fine-tuning a simulator-trained model on real data).
@@ -292,14 +305,7 @@ pub fn train_unshear(
     progress: &mut dyn Progress,
 ) -> Result<(Unshear, TrainState)> {
     cfg.validate()?;
-    if corpus.side() != cfg.size {
-        return Err(ModelError::config(
-            "size",
-            format!("the data was loaded at {} px, the config says {}", corpus.side(), cfg.size),
-        ));
-    }
-    let device = backend.training_device();
-    device.seed(cfg.seed);
+    let device = seeded_device(corpus, cfg.size, backend, cfg.seed)?;
     let mut model = canonical_ids(Unshear::new(cfg.net_size()?, &device));
     if let Some(path) = init {
         model = load_weights(model, path)?;
@@ -371,14 +377,7 @@ pub fn train_posenet(
     progress: &mut dyn Progress,
 ) -> Result<(PoseNet, TrainState)> {
     cfg.validate()?;
-    if corpus.side() != cfg.size {
-        return Err(ModelError::config(
-            "size",
-            format!("the data was loaded at {} px, the config says {}", corpus.side(), cfg.size),
-        ));
-    }
-    let device = backend.training_device();
-    device.seed(cfg.seed);
+    let device = seeded_device(corpus, cfg.size, backend, cfg.seed)?;
     let model = canonical_ids(PoseNet::new(cfg.net_size()?, cfg.hidden, &device));
     let settings = LoopSettings {
         batch: cfg.batch,
