@@ -27,45 +27,64 @@ pub enum Network {
     Posenet,
 }
 
-/// Options of `tacsim train`.
-#[derive(Clone, Debug)]
+/// Options of `tacsim train` (its command-line flags).
+#[derive(Clone, Debug, clap::Args)]
 pub struct TrainOptions {
-    /// The network.
+    /// unshear, baseline or posenet.
+    #[arg(value_enum)]
     pub network: Network,
-    /// Dataset directory (`tacsim generate` output).
+    /// Dataset directory (`tacsim generate` output) or a lab recording folder (targets.csv +
+    /// images/, no meta.json).
+    #[arg(long)]
     pub data: PathBuf,
-    /// Run directory.
+    /// Run directory (config, checkpoints, model.safetensors).
+    #[arg(long)]
     pub out: PathBuf,
-    /// Config file (TOML, fields of `UnshearConfig` or `PoseConfig`); flags override it.
+    /// TOML config (fields of the crate's UnshearConfig / PoseConfig); flags override it.
+    #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Image side (px).
+    /// Image side: 256 (paper), 128 or 64; the dataset is resized to it.
+    #[arg(long)]
     pub size: Option<usize>,
-    /// Epochs: both phases of the unshear model, or the pose network's.
+    /// Epochs (each phase of the unshear model; the pose network's).
+    #[arg(long)]
     pub epochs: Option<usize>,
     /// At most this many batches per epoch.
+    #[arg(long)]
     pub max_batches: Option<usize>,
-    /// Batch size.
+    /// Batch size (paper: 32).
+    #[arg(long)]
     pub batch: Option<usize>,
-    /// Fraction of training poses with labels (unshear).
+    /// Fraction of training poses with labels (unshear; paper: 0.1).
+    #[arg(long)]
     pub label_fraction: Option<f64>,
     /// Self-supervised phase only (unshear).
+    #[arg(long)]
     pub no_labels: bool,
-    /// Patch-loss weight 0 (unshear ablation).
+    /// Train without the L1 patch loss (ablation).
+    #[arg(long)]
     pub no_patch: bool,
-    /// Multiply the learning rates.
+    /// Multiply the learning rates by this factor.
+    #[arg(long)]
     pub lr_scale: Option<f64>,
     /// Seed.
+    #[arg(long)]
     pub seed: Option<u64>,
-    /// Backend.
+    /// Backend: flex (default), ndarray; wgpu / cuda with those features.
+    #[arg(long, default_value = "flex")]
     pub backend: Backend,
-    /// Continue an interrupted run.
+    /// Continue an interrupted run in --out.
+    #[arg(long)]
     pub resume: bool,
-    /// Start from these weights (fine-tuning).
+    /// Start from these weights (for example a simulator-trained model.safetensors).
+    #[arg(long)]
     pub init: Option<PathBuf>,
-    /// No progress bar.
-    pub quiet: bool,
-    /// Lab folders only: crop and threshold before/after resizing.
+    /// Lab recording folders: crop and threshold.
+    #[command(flatten)]
     pub lab: LabOptions,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// The lab's preprocessing for recording folders (`targets.csv` + `images/` without a
@@ -280,16 +299,8 @@ pub fn evaluate(
     backend: Backend,
     lab: LabOptions,
 ) -> Result<String> {
-    let size = runs
-        .iter()
-        .find_map(|r| {
-            let text = std::fs::read_to_string(r.join("config.json")).ok()?;
-            serde_json::from_str::<serde_json::Value>(&text).ok()?.get("size")?.as_u64()
-        })
-        .with_context(
-            || "no run directory with a config.json among the runs: give the --out directories of `tacsim train`",
-        )?;
-    let corpus = lab.open(data, size as usize)?;
+    let first = runs.first().context("give at least one run directory of `tacsim train`")?;
+    let corpus = lab.open(data, eval::run_size(first)?)?;
     let report = eval::evaluate(&corpus, runs, backend, max_pairs, out)?;
     Ok(format!("{}\nreport: {}\n", eval::markdown(&report), out.join("report.md").display()))
 }

@@ -154,62 +154,7 @@ enum Command {
     /// Train a network of the paper on a dataset (`tacsim generate` output): the shear-removal
     /// model, the supervised baseline or the pose network. Resumable; Ctrl-C saves a
     /// checkpoint.
-    Train {
-        /// unshear, baseline or posenet.
-        #[arg(value_enum)]
-        network: tacsim::learn::Network,
-        /// Dataset directory (`tacsim generate` output) or a lab recording folder (targets.csv +
-        /// images/, no meta.json).
-        #[arg(long)]
-        data: PathBuf,
-        /// Run directory (config, checkpoints, model.safetensors).
-        #[arg(long)]
-        out: PathBuf,
-        /// TOML config (fields of the crate's UnshearConfig / PoseConfig); flags override it.
-        #[arg(long)]
-        config: Option<PathBuf>,
-        /// Image side: 256 (paper), 128 or 64; the dataset is resized to it.
-        #[arg(long)]
-        size: Option<usize>,
-        /// Epochs (each phase of the unshear model; the pose network's).
-        #[arg(long)]
-        epochs: Option<usize>,
-        /// At most this many batches per epoch.
-        #[arg(long)]
-        max_batches: Option<usize>,
-        /// Batch size (paper: 32).
-        #[arg(long)]
-        batch: Option<usize>,
-        /// Fraction of training poses with labels (unshear; paper: 0.1).
-        #[arg(long)]
-        label_fraction: Option<f64>,
-        /// Self-supervised phase only (unshear).
-        #[arg(long)]
-        no_labels: bool,
-        /// Train without the L1 patch loss (ablation).
-        #[arg(long)]
-        no_patch: bool,
-        /// Multiply the learning rates by this factor.
-        #[arg(long)]
-        lr_scale: Option<f64>,
-        /// Seed.
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Backend: flex (default), ndarray; wgpu / cuda with those features.
-        #[arg(long, default_value = "flex")]
-        backend: tacsim_model::Backend,
-        /// Continue an interrupted run in --out.
-        #[arg(long)]
-        resume: bool,
-        /// Start from these weights (for example a simulator-trained model.safetensors).
-        #[arg(long)]
-        init: Option<PathBuf>,
-        #[command(flatten)]
-        lab: tacsim::learn::LabOptions,
-        /// No progress bar.
-        #[arg(long, short)]
-        quiet: bool,
-    },
+    Train(tacsim::learn::TrainOptions),
     /// Evaluate trained runs on a dataset's test split: the paper's tables beside its numbers,
     /// as report.md, report.json and grid.png.
     Eval {
@@ -316,46 +261,7 @@ fn main() -> Result<()> {
                 std::process::exit(1);
             }
         }
-        Command::Train {
-            network,
-            data,
-            out,
-            config,
-            size,
-            epochs,
-            max_batches,
-            batch,
-            label_fraction,
-            no_labels,
-            no_patch,
-            lr_scale,
-            seed,
-            backend,
-            resume,
-            init,
-            lab,
-            quiet,
-        } => {
-            let opts = tacsim::learn::TrainOptions {
-                network,
-                data,
-                out,
-                config,
-                size,
-                epochs,
-                max_batches,
-                batch,
-                label_fraction,
-                no_labels,
-                no_patch,
-                lr_scale,
-                seed,
-                backend,
-                resume,
-                init,
-                quiet,
-                lab,
-            };
+        Command::Train(opts) => {
             print!("{}", tacsim::learn::train(&opts)?);
         }
         Command::Eval { data, out, max_pairs, backend, lab, runs } => {

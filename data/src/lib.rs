@@ -12,6 +12,7 @@
 //! (depth `pose_z` below the stimulus's top face); `shear_*` is the touch-down offset of a
 //! slide (the sensor touched down at `pose + shear` and slid to `pose`), zero for taps.
 
+pub mod atomic;
 pub mod error;
 pub mod lab;
 pub mod loader;

@@ -23,6 +23,8 @@ use burn::tensor::Tensor;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
+use tacsim_data::atomic::temp_path;
+
 use crate::error::{ModelError, Result};
 
 /// Renumbers the module's parameter ids 0, 1, 2, ... in visiting order.
@@ -39,17 +41,9 @@ pub fn canonical_ids<M: Module>(module: M) -> M {
     module.map(&mut Renumber(0))
 }
 
-/// Writes `bytes` to `path` through a temporary file and a rename.
+/// Writes `bytes` to `path` atomically (`tacsim_data::atomic`: temporary file, fsync, rename).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let tmp = tmp_name(path);
-    fs::write(&tmp, bytes).map_err(|e| ModelError::io(&tmp, "write", e))?;
-    fs::rename(&tmp, path).map_err(|e| ModelError::io(path, "rename into place", e))
-}
-
-fn tmp_name(path: &Path) -> PathBuf {
-    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
-    name.push(".tmp");
-    path.with_file_name(name)
+    Ok(tacsim_data::atomic::write_atomic(path, bytes)?)
 }
 
 /// Writes a value as pretty JSON, atomically.
@@ -73,7 +67,7 @@ pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T> {
 /// `unshear_model_losses_fall_in_both_phases_and_checkpoints_reload_to_identical_outputs`).
 pub fn save_weights<M: Module>(module: &M, path: &Path) -> Result<()> {
     let _ = module.valid();
-    let tmp = tmp_name(path);
+    let tmp = temp_path(path);
     let mut store = SafetensorsStore::from_file(&tmp).overwrite(true);
     module.save_into(&mut store).map_err(|e| ModelError::checkpoint(&tmp, format!("could not save weights: {e}")))?;
     fs::rename(&tmp, path).map_err(|e| ModelError::io(path, "rename into place", e))

@@ -207,6 +207,14 @@ fn find_run(dir: &Path) -> Result<Run> {
     }
 }
 
+/// The image side (px) a run directory was trained at.
+pub fn run_size(dir: &Path) -> Result<usize> {
+    Ok(match find_run(dir)? {
+        Run::Pose(cfg, _) => cfg.size,
+        Run::Unshear(_, cfg, _) => cfg.size,
+    })
+}
+
 /// Evaluates every run in `runs` (shear-removal models and at most one pose network) on the
 /// test split of `corpus`, writing `report.json`, `report.md` and `grid.png` into `out`.
 pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: usize, out: &Path) -> Result<Report> {

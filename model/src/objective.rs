@@ -12,11 +12,12 @@
 //! - weight regularisation `l1 sum|w| + l2 sum w^2` over every conv and linear weight.
 //!
 //! The squared norms are per-pixel means (MSE). Per-module objectives: E_S minimises every
-//! term, E_T `L_cyc`, D_T `L_cyc + L_sup + lambda L_patch` and D_S `L_rec` alone. In the
-//! supervised phase one backward pass over the sum gives exactly these gradients. In the
-//! self-supervised phase the cycles run through D_S, so its gradients come from a second,
-//! small backward pass of `L_rec` alone on the same codes (detached), and replace the ones the
-//! sum gave it.
+//! term, E_T `L_cyc`, D_T `L_cyc + L_sup + lambda L_patch` and D_S `L_rec` alone. One backward
+//! pass over the sum gives exactly these gradients: in the supervised phase no other term
+//! reaches D_S, and in the self-supervised phase the cycles run through a copy of D_S whose
+//! parameters take no gradient (gradients still flow through it to E_T and E_S). The copy
+//! shares D_S's parameters, so they must be materialised first, or the copy's `no_grad()`
+//! would switch them off in D_S too: [`Unshear::new`] materialises them.
 
 use burn::module::{Module, ModuleVisitor, Param};
 use burn::optim::GradientsParams;
@@ -42,6 +43,21 @@ pub struct StepLosses {
     pub regularisation: f64,
     /// The sum that was minimised.
     pub total: f64,
+}
+
+impl StepLosses {
+    /// Every term combined with the same term of `other` by `f` (sums, means).
+    pub fn combine(&self, other: &StepLosses, f: impl Fn(f64, f64) -> f64) -> StepLosses {
+        StepLosses {
+            cycle_forward: f(self.cycle_forward, other.cycle_forward),
+            cycle_backward: f(self.cycle_backward, other.cycle_backward),
+            reconstruction: f(self.reconstruction, other.reconstruction),
+            supervised: f(self.supervised, other.supervised),
+            patch: f(self.patch, other.patch),
+            regularisation: f(self.regularisation, other.regularisation),
+            total: f(self.total, other.total),
+        }
+    }
 }
 
 /// Weights of the terms that are not on/off by phase.
@@ -72,14 +88,16 @@ pub fn self_supervised(
     taps: Tensor<4>,
     w: Weights,
 ) -> (GradientsParams, StepLosses) {
+    // The cycles run through a no-gradient copy of D_S (module docs): D_S learns from L_rec.
+    let ds_cycle = model.ds.clone().no_grad();
     let (pose, shear) = model.es.forward(sheared.clone());
     // Forward cycle: x_s -> M(x_s) -> K(M(x_s); z_s).
     let unsheared = model.dt.forward(pose.clone());
-    let back = model.ds.forward(model.et.forward(unsheared), shear.clone());
+    let back = ds_cycle.forward(model.et.forward(unsheared), shear.clone());
     let cycle_forward = mse(back, sheared.clone());
-    let reconstruction = mse(model.ds.forward(pose.clone(), shear.clone()), sheared.clone());
+    let reconstruction = mse(model.ds.forward(pose, shear.clone()), sheared);
     // Backward cycle: x_t -> K(x_t; z_s) -> M(K(x_t)).
-    let k = model.ds.forward(model.et.forward(taps.clone()), shear.clone());
+    let k = ds_cycle.forward(model.et.forward(taps.clone()), shear);
     let cycle_backward = mse(model.unshear(k), taps);
     let (total, reg) =
         with_regularisation(cycle_forward.clone() + cycle_backward.clone() + reconstruction.clone(), model, w);
@@ -91,26 +109,7 @@ pub fn self_supervised(
         total: scalar(&total),
         ..StepLosses::default()
     };
-    let mut grads = GradientsParams::from_grads(total.backward(), model);
-    // D_S learns from L_rec (and its own weight penalty) alone.
-    let (rec_ds, _) = with_regularisation(mse(model.ds.forward(pose.detach(), shear.detach()), sheared), &model.ds, w);
-    let mut rec_grads = GradientsParams::from_grads(rec_ds.backward(), &model.ds);
-    replace_grads(&model.ds, &mut grads, &mut rec_grads);
-    (grads, losses)
-}
-
-/// Replaces the gradients of `module`'s parameters in `into` by those in `from`.
-fn replace_grads<M: Module>(module: &M, into: &mut GradientsParams, from: &mut GradientsParams) {
-    struct Replace<'a>(&'a mut GradientsParams, &'a mut GradientsParams);
-    impl ModuleVisitor for Replace<'_> {
-        fn visit_float<const D: usize>(&mut self, param: &Param<Tensor<D>>) {
-            let _ = self.0.remove::<D>(param.id);
-            if let Some(g) = self.1.remove::<D>(param.id) {
-                self.0.register::<D>(param.id, g);
-            }
-        }
-    }
-    module.visit(&mut Replace(into, from));
+    (GradientsParams::from_grads(total.backward(), model), losses)
 }
 
 /// The supervised objective on true pairs; `mask` is the patch-crop coverage of
@@ -237,7 +236,9 @@ mod tests {
     }
 
     /// The per-module objectives: the gradients handed to the optimizer give D_S exactly the
-    /// gradient of `L_rec`, while E_S, E_T and D_T learn from the cycles too.
+    /// gradient of `L_rec`, while E_S, E_T and D_T learn from the cycles too. Regression: on a
+    /// module with lazily initialised parameters the cycles' `no_grad()` copy of D_S switched
+    /// off D_S's own gradients; `Unshear::new` now materialises them.
     #[test]
     fn shear_decoder_learns_from_the_reconstruction_loss_alone() {
         let device = Device::flex().autodiff();

@@ -81,28 +81,6 @@ pub struct TrainState {
     pub done: bool,
 }
 
-fn add(a: &mut StepLosses, b: &StepLosses) {
-    a.cycle_forward += b.cycle_forward;
-    a.cycle_backward += b.cycle_backward;
-    a.reconstruction += b.reconstruction;
-    a.supervised += b.supervised;
-    a.patch += b.patch;
-    a.regularisation += b.regularisation;
-    a.total += b.total;
-}
-
-fn scaled(a: &StepLosses, k: f64) -> StepLosses {
-    StepLosses {
-        cycle_forward: a.cycle_forward * k,
-        cycle_backward: a.cycle_backward * k,
-        reconstruction: a.reconstruction * k,
-        supervised: a.supervised * k,
-        patch: a.patch * k,
-        regularisation: a.regularisation * k,
-        total: a.total * k,
-    }
-}
-
 /// A ChaCha8 stream for a position in training.
 pub fn stream(seed: u64, keys: &[u64]) -> ChaCha8Rng {
     let mut s = seed ^ 0x5DEE_CE66_D1CE_4E5B;
@@ -189,7 +167,7 @@ fn run_loop<M: Module, T: Copy>(
                     )));
                 }
                 model = optim.step(lr, model, grads);
-                add(&mut state.partial, &losses);
+                state.partial = state.partial.combine(&losses, |a, b| a + b);
                 progress.step(&losses);
                 state.batch += 1;
                 since_save += 1;
@@ -207,7 +185,7 @@ fn run_loop<M: Module, T: Copy>(
                 epoch,
                 steps: nb,
                 lr,
-                mean: scaled(&state.partial, 1.0 / nb.max(1) as f64),
+                mean: state.partial.combine(&state.partial, |a, _| a / nb.max(1) as f64),
             });
             state.partial = StepLosses::default();
             state.epoch += 1;
@@ -306,7 +284,7 @@ pub fn train_unshear(
 ) -> Result<(Unshear, TrainState)> {
     cfg.validate()?;
     let device = seeded_device(corpus, cfg.size, backend, cfg.seed)?;
-    let mut model = canonical_ids(Unshear::new(cfg.net_size()?, &device));
+    let mut model = Unshear::new(cfg.net_size()?, &device);
     if let Some(path) = init {
         model = load_weights(model, path)?;
     }

@@ -10,6 +10,7 @@
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 
+use crate::checkpoint::canonical_ids;
 use crate::network::{ShearDecoder, ShearEncoder, Size, TapDecoder, TapEncoder};
 
 /// The paper's model: shear encoder, tap decoder, shear decoder and tap encoder.
@@ -26,14 +27,17 @@ pub struct Unshear {
 }
 
 impl Unshear {
-    /// A freshly initialised model for `size` images, N(0, 0.02) weights.
+    /// A freshly initialised model for `size` images, N(0, 0.02) weights. Its parameters
+    /// are materialised and numbered in module order ([`canonical_ids`]): the
+    /// self-supervised objective's no-gradient copy of D_S relies on the first, checkpoints
+    /// on the second.
     pub fn new(size: Size, device: &Device) -> Self {
-        Self {
+        canonical_ids(Self {
             es: ShearEncoder::new(size, device),
             dt: TapDecoder::new(size, device),
             ds: ShearDecoder::new(size, device),
             et: TapEncoder::new(size, device),
-        }
+        })
     }
 
     /// `E_S(x_s)`: the pose and shear codes of sheared images.

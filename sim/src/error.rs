@@ -115,3 +115,14 @@ impl SimError {
         SimError::Io { path: path.into(), action, source }
     }
 }
+
+impl From<tacsim_data::DataError> for SimError {
+    /// File errors keep their path and action; format errors of the dataset layer become
+    /// analysis errors of the `dataset` source.
+    fn from(e: tacsim_data::DataError) -> Self {
+        match e {
+            tacsim_data::DataError::Io { path, action, source } => SimError::Io { path, action, source },
+            other => SimError::Analysis { source_name: "dataset".into(), reason: other.to_string() },
+        }
+    }
+}

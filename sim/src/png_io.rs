@@ -61,7 +61,7 @@ pub fn write_png(path: &Path, img: &GrayImage, depth: PngDepth) -> Result<()> {
         SimError::Image { reason, .. } => SimError::Image { path: path.to_owned(), reason },
         other => other,
     })?;
-    write_atomic(path, &bytes)
+    Ok(write_atomic(path, &bytes)?)
 }
 
 /// Decodes PNG bytes (any bit depth or colour type) to 8-bit grey.

@@ -108,10 +108,6 @@ pub fn shard_range(len: usize, i: usize, n: usize) -> std::ops::Range<usize> {
     (i * len / n)..((i + 1) * len / n)
 }
 
-fn data_err(e: tacsim_data::DataError) -> SimError {
-    SimError::Analysis { source_name: "dataset".into(), reason: e.to_string() }
-}
-
 /// Prepares `target.out` for `meta`: a new (or empty) directory, or the same dataset when
 /// resuming. Refuses a directory holding anything else.
 fn prepare(target: &Target, meta: &Meta) -> Result<()> {
@@ -120,7 +116,7 @@ fn prepare(target: &Target, meta: &Meta) -> Result<()> {
     if out.exists() {
         let meta_path = out.join("meta.json");
         if meta_path.exists() {
-            let old = Meta::load(&meta_path).map_err(data_err)?;
+            let old = Meta::load(&meta_path)?;
             if old != *meta {
                 return Err(SimError::Analysis {
                     source_name: out.display().to_string(),
@@ -225,8 +221,8 @@ pub fn generate(
     prepare(target, &meta)?;
     let out = &target.out;
     let rows: Vec<Row> = range.clone().map(|i| plan.row(&plan.sample(i))).collect();
-    write_atomic(&out.join("meta.json"), &meta.to_json().map_err(data_err)?)?;
-    write_atomic(&out.join("targets.csv"), &to_csv(&rows).map_err(data_err)?)?;
+    write_atomic(&out.join("meta.json"), &meta.to_json()?)?;
+    write_atomic(&out.join("targets.csv"), &to_csv(&rows)?)?;
     let images = out.join("images");
     let reference = ctx.renderer.render(&PinLayout::new(sensor).poses());
     write_atomic(&images.join(REFERENCE_IMAGE), &encode_png(&reference, PngDepth::Grey8)?)?;
@@ -286,7 +282,7 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     let bad = |reason: String| SimError::Analysis { source_name: "tacsim merge".into(), reason };
     let mut parts = Vec::new();
     for dir in shards {
-        let ds = tacsim_data::Dataset::open(dir).map_err(data_err)?;
+        let ds = tacsim_data::Dataset::open(dir)?;
         let Some(shard) = ds.meta.shard else {
             return Err(bad(format!("{} is not a shard (its meta.json has no shard)", dir.display())));
         };
@@ -324,7 +320,7 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     let reference = parts[0].1.dir.join("images").join(&meta.reference_image);
     let bytes = std::fs::read(&reference).map_err(|e| SimError::io(&reference, "read", e))?;
     write_atomic(&images.join(&meta.reference_image), &bytes)?;
-    write_atomic(&out.join("targets.csv"), &to_csv(&rows).map_err(data_err)?)?;
-    write_atomic(&out.join("meta.json"), &meta.to_json().map_err(data_err)?)?;
+    write_atomic(&out.join("targets.csv"), &to_csv(&rows)?)?;
+    write_atomic(&out.join("meta.json"), &meta.to_json()?)?;
     Ok(rows.len())
 }
