@@ -6,7 +6,7 @@
 //! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]]`: track
 //!   the lab's recordings and compare the simulated pin motion with the real one (undeformed
 //!   positions, radial profiles by depth, per-sample errors);
-//! - `reproduce [--quick] [--out DIR]`: the paper's study end to end (dataset, every model,
+//! - `reproduce [--quick] [--out DIR] [--jobs N]`: the paper's study end to end (dataset, every model,
 //!   evaluation report); see [`reproduce`];
 //! - `bench-model [--quick]`: training samples/s and inference images/s of the networks on
 //!   flex at 256, 128 and 64 px and on ndarray at 64 px; writes `docs/model-bench.json`;
@@ -49,7 +49,7 @@ fn main() -> Result<()> {
         Some("bench-model") => bench_model(&args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] | \
+                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] [--jobs N] | \
                  real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]]"
             );
             bail!("unknown or missing command")
