@@ -106,3 +106,50 @@ fn bad_scenarios_are_clear_errors_and_failures_exit_non_zero() {
     assert!(out.join("report.json").is_file() && out.join("short.svg").is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn the_pins_voronoi_patch_matches_the_contact_engines_patch() {
+    // The patch read off the image's pins (Voronoi cell dilation) against the contact
+    // engine's own patch, with the sensor over the edge of the disk as the servo keeps it,
+    // pressed 1.5 mm. The pins also
+    // dilate, less, in a band of about 2 mm off the edge where the free skin bends over it,
+    // and little at the contact's rim: those points are left undecided. A single threshold
+    // agreed on only 72-88% of the disc (0.1 dilation) or 16-56% (30% of the largest one).
+    let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
+    let mut scene = Scene::new();
+    scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("add");
+    let sensor = SensorParams::default();
+    let model = ContactModel::new(&sensor);
+    let depth = 1.5;
+    let grid = contact_disk_grid(&model, depth);
+    let mut shares = Vec::new();
+    for (x, yaw) in [(50.0, 90.0), (49.0, 90.0), (51.0, 30.0), (50.5, 0.0), (49.5, -45.0)] {
+        let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
+        let mut g = tacsim::explore::perception::Geometric::new(&sensor, depth, 256).expect("perception");
+        sim.step(SensorPose::new(x, 0.0, depth, yaw)).expect("step");
+        g.estimate(&sim.pins());
+        let centres = grid.centres();
+        let reach = 0.9 * (sensor.dome.outer_radius_mm * depth).sqrt();
+        let pins = g.touching(&centres);
+        let (mut agree, mut decided, mut n) = (0, 0, 0);
+        for ((c, p), t) in centres.iter().zip(sim.pressure()).zip(&pins) {
+            if c[0].hypot(c[1]) <= reach {
+                n += 1;
+                if let Some(t) = t {
+                    decided += 1;
+                    agree += usize::from((*p > 0.0) == *t);
+                }
+            }
+        }
+        let (share, coverage) = (agree as f64 / decided.max(1) as f64, decided as f64 / n as f64);
+        eprintln!("x {x}, yaw {yaw}: {agree} of {decided} decided agree ({n} in the disc)");
+        assert!(
+            share >= 0.7 && coverage >= 0.25,
+            "x {x} mm, yaw {yaw} deg: agreement {share:.2} on {coverage:.2} of the disc"
+        );
+        shares.push(share);
+    }
+    // Measured: 1.00, 0.94, 0.98, 1.00, 0.76.
+    let mean = shares.iter().sum::<f64>() / shares.len() as f64;
+    assert!(mean >= 0.9, "mean agreement {mean:.2}");
+}

@@ -176,11 +176,7 @@ pub fn pose_error(
         }
     }
     let n = rows.len().max(1) as f64;
-    PoseError {
-        x_mm: sums[0] / n,
-        y_mm: sums[1] / n,
-        yaw_deg: sums[2] / n,
-    }
+    PoseError { x_mm: sums[0] / n, y_mm: sums[1] / n, yaw_deg: sums[2] / n }
 }
 
 /// A trained run found in a directory.

@@ -88,10 +88,21 @@ pub struct Geometric {
     /// Where each reference pin was last seen (px): pins are tracked frame to frame, so a
     /// slide's drag, which builds up over many frames, never has to be matched in one jump.
     last: Vec<Option<[f64; 2]>>,
+    /// The undeformed Voronoi tessellation, for the contact patch.
+    geometry: super::contact_geometry::ContactGeometry,
 }
 
 /// Share of the largest local dilation above which a pin counts as in contact.
 const CONTACT_FRACTION: f64 = 0.3;
+
+/// The contact patch read off the pins' Voronoi cells: the skin touches where the cells grew
+/// (`A / A0 - 1`) by more than this share of the largest growth in the image...
+const TOUCH_SHARE: f64 = 0.65;
+/// ...and is free where they grew by less than this share; between, undecided. Chosen on the
+/// 7 geometric scenarios (IoU of the pins' footprint): single thresholds either took the free
+/// skin bent over the edge for contact (a band about 1-2 mm wide, IoU 0.83-0.96) or the
+/// faint rim of the contact for free skin, which emptied the interior (IoU below 0.2).
+const FREE_SHARE: f64 = 0.12;
 
 impl Geometric {
     /// Perception for `sensor` pressed `depth_mm` deep, rendering at `size` px.
@@ -102,7 +113,7 @@ impl Geometric {
         let reference_px = tacsim_sim::calibrate::observe::pin_centres(&renderer.render(&layout.poses()));
         let spacing_px = 17.5 * size as f64 / 420.0;
         // Rest positions: the layout pin whose projected tip is nearest each detected pin.
-        let rest_mm =
+        let rest_mm: Vec<Option<[f64; 2]>> =
             tacsim_sim::calibrate::model::match_reference(&renderer, &layout.poses(), &reference_px, spacing_px)
                 .into_iter()
                 .map(|m| m.map(|i| [layout.pins[i].base.x, layout.pins[i].base.y]))
@@ -110,7 +121,16 @@ impl Geometric {
         let radius_mm = (sensor.dome.outer_radius_mm * depth_mm).sqrt();
         let neighbours = tacsim_sim::tracking::nearest_neighbours(&reference_px, 6);
         let last = reference_px.iter().map(|p| Some(*p)).collect();
-        Ok(Self { renderer, reference_px, rest_mm, spacing_px, radius_mm, neighbours, last })
+        let geometry = super::contact_geometry::ContactGeometry::new(&reference_px, rest_mm.clone(), spacing_px);
+        Ok(Self { renderer, reference_px, rest_mm, spacing_px, radius_mm, neighbours, last, geometry })
+    }
+
+    /// The contact patch of the image of the latest estimate: whether the skin touches at
+    /// each of `points` (contact-plane mm, sensor frame), from the tracked pins' Voronoi
+    /// cells ([`super::contact_geometry`], thresholds `TOUCH_SHARE` and `FREE_SHARE`);
+    /// `None` where undecided.
+    pub fn touching(&self, points: &[[f64; 2]]) -> Vec<Option<bool>> {
+        super::contact_geometry::touching(&self.geometry.indentation(&self.last), FREE_SHARE, TOUCH_SHARE, points)
     }
 
     /// The estimate from the current pins; `None` when no pin shows contact.

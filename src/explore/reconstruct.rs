@@ -1,4 +1,4 @@
-//! Object reconstruction: each step's contact patch (cells in contact: material; cells the
+//! Object reconstruction: each step's contact patch (points in contact: material; points the
 //! dome presses into without touching anything: no material) moved into the world frame by the
 //! robot's pose, fused on a grid, interpolated by natural neighbours (spade) and thresholded
 //! at one half into a footprint, compared with the true shape.
@@ -37,11 +37,19 @@ impl Fusion {
     /// Adds a step's contact patch: the cells of `grid` (sensor frame) with `pressure > 0` are
     /// material; those within `reach_mm` of the apex without contact are not.
     pub fn add_patch(&mut self, grid: &Grid, pressure: &[f64], pose: &SensorPose, reach_mm: f64) {
+        let touching: Vec<Option<bool>> = pressure.iter().map(|p| Some(*p > 0.0)).collect();
+        self.add_points(&grid.centres(), &touching, pose, reach_mm);
+    }
+
+    /// Adds a step's contact patch as points of the contact plane (mm, sensor frame) and
+    /// whether the skin touches there: touching points are material; the others within
+    /// `reach_mm` of the apex are not; undecided points (`None`) add nothing.
+    pub fn add_points(&mut self, points: &[[f64; 2]], touching: &[Option<bool>], pose: &SensorPose, reach_mm: f64) {
         // Sensor-frame contact-plane points to world: the pose's rotation (sensor `y` is world
         // `-y` at zero yaw), then its position.
         let r = pose.rotation();
-        for (k, centre) in grid.centres().into_iter().enumerate() {
-            let touching = pressure[k] > 0.0;
+        for (centre, &touching) in points.iter().zip(touching) {
+            let Some(touching) = touching else { continue };
             if !touching && centre[0].hypot(centre[1]) > reach_mm {
                 continue;
             }

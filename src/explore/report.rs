@@ -43,12 +43,12 @@ pub fn run_files(files: &[std::path::PathBuf], out: &Path, json: bool) -> Result
 /// The table printed by `tacsim run`.
 pub fn table(runs: &[RunReport]) -> String {
     let mut out = format!(
-        "{:<22} {:<10} {:>5} {:>6} {:>9} {:>9} {:>8} {:>6} {:>8}  result\n",
-        "scenario", "shape", "steps", "done", "mean mm", "max mm", "yaw deg", "IoU", "steps/s"
+        "{:<22} {:<10} {:>5} {:>6} {:>9} {:>9} {:>8} {:>6} {:>9} {:>8}  result\n",
+        "scenario", "shape", "steps", "done", "mean mm", "max mm", "yaw deg", "IoU", "IoU pins", "steps/s"
     );
     for r in runs {
         out += &format!(
-            "{:<22} {:<10} {:>5} {:>6.3} {:>9.3} {:>9.3} {:>8.2} {:>6.3} {:>8.0}  {}\n",
+            "{:<22} {:<10} {:>5} {:>6.3} {:>9.3} {:>9.3} {:>8.2} {:>6.3} {:>9} {:>8.0}  {}\n",
             r.name,
             r.shape,
             r.steps,
@@ -57,6 +57,7 @@ pub fn table(runs: &[RunReport]) -> String {
             r.max_deviation_mm,
             r.mean_yaw_error_deg,
             r.iou,
+            r.iou_pins.map_or("-".to_string(), |v| format!("{v:.3}")),
             r.steps_per_s,
             if r.pass { "pass".to_string() } else { format!("FAIL: {}", r.failures.join("; ")) }
         );

@@ -40,8 +40,12 @@ pub struct RunReport {
     pub max_deviation_mm: f64,
     /// Mean absolute angle between the sensor's `x` axis and the edge (deg).
     pub mean_yaw_error_deg: f64,
-    /// IoU of the reconstructed footprint with the true one.
+    /// IoU of the reconstructed footprint with the true one, fused from the contact engine's
+    /// patches (the criterion).
     pub iou: f64,
+    /// Image-based perception: IoU of the footprint fused from the patches read off the
+    /// image's pins (Voronoi cells, [`super::contact_geometry`]), reported beside `iou`.
+    pub iou_pins: Option<f64>,
     /// Distance travelled (mm) and simulated time at the scenario's speed (s).
     pub travelled_mm: f64,
     /// Simulated time (s).
@@ -135,7 +139,20 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let searching =
         EdgeEstimate { offset_mm: (sensor.dome.outer_radius_mm * scenario.depth_mm).sqrt(), angle_deg: 0.0 };
     sim.step(pose0)?;
-    fusion.add_patch(&grid, sim.pressure(), &pose0, reach);
+    let centres = grid.centres();
+    // Each visited pose adds its contact patch: the contact engine's to `fusion`, and, with
+    // image-based perception, the one read off the image's pins to `fusion_pins`.
+    let mut fusion_pins = Fusion::default();
+    let fuse = |fusion: &mut Fusion,
+                fusion_pins: &mut Fusion,
+                geometric: &Option<Geometric>,
+                sim: &Simulation,
+                pose: &SensorPose| {
+        fusion.add_patch(&grid, sim.pressure(), pose, reach);
+        if let Some(g) = geometric {
+            fusion_pins.add_points(&centres, &g.touching(&centres), pose, reach);
+        }
+    };
     // The robot starts on the edge, aligned with it: image-based perception takes its first
     // estimate there as its zero (a tare), as a robot would at a known start.
     let tare = match &mut geometric {
@@ -157,6 +174,7 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
                 angle_deg: wrap_deg(e.angle_deg - tare.1),
             }),
         };
+        fuse(&mut fusion, &mut fusion_pins, &geometric, &sim, &robot.pose);
         let estimate = corruption.apply(fresh);
         let target = servo.next(&robot.pose, &estimate);
         for p in robot.move_to(target) {
@@ -165,7 +183,6 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
         }
         steps += 1;
         let pose = robot.pose;
-        fusion.add_patch(&grid, sim.pressure(), &pose, reach);
         trajectory.push([pose.x_mm, pose.y_mm, pose.yaw_deg]);
         let now = oracle(&scene, object, &pose);
         deviations.push((now.offset_mm - r).abs());
@@ -184,6 +201,10 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
             break;
         }
     }
+    if let Some(g) = &mut geometric {
+        g.estimate(&sim.pins());
+    }
+    fuse(&mut fusion, &mut fusion_pins, &geometric, &sim, &robot.pose);
     let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
     let (lo, hi) = outline.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), p| {
         ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])])
@@ -191,6 +212,10 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let bounds = [lo[0] - 5.0, lo[1] - 5.0, hi[0] + 5.0, hi[1] + 5.0];
     let (fp, nx, ny) = fusion.footprint(bounds);
     let stimulus = &scene.objects()[object].stimulus;
+    let iou_pins = geometric.is_some().then(|| {
+        let (fp, nx, _) = fusion_pins.footprint(bounds);
+        iou(&fp, nx, bounds, |x, y| stimulus.contour.contains([x, y]))
+    });
     let iou = iou(&fp, nx, bounds, |x, y| stimulus.contour.contains([x, y]));
     let c = &scenario.criteria;
     let mut report = RunReport {
@@ -204,6 +229,7 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
         max_deviation_mm: deviations.iter().fold(0.0, |m, v| m.max(*v)),
         mean_yaw_error_deg: mean(&yaw_errors),
         iou,
+        iou_pins,
         travelled_mm: robot.travelled_mm,
         sim_time_s: robot.travelled_mm / scenario.speed_mm_s,
         substeps,

@@ -182,7 +182,11 @@ pub fn run(args: &[String]) -> Result<()> {
         .map(PathBuf::from)
         .unwrap_or_else(|| crate::root().join("target").join(if quick { "reproduce-quick" } else { "reproduce" }));
     let workers = match value("--jobs") {
-        Some(v) => v.parse::<usize>().ok().filter(|&n| n > 0).with_context(|| format!("--jobs {v}: expected a positive count"))?,
+        Some(v) => v
+            .parse::<usize>()
+            .ok()
+            .filter(|&n| n > 0)
+            .with_context(|| format!("--jobs {v}: expected a positive count"))?,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     };
     let started = std::time::Instant::now();
@@ -194,10 +198,8 @@ pub fn run(args: &[String]) -> Result<()> {
     }
     tacsim(&bin, &generate)?;
     let runs = out.join("runs");
-    let common = format!(
-        "size = {}\nlr_self_supervised = {LR_SELF_SUPERVISED}\nlr_supervised = {LR_SUPERVISED}\n",
-        plan.size
-    );
+    let common =
+        format!("size = {}\nlr_self_supervised = {LR_SELF_SUPERVISED}\nlr_supervised = {LR_SUPERVISED}\n", plan.size);
     let mut jobs = Vec::new();
     let mut names = Vec::new();
     // Pushes a run's job (if it has not finished) and returns its index for `after` lists.
