@@ -121,15 +121,18 @@ impl ContactGeometry {
     }
 }
 
+/// Largest cell growth (`A / A0 - 1`) read as no contact at all: pin detection jitter.
+pub const NO_CONTACT: f64 = 0.02;
+
 /// The indentation surface over the pins' rest positions (natural-neighbour interpolation of
 /// their dilation), read with hysteresis against the largest dilation `max`: at each of
 /// `points` (mm, sensor frame), `Some(true)` (the skin touches) above `touch * max`,
 /// `Some(false)` (free skin) below `free * max`, `None` between (undecided: the rim of the
 /// contact, where the indentation fades, and the free skin bent over an edge both dilate
-/// somewhat) and outside the pins. All free when no pin dilated.
+/// somewhat) and outside the pins. All free when no cell grew by more than `NO_CONTACT`.
 pub fn touching(pins: &[PinIndentation], free: f64, touch: f64, points: &[[f64; 2]]) -> Vec<Option<bool>> {
     let max = pins.iter().fold(0.0f64, |m, p| m.max(p.dilation));
-    if max <= 0.0 {
+    if max <= NO_CONTACT {
         return vec![Some(false); points.len()];
     }
     #[derive(Clone, Copy)]
