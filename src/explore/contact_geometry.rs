@@ -15,6 +15,20 @@
 
 use spade::{DelaunayTriangulation, HasPosition, Point2, Triangulation};
 
+/// A value at a point of the plane, for natural-neighbour interpolation.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Sample {
+    pub(crate) p: Point2<f64>,
+    pub(crate) value: f64,
+}
+
+impl HasPosition for Sample {
+    type Scalar = f64;
+    fn position(&self) -> Point2<f64> {
+        self.p
+    }
+}
+
 /// A point of the tessellation with the index of its pin.
 #[derive(Clone, Copy, Debug)]
 struct Site {
@@ -135,19 +149,8 @@ pub fn touching(pins: &[PinIndentation], free: f64, touch: f64, points: &[[f64; 
     if max <= NO_CONTACT {
         return vec![Some(false); points.len()];
     }
-    #[derive(Clone, Copy)]
-    struct Sample {
-        p: Point2<f64>,
-        v: f64,
-    }
-    impl HasPosition for Sample {
-        type Scalar = f64;
-        fn position(&self) -> Point2<f64> {
-            self.p
-        }
-    }
     let samples: Vec<Sample> =
-        pins.iter().map(|p| Sample { p: Point2::new(p.rest_mm[0], p.rest_mm[1]), v: p.dilation }).collect();
+        pins.iter().map(|p| Sample { p: Point2::new(p.rest_mm[0], p.rest_mm[1]), value: p.dilation }).collect();
     let Ok(tri) = DelaunayTriangulation::<Sample>::bulk_load_stable(samples) else {
         return vec![None; points.len()];
     };
@@ -155,7 +158,7 @@ pub fn touching(pins: &[PinIndentation], free: f64, touch: f64, points: &[[f64; 
     points
         .iter()
         .map(|q| {
-            let v = nn.interpolate(|v| v.data().v, Point2::new(q[0], q[1]))?;
+            let v = nn.interpolate(|v| v.data().value, Point2::new(q[0], q[1]))?;
             if v > touch * max {
                 Some(true)
             } else if v < free * max {

@@ -5,8 +5,10 @@
 
 use std::collections::BTreeMap;
 
-use spade::{DelaunayTriangulation, HasPosition, Point2};
+use spade::{DelaunayTriangulation, Point2};
 use tacsim_sim::contact::grid::Grid;
+
+use super::contact_geometry::Sample;
 use tacsim_sim::contact::pose::SensorPose;
 
 /// Side of the fusion bins (mm).
@@ -18,19 +20,6 @@ const RASTER_MM: f64 = 0.5;
 #[derive(Clone, Debug, Default)]
 pub struct Fusion {
     bins: BTreeMap<(i64, i64), (f64, u32)>,
-}
-
-#[derive(Clone, Copy, Debug)]
-struct Sample {
-    p: Point2<f64>,
-    value: f64,
-}
-
-impl HasPosition for Sample {
-    type Scalar = f64;
-    fn position(&self) -> Point2<f64> {
-        self.p
-    }
 }
 
 impl Fusion {
