@@ -90,12 +90,10 @@ pub fn cell_areas(points: &[Option<[f64; 2]>], reach: f64) -> Vec<Option<f64>> {
     out
 }
 
-/// The undeformed tessellation of a sensor's pins and where each pin rests on the contact
-/// plane.
+/// The undeformed tessellation of a sensor's pins.
 #[derive(Clone, Debug)]
 pub struct ContactGeometry {
     reference_area: Vec<Option<f64>>,
-    rest_mm: Vec<Option<[f64; 2]>>,
     reach_px: f64,
 }
 
@@ -110,23 +108,24 @@ pub struct PinIndentation {
 }
 
 impl ContactGeometry {
-    /// The tessellation of the undeformed pins `reference_px` (image px), their rest positions
-    /// `rest_mm` (same order), with cells allowed to reach `1.5 spacing_px` from their pin.
-    pub fn new(reference_px: &[[f64; 2]], rest_mm: Vec<Option<[f64; 2]>>, spacing_px: f64) -> Self {
+    /// The tessellation of the undeformed pins `reference_px` (image px), with cells allowed
+    /// to reach `1.5 spacing_px` from their pin.
+    pub fn new(reference_px: &[[f64; 2]], spacing_px: f64) -> Self {
         let reach_px = 1.5 * spacing_px;
         let points: Vec<Option<[f64; 2]>> = reference_px.iter().map(|p| Some(*p)).collect();
-        Self { reference_area: cell_areas(&points, reach_px), rest_mm, reach_px }
+        Self { reference_area: cell_areas(&points, reach_px), reach_px }
     }
 
-    /// Pins with a cell in both images: their indentation signal from the tracked positions
-    /// `current_px` (same order as the reference; `None` where a pin was lost).
-    pub fn indentation(&self, current_px: &[Option<[f64; 2]>]) -> Vec<PinIndentation> {
+    /// Pins with a cell in both images and a rest position: their indentation signal from the
+    /// tracked positions `current_px` (same order as the reference; `None` where a pin was
+    /// lost), placed at their rest positions `rest_mm` (same order).
+    pub fn indentation(&self, current_px: &[Option<[f64; 2]>], rest_mm: &[Option<[f64; 2]>]) -> Vec<PinIndentation> {
         // A dilated cell may reach further than an undeformed one.
         let areas = cell_areas(current_px, 2.0 * self.reach_px);
         areas
             .iter()
             .zip(&self.reference_area)
-            .zip(&self.rest_mm)
+            .zip(rest_mm)
             .filter_map(|((a, a0), r)| {
                 let (a, a0, r) = ((*a)?, (*a0)?, (*r)?);
                 (a0 > 0.0).then(|| PinIndentation { rest_mm: r, dilation: (a / a0 - 1.0).max(0.0) })
@@ -223,10 +222,10 @@ mod tests {
     fn a_pressed_spot_dilates_its_cells_and_a_uniform_drag_does_not() {
         let rest = lattice(2.0, 12.0);
         let rest_mm: Vec<Option<[f64; 2]>> = rest.iter().map(|p| Some(*p)).collect();
-        let geometry = ContactGeometry::new(&rest, rest_mm, 2.0);
+        let geometry = ContactGeometry::new(&rest, 2.0);
         // A drag: every pin shifted by 0.7 px.
         let dragged: Vec<Option<[f64; 2]>> = rest.iter().map(|p| Some([p[0] + 0.7, p[1] - 0.3])).collect();
-        assert!(geometry.indentation(&dragged).iter().all(|p| p.dilation < 1e-9));
+        assert!(geometry.indentation(&dragged, &rest_mm).iter().all(|p| p.dilation < 1e-9));
         // A press around (4, 0): pins pushed radially apart, more near the centre.
         let c = [4.0, 0.0];
         let pressed: Vec<Option<[f64; 2]>> = rest
@@ -237,12 +236,12 @@ mod tests {
                 Some([c[0] + g * dx, c[1] + g * dy])
             })
             .collect();
-        let pins = geometry.indentation(&pressed);
+        let pins = geometry.indentation(&pressed, &rest_mm);
         let near = pins.iter().find(|p| p.rest_mm == [4.0, 0.0]).map_or(0.0, |p| p.dilation);
         let far = pins.iter().find(|p| p.rest_mm == [-6.0, 0.0]).map_or(1.0, |p| p.dilation);
         assert!(near > 0.3 && far < 0.01, "near {near}, far {far}");
         let t = touching(&pins, 0.1, 0.6, &[[4.0, 0.5], [-6.0, 0.0], [40.0, 0.0]]);
         assert_eq!(t, vec![Some(true), Some(false), None]);
-        assert_eq!(touching(&geometry.indentation(&dragged), 0.1, 0.6, &[[4.0, 0.0]]), vec![Some(false)]);
+        assert_eq!(touching(&geometry.indentation(&dragged, &rest_mm), 0.1, 0.6, &[[4.0, 0.0]]), vec![Some(false)]);
     }
 }

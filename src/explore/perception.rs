@@ -113,7 +113,7 @@ impl Geometric {
         let reference_px = tacsim_sim::calibrate::observe::pin_centres(&renderer.render(&layout.poses()));
         let spacing_px = 17.5 * size as f64 / 420.0;
         // Rest positions: the layout pin whose projected tip is nearest each detected pin.
-        let rest_mm: Vec<Option<[f64; 2]>> =
+        let rest_mm =
             tacsim_sim::calibrate::model::match_reference(&renderer, &layout.poses(), &reference_px, spacing_px)
                 .into_iter()
                 .map(|m| m.map(|i| [layout.pins[i].base.x, layout.pins[i].base.y]))
@@ -121,7 +121,7 @@ impl Geometric {
         let radius_mm = (sensor.dome.outer_radius_mm * depth_mm).sqrt();
         let neighbours = tacsim_sim::tracking::nearest_neighbours(&reference_px, 6);
         let last = reference_px.iter().map(|p| Some(*p)).collect();
-        let geometry = super::contact_geometry::ContactGeometry::new(&reference_px, rest_mm.clone(), spacing_px);
+        let geometry = super::contact_geometry::ContactGeometry::new(&reference_px, spacing_px);
         Ok(Self { renderer, reference_px, rest_mm, spacing_px, radius_mm, neighbours, last, geometry })
     }
 
@@ -130,7 +130,12 @@ impl Geometric {
     /// cells ([`super::contact_geometry`], thresholds `TOUCH_SHARE` and `FREE_SHARE`);
     /// `None` where undecided.
     pub fn touching(&self, points: &[[f64; 2]]) -> Vec<Option<bool>> {
-        super::contact_geometry::touching(&self.geometry.indentation(&self.last), FREE_SHARE, TOUCH_SHARE, points)
+        super::contact_geometry::touching(
+            &self.geometry.indentation(&self.last, &self.rest_mm),
+            FREE_SHARE,
+            TOUCH_SHARE,
+            points,
+        )
     }
 
     /// The estimate from the current pins; `None` when no pin shows contact.

@@ -201,10 +201,8 @@ pub fn run(args: &[String]) -> Result<()> {
     let common =
         format!("size = {}\nlr_self_supervised = {LR_SELF_SUPERVISED}\nlr_supervised = {LR_SUPERVISED}\n", plan.size);
     let mut jobs = Vec::new();
-    let mut names = Vec::new();
     // Pushes a run's job (if it has not finished) and returns its index for `after` lists.
-    let mut add = |jobs: &mut Vec<Job>, dir: PathBuf, args: Option<Vec<String>>, after: Vec<usize>| {
-        names.push(dir);
+    let add = |jobs: &mut Vec<Job>, args: Option<Vec<String>>, after: Vec<usize>| {
         args.map(|args| {
             jobs.push(Job { args, after });
             jobs.len() - 1
@@ -215,17 +213,20 @@ pub fn run(args: &[String]) -> Result<()> {
         "{common}mode = \"self-supervised\"\nself_supervised_epochs = {}\nmax_batches_per_epoch = {}\n",
         plan.ss_epochs, plan.ss_batches
     );
-    let ss_job = add(&mut jobs, ss.clone(), train("unshear", &data, &ss, &ss_config, &[])?, vec![]);
+    let ss_job = add(&mut jobs, train("unshear", &data, &ss, &ss_config, &[])?, vec![]);
     let base = runs.join("baseline");
     let base_config = format!(
         "{common}mode = \"baseline\"\nsupervised_epochs = {}\nmax_batches_per_epoch = {}\n",
         plan.baseline_epochs, plan.baseline_batches
     );
-    add(&mut jobs, base.clone(), train("baseline", &data, &base, &base_config, &[])?, vec![]);
+    add(&mut jobs, train("baseline", &data, &base, &base_config, &[])?, vec![]);
     let pose = runs.join("posenet");
     let pose_config = format!("size = {}\nepochs = {}\n", plan.size, plan.pose_epochs);
-    add(&mut jobs, pose.clone(), train("posenet", &data, &pose, &pose_config, &[])?, vec![]);
+    add(&mut jobs, train("posenet", &data, &pose, &pose_config, &[])?, vec![]);
     let init = [s("--init"), s(ss.join("model.safetensors").display())];
+    // The report lists the models in this order: self-supervised, semi-supervised runs,
+    // baseline, then the pose network.
+    let mut names = vec![ss.clone()];
     for (name, fraction, patch) in [
         ("semi-supervised-10", 0.1, 0.1),
         ("semi-supervised-8", 0.08, 0.1),
@@ -237,21 +238,12 @@ pub fn run(args: &[String]) -> Result<()> {
             "{common}mode = \"semi-supervised\"\nself_supervised_epochs = 0\nsupervised_epochs = {}\nlabel_fraction = {fraction}\npatch_weight = {patch}\n",
             plan.sup_epochs
         );
-        add(&mut jobs, dir.clone(), train("unshear", &data, &dir, &cfg, &init)?, ss_job.into_iter().collect());
+        add(&mut jobs, train("unshear", &data, &dir, &cfg, &init)?, ss_job.into_iter().collect());
+        names.push(dir);
     }
+    names.extend([base, pose]);
     println!("{} training runs to do, {workers} at a time", jobs.len());
     run_jobs(&bin, &jobs, workers)?;
-    // The report lists the models in this order: self-supervised, semi-supervised runs,
-    // baseline, then the pose network.
-    names.sort_by_key(|p| {
-        let n = p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        match n.as_str() {
-            "self-supervised" => 0,
-            "baseline" => 2,
-            "posenet" => 3,
-            _ => 1,
-        }
-    });
     let report = out.join("report");
     let mut eval = vec![s("eval"), s("--data"), s(data.display()), s("--out"), s(report.display())];
     eval.extend([s("--max-pairs"), s(plan.max_pairs)]);
