@@ -150,6 +150,10 @@ enum Command {
         /// Print the JSON report instead of the table.
         #[arg(long)]
         json: bool,
+        /// Directory with the `posenet` and `unshear` runs of learned perception (for example
+        /// `target/explore/runs` of `cargo xtask explore`), overriding the scenarios' `[models]`.
+        #[arg(long)]
+        models: Option<PathBuf>,
     },
     /// Train a network of the paper on a dataset (`tacsim generate` output): the shear-removal
     /// model, the supervised baseline or the pose network. Resumable; Ctrl-C saves a
@@ -254,8 +258,8 @@ fn main() -> Result<()> {
         Command::Merge { out, shards } => {
             print!("{}", tacsim::dataset::merge(&out, &shards)?);
         }
-        Command::Run { scenarios, out, json } => {
-            let (text, pass) = tacsim::explore::report::run_files(&scenarios, &out, json)?;
+        Command::Run { scenarios, out, json, models } => {
+            let (text, pass) = tacsim::explore::report::run_files(&scenarios, &out, json, models.as_deref())?;
             print!("{text}");
             if !pass {
                 std::process::exit(1);

@@ -153,3 +153,73 @@ fn the_pins_voronoi_patch_matches_the_contact_engines_patch() {
     let mean = shares.iter().sum::<f64>() / shares.len() as f64;
     assert!(mean >= 0.9, "mean agreement {mean:.2}");
 }
+
+#[test]
+fn edge_frame_labels_are_the_pose_relative_to_the_edge_that_the_servo_reads() {
+    use tacsim::explore::perception::{oracle, wrap_deg};
+    use tacsim_sim::dataset::plan::Plan;
+    use tacsim_sim::dataset::recipe::Recipe;
+    let text = "[poses]\nper_shape = 40\nframe = \"edge\"\naround_contour = true\nx_mm = [-3.0, 3.0]\n\
+                y_mm = [0.0, 0.0]\ndepth_mm = [1.0, 2.0]\nyaw_deg = [-45.0, 45.0]\n\
+                [taps]\nper_pose = 1\ndepth_jitter_mm = 0.0\n[slides]\nper_pose = 1\ntwist_deg = [-10.0, 10.0]\n";
+    let recipe = Recipe::from_toml_str(text, "edge.toml").expect("recipe");
+    let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
+    let plan = Plan::new(&recipe, &catalogue, "edge.toml").expect("plan");
+    let scenes: Vec<(Scene, usize)> = plan
+        .shapes
+        .iter()
+        .map(|(name, _)| {
+            let mut scene = Scene::new();
+            let object = scene.add(catalogue.get(name).expect("shape"), ObjectPose::default()).expect("add");
+            (scene, object)
+        })
+        .collect();
+    let mut arcs = vec![Vec::new(); scenes.len()];
+    for i in 0..plan.len() {
+        let sample = plan.sample(i);
+        let shape = plan.poses[sample.pose_id].shape;
+        let (scene, object) = &scenes[shape];
+        let (start, target) = plan.sensor_poses(&sample);
+        // The label is what the servo's oracle reads at the target: offset along the outward
+        // normal and minus the edge angle (polygonal contours: 0.1 mm, 2 deg).
+        let o = oracle(scene, *object, &target);
+        assert!(
+            (o.offset_mm - sample.pose[0]).abs() < 0.1,
+            "{}: offset {} against label {}",
+            i,
+            o.offset_mm,
+            sample.pose[0]
+        );
+        let d = wrap_deg(o.angle_deg + sample.pose[5]);
+        assert!(d.abs() < 2.0, "{i}: edge angle {} against label yaw {}", o.angle_deg, sample.pose[5]);
+        // A slide's touch-down offset is in the same frame: its yaw differs by the twist, and
+        // its position by the offset turned into the scene.
+        let moved = (start.x_mm - target.x_mm).hypot(start.y_mm - target.y_mm);
+        assert!((moved - sample.shear[0].hypot(sample.shear[1])).abs() < 1e-9);
+        assert!((start.yaw_deg - target.yaw_deg - sample.shear[5]).abs() < 1e-9);
+        arcs[shape].push(scene.edge(*object, target.x_mm, target.y_mm).point);
+    }
+    // Contact points spread all around each contour: every quadrant about the centroid is used.
+    for (shape, points) in arcs.iter().enumerate() {
+        let n = points.len() as f64;
+        let c = points.iter().fold([0.0, 0.0], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+        let mut quadrants = [0; 4];
+        for p in points {
+            quadrants[usize::from(p[0] > c[0]) + 2 * usize::from(p[1] > c[1])] += 1;
+        }
+        assert!(quadrants.iter().all(|&q| q > 0), "{}: {quadrants:?}", plan.shapes[shape].0);
+    }
+}
+
+#[test]
+fn learned_perception_without_trained_runs_names_the_field_and_the_command() {
+    let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
+    let mut s: Scenario = toml::from_str("perception = \"learned\"\nimage_size = 128\n").expect("scenario");
+    s.name = "learned".into();
+    s.models.posenet = std::env::temp_dir().join("tacsim-no-such-run/posenet");
+    let err = format!("{:#}", run(&s, &SensorParams::default(), &catalogue).expect_err("no runs"));
+    assert!(
+        err.contains("models") && err.contains("cargo xtask explore") && err.contains("model.safetensors"),
+        "{err}"
+    );
+}

@@ -5,7 +5,6 @@
 
 use std::path::{Path, PathBuf};
 
-use burn::module::Module;
 use burn::tensor::{Device, Tensor, TensorData};
 use image::{GrayImage, Luma};
 use rayon::prelude::*;
@@ -13,14 +12,14 @@ use serde::{Deserialize, Serialize};
 use tacsim_data::{Split, Subset};
 
 use crate::backend::Backend;
-use crate::checkpoint::{load_weights, read_json, write_atomic, write_json};
+use crate::checkpoint::{read_json, write_atomic, write_json};
 use crate::config::{Mode, PoseConfig, UnshearConfig};
 use crate::data::Corpus;
 use crate::error::{ModelError, Result};
 use crate::images::to_images;
+use crate::infer;
 use crate::metrics;
 use crate::posenet::{PoseNet, PoseScale, decode_batch};
-use crate::unshear::Unshear;
 
 /// Mean image similarity over a set of image pairs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -187,15 +186,14 @@ enum Run {
 
 fn find_run(dir: &Path) -> Result<Run> {
     let name = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let config = dir.join("config.json");
-    let weights = dir.join("model.safetensors");
-    if !weights.is_file() {
+    if !dir.join("model.safetensors").is_file() {
         return Err(ModelError::checkpoint(
             dir,
             "no model.safetensors: the run has not finished; resume it with `tacsim train ... --resume`",
         ));
     }
-    if dir.join("scale.json").is_file() {
+    let config = dir.join("config.json");
+    if infer::is_posenet_run(dir) {
         Ok(Run::Pose(read_json(&config)?, dir.to_owned()))
     } else {
         Ok(Run::Unshear(name, read_json(&config)?, dir.to_owned()))
@@ -238,10 +236,7 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
                         format!("{} was trained at {} px, the data is {side} px", dir.display(), cfg.size),
                     ));
                 }
-                let net =
-                    load_weights(PoseNet::new(cfg.net_size()?, cfg.hidden, &device), &dir.join("model.safetensors"))?
-                        .valid();
-                let scale: PoseScale = read_json(&dir.join("scale.json"))?;
+                let (net, _, scale) = infer::load_posenet(&dir, &device)?;
                 posenet = Some((net, scale));
             }
             Run::Unshear(name, cfg, dir) => unshear.push((name, cfg, dir)),
@@ -259,7 +254,7 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
                 format!("{} was trained at {} px, the data is {side} px", dir.display(), cfg.size),
             ));
         }
-        let model = load_weights(Unshear::new(cfg.net_size()?, &device), &dir.join("model.safetensors"))?.valid();
+        let (model, _) = infer::load_unshear(dir, &device)?;
         let rec = map_images(&input, side, &device, |x| model.unshear(x));
         let srec = map_images(&input, side, &device, |x| model.reconstruct(x));
         let u_shear = map_images(&input, side, &device, |x| model.unshear_from_shear_code(x));

@@ -7,6 +7,7 @@
 //! - [`posenet`]: the pose network and its label encoding;
 //! - [`config`]: every hyperparameter, the paper's values as defaults;
 //! - [`data`], [`images`]: datasets in memory, batches, the lab's preprocessing;
+//! - [`infer`]: poses read from single images by trained runs (robot perception);
 //! - [`train`]: seeded, checkpointed, resumable training loops;
 //! - [`checkpoint`]: safetensors weights, optimizer state, run directories;
 //! - [`metrics`]: SSIM, MS-SSIM and MSE, checked against reference values;
@@ -20,6 +21,7 @@ pub mod data;
 pub mod error;
 pub mod eval;
 pub mod images;
+pub mod infer;
 pub mod metrics;
 pub mod network;
 pub mod objective;

@@ -10,7 +10,9 @@ use tacsim_model::config::{Mode, PoseConfig, UnshearConfig};
 use tacsim_model::data::Corpus;
 use tacsim_model::eval::evaluate;
 use tacsim_model::images::to_images;
+use tacsim_model::infer::{self, PoseReader};
 use tacsim_model::network::Size;
+use tacsim_model::posenet::decode_batch;
 use tacsim_model::train::{EpochLog, Silent, train_posenet, train_unshear};
 use tacsim_model::unshear::Unshear;
 
@@ -131,4 +133,34 @@ fn evaluation_writes_the_report_with_every_table() {
     // A run directory without weights is a clear error.
     let err = evaluate(&corpus, &[dir.join("nothing")], Backend::Flex, 0, &out).expect_err("missing");
     assert!(err.to_string().contains("model.safetensors"), "{err}");
+
+    // A robot's perception reads single images through the same networks as the evaluation:
+    // unshear then pose network, deterministic, equal to the batched forward pass.
+    let device = Backend::Flex.device();
+    let (net, _, scale) = infer::load_posenet(&dir.join("posenet"), &device).expect("posenet");
+    let (model, _) = infer::load_unshear(&dir.join("semi"), &device).expect("semi");
+    let rows = [0, 3, 7];
+    let batch = corpus.batch(&rows, &[], &device);
+    let want = decode_batch(&scale, net.forward(model.unshear(batch.clone())));
+    let want_raw = decode_batch(&scale, net.forward(batch));
+    let reader = PoseReader::load(&dir.join("posenet"), Some(&dir.join("semi")), Backend::Flex).expect("reader");
+    let raw = PoseReader::load(&dir.join("posenet"), None, Backend::Flex).expect("raw reader");
+    assert_eq!(reader.side(), 64);
+    for (k, &row) in rows.iter().enumerate() {
+        let img = image::GrayImage::from_raw(64, 64, corpus.images.image(row).to_vec()).expect("image");
+        let (got, again, got_raw) =
+            (reader.read(&img).expect("read"), reader.read(&img).expect("read"), raw.read(&img).expect("read"));
+        assert_eq!(got, again, "inference is deterministic");
+        for (a, b) in [(got, want[k]), (got_raw, want_raw[k])] {
+            assert!((a.x_mm - b.x_mm).abs() < 1e-4 && (a.yaw_deg - b.yaw_deg).abs() < 1e-3, "{a:?} against {b:?}");
+        }
+    }
+    // A larger image is resized to the networks' side first.
+    let big = image::GrayImage::from_pixel(128, 128, image::Luma([0]));
+    assert!(reader.read(&big).is_ok());
+    // The runs swapped are clear errors.
+    let err = PoseReader::load(&dir.join("semi"), None, Backend::Flex).err().expect("not a posenet");
+    assert!(err.to_string().contains("scale.json"), "{err}");
+    let err = PoseReader::load(&dir.join("posenet"), Some(&dir.join("posenet")), Backend::Flex).err().expect("swap");
+    assert!(err.to_string().contains("not a shear-removal model"), "{err}");
 }

@@ -1,6 +1,7 @@
 //! Closed-loop contour following (DESIGN.md section 6): a kinematic [`robot`] slides the
 //! sensor along a stimulus's edge, staying in contact so that every step carries sliding
-//! history from the contact engine; [`perception`] estimates the pose relative to the edge;
+//! history from the contact engine; [`perception`] estimates the pose relative to the edge
+//! (the [`learned`] modes with trained networks);
 //! [`control`] corrects it with the lab's PI servo; [`run`] strings them into a loop with
 //! metrics; [`contact_geometry`] reads the contact patch off the pins' Voronoi cells;
 //! [`reconstruct`] fuses the contact patches into the object's footprint;
@@ -13,6 +14,7 @@
 
 pub mod contact_geometry;
 pub mod control;
+pub mod learned;
 pub mod perception;
 pub mod reconstruct;
 pub mod report;

@@ -20,10 +20,21 @@ pub struct Summary {
 
 /// `tacsim run`: loads every scenario first (a bad file stops before any run), runs them in
 /// parallel, writes `out/report.json` and `out/NAME.svg`; returns the text to print and
-/// whether every run passed.
-pub fn run_files(files: &[std::path::PathBuf], out: &Path, json: bool) -> Result<(String, bool)> {
+/// whether every run passed. `models`, when given, holds the `posenet` and `unshear` runs of
+/// learned perception, overriding the scenarios' `[models]`.
+pub fn run_files(
+    files: &[std::path::PathBuf],
+    out: &Path,
+    json: bool,
+    models: Option<&Path>,
+) -> Result<(String, bool)> {
     use rayon::prelude::*;
-    let scenarios = files.iter().map(|f| super::scenario::Scenario::load(f)).collect::<Result<Vec<_>>>()?;
+    let mut scenarios = files.iter().map(|f| super::scenario::Scenario::load(f)).collect::<Result<Vec<_>>>()?;
+    if let Some(dir) = models {
+        for s in &mut scenarios {
+            s.models = super::scenario::Models { posenet: dir.join("posenet"), unshear: dir.join("unshear") };
+        }
+    }
     let catalogue = crate::commands::load_catalogue(None)?;
     let sensor = tacsim_sim::SensorParams::default();
     let runs = scenarios.par_iter().map(|s| super::run::run(s, &sensor, &catalogue)).collect::<Result<Vec<_>>>()?;

@@ -14,6 +14,7 @@ use tacsim_sim::scene::{ObjectPose, Scene};
 use tacsim_sim::stimulus::Catalogue;
 
 use super::control::Servo;
+use super::learned::Learned;
 use super::perception::{Corruption, EdgeEstimate, Geometric, oracle, wrap_deg};
 use super::reconstruct::{Fusion, iou};
 use super::robot::Robot;
@@ -131,11 +132,17 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let mut robot = Robot::new(pose0, scenario.substep_mm);
     let mut servo = Servo::new(&scenario.control, scenario.step_mm);
     let mut corruption = Corruption::new(&scenario.noise, scenario.seed);
-    let mut geometric = match scenario.perception {
-        PerceptionKind::Geometric => Some(Geometric::new(sensor, scenario.depth_mm, scenario.image_size)?),
-        PerceptionKind::Oracle => None,
+    let (mut geometric, learned) = match scenario.perception {
+        PerceptionKind::Geometric => (Some(Geometric::new(sensor, scenario.depth_mm, scenario.image_size)?), None),
+        PerceptionKind::Learned | PerceptionKind::LearnedRaw => {
+            let raw = scenario.perception == PerceptionKind::LearnedRaw;
+            let l = Learned::new(sensor, scenario.image_size, &scenario.models, raw)
+                .with_context(|| format!("scenario {}", scenario.name))?;
+            (None, Some(l))
+        }
+        PerceptionKind::Oracle => (None, None),
     };
-    // Without contact the geometric estimate says "the edge is a contact radius inward".
+    // Without contact the image-based estimates say "the edge is a contact radius inward".
     let searching =
         EdgeEstimate { offset_mm: (sensor.dome.outer_radius_mm * scenario.depth_mm).sqrt(), angle_deg: 0.0 };
     sim.step(pose0)?;
@@ -167,12 +174,13 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let mut closed = false;
     let mut steps = 0;
     while steps < scenario.max_steps {
-        let fresh = match &mut geometric {
-            None => oracle(&scene, object, &robot.pose),
-            Some(g) => g.estimate(&sim.pins()).map_or(searching, |e| EdgeEstimate {
+        let fresh = match (&mut geometric, &learned) {
+            (Some(g), _) => g.estimate(&sim.pins()).map_or(searching, |e| EdgeEstimate {
                 offset_mm: e.offset_mm - tare.0,
                 angle_deg: wrap_deg(e.angle_deg - tare.1),
             }),
+            (None, Some(l)) => l.estimate(&sim.pins())?.unwrap_or(searching),
+            (None, None) => oracle(&scene, object, &robot.pose),
         };
         fuse(&mut fusion, &mut fusion_pins, &geometric, &sim, &robot.pose);
         let estimate = corruption.apply(fresh);
@@ -212,11 +220,12 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let bounds = [lo[0] - 5.0, lo[1] - 5.0, hi[0] + 5.0, hi[1] + 5.0];
     let (fp, nx, ny) = fusion.footprint(bounds);
     let stimulus = &scene.objects()[object].stimulus;
+    let inside = |x: f64, y: f64| stimulus.contour.contains([x, y]);
     let iou_pins = geometric.is_some().then(|| {
         let (fp, nx, _) = fusion_pins.footprint(bounds);
-        iou(&fp, nx, bounds, |x, y| stimulus.contour.contains([x, y]))
+        iou(&fp, nx, bounds, inside)
     });
-    let iou = iou(&fp, nx, bounds, |x, y| stimulus.contour.contains([x, y]));
+    let iou = iou(&fp, nx, bounds, inside);
     let c = &scenario.criteria;
     let mut report = RunReport {
         name: scenario.name.clone(),

@@ -1,7 +1,7 @@
 //! Exploration scenario files: the shape, where and how to start, the servo, the perception
 //! and the pass criteria. Every field has a default; unknown fields are errors.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
@@ -15,6 +15,18 @@ pub enum PerceptionKind {
     /// Model-free: the contact patch read off the tracked pins of the rendered image
     /// ([`super::perception::Geometric`]).
     Geometric,
+    /// The shear-removal model, then the pose network, on the rendered image
+    /// ([`super::learned::Learned`]; checkpoints in `[models]`).
+    Learned,
+    /// The pose network on the rendered (sheared) image directly.
+    LearnedRaw,
+}
+
+impl PerceptionKind {
+    /// Whether the perception reads a rendered image.
+    pub fn renders(self) -> bool {
+        self != Self::Oracle
+    }
 }
 
 /// A scenario (`scenarios/explore/*.toml`).
@@ -40,8 +52,12 @@ pub struct Scenario {
     pub friction: Option<f64>,
     /// Perception.
     pub perception: PerceptionKind,
-    /// Image size (px) for image-based perception.
+    /// Image size (px) for image-based perception; learned perception renders at this size
+    /// and resizes to its networks' side, as `tacsim train` resized the dataset (use the
+    /// training recipe's `image_size`).
     pub image_size: u32,
+    /// Trained runs for `learned` and `learned-raw` perception.
+    pub models: Models,
     /// Noise added to the estimates.
     pub noise: Noise,
     /// Servo gains and references.
@@ -52,6 +68,24 @@ pub struct Scenario {
     pub seed: u64,
     /// Pass criteria.
     pub criteria: Criteria,
+}
+
+/// The trained run directories of learned perception (`tacsim train` outputs). Relative
+/// paths are taken from the current directory. Defaults: the runs `cargo xtask explore`
+/// trains on the `explore` recipe (poses in the edge frame).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Models {
+    /// Pose network run (`tacsim train posenet`), trained on edge-frame labels.
+    pub posenet: PathBuf,
+    /// Shear-removal model run (`tacsim train unshear` or `baseline`), for `learned`.
+    pub unshear: PathBuf,
+}
+
+impl Default for Models {
+    fn default() -> Self {
+        Self { posenet: "target/explore/runs/posenet".into(), unshear: "target/explore/runs/unshear".into() }
+    }
 }
 
 /// Gaussian noise on the perceived pose.
@@ -113,6 +147,7 @@ impl Default for Scenario {
             friction: None,
             perception: PerceptionKind::Oracle,
             image_size: 256,
+            models: Models::default(),
             noise: Noise::default(),
             control: Control::default(),
             max_steps: 600,
@@ -200,6 +235,9 @@ impl Scenario {
             if !(0.0..=1.0).contains(&v) {
                 bail!("field `{field}` must be a fraction in [0, 1], got {v}");
             }
+        }
+        if !(16..=2048).contains(&self.image_size) {
+            bail!("field `image_size` must be in [16, 2048] px, got {}", self.image_size);
         }
         if self.max_steps == 0 {
             bail!("field `max_steps` must be at least 1");

@@ -8,11 +8,15 @@
 //!   positions, radial profiles by depth, per-sample errors);
 //! - `reproduce [--quick] [--out DIR] [--jobs N]`: the paper's study end to end (dataset, every model,
 //!   evaluation report); see [`reproduce`];
+//! - `explore [--out DIR] [--jobs N]`: contour following with learned perception: the
+//!   `explore` dataset, the pose network and shear-removal model trained on it, their
+//!   evaluation and the `scenarios/explore/learned/` runs; see [`explore`];
 //! - `bench-model [--quick]`: training samples/s and inference images/s of the networks on
 //!   flex at 256, 128 and 64 px and on ndarray at 64 px; writes `docs/model-bench.json`;
 //! - `bench`: run the benchmarks (criterion: renderer, contact operator products) and print
 //!   their figures; `tacsim bench` times whole taps and slides.
 
+mod explore;
 mod reproduce;
 
 use std::path::{Path, PathBuf};
@@ -46,10 +50,11 @@ fn main() -> Result<()> {
         Some("bench") => bench(&args[1..]),
         Some("real-compare") => real_compare(&args[1..]),
         Some("reproduce") => reproduce::run(&args[1..]),
+        Some("explore") => explore::run(&args[1..]),
         Some("bench-model") => bench_model(&args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] [--jobs N] | \
+                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] [--jobs N] | explore [--out DIR] [--jobs N] | \
                  real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]]"
             );
             bail!("unknown or missing command")

@@ -69,11 +69,11 @@ const FULL: Plan = Plan {
 
 /// Learning rates of CPU-scale studies (see the module documentation): 40x the paper's
 /// self-supervised rate and 80x its supervised one, both 2e-3.
-const LR_SELF_SUPERVISED: f64 = 5e-5 * 40.0;
-const LR_SUPERVISED: f64 = 2.5e-5 * 80.0;
+pub(crate) const LR_SELF_SUPERVISED: f64 = 5e-5 * 40.0;
+pub(crate) const LR_SUPERVISED: f64 = 2.5e-5 * 80.0;
 
 /// The `tacsim` binary beside this xtask (same target directory and profile), built first.
-fn tacsim_binary() -> Result<PathBuf> {
+pub(crate) fn tacsim_binary() -> Result<PathBuf> {
     let status = Command::new(env!("CARGO"))
         .args(["build", "--quiet", "--bin", "tacsim"])
         .current_dir(crate::root())
@@ -90,7 +90,7 @@ fn tacsim_binary() -> Result<PathBuf> {
     Ok(bin)
 }
 
-fn tacsim(bin: &Path, args: &[String]) -> Result<()> {
+pub(crate) fn tacsim(bin: &Path, args: &[String]) -> Result<()> {
     println!("$ tacsim {}", args.join(" "));
     let status = Command::new(bin).args(args).status().with_context(|| format!("running {}", bin.display()))?;
     if !status.success() {
@@ -99,19 +99,19 @@ fn tacsim(bin: &Path, args: &[String]) -> Result<()> {
     Ok(())
 }
 
-fn s(v: impl ToString) -> String {
+pub(crate) fn s(v: impl ToString) -> String {
     v.to_string()
 }
 
 /// One `tacsim` command of the study and the jobs it waits for.
-struct Job {
-    args: Vec<String>,
-    after: Vec<usize>,
+pub(crate) struct Job {
+    pub(crate) args: Vec<String>,
+    pub(crate) after: Vec<usize>,
 }
 
 /// The `tacsim train` arguments of one run, or `None` when it has finished (an interrupted
 /// run resumes).
-fn train(net: &str, data: &Path, out: &Path, config: &str, extra: &[String]) -> Result<Option<Vec<String>>> {
+pub(crate) fn train(net: &str, data: &Path, out: &Path, config: &str, extra: &[String]) -> Result<Option<Vec<String>>> {
     if out.join("model.safetensors").is_file() {
         println!("{} done", out.display());
         return Ok(None);
@@ -128,10 +128,22 @@ fn train(net: &str, data: &Path, out: &Path, config: &str, extra: &[String]) -> 
     Ok(Some(args))
 }
 
+/// The `--jobs` count: a positive number, or one per core.
+pub(crate) fn workers(jobs: Option<&String>) -> Result<usize> {
+    Ok(match jobs {
+        Some(v) => v
+            .parse::<usize>()
+            .ok()
+            .filter(|&n| n > 0)
+            .with_context(|| format!("--jobs {v}: expected a positive count"))?,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    })
+}
+
 /// Runs `jobs` on `workers` threads, each job once every job it waits for has finished.
 /// The trainings are single-threaded on flex, so independent runs share the cores. The
 /// first failure stops new jobs from starting; running ones finish.
-fn run_jobs(bin: &Path, jobs: &[Job], workers: usize) -> Result<()> {
+pub(crate) fn run_jobs(bin: &Path, jobs: &[Job], workers: usize) -> Result<()> {
     use std::sync::{Condvar, Mutex};
     #[derive(Default)]
     struct State {
@@ -181,14 +193,7 @@ pub fn run(args: &[String]) -> Result<()> {
     let out = value("--out")
         .map(PathBuf::from)
         .unwrap_or_else(|| crate::root().join("target").join(if quick { "reproduce-quick" } else { "reproduce" }));
-    let workers = match value("--jobs") {
-        Some(v) => v
-            .parse::<usize>()
-            .ok()
-            .filter(|&n| n > 0)
-            .with_context(|| format!("--jobs {v}: expected a positive count"))?,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
-    };
+    let workers = workers(value("--jobs"))?;
     let started = std::time::Instant::now();
     let bin = tacsim_binary()?;
     let data = out.join("data");

@@ -4,23 +4,92 @@
 //!
 //! Sample `i` (image `image_{i+1}.png`) is instance `i mod per_pose` of pose `i / per_pose`:
 //! its taps first, then its slides. Poses are numbered shape by shape.
+//!
+//! Labels are in each pose's [`LabelFrame`]: the scene's axes at the shape's contact location,
+//! or the edge frame at the pose's contact point ([`Frame`]).
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use tacsim_data::{Kind, Row, Split};
 
-use super::recipe::{Axes, Recipe};
+use super::recipe::{Axes, Frame, Recipe};
 use crate::contact::pose::SensorPose;
 use crate::error::{Result, SimError};
 use crate::stimulus::Catalogue;
+use crate::stimulus::contour::Contour;
+
+/// Where a pose's labels are measured from: the label `(x, y)` is the point
+/// `origin + x X + y Y` with `X` the unit vector at `x_axis_deg` from the scene's `x` and `Y`
+/// it turned +90 deg; the label yaw is the sensor's yaw minus `yaw_zero_deg`. The scene
+/// frame has both angles 0; the edge frame at a contour point with tangent angle `t` has
+/// `x_axis_deg = t - 90` (the outward normal) and `yaw_zero_deg = t`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LabelFrame {
+    /// Origin (scene frame, mm).
+    pub origin_mm: [f64; 2],
+    /// Direction of the label `x` axis from the scene's `x` (deg).
+    pub x_axis_deg: f64,
+    /// Sensor yaw at label yaw 0 (deg).
+    pub yaw_zero_deg: f64,
+}
+
+impl LabelFrame {
+    /// The edge frame at contour point `point` with unit tangent `tangent` (material on its
+    /// left).
+    pub fn edge(point: [f64; 2], tangent: [f64; 2]) -> Self {
+        let t = tangent[1].atan2(tangent[0]).to_degrees();
+        Self { origin_mm: point, x_axis_deg: t - 90.0, yaw_zero_deg: t }
+    }
+
+    /// The scene vector (mm) of label components `x`, `y` (mm).
+    pub fn vector(&self, x: f64, y: f64) -> [f64; 2] {
+        let (s, c) = self.x_axis_deg.to_radians().sin_cos();
+        [c * x - s * y, s * x + c * y]
+    }
+
+    /// The scene point (mm) of label offsets `x`, `y` (mm).
+    pub fn point(&self, x: f64, y: f64) -> [f64; 2] {
+        let v = self.vector(x, y);
+        [self.origin_mm[0] + v[0], self.origin_mm[1] + v[1]]
+    }
+}
+
+/// The point at arc length `u * perimeter` along `contour`'s loops (`u` in `[0, 1)`) and the
+/// unit tangent of its segment (material on the left).
+fn point_along(contour: &Contour, u: f64) -> ([f64; 2], [f64; 2]) {
+    let total = contour.perimeter_mm();
+    let mut s = u * total;
+    for lp in &contour.loops {
+        for i in 0..lp.len() {
+            let (a, b) = (lp[i], lp[(i + 1) % lp.len()]);
+            let len = (b[0] - a[0]).hypot(b[1] - a[1]);
+            if len > 0.0 && s <= len {
+                let t = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
+                return ([a[0] + s * t[0], a[1] + s * t[1]], t);
+            }
+            s -= len;
+        }
+    }
+    // Rounding past the end: the last loop's start.
+    let lp = contour.loops.last().map(|l| l.as_slice()).unwrap_or(&[]);
+    match lp {
+        [a, b, ..] => {
+            let len = (b[0] - a[0]).hypot(b[1] - a[1]).max(1e-300);
+            (*a, [(b[0] - a[0]) / len, (b[1] - a[1]) / len])
+        }
+        _ => ([0.0; 2], [1.0, 0.0]),
+    }
+}
 
 /// A pose of the plan.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PosePlan {
     /// Index of the shape in the recipe.
     pub shape: usize,
-    /// `[x, y, depth, Rx, Ry, Rz]` relative to the contact location (mm, deg).
+    /// `[x, y, depth, Rx, Ry, Rz]` in `frame` (mm, deg).
     pub pose: [f64; 6],
+    /// The frame of the labels.
+    pub frame: LabelFrame,
     /// Split of the pose.
     pub split: Split,
     /// In the paired (supervised) training subset.
@@ -75,12 +144,21 @@ impl Plan {
     /// The plan of a (validated) recipe, with contact locations from `catalogue`.
     pub fn new(recipe: &Recipe, catalogue: &Catalogue, source_name: &str) -> Result<Self> {
         let mut shapes = Vec::new();
+        let mut contours = Vec::new();
         for (i, s) in recipe.shapes.iter().enumerate() {
             let stim = catalogue
                 .get(&s.name)
                 .map_err(|e| SimError::invalid(source_name, format!("shapes[{i}].name"), format!("{e}")))?;
             let contact = s.contact_mm.or(stim.entry.contact_mm).unwrap_or([0.0, 0.0]);
+            if recipe.poses.frame == Frame::Edge && stim.contour.loops.is_empty() {
+                return Err(SimError::invalid(
+                    source_name,
+                    format!("shapes[{i}].name"),
+                    format!("{} has no top-face contour, so no edge frame: use frame = \"scene\"", s.name),
+                ));
+            }
             shapes.push((s.name.clone(), contact));
+            contours.push(stim.contour.clone());
         }
         let n = recipe.poses.per_shape;
         let p = &recipe.poses;
@@ -116,6 +194,18 @@ impl Plan {
                     draw(&mut rng, p.ry_deg),
                     draw(&mut rng, p.yaw_deg),
                 ];
+                let frame = match (p.frame, p.around_contour) {
+                    (Frame::Scene, _) => LabelFrame { origin_mm: shapes[shape].1, x_axis_deg: 0.0, yaw_zero_deg: 0.0 },
+                    (Frame::Edge, false) => {
+                        let e = contours[shape].nearest(shapes[shape].1);
+                        LabelFrame::edge(e.point, e.tangent)
+                    }
+                    (Frame::Edge, true) => {
+                        let mut rng = stream(recipe.seed, &[5, id as u64]);
+                        let (point, tangent) = point_along(&contours[shape], rng.random::<f64>());
+                        LabelFrame::edge(point, tangent)
+                    }
+                };
                 let split = if r < n_train {
                     Split::Train
                 } else if r < n_train + n_val {
@@ -123,7 +213,7 @@ impl Plan {
                 } else {
                     Split::Test
                 };
-                poses.push(PosePlan { shape, pose, split, paired: r < n_paired });
+                poses.push(PosePlan { shape, pose, frame, split, paired: r < n_paired });
             }
         }
         Ok(Self { recipe: recipe.clone(), shapes, poses })
@@ -173,16 +263,15 @@ impl Plan {
     }
 
     /// The sensor poses (scene frame) of a sample: touch-down and target (equal for a tap).
+    /// The touch-down offset is in the pose's label frame too.
     pub fn sensor_poses(&self, s: &Sample) -> (SensorPose, SensorPose) {
-        let [cx, cy] = self.shapes[self.poses[s.pose_id].shape].1;
+        let f = &self.poses[s.pose_id].frame;
         let [x, y, z, rx, ry, rz] = s.pose;
-        let target = SensorPose { x_mm: cx + x, y_mm: cy + y, depth_mm: z, yaw_deg: rz, rx_deg: rx, ry_deg: ry };
-        let start = SensorPose {
-            x_mm: target.x_mm + s.shear[0],
-            y_mm: target.y_mm + s.shear[1],
-            yaw_deg: target.yaw_deg + s.shear[5],
-            ..target
-        };
+        let [tx, ty] = f.point(x, y);
+        let target =
+            SensorPose { x_mm: tx, y_mm: ty, depth_mm: z, yaw_deg: f.yaw_zero_deg + rz, rx_deg: rx, ry_deg: ry };
+        let [sx, sy] = f.vector(s.shear[0], s.shear[1]);
+        let start = SensorPose { x_mm: tx + sx, y_mm: ty + sy, yaw_deg: target.yaw_deg + s.shear[5], ..target };
         (start, target)
     }
 

@@ -46,6 +46,21 @@ pub struct ShapeSpec {
     pub contact_mm: Option<[f64; 2]>,
 }
 
+/// The frame the pose labels (and the slides' touch-down offsets) are given in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Frame {
+    /// Offsets along the scene's axes from the contact location; yaw from the scene's `x`.
+    #[default]
+    Scene,
+    /// The edge frame at the contact point (the pose's own point on the contour): `x` along
+    /// the edge's outward normal (positive off the material), `y` along its tangent (material
+    /// on the left), yaw of the sensor's `x` axis from the tangent. This is the pose relative
+    /// to the edge that contour following servoes on: lateral offset `x` and edge angle
+    /// `-yaw` (`tacsim run`'s `EdgeEstimate`).
+    Edge,
+}
+
 /// Pose ranges, relative to the contact location. Each range is `[low, high]`, drawn
 /// uniformly.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -53,6 +68,11 @@ pub struct ShapeSpec {
 pub struct PoseSpec {
     /// Poses per shape.
     pub per_shape: usize,
+    /// Frame of the labels.
+    pub frame: Frame,
+    /// Draw each pose's contact point uniformly along the shape's whole contour (by arc
+    /// length) instead of taking the shape's contact location; edge frame only.
+    pub around_contour: bool,
     /// Lateral x (mm).
     pub x_mm: [f64; 2],
     /// Lateral y (mm).
@@ -147,6 +167,8 @@ impl Default for PoseSpec {
     fn default() -> Self {
         Self {
             per_shape: 200,
+            frame: Frame::Scene,
+            around_contour: false,
             x_mm: [-5.0, 5.0],
             y_mm: [-5.0, 5.0],
             depth_mm: [1.0, 6.0],
@@ -235,6 +257,9 @@ impl Recipe {
             }
             Ok(())
         };
+        if p.around_contour && p.frame != Frame::Edge {
+            return bad("poses.around_contour", "needs frame = \"edge\" (a label frame per contact point)".into());
+        }
         range("poses.x_mm", p.x_mm, -50.0, 50.0)?;
         range("poses.y_mm", p.y_mm, -50.0, 50.0)?;
         range("poses.yaw_deg", p.yaw_deg, -360.0, 360.0)?;
@@ -318,6 +343,8 @@ mod tests {
             ("shapes = []\n", "shapes"),
             ("image_size = 4\n", "image_size"),
             ("cells_across = 12\n", "cells_across"),
+            ("[poses]\naround_contour = true\n", "poses.around_contour"),
+            ("[poses]\nframe = \"sensor\"\n", "frame"),
         ] {
             let e = Recipe::from_toml_str(text, "r.toml").expect_err(text).to_string();
             assert!(e.contains("r.toml") && e.contains(field), "{text}: {e}");

@@ -1,0 +1,58 @@
+//! Learned perception: the pose relative to the edge read from the rendered image by trained
+//! networks (`tacsim-model`), as the paper's robot does: the shear-removal model turns the
+//! sliding (sheared) image into a tap-like one, then the pose network, trained on taps in the
+//! edge frame (`scenarios/datasets/explore.toml`), regresses the lateral offset and the edge
+//! angle. `learned-raw` skips the shear removal (the paper's Table I "sheared" row).
+
+use anyhow::{Context, Result};
+use tacsim_model::Backend;
+use tacsim_model::infer::PoseReader;
+use tacsim_sim::pins::PinPose;
+
+use super::perception::{EdgeEstimate, wrap_deg};
+use super::scenario::Models;
+
+/// Rendering and the trained networks.
+pub struct Learned {
+    renderer: tacsim_sim::PinRenderer,
+    reference: image::GrayImage,
+    reader: PoseReader,
+}
+
+/// Share of the image's pixels that must differ from the undeformed image for the sensor to
+/// count as touching. The networks were trained on contacts only and read some pose from any
+/// image, so a robot that slid off the edge must be told apart first (as `geometric`
+/// perception does when no pin shows contact).
+const CONTACT_PIXELS: f64 = 1e-3;
+
+impl Learned {
+    /// Perception for `sensor` rendering at `size` px with the runs of `models`; with `raw`
+    /// the shear-removal model is left out.
+    pub fn new(sensor: &tacsim_sim::SensorParams, size: u32, models: &Models, raw: bool) -> Result<Self> {
+        let renderer = tacsim_sim::PinRenderer::new(sensor, size)?;
+        let unshear = (!raw).then_some(models.unshear.as_path());
+        let reader = PoseReader::load(&models.posenet, unshear, Backend::Flex).with_context(|| {
+            format!(
+                "field `models`: loading {}{} (train them with `cargo xtask explore`)",
+                models.posenet.display(),
+                unshear.map(|u| format!(" and {}", u.display())).unwrap_or_default()
+            )
+        })?;
+        let reference = renderer.render_undeformed();
+        Ok(Self { renderer, reference, reader })
+    }
+
+    /// The estimate from the current pins. The pose network's labels are edge-frame poses:
+    /// `x` is the offset along the outward normal and the yaw is the sensor's `x` axis from
+    /// the tangent, so the edge angle from the sensor's `x` axis is minus the yaw. `None`
+    /// when the image shows no contact (fewer than `CONTACT_PIXELS` of its pixels changed).
+    pub fn estimate(&self, pins: &[PinPose]) -> Result<Option<EdgeEstimate>> {
+        let img = self.renderer.render(pins);
+        let changed = img.as_raw().iter().zip(self.reference.as_raw()).filter(|(a, b)| a != b).count();
+        if (changed as f64) < CONTACT_PIXELS * img.as_raw().len() as f64 {
+            return Ok(None);
+        }
+        let pose = self.reader.read(&img)?;
+        Ok(Some(EdgeEstimate { offset_mm: pose.x_mm, angle_deg: wrap_deg(-pose.yaw_deg) }))
+    }
+}
