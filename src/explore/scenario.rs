@@ -22,13 +22,6 @@ pub enum PerceptionKind {
     LearnedRaw,
 }
 
-impl PerceptionKind {
-    /// Whether the perception reads a rendered image.
-    pub fn renders(self) -> bool {
-        self != Self::Oracle
-    }
-}
-
 /// A scenario (`scenarios/explore/*.toml`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
