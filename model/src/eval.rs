@@ -186,12 +186,7 @@ enum Run {
 
 fn find_run(dir: &Path) -> Result<Run> {
     let name = dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    if !dir.join("model.safetensors").is_file() {
-        return Err(ModelError::checkpoint(
-            dir,
-            "no model.safetensors: the run has not finished; resume it with `tacsim train ... --resume`",
-        ));
-    }
+    infer::weights_of(dir)?;
     let config = dir.join("config.json");
     if infer::is_posenet_run(dir) {
         Ok(Run::Pose(read_json(&config)?, dir.to_owned()))

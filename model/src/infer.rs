@@ -21,7 +21,8 @@ pub fn is_posenet_run(dir: &Path) -> bool {
     dir.join("scale.json").is_file()
 }
 
-fn weights_of(dir: &Path) -> Result<std::path::PathBuf> {
+/// The weights file of run `dir`; an error when the run has not finished.
+pub(crate) fn weights_of(dir: &Path) -> Result<std::path::PathBuf> {
     let weights = dir.join("model.safetensors");
     if !weights.is_file() {
         return Err(ModelError::checkpoint(
