@@ -295,16 +295,18 @@ pub fn train_unshear(
         checkpoint_steps: cfg.checkpoint_steps,
         adam: adam(cfg.beta1, cfg.beta2, cfg.epsilon),
     };
-    let (run, model, optim, state) = open_run(out, cfg, resume, model, settings.adam.init())?;
-    if state.done {
-        progress.message("the run had already finished");
-        return Ok((model, state));
-    }
+    // Checked before the run directory is written: a config the data cannot serve leaves
+    // nothing behind that would block the corrected command.
     let labelled = match cfg.mode {
         Mode::SemiSupervised => corpus.labelled_pairs(cfg.label_fraction)?,
         Mode::Baseline => corpus.dataset.true_pairs(Split::Train, Subset::All),
         Mode::SelfSupervised => Vec::new(),
     };
+    let (run, model, optim, state) = open_run(out, cfg, resume, model, settings.adam.init())?;
+    if state.done {
+        progress.message("the run had already finished");
+        return Ok((model, state));
+    }
     let ss = PhasePlan {
         name: SELF_SUPERVISED,
         epochs: cfg.self_supervised_epochs,

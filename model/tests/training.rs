@@ -89,6 +89,22 @@ fn unshear_model_losses_fall_in_both_phases_and_checkpoints_reload_to_identical_
 }
 
 #[test]
+fn a_label_fraction_the_data_cannot_serve_leaves_no_run_behind() {
+    // Regression: the check ran after the run directory's config was written, so the
+    // corrected command was refused with "already holds a training run".
+    let (dir, corpus) = corpus("label-fraction");
+    let run = dir.join("semi");
+    let too_many = UnshearConfig { label_fraction: 0.5, ..small(Mode::SemiSupervised) };
+    let err = train_unshear(&corpus, &too_many, Backend::Flex, &run, false, None, &mut Silent)
+        .expect_err("2 of 8 training poses paired cannot give 50% labels");
+    assert!(err.to_string().contains("label_fraction 0.5"), "{err}");
+    assert!(!run.join("config.json").exists(), "the refused run left {}", run.display());
+    let fixed = UnshearConfig { self_supervised_epochs: 1, supervised_epochs: 1, ..small(Mode::SemiSupervised) };
+    let (_, state) = train_unshear(&corpus, &fixed, Backend::Flex, &run, false, None, &mut Silent).expect("retry");
+    assert!(state.done);
+}
+
+#[test]
 fn baseline_and_posenet_losses_fall() {
     let (dir, corpus) = corpus("baseline");
     let cfg = UnshearConfig { supervised_epochs: 3, ..small(Mode::Baseline) };

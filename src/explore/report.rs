@@ -54,12 +54,22 @@ pub fn run_files(
 /// The table printed by `tacsim run`.
 pub fn table(runs: &[RunReport]) -> String {
     let mut out = format!(
-        "{:<22} {:<10} {:>5} {:>6} {:>9} {:>9} {:>8} {:>6} {:>9} {:>8}  result\n",
-        "scenario", "shape", "steps", "done", "mean mm", "max mm", "yaw deg", "IoU", "IoU pins", "steps/s"
+        "{:<22} {:<10} {:>5} {:>6} {:>9} {:>9} {:>8} {:>6} {:>9} {:>15} {:>8}  result\n",
+        "scenario",
+        "shape",
+        "steps",
+        "done",
+        "mean mm",
+        "max mm",
+        "yaw deg",
+        "IoU",
+        "IoU pins",
+        "read err mm/deg",
+        "steps/s"
     );
     for r in runs {
         out += &format!(
-            "{:<22} {:<10} {:>5} {:>6.3} {:>9.3} {:>9.3} {:>8.2} {:>6.3} {:>9} {:>8.0}  {}\n",
+            "{:<22} {:<10} {:>5} {:>6.3} {:>9.3} {:>9.3} {:>8.2} {:>6.3} {:>9} {:>15} {:>8.0}  {}\n",
             r.name,
             r.shape,
             r.steps,
@@ -69,6 +79,9 @@ pub fn table(runs: &[RunReport]) -> String {
             r.mean_yaw_error_deg,
             r.iou,
             r.iou_pins.map_or("-".to_string(), |v| format!("{v:.3}")),
+            r.perception_error
+                .as_ref()
+                .map_or("-".to_string(), |e| format!("{:.2}/{:.1}", e.offset_mae_mm, e.angle_mae_deg)),
             r.steps_per_s,
             if r.pass { "pass".to_string() } else { format!("FAIL: {}", r.failures.join("; ")) }
         );

@@ -47,6 +47,9 @@ pub struct RunReport {
     /// Image-based perception: IoU of the footprint fused from the patches read off the
     /// image's pins (Voronoi cells, [`super::contact_geometry`]), reported beside `iou`.
     pub iou_pins: Option<f64>,
+    /// Image-based perception: its error against the oracle at the poses where it read a
+    /// contact.
+    pub perception_error: Option<PerceptionError>,
     /// Distance travelled (mm) and simulated time at the scenario's speed (s).
     pub travelled_mm: f64,
     /// Simulated time (s).
@@ -69,6 +72,45 @@ pub struct RunReport {
     /// The reconstructed footprint raster and its bounds `[x0, y0, x1, y1]`.
     #[serde(skip)]
     pub footprint: (Vec<bool>, usize, usize, [f64; 4]),
+}
+
+/// Error of an image-based estimate against the true pose relative to the edge ([`oracle`]),
+/// over the steps where the image showed contact (estimate minus truth).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct PerceptionError {
+    /// Steps with an estimate.
+    pub steps: usize,
+    /// Mean signed lateral offset error (mm): negative reads the sensor as further onto the
+    /// material than it is.
+    pub offset_bias_mm: f64,
+    /// Mean absolute lateral offset error (mm).
+    pub offset_mae_mm: f64,
+    /// Mean signed edge angle error (deg).
+    pub angle_bias_deg: f64,
+    /// Mean absolute edge angle error (deg).
+    pub angle_mae_deg: f64,
+}
+
+impl PerceptionError {
+    /// Adds one step's estimate against the truth.
+    fn add(&mut self, estimate: &EdgeEstimate, truth: &EdgeEstimate) {
+        let (dx, da) = (estimate.offset_mm - truth.offset_mm, wrap_deg(estimate.angle_deg - truth.angle_deg));
+        self.steps += 1;
+        self.offset_bias_mm += dx;
+        self.offset_mae_mm += dx.abs();
+        self.angle_bias_deg += da;
+        self.angle_mae_deg += da.abs();
+    }
+
+    /// The sums turned into means.
+    fn finish(mut self) -> Self {
+        let n = self.steps.max(1) as f64;
+        for v in [&mut self.offset_bias_mm, &mut self.offset_mae_mm, &mut self.angle_bias_deg, &mut self.angle_mae_deg]
+        {
+            *v /= n;
+        }
+        self
+    }
 }
 
 /// Arc length along a closed polyline of the point nearest `p`.
@@ -173,14 +215,22 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let (mut last_s, mut progress) = (s0, 0.0f64);
     let mut closed = false;
     let mut steps = 0;
+    let mut perception_error = PerceptionError::default();
     while steps < scenario.max_steps {
-        let fresh = match (&mut geometric, &learned) {
-            (Some(g), _) => g.estimate(&sim.pins()).map_or(searching, |e| EdgeEstimate {
-                offset_mm: e.offset_mm - tare.0,
-                angle_deg: wrap_deg(e.angle_deg - tare.1),
-            }),
-            (None, Some(l)) => l.estimate(&sim.pins())?.unwrap_or(searching),
-            (None, None) => oracle(&scene, object, &robot.pose),
+        let read = match (&mut geometric, &learned) {
+            (Some(g), _) => g
+                .estimate(&sim.pins())
+                .map(|e| EdgeEstimate { offset_mm: e.offset_mm - tare.0, angle_deg: wrap_deg(e.angle_deg - tare.1) }),
+            (None, Some(l)) => l.estimate(&sim.pins())?,
+            (None, None) => None,
+        };
+        let fresh = match read {
+            Some(e) => {
+                perception_error.add(&e, &oracle(&scene, object, &robot.pose));
+                e
+            }
+            None if scenario.perception == PerceptionKind::Oracle => oracle(&scene, object, &robot.pose),
+            None => searching,
         };
         fuse(&mut fusion, &mut fusion_pins, &geometric, &sim, &robot.pose);
         let estimate = corruption.apply(fresh);
@@ -239,6 +289,7 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
         mean_yaw_error_deg: mean(&yaw_errors),
         iou,
         iou_pins,
+        perception_error: (scenario.perception != PerceptionKind::Oracle).then(|| perception_error.finish()),
         travelled_mm: robot.travelled_mm,
         sim_time_s: robot.travelled_mm / scenario.speed_mm_s,
         substeps,
