@@ -150,8 +150,9 @@ enum Command {
         /// Print the JSON report instead of the table.
         #[arg(long)]
         json: bool,
-        /// Directory with the `posenet` and `unshear` runs of learned perception (for example
-        /// `target/explore/runs` of `cargo xtask explore`), overriding the scenarios' `[models]`.
+        /// Directory holding the runs of learned perception (for example `target/explore/runs`
+        /// of `cargo xtask explore`): each scenario's `[models]` runs are looked up there by
+        /// their directory names (`posenet`, `unshear`, `baseline`).
         #[arg(long)]
         models: Option<PathBuf>,
     },

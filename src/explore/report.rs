@@ -20,8 +20,8 @@ pub struct Summary {
 
 /// `tacsim run`: loads every scenario first (a bad file stops before any run), runs them in
 /// parallel, writes `out/report.json` and `out/NAME.svg`; returns the text to print and
-/// whether every run passed. `models`, when given, holds the `posenet` and `unshear` runs of
-/// learned perception, overriding the scenarios' `[models]`.
+/// whether every run passed. `models`, when given, is the directory the scenarios' `[models]`
+/// runs are looked up in, by their directory names ([`super::scenario::Models::under`]).
 pub fn run_files(
     files: &[std::path::PathBuf],
     out: &Path,
@@ -32,7 +32,7 @@ pub fn run_files(
     let mut scenarios = files.iter().map(|f| super::scenario::Scenario::load(f)).collect::<Result<Vec<_>>>()?;
     if let Some(dir) = models {
         for s in &mut scenarios {
-            s.models = super::scenario::Models { posenet: dir.join("posenet"), unshear: dir.join("unshear") };
+            s.models = s.models.under(dir);
         }
     }
     let catalogue = crate::commands::load_catalogue(None)?;
@@ -89,20 +89,27 @@ pub fn table(runs: &[RunReport]) -> String {
     out
 }
 
-/// Writes the plot of a run as SVG.
+/// Writes the plot of a run as SVG: the trajectory over the shape, the reconstruction from
+/// the contact engine's patches beside the truth, and (image-based perception) the one from
+/// the pins' patches.
 pub fn plot(r: &RunReport, path: &Path) -> Result<()> {
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (1000, 500)).into_drawing_area();
+        let panels = 2 + usize::from(r.footprint_pins.is_some());
+        let root = SVGBackend::with_string(&mut svg, (500 * panels as u32, 500)).into_drawing_area();
         root.fill(&WHITE)?;
-        let (left, right) = root.split_horizontally(500);
+        let areas = root.split_evenly((1, panels));
         let b = r.footprint.3;
         let side = (b[2] - b[0]).max(b[3] - b[1]);
         let (x0, y0) = (0.5 * (b[0] + b[2] - side), 0.5 * (b[1] + b[3] - side));
         let outline: Vec<(f64, f64)> = r.contour.iter().chain(r.contour.first()).map(|p| (p[0], p[1])).collect();
-        for (area, title) in
-            [(&left, format!("{}: trajectory", r.name)), (&right, "reconstruction (grey) vs truth".into())]
-        {
+        let (_, nx, _, bounds) = &r.footprint;
+        let rasters = [None, Some((&r.footprint.0, "engine")), r.footprint_pins.as_ref().map(|f| (f, "pins"))];
+        for (k, area) in areas.iter().enumerate() {
+            let title = match rasters[k] {
+                None => format!("{}: trajectory", r.name),
+                Some((_, from)) => format!("reconstruction from the {from} (grey) vs truth"),
+            };
             let mut chart = ChartBuilder::on(area)
                 .caption(title, ("sans-serif", 18))
                 .margin(10)
@@ -110,8 +117,7 @@ pub fn plot(r: &RunReport, path: &Path) -> Result<()> {
                 .y_label_area_size(40)
                 .build_cartesian_2d(x0..x0 + side, y0..y0 + side)?;
             chart.configure_mesh().x_desc("x (mm)").y_desc("y (mm)").draw()?;
-            if std::ptr::eq(area, &right) {
-                let (fp, nx, _, bounds) = &r.footprint;
+            if let Some((fp, _)) = rasters[k] {
                 // Every fourth raster cell (2 mm) keeps the file small.
                 let cell = (bounds[2] - bounds[0]) / *nx as f64;
                 let rects = fp.iter().enumerate().filter(|(k, f)| **f && (k % nx) % 4 == 0 && (k / nx) % 4 == 0).map(
@@ -124,7 +130,7 @@ pub fn plot(r: &RunReport, path: &Path) -> Result<()> {
                 chart.draw_series(rects)?;
             }
             chart.draw_series(LineSeries::new(outline.clone(), BLACK.stroke_width(2)))?;
-            if std::ptr::eq(area, &left) {
+            if rasters[k].is_none() {
                 chart.draw_series(LineSeries::new(r.trajectory.iter().map(|p| (p[0], p[1])), BLUE.stroke_width(1)))?;
                 if let Some(s) = r.trajectory.first() {
                     chart.draw_series(std::iter::once(Circle::new((s[0], s[1]), 6, RED.filled())))?;

@@ -72,6 +72,9 @@ pub struct RunReport {
     /// The reconstructed footprint raster and its bounds `[x0, y0, x1, y1]`.
     #[serde(skip)]
     pub footprint: (Vec<bool>, usize, usize, [f64; 4]),
+    /// Image-based perception: the footprint fused from the pins' patches, on the same raster.
+    #[serde(skip)]
+    pub footprint_pins: Option<Vec<bool>>,
 }
 
 /// Error of an image-based estimate against the true pose relative to the edge ([`oracle`]),
@@ -271,10 +274,8 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let (fp, nx, ny) = fusion.footprint(bounds);
     let stimulus = &scene.objects()[object].stimulus;
     let inside = |x: f64, y: f64| stimulus.contour.contains([x, y]);
-    let iou_pins = geometric.is_some().then(|| {
-        let (fp, nx, _) = fusion_pins.footprint(bounds);
-        iou(&fp, nx, bounds, inside)
-    });
+    let footprint_pins = geometric.is_some().then(|| fusion_pins.footprint(bounds).0);
+    let iou_pins = footprint_pins.as_ref().map(|fp| iou(fp, nx, bounds, inside));
     let iou = iou(&fp, nx, bounds, inside);
     let c = &scenario.criteria;
     let mut report = RunReport {
@@ -300,6 +301,7 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
         trajectory,
         contour: outline,
         footprint: (fp, nx, ny, bounds),
+        footprint_pins,
     };
     let checks = [
         (

@@ -75,6 +75,15 @@ pub struct Models {
     pub unshear: PathBuf,
 }
 
+impl Models {
+    /// The same runs, by their directory names, under `dir` (`tacsim run --models DIR`):
+    /// `target/explore/runs/baseline` becomes `DIR/baseline`.
+    pub fn under(&self, dir: &std::path::Path) -> Self {
+        let moved = |p: &PathBuf| p.file_name().map_or_else(|| dir.to_path_buf(), |name| dir.join(name));
+        Self { posenet: moved(&self.posenet), unshear: moved(&self.unshear) }
+    }
+}
+
 impl Default for Models {
     fn default() -> Self {
         Self { posenet: "target/explore/runs/posenet".into(), unshear: "target/explore/runs/unshear".into() }
