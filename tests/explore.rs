@@ -10,6 +10,7 @@ use tacsim::explore::run::run;
 use tacsim::explore::scenario::{PerceptionKind, Scenario};
 use tacsim_sim::SensorParams;
 use tacsim_sim::contact::engine::{ContactModel, Simulation, contact_disk_grid};
+use tacsim_sim::contact::grid::Grid;
 use tacsim_sim::contact::pose::SensorPose;
 use tacsim_sim::scene::{ObjectPose, Scene};
 
@@ -114,6 +115,21 @@ fn bad_scenarios_are_clear_errors_and_failures_exit_non_zero() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Depth of the single-press patch tests (mm).
+const DEPTH_MM: f64 = 1.5;
+
+/// The disk alone in a scene, the default sensor, its contact model and the contact-disc
+/// grid at `depth_mm`.
+fn on_the_disk(depth_mm: f64) -> (Scene, SensorParams, ContactModel, Grid) {
+    let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
+    let mut scene = Scene::new();
+    scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("add");
+    let sensor = SensorParams::default();
+    let model = ContactModel::new(&sensor);
+    let grid = contact_disk_grid(&model, depth_mm);
+    (scene, sensor, model, grid)
+}
+
 #[test]
 fn the_pins_voronoi_patch_matches_the_contact_engines_patch() {
     // The patch read off the image's pins (Voronoi cell dilation) against the contact
@@ -122,13 +138,8 @@ fn the_pins_voronoi_patch_matches_the_contact_engines_patch() {
     // dilate, less, in a band of about 2 mm off the edge where the free skin bends over it,
     // and little at the contact's rim: those points are left undecided. A single threshold
     // agreed on only 72-88% of the disc (0.1 dilation) or 16-56% (30% of the largest one).
-    let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
-    let mut scene = Scene::new();
-    scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("add");
-    let sensor = SensorParams::default();
-    let model = ContactModel::new(&sensor);
-    let depth = 1.5;
-    let grid = contact_disk_grid(&model, depth);
+    let (scene, sensor, model, grid) = on_the_disk(DEPTH_MM);
+    let depth = DEPTH_MM;
     let mut shares = Vec::new();
     for (x, yaw) in [(50.0, 90.0), (49.0, 90.0), (51.0, 30.0), (50.5, 0.0), (49.5, -45.0)] {
         let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
@@ -254,4 +265,32 @@ fn learned_scenarios_parse_and_find_their_runs_under_models_dir() {
     }
     let expected: std::collections::BTreeSet<String> = ["baseline", "unshear"].map(String::from).into();
     assert_eq!(unshear_runs, expected, "learned runs use the supervised baseline and the semi-supervised model");
+}
+
+#[test]
+fn a_dome_wholly_on_the_material_reads_no_free_skin() {
+    // Regression: with the dome pressed wholly onto the material, the indentation fades
+    // towards the rim of the contact as it does towards an edge, and the rim's pins read as
+    // free skin, "no material", which punched a hole into the foil's footprint where the
+    // robot wandered onto it (IoU from the pins 0.894). Free evidence now counts only on the
+    // free side of the estimated edge.
+    let (scene, sensor, model, grid) = on_the_disk(DEPTH_MM);
+    let depth = DEPTH_MM;
+    let reach = 0.9 * (sensor.dome.outer_radius_mm * depth).sqrt();
+    let centres = grid.centres();
+    for (x, yaw) in [(40.0, 90.0), (30.0, 0.0), (44.0, 45.0)] {
+        let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
+        let mut g = tacsim::explore::perception::Geometric::new(&sensor, depth, 256).expect("perception");
+        sim.step(SensorPose::new(x, 0.0, depth, yaw)).expect("step");
+        g.estimate(&sim.pins());
+        let touching = g.touching(&centres);
+        let within = centres.iter().zip(&touching).filter(|(c, _)| c[0].hypot(c[1]) <= reach);
+        let (free, touch) = within.fold((0, 0), |(f, t), (_, v)| match v {
+            Some(false) => (f + 1, t),
+            Some(true) => (f, t + 1),
+            None => (f, t),
+        });
+        eprintln!("x {x}, yaw {yaw}: {touch} touching, {free} free within the reach");
+        assert!(free == 0 && touch > 0, "x {x} mm: {free} points read as free skin, {touch} touching");
+    }
 }

@@ -90,6 +90,9 @@ pub struct Geometric {
     last: Vec<Option<[f64; 2]>>,
     /// The undeformed Voronoi tessellation, for the contact patch.
     geometry: super::contact_geometry::ContactGeometry,
+    /// The edge of the latest estimate: inward normal (contact-plane, sensor frame) and the
+    /// edge's distance from the apex along it (mm).
+    edge: Option<([f64; 2], f64)>,
 }
 
 /// Share of the largest local dilation above which a pin counts as in contact.
@@ -122,20 +125,31 @@ impl Geometric {
         let neighbours = tacsim_sim::tracking::nearest_neighbours(&reference_px, 6);
         let last = reference_px.iter().map(|p| Some(*p)).collect();
         let geometry = super::contact_geometry::ContactGeometry::new(&reference_px, spacing_px);
-        Ok(Self { renderer, reference_px, rest_mm, spacing_px, radius_mm, neighbours, last, geometry })
+        Ok(Self { renderer, reference_px, rest_mm, spacing_px, radius_mm, neighbours, last, geometry, edge: None })
     }
 
     /// The contact patch of the image of the latest estimate: whether the skin touches at
     /// each of `points` (contact-plane mm, sensor frame), from the tracked pins' Voronoi
     /// cells ([`super::contact_geometry`], thresholds `TOUCH_SHARE` and `FREE_SHARE`);
-    /// `None` where undecided.
+    /// `None` where undecided. Free skin on the material's side of the estimated edge is
+    /// undecided too: with the dome wholly on the material the indentation fades towards the
+    /// rim of the contact as it does towards an edge, and reading that rim as "no material"
+    /// punched holes into the footprint (the foil's IoU was 0.894 with it, 0.912 without).
     pub fn touching(&self, points: &[[f64; 2]]) -> Vec<Option<bool>> {
-        super::contact_geometry::touching(
+        let mut t = super::contact_geometry::touching(
             &self.geometry.indentation(&self.last, &self.rest_mm),
             FREE_SHARE,
             TOUCH_SHARE,
             points,
-        )
+        );
+        if let Some((n, h)) = self.edge {
+            for (t, q) in t.iter_mut().zip(points) {
+                if *t == Some(false) && n[0] * q[0] + n[1] * q[1] > h {
+                    *t = None;
+                }
+            }
+        }
+        t
     }
 
     /// The estimate from the current pins; `None` when no pin shows contact.
@@ -173,6 +187,7 @@ impl Geometric {
             })
             .collect();
         let max = mags.iter().flatten().fold(0.0f64, |m, v| m.max(*v));
+        self.edge = None;
         if max <= 0.0 {
             return None;
         }
@@ -231,6 +246,8 @@ impl Geometric {
             let mid = 0.5 * (lo + hi);
             if f(mid) > share { lo = mid } else { hi = mid }
         }
-        Some(EdgeEstimate { offset_mm: 0.5 * (lo + hi), angle_deg: wrap_deg(tangent_deg) })
+        let h = 0.5 * (lo + hi);
+        self.edge = Some(([cx, cy], h));
+        Some(EdgeEstimate { offset_mm: h, angle_deg: wrap_deg(tangent_deg) })
     }
 }

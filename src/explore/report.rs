@@ -54,7 +54,7 @@ pub fn run_files(
 /// The table printed by `tacsim run`.
 pub fn table(runs: &[RunReport]) -> String {
     let mut out = format!(
-        "{:<22} {:<10} {:>5} {:>6} {:>9} {:>9} {:>8} {:>6} {:>9} {:>15} {:>8}  result\n",
+        "{:<22} {:<10} {:>5} {:>6} {:>9} {:>9} {:>8} {:>7} {:>9} {:>15} {:>8}  result\n",
         "scenario",
         "shape",
         "steps",
@@ -62,14 +62,14 @@ pub fn table(runs: &[RunReport]) -> String {
         "mean mm",
         "max mm",
         "yaw deg",
-        "IoU",
+        "IoU eng",
         "IoU pins",
         "read err mm/deg",
         "steps/s"
     );
     for r in runs {
         out += &format!(
-            "{:<22} {:<10} {:>5} {:>6.3} {:>9.3} {:>9.3} {:>8.2} {:>6.3} {:>9} {:>15} {:>8.0}  {}\n",
+            "{:<22} {:<10} {:>5} {:>6.3} {:>9.3} {:>9.3} {:>8.2} {:>7.3} {:>9} {:>15} {:>8.0}  {}\n",
             r.name,
             r.shape,
             r.steps,
