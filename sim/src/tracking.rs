@@ -2,8 +2,9 @@
 //!
 //! Pins of a TacTip move by up to about half their spacing between images, and more as a
 //! whole when the skin is sheared, so plain nearest neighbours mismatch. The tracker:
-//! 1. starts from `start_shift` (zero for recordings whose pins move by less than half a
-//!    spacing as a whole; [`global_shift`] estimates a larger one);
+//! 1. starts from a [`Warp`]: a shift ([`global_shift`] estimates a large one) and, for
+//!    presses, a spread about the image centre ([`global_warp`]): a deep press spreads the
+//!    outer pins by most of a spacing, which a shift alone mismatches by one pin;
 //! 2. predicts each pin's position from the shift and, in later passes, from the median
 //!    displacement of its matched reference neighbours (the skin moves smoothly);
 //! 3. assigns detections to predictions by minimum total squared distance (Kuhn-Munkres), a
@@ -41,6 +42,10 @@ impl Tracking {
     pub fn unmatched(&self) -> usize {
         self.matched.iter().filter(|m| m.is_none()).count()
     }
+}
+
+fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
 }
 
 fn dist2(a: [f64; 2], b: [f64; 2]) -> f64 {
@@ -147,6 +152,98 @@ pub fn global_shift(reference: &[[f64; 2]], detected: &[[f64; 2]], spacing: f64,
     shift
 }
 
+/// A first guess of where reference pins went: spread by `scale` about `centre`, then
+/// shifted by `shift` (px).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Warp {
+    /// Centre of the spread (px).
+    pub centre: [f64; 2],
+    /// Spread factor (1: none).
+    pub scale: f64,
+    /// Shift (px).
+    pub shift: [f64; 2],
+}
+
+impl Warp {
+    /// A pure shift (px).
+    pub fn shift(shift: [f64; 2]) -> Self {
+        Self { centre: [0.0, 0.0], scale: 1.0, shift }
+    }
+
+    /// Where `p` goes (px).
+    pub fn apply(&self, p: [f64; 2]) -> [f64; 2] {
+        [
+            self.centre[0] + self.scale * (p[0] - self.centre[0]) + self.shift[0],
+            self.centre[1] + self.scale * (p[1] - self.centre[1]) + self.shift[1],
+        ]
+    }
+}
+
+/// The [`Warp`] about `centre` that best lays `reference` onto `detected`: a coarse search
+/// over spreads `1..=max_scale` (steps of 1%) and shifts within half a spacing (steps of a
+/// quarter), scored by the capped nearest-detection distances, then least-squares
+/// refinement on the nearest pairs.
+pub fn global_warp(
+    reference: &[[f64; 2]],
+    detected: &[[f64; 2]],
+    spacing: f64,
+    centre: [f64; 2],
+    max_scale: f64,
+) -> Warp {
+    let cap = 0.5 * spacing;
+    let buckets = Buckets::new(detected, spacing);
+    let score = |w: &Warp| -> f64 {
+        reference.iter().map(|p| buckets.nearest(detected, w.apply(*p), cap).map_or(cap * cap, |(d, _)| d)).sum()
+    };
+    let mut best = (Warp { centre, scale: 1.0, shift: [0.0, 0.0] }, f64::INFINITY);
+    let scales = ((max_scale - 1.0) / 0.01).round().max(0.0) as i64;
+    for k in 0..=scales {
+        for j in -2..=2 {
+            for i in -2..=2 {
+                let w = Warp {
+                    centre,
+                    scale: 1.0 + 0.01 * k as f64,
+                    shift: [0.25 * spacing * i as f64, 0.25 * spacing * j as f64],
+                };
+                let v = score(&w);
+                if v < best.1 {
+                    best = (w, v);
+                }
+            }
+        }
+    }
+    // Refine: q - c = s (p - c) + t over the nearest pairs, in closed form.
+    let mut w = best.0;
+    for _ in 0..4 {
+        let pairs: Vec<([f64; 2], [f64; 2])> = reference
+            .iter()
+            .filter_map(|p| {
+                buckets.nearest(detected, w.apply(*p), 0.35 * spacing).map(|(_, i)| {
+                    ([p[0] - centre[0], p[1] - centre[1]], [detected[i][0] - centre[0], detected[i][1] - centre[1]])
+                })
+            })
+            .collect();
+        let n = pairs.len() as f64;
+        if n < 3.0 {
+            break;
+        }
+        let mp = pairs.iter().fold([0.0; 2], |m, (p, _)| [m[0] + p[0] / n, m[1] + p[1] / n]);
+        let mq = pairs.iter().fold([0.0; 2], |m, (_, q)| [m[0] + q[0] / n, m[1] + q[1] / n]);
+        let (mut num, mut den) = (0.0, 0.0);
+        for (p, q) in &pairs {
+            let (dp, dq) = ([p[0] - mp[0], p[1] - mp[1]], [q[0] - mq[0], q[1] - mq[1]]);
+            num += dp[0] * dq[0] + dp[1] * dq[1];
+            den += dp[0] * dp[0] + dp[1] * dp[1];
+        }
+        if den <= 0.0 {
+            break;
+        }
+        let scale = num / den;
+        w = Warp { centre, scale, shift: [mq[0] - scale * mp[0], mq[1] - scale * mp[1]] };
+    }
+    w
+}
+
 /// The `k` nearest other points of each point, nearest first.
 pub fn nearest_neighbours(points: &[[f64; 2]], k: usize) -> Vec<Vec<usize>> {
     (0..points.len())
@@ -203,11 +300,11 @@ fn assign(predicted: &[[f64; 2]], detected: &[[f64; 2]], radius: f64) -> Vec<Opt
     cols.into_iter().map(|k| (k < m).then_some(k)).collect()
 }
 
-/// Tracks `reference` pins into `detected` pins (px) starting from `start_shift` (px);
+/// Tracks `reference` pins into `detected` pins (px) starting from the guess `start`;
 /// `spacing` is the typical distance between neighbouring pins (px).
-pub fn track(reference: &[[f64; 2]], detected: &[[f64; 2]], spacing: f64, start_shift: [f64; 2]) -> Tracking {
+pub fn track(reference: &[[f64; 2]], detected: &[[f64; 2]], spacing: f64, start: &Warp) -> Tracking {
     let n = reference.len();
-    let shift = start_shift;
+    let first: Vec<[f64; 2]> = reference.iter().map(|p| sub(start.apply(*p), *p)).collect();
     let neighbours = nearest_neighbours(reference, NEIGHBOURS);
     let radius = MATCH_FRACTION * spacing;
     let mut disp: Vec<Option<[f64; 2]>> = vec![None; n];
@@ -216,11 +313,11 @@ pub fn track(reference: &[[f64; 2]], detected: &[[f64; 2]], spacing: f64, start_
         // Predicted displacement: the global shift, then the neighbours' median.
         let predict = |i: usize| -> [f64; 2] {
             if pass == 0 {
-                return shift;
+                return first[i];
             }
             let (dx, dy): (Vec<f64>, Vec<f64>) =
                 neighbours[i].iter().filter_map(|&j| disp[j]).map(|d| (d[0], d[1])).unzip();
-            if dx.len() >= 2 { [median(dx), median(dy)] } else { disp[i].unwrap_or(shift) }
+            if dx.len() >= 2 { [median(dx), median(dy)] } else { disp[i].unwrap_or(first[i]) }
         };
         let predicted: Vec<[f64; 2]> =
             (0..n).map(predict).zip(reference).map(|(d, p)| [p[0] + d[0], p[1] + d[1]]).collect();
@@ -285,7 +382,7 @@ mod tests {
         detected.push([5.0, 5.0]);
         detected.push([400.0, 30.0]);
         let start = global_shift(&r, &detected, 18.0, 60.0);
-        let t = track(&r, &detected, 18.0, start);
+        let t = track(&r, &detected, 18.0, &Warp::shift(start));
         assert!((t.global_shift[0] - 27.0).abs() < 1.0 && (t.global_shift[1] + 10.0).abs() < 1.0, "{t:?}");
         let mut right = 0;
         for (i, d) in t.displacement.iter().enumerate() {
@@ -300,5 +397,29 @@ mod tests {
         let dropped = (0..r.len()).filter(|i| i % 13 == 5).count();
         assert_eq!(t.unmatched(), dropped, "exactly the dropped pins are unmatched");
         assert_eq!(right + dropped, r.len());
+    }
+
+    #[test]
+    fn a_spread_of_most_of_a_spacing_at_the_rim_is_tracked_from_the_global_warp() {
+        let r = lattice();
+        // A press: every pin spread 9% about the centre (up to 0.75 spacing at the rim),
+        // plus a small shift.
+        let moved: Vec<[f64; 2]> =
+            r.iter().map(|p| [210.0 + 1.09 * (p[0] - 210.0) + 2.0, 210.0 + 1.09 * (p[1] - 210.0) - 1.0]).collect();
+        let w = global_warp(&r, &moved, 18.0, [210.0, 210.0], 1.12);
+        assert!(
+            (w.scale - 1.09).abs() < 1e-6 && (w.shift[0] - 2.0).abs() < 1e-4 && (w.shift[1] + 1.0).abs() < 1e-4,
+            "{w:?}"
+        );
+        let right = |t: &Tracking| {
+            t.displacement
+                .iter()
+                .zip(r.iter().zip(&moved))
+                .filter(|(d, (p, q))| d.is_some_and(|d| dist2(d, sub(**q, **p)) < 1e-12))
+                .count()
+        };
+        assert_eq!(right(&track(&r, &moved, 18.0, &w)), r.len());
+        // From a pure shift the outer pins slide by one and are lost or mismatched.
+        assert!(right(&track(&r, &moved, 18.0, &Warp::shift([0.0, 0.0]))) < r.len());
     }
 }

@@ -8,10 +8,14 @@ use crate::calibration::pin_area_range;
 use crate::detect::detect_pins;
 use crate::error::{Result, SimError};
 use crate::png_io::read_png;
-use crate::tracking::{Tracking, track};
+use crate::tracking::{Tracking, global_warp, track};
 
 /// Pin spacing of the lab's 420 px images (px), scaled with the image size.
 pub const SPACING_PX420: f64 = 17.5;
+
+/// Largest spread of the pins about the image centre a press is searched for (12%: the
+/// outermost ring moves out by up to about 16 px of 185 in the lab's deepest recordings).
+const MAX_SPREAD: f64 = 1.12;
 
 /// One tracked real sample.
 #[derive(Clone, Debug)]
@@ -66,8 +70,11 @@ impl Observations {
                 }
                 let detected = pin_centres(&img);
                 // The lab's recordings move pins by under half a spacing as a whole (the largest
-                // shift of a tracked sample is about 0.3 spacing): start from no shift.
-                let tracking = track(&reference, &detected, spacing, [0.0, 0.0]);
+                // shift of a tracked sample is about 0.3 spacing), but a deep press spreads the
+                // outer rings by most of a spacing: start from the best spread and shift.
+                let centre = [0.5 * w as f64, 0.5 * h as f64];
+                let start = global_warp(&reference, &detected, spacing, centre, MAX_SPREAD);
+                let tracking = track(&reference, &detected, spacing, &start);
                 Ok(Observation { sample: s.clone(), tracking })
             })
             .collect::<Result<Vec<_>>>()?;
