@@ -3,9 +3,10 @@
 //!   files are up to date);
 //! - `fit-camera [--real PNG]`: fit the camera and ring layout to the lab's undeformed
 //!   reference image and write `sim/presets/tactip-331.toml`;
-//! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]]`: track
+//! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]|auto]`: track
 //!   the lab's recordings and compare the simulated pin motion with the real one (undeformed
-//!   positions, radial profiles by depth, per-sample errors);
+//!   positions, radial profiles by depth, the label frame found from the data, used with
+//!   `--frame auto`, per-sample errors);
 //! - `reproduce [--quick] [--out DIR] [--jobs N]`: the paper's study end to end (dataset, every model,
 //!   evaluation report); see [`reproduce`];
 //! - `explore [--out DIR] [--jobs N]`: contour following with learned perception: the
@@ -55,7 +56,7 @@ fn main() -> Result<()> {
         _ => {
             eprintln!(
                 "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] [--jobs N] | explore [--out DIR] [--jobs N] | \
-                 real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]]"
+                 real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]|auto]"
             );
             bail!("unknown or missing command")
         }
@@ -174,6 +175,7 @@ fn flag<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
 
 fn real_compare(args: &[String]) -> Result<()> {
     use tacsim_sim::calibrate::evaluate::Simulator;
+    use tacsim_sim::calibrate::frame::{ImageMap, ShiftSample, best_frame, label_frame};
     use tacsim_sim::calibrate::model::{Deformation, LabelFrame};
     use tacsim_sim::calibrate::observe::Observations;
     let dir =
@@ -212,8 +214,48 @@ fn real_compare(args: &[String]) -> Result<()> {
         println!("{}-{} mm   {}", band + 1, band + 2, cells.join("   "));
     }
     let all: Vec<usize> = (0..obs.samples.len()).collect();
-    // `--frame DEG` or `--frame DEGm`: labels rotated by DEG (mirrored first with `m`).
+    // The label frame from the data: the real and the simulated (identity frame) global
+    // shifts regressed on the labels.
+    let identity = sim.errors(&obs, &all, &LabelFrame::IDENTITY)?;
+    let shift_samples = |shift: &dyn Fn(&tacsim_sim::calibrate::model::SampleError) -> [f64; 2]| {
+        identity
+            .iter()
+            .zip(&obs.samples)
+            .map(|(e, o)| ShiftSample {
+                offset_mm: [o.sample.shear[0], o.sample.shear[1]],
+                tilt_deg: [o.sample.pose[3], o.sample.pose[4]],
+                shift_px: shift(e),
+            })
+            .collect::<Vec<_>>()
+    };
+    let (real_samples, sim_samples) = (shift_samples(&|e| e.real_shift), shift_samples(&|e| e.sim_shift));
+    let too_few = "too few recordings to find the label frame";
+    let (real_map, sim_map) =
+        (ImageMap::fit(&real_samples).context(too_few)?, ImageMap::fit(&sim_samples).context(too_few)?);
+    for (name, m) in [("real", &real_map), ("simulated", &sim_map)] {
+        println!(
+            "{name} shift per label offset: rotation {:.1} deg{}, {:.2} px/mm, isotropy {:.2}, residual {:.2} px RMS",
+            m.rotation_deg,
+            if m.mirrored { " mirrored" } else { "" },
+            m.gain_px_per_mm,
+            m.isotropy,
+            m.rms_px
+        );
+    }
+    let fit = best_frame(&real_samples, &sim_map).context(too_few)?;
+    println!(
+        "label frame from the data: rotation {:.0} deg{}, real/simulated slide gain {:.2}, tilt gain {:.2}, shift residual {:.2} px RMS (the slide map alone: {:?})",
+        fit.rotation_deg,
+        if fit.mirrored { " mirrored" } else { "" },
+        fit.slide_gain,
+        fit.tilt_gain,
+        fit.rms_px,
+        label_frame(&real_map, &sim_map).m
+    );
+    // `--frame DEG` or `--frame DEGm`: labels rotated by DEG (mirrored first with `m`);
+    // `--frame auto`: the frame found from the data; by default the identity.
     let frame = match flag(args, "--frame") {
+        Some("auto") => fit.frame,
         Some(f) => LabelFrame::new(f.trim_end_matches('m').parse()?, f.ends_with('m')),
         None => LabelFrame::IDENTITY,
     };
