@@ -226,12 +226,13 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let mut steps = 0;
     let mut perception_error = PerceptionError::default();
     while steps < scenario.max_steps {
+        let now_pins = sim.pins();
         let from_pins = pins.as_mut().and_then(|g| {
-            g.estimate(&sim.pins())
+            g.estimate(&now_pins)
                 .map(|e| EdgeEstimate { offset_mm: e.offset_mm - tare.0, angle_deg: wrap_deg(e.angle_deg - tare.1) })
         });
         let read = match &learned {
-            Some(l) => l.estimate(&sim.pins())?,
+            Some(l) => l.estimate(&now_pins)?,
             None => from_pins,
         };
         let fresh = match read {
