@@ -7,14 +7,12 @@
 use anyhow::{Context, Result};
 use tacsim_model::Backend;
 use tacsim_model::infer::PoseReader;
-use tacsim_sim::pins::PinPose;
 
 use super::perception::{EdgeEstimate, wrap_deg};
 use super::scenario::Models;
 
-/// Rendering and the trained networks.
+/// The undeformed image and the trained networks.
 pub struct Learned {
-    renderer: tacsim_sim::PinRenderer,
     reference: image::GrayImage,
     reader: PoseReader,
 }
@@ -26,7 +24,7 @@ pub struct Learned {
 const CONTACT_PIXELS: f64 = 1e-3;
 
 impl Learned {
-    /// Perception for `sensor` rendering at `size` px with the runs of `models`; with `raw`
+    /// Perception for `sensor` reading images of `size` px with the runs of `models`; with `raw`
     /// the shear-removal model is left out.
     pub fn new(sensor: &tacsim_sim::SensorParams, size: u32, models: &Models, raw: bool) -> Result<Self> {
         let renderer = tacsim_sim::PinRenderer::new(sensor, size)?;
@@ -39,20 +37,19 @@ impl Learned {
             )
         })?;
         let reference = renderer.render_undeformed();
-        Ok(Self { renderer, reference, reader })
+        Ok(Self { reference, reader })
     }
 
-    /// The estimate from the current pins. The pose network's labels are edge-frame poses:
+    /// The estimate from the current pins' image (`size` px, rendered for `sensor`). The pose network's labels are edge-frame poses:
     /// `x` is the offset along the outward normal and the yaw is the sensor's `x` axis from
     /// the tangent, so the edge angle from the sensor's `x` axis is minus the yaw. `None`
     /// when the image shows no contact (fewer than `CONTACT_PIXELS` of its pixels changed).
-    pub fn estimate(&self, pins: &[PinPose]) -> Result<Option<EdgeEstimate>> {
-        let img = self.renderer.render(pins);
+    pub fn estimate(&self, img: &image::GrayImage) -> Result<Option<EdgeEstimate>> {
         let changed = img.as_raw().iter().zip(self.reference.as_raw()).filter(|(a, b)| a != b).count();
         if (changed as f64) < CONTACT_PIXELS * img.as_raw().len() as f64 {
             return Ok(None);
         }
-        let pose = self.reader.read(&img)?;
+        let pose = self.reader.read(img)?;
         Ok(Some(EdgeEstimate { offset_mm: pose.x_mm, angle_deg: wrap_deg(-pose.yaw_deg) }))
     }
 }

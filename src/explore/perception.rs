@@ -152,15 +152,26 @@ impl Geometric {
         t
     }
 
-    /// The estimate from the current pins; `None` when no pin shows contact.
-    pub fn estimate(&mut self, pins: &[tacsim_sim::pins::PinPose]) -> Option<EdgeEstimate> {
-        self.estimate_with(pins, CONTACT_FRACTION)
+    /// The image of `pins` as this perception sees it.
+    pub fn render(&self, pins: &[tacsim_sim::pins::PinPose]) -> image::GrayImage {
+        self.renderer.render(pins)
     }
 
-    /// [`Geometric::estimate`] with another contact threshold (share of the largest motion).
-    pub fn estimate_with(&mut self, pins: &[tacsim_sim::pins::PinPose], fraction: f64) -> Option<EdgeEstimate> {
-        let img = self.renderer.render(pins);
-        let detected = tacsim_sim::calibrate::observe::pin_centres(&img);
+    /// The estimate from the current pins; `None` when no pin shows contact.
+    pub fn estimate(&mut self, pins: &[tacsim_sim::pins::PinPose]) -> Option<EdgeEstimate> {
+        let img = self.render(pins);
+        self.estimate_image(&img)
+    }
+
+    /// [`Geometric::estimate`] from the current pins' image ([`Geometric::render`]).
+    pub fn estimate_image(&mut self, img: &image::GrayImage) -> Option<EdgeEstimate> {
+        self.estimate_with(img, CONTACT_FRACTION)
+    }
+
+    /// [`Geometric::estimate_image`] with another contact threshold (share of the largest
+    /// motion).
+    pub fn estimate_with(&mut self, img: &image::GrayImage, fraction: f64) -> Option<EdgeEstimate> {
+        let detected = tacsim_sim::calibrate::observe::pin_centres(img);
         // Track from where each pin was last seen (its reference position when lost).
         let from: Vec<[f64; 2]> = self.last.iter().zip(&self.reference_px).map(|(l, r)| l.unwrap_or(*r)).collect();
         let step = tacsim_sim::tracking::track_nearest(&from, &detected, self.spacing_px);

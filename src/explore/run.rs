@@ -226,14 +226,15 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     let mut steps = 0;
     let mut perception_error = PerceptionError::default();
     while steps < scenario.max_steps {
-        let now_pins = sim.pins();
-        let from_pins = pins.as_mut().and_then(|g| {
-            g.estimate(&now_pins)
+        // One image per step, for the pins' patch and whichever perception reads it.
+        let img = pins.as_ref().map(|g| g.render(&sim.pins()));
+        let from_pins = pins.as_mut().zip(img.as_ref()).and_then(|(g, img)| {
+            g.estimate_image(img)
                 .map(|e| EdgeEstimate { offset_mm: e.offset_mm - tare.0, angle_deg: wrap_deg(e.angle_deg - tare.1) })
         });
-        let read = match &learned {
-            Some(l) => l.estimate(&now_pins)?,
-            None => from_pins,
+        let read = match (&learned, &img) {
+            (Some(l), Some(img)) => l.estimate(img)?,
+            _ => from_pins,
         };
         let fresh = match read {
             Some(e) => {

@@ -13,6 +13,11 @@ use serde::{Deserialize, Serialize};
 
 use super::model::LabelFrame;
 
+/// `m v` for a row-major 2x2 matrix.
+fn mul(m: &[[f64; 2]; 2], v: [f64; 2]) -> [f64; 2] {
+    [m[0][0] * v[0] + m[0][1] * v[1], m[1][0] * v[0] + m[1][1] * v[1]]
+}
+
 /// One recording for the regression: slide offset (mm), tilt `[Rx, Ry]` (deg) and global
 /// shift (px).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -132,7 +137,6 @@ pub fn best_frame(real: &[ShiftSample], sim: &ImageMap) -> Option<FrameFit> {
     if n < 8 {
         return None;
     }
-    let mul = |m: &[[f64; 2]; 2], v: [f64; 2]| [m[0][0] * v[0] + m[0][1] * v[1], m[1][0] * v[0] + m[1][1] * v[1]];
     let y = DVector::from_fn(2 * n, |r, _| real[r / 2].shift_px[r % 2]);
     let mut best: Option<FrameFit> = None;
     for mirrored in [false, true] {
@@ -226,7 +230,6 @@ mod tests {
         // Real labels in a frame rotated by 40 deg and mirrored: the shifts the simulation
         // gives for the sensor-frame labels F s, F t (tilts as rotation vectors: det F).
         let f = LabelFrame::new(40.0, true);
-        let mul = |m: &[[f64; 2]; 2], v: [f64; 2]| [m[0][0] * v[0] + m[0][1] * v[1], m[1][0] * v[0] + m[1][1] * v[1]];
         let real: Vec<ShiftSample> = samples(0.0, false, 1.0)
             .into_iter()
             .map(|s| {
