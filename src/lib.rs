@@ -1,11 +1,13 @@
 //! tacsim: the command line and pipeline glue over the simulator crate (`tacsim-sim`).
 //!
+//! [`calibrate`] fits the simulator to a lab's recordings (`calibrate`);
 //! [`embedded`] carries the built-in stimuli and recipes so the binary runs anywhere;
 //! [`commands`] holds one function per subcommand, called by the thin `main.rs`; [`dataset`]
 //! runs `generate` and `merge`; [`explore`] is the closed-loop contour follower (`run`); [`validation`] and [`bench`] run the contact checks and
 //! benchmarks; [`learn`] trains and evaluates the networks of `tacsim-model`.
 
 pub mod bench;
+pub mod calibrate;
 pub mod commands;
 pub mod dataset;
 pub mod embedded;

@@ -181,6 +181,33 @@ enum Command {
         #[arg(required = true)]
         runs: Vec<PathBuf>,
     },
+    /// Fit the simulator to a lab's recordings of a flat surface (`targets.csv` + `images/`,
+    /// as in the lab's `surface_3d` folders): the label frame, the elastic model and its
+    /// parameters on 80% of the recordings; writes a sensor preset and a report on the
+    /// held-out 20% (report.md, report.json, grid.png).
+    Calibrate {
+        /// The lab folder.
+        #[arg(long)]
+        real: PathBuf,
+        /// Sensor TOML to start from (default: the built-in TacTip).
+        #[arg(long)]
+        sensor: Option<PathBuf>,
+        /// The preset TOML to write.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Report directory (default: `<preset stem>-report/` beside the preset).
+        #[arg(long)]
+        report: Option<PathBuf>,
+        /// The undeformed reference image under images/.
+        #[arg(long, default_value = "image_0.png")]
+        reference: String,
+        /// A short fit (one model, few evaluations) for a first look.
+        #[arg(long)]
+        quick: bool,
+        /// No progress spinner.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// List the stimuli with size, material and friction.
     Shapes {
         /// Catalogue directory (default: the built-in shapes).
@@ -271,6 +298,14 @@ fn main() -> Result<()> {
         }
         Command::Eval { data, out, max_pairs, backend, lab, runs } => {
             print!("{}", tacsim::learn::evaluate(&data, &runs, &out, max_pairs, backend, lab)?);
+        }
+        Command::Calibrate { real, sensor, output, report, reference, quick, quiet } => {
+            let command = std::iter::once("tacsim".to_owned())
+                .chain(std::env::args().skip(1))
+                .map(|a| if a.contains(' ') { format!("'{a}'") } else { a })
+                .collect::<Vec<_>>();
+            let o = tacsim::calibrate::CalibrateOptions { real, sensor, output, report, reference, quick, quiet };
+            print!("{}", tacsim::calibrate::calibrate(&o, &command.join(" "))?);
         }
         Command::Shapes { dir } => {
             print!("{}", commands::shapes_table(&commands::load_catalogue(dir.as_deref())?));

@@ -244,19 +244,37 @@ pub fn compare_sensor(
 /// least squares on each ring's mean radius and blob size (square root of the area). Dome,
 /// skin and pin length are kept: they are mechanical and fitted against deformed images.
 pub fn fit_camera(start: &SensorParams, real: &GrayImage, real_name: &str) -> Result<SensorParams> {
+    fit_camera_at(start, real, real_name, None)
+}
+
+/// [`fit_camera`] with the camera distance (mm) held at `distance_mm` when given. The
+/// undeformed image barely tells the distance from the field of view and distortion (the
+/// blob sizes alone do); deformed images do, through the perspective of pins pressed towards
+/// the camera, so the deformation fit chooses it and this refits the rest.
+pub fn fit_camera_at(
+    start: &SensorParams,
+    real: &GrayImage,
+    real_name: &str,
+    distance_mm: Option<f64>,
+) -> Result<SensorParams> {
     let real_p = ring_profile(real, start.pins.rings, real_name)?;
     let size = real.width();
     let mut base = start.clone();
     base.pins.ring_polar_deg = None;
     base.camera.principal_offset = [real_p.centre[0] / size as f64 - 0.5, real_p.centre[1] / size as f64 - 0.5];
     base.pins.phase_deg = real_p.phase_deg();
+    if let Some(d) = distance_mm {
+        base.camera.distance_mm = d;
+    }
     let with = |p: &[f64]| {
         let mut s = base.clone();
         s.camera.fov_deg = p[0];
         s.pins.ring_pitch_deg = p[1];
         s.camera.k1 = p[2];
-        s.camera.distance_mm = p[3];
-        s.pins.tip_radius_mm = p[4];
+        s.pins.tip_radius_mm = p[3];
+        if let Some(&d) = p.get(4) {
+            s.camera.distance_mm = d;
+        }
         s
     };
     // Model: ring k's first pin, projected; its distance from the principal point and its
@@ -278,18 +296,16 @@ pub fn fit_camera(start: &SensorParams, real: &GrayImage, real_name: &str) -> Re
         }
         Some(out)
     };
-    let p0 = [
-        base.camera.fov_deg,
-        base.pins.ring_pitch_deg,
-        base.camera.k1,
-        base.camera.distance_mm,
-        base.pins.tip_radius_mm,
-    ];
-    let fit =
-        levenberg_marquardt(&p0, &[10.0, 1.0, 0.1, 10.0, 0.1], 300, residuals).ok_or_else(|| SimError::Analysis {
-            source_name: real_name.to_owned(),
-            reason: "camera fit undefined at the start values".to_owned(),
-        })?;
+    let mut p0 = vec![base.camera.fov_deg, base.pins.ring_pitch_deg, base.camera.k1, base.pins.tip_radius_mm];
+    let mut steps = vec![10.0, 1.0, 0.1, 0.1];
+    if distance_mm.is_none() {
+        p0.push(base.camera.distance_mm);
+        steps.push(10.0);
+    }
+    let fit = levenberg_marquardt(&p0, &steps, 300, residuals).ok_or_else(|| SimError::Analysis {
+        source_name: real_name.to_owned(),
+        reason: "camera fit undefined at the start values".to_owned(),
+    })?;
     let mut sensor = with(&fit.params);
     // The rendered (binarised) blob area differs slightly from pi r^2: one correction pass.
     sensor.validate("camera fit")?;

@@ -3,7 +3,7 @@
 //!   files are up to date);
 //! - `fit-camera [--real PNG]`: fit the camera and ring layout to the lab's undeformed
 //!   reference image and write `sim/presets/tactip-331.toml`;
-//! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]|auto]`: track
+//! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM] [--frame DEG[m][r]|auto]`: track
 //!   the lab's recordings and compare the simulated pin motion with the real one (undeformed
 //!   positions, radial profiles by depth, the label frame found from the data, used with
 //!   `--frame auto`, per-sample errors);
@@ -56,7 +56,7 @@ fn main() -> Result<()> {
         _ => {
             eprintln!(
                 "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] [--jobs N] | explore [--out DIR] [--jobs N] | \
-                 real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--frame DEG[m]|auto]"
+                 real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM] [--frame DEG[m][r]|auto]"
             );
             bail!("unknown or missing command")
         }
@@ -191,13 +191,28 @@ fn real_compare(args: &[String]) -> Result<()> {
         tracked.iter().sum::<usize>() as f64 / tracked.len().max(1) as f64,
         tracked.iter().min().copied().unwrap_or(0)
     );
-    let base = SensorParams::default();
+    let mut base = SensorParams::default();
+    if let Some(v) = flag(args, "--camera-distance") {
+        let reference = tacsim_sim::png_io::read_png(&dir.join("images/image_0.png"))?;
+        base = tacsim_sim::calibration::fit_camera_at(&base, &reference, "image_0.png", Some(v.parse()?))?;
+        println!("camera refitted at {v} mm: {:?}", base.camera);
+    }
     let mut d = Deformation::of(&base, 0.5);
     if let Some(m) = flag(args, "--skin") {
         d.model = m.parse().map_err(anyhow::Error::msg)?;
     }
     if let Some(v) = flag(args, "--depth-offset") {
         d.depth_offset_mm = v.parse()?;
+    }
+    for (name, field) in [
+        ("--pivot", &mut d.pivot_mm),
+        ("--base-depth", &mut d.base_depth_mm),
+        ("--gel-ratio", &mut d.gel_ratio),
+        ("--pin-length", &mut d.pin_length_mm),
+    ] {
+        if let Some(v) = flag(args, name) {
+            *field = v.parse().with_context(|| format!("{name} {v}"))?;
+        }
     }
     if let Some(v) = flag(args, "--friction") {
         d.friction = v.parse()?;
@@ -252,14 +267,31 @@ fn real_compare(args: &[String]) -> Result<()> {
         fit.rms_px,
         label_frame(&real_map, &sim_map).m
     );
-    // `--frame DEG` or `--frame DEGm`: labels rotated by DEG (mirrored first with `m`);
+    // `--frame DEG`, `DEGm`, `DEGmr`: labels rotated by DEG (mirrored first with `m`, tilts
+    // reversed with `r`);
     // `--frame auto`: the frame found from the data; by default the identity.
     let frame = match flag(args, "--frame") {
         Some("auto") => fit.frame,
-        Some(f) => LabelFrame::new(f.trim_end_matches('m').parse()?, f.ends_with('m')),
+        Some(f) => {
+            let reversed = f.ends_with('r');
+            let f = f.trim_end_matches('r');
+            LabelFrame::new(f.trim_end_matches('m').parse()?, f.ends_with('m')).with_tilts_reversed(reversed)
+        }
         None => LabelFrame::IDENTITY,
     };
     let errs = sim.errors(&obs, &all, &frame)?;
+    if let Some(path) = flag(args, "--dump") {
+        let rows: Vec<serde_json::Value> = all
+            .iter()
+            .map(|&k| -> Result<serde_json::Value> {
+                let d = sim.displacements(&obs, k, &frame)?;
+                let simd: Vec<Option<[f64; 2]>> = sim.reference_to_sim().iter().map(|m| m.and_then(|i| d[i])).collect();
+                Ok(serde_json::json!({"pose": obs.samples[k].sample.pose, "shear": obs.samples[k].sample.shear,
+                    "real": obs.samples[k].tracking.displacement, "sim": simd}))
+            })
+            .collect::<Result<_>>()?;
+        std::fs::write(path, serde_json::to_vec(&serde_json::json!({"reference": obs.reference, "samples": rows}))?)?;
+    }
     for (name, zmax, tmax) in
         [("depth <= 2.5 mm, tilt < 8 deg", 2.5, 8.0), ("depth <= 2.5 mm", 2.5, 90.0), ("all", f64::INFINITY, 90.0)]
     {

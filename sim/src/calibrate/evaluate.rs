@@ -3,10 +3,13 @@
 
 use rayon::prelude::*;
 
-use super::model::{Deformation, LabelFrame, SampleError, compare, flat_scene, match_reference, simulate};
+use super::model::{
+    Deformation, LabelFrame, SampleError, compare, displacements, flat_scene, match_reference, simulate_pins,
+};
 use super::observe::Observations;
 use crate::contact::engine::ContactModel;
 use crate::error::Result;
+use crate::pins::PinPose;
 use crate::render::PinRenderer;
 use crate::sensor::SensorParams;
 use crate::stimulus::Stimulus;
@@ -51,6 +54,11 @@ impl Simulator {
         Ok(Self { sensor, model, renderer, scene, reference_to_sim, deformation: deformation.clone() })
     }
 
+    /// For each real reference pin, its simulated sensor pin.
+    pub fn reference_to_sim(&self) -> &[Option<usize>] {
+        &self.reference_to_sim
+    }
+
     /// RMS distance (px) between the real reference pins and their simulated undeformed
     /// counterparts, and how many were matched.
     pub fn undeformed_rms(&self, obs: &Observations) -> (f64, usize) {
@@ -66,17 +74,47 @@ impl Simulator {
         ((d2.iter().sum::<f64>() / n.max(1) as f64).sqrt(), n)
     }
 
+    /// Simulated pins of recording `k` of `obs`.
+    pub fn pins(&self, obs: &Observations, k: usize, frame: &LabelFrame) -> Result<Vec<PinPose>> {
+        simulate_pins(&self.model, &self.scene, frame, &self.deformation, &obs.samples[k].sample, STEP_MM)
+    }
+
+    /// Image displacements (px per sensor pin) of `pins` from the undeformed sensor.
+    pub fn displacements_of(&self, pins: &[PinPose]) -> Vec<Option<[f64; 2]>> {
+        displacements(&self.model, &self.renderer, pins)
+    }
+
     /// Simulated displacements (px per sensor pin) of recording `k` of `obs`.
     pub fn displacements(&self, obs: &Observations, k: usize, frame: &LabelFrame) -> Result<Vec<Option<[f64; 2]>>> {
-        simulate(
-            &self.model,
-            &self.scene,
-            &self.renderer,
-            frame,
-            self.deformation.depth_offset_mm,
-            &obs.samples[k].sample,
-            STEP_MM,
-        )
+        Ok(self.displacements_of(&self.pins(obs, k, frame)?))
+    }
+
+    /// The binary image of `pins` at the observations' size.
+    pub fn render(&self, pins: &[PinPose]) -> image::GrayImage {
+        self.renderer.render(pins)
+    }
+
+    /// Mean image scale at the undeformed pin tips (mm per px): summed 3-D distances between
+    /// neighbouring tips over their summed image distances (neighbours: within 1.5 times the
+    /// nearest-neighbour distance).
+    pub fn mm_per_px(&self) -> f64 {
+        let tips = self.model.layout.poses();
+        let px: Vec<Option<[f64; 2]>> = tips.iter().map(|p| self.renderer.camera().project(&p.tip)).collect();
+        let (mut mm, mut img) = (0.0, 0.0);
+        for (i, a) in tips.iter().enumerate() {
+            let d: Vec<f64> = tips.iter().map(|b| (b.tip - a.tip).norm()).collect();
+            let nearest = d.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, v)| *v).fold(f64::INFINITY, f64::min);
+            for (j, dj) in d.iter().enumerate() {
+                if j != i
+                    && *dj <= 1.5 * nearest
+                    && let (Some(p), Some(q)) = (px[i], px[j])
+                {
+                    mm += dj;
+                    img += (p[0] - q[0]).hypot(p[1] - q[1]);
+                }
+            }
+        }
+        if img > 0.0 { mm / img } else { f64::NAN }
     }
 
     /// Errors of the recordings `which` of `obs`.
@@ -108,15 +146,9 @@ impl Simulator {
                 s.shear = [0.0; 6];
                 s.pose[3] = 0.0;
                 s.pose[4] = 0.0;
-                let sim = simulate(
-                    &self.model,
-                    &self.scene,
-                    &self.renderer,
-                    &LabelFrame::IDENTITY,
-                    self.deformation.depth_offset_mm,
-                    &s,
-                    STEP_MM,
-                )?;
+                let pins =
+                    simulate_pins(&self.model, &self.scene, &LabelFrame::IDENTITY, &self.deformation, &s, STEP_MM)?;
+                let sim = self.displacements_of(&pins);
                 let band = (o.sample.pose[2] - 1.0).floor().clamp(0.0, 3.0) as usize;
                 let mut v = Vec::new();
                 for ((r, real), m) in obs.reference.iter().zip(&o.tracking.displacement).zip(&self.reference_to_sim) {

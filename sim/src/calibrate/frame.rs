@@ -109,7 +109,7 @@ impl ImageMap {
 /// The label frame found by [`best_frame`], with the gains that fit it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameFit {
-    /// The frame.
+    /// The frame, its tilts reversed where the fitted tilt gain is negative.
     pub frame: LabelFrame,
     /// Its rotation (deg), after mirroring `y` when `mirrored`.
     pub rotation_deg: f64,
@@ -160,7 +160,7 @@ pub fn best_frame(real: &[ShiftSample], sim: &ImageMap) -> Option<FrameFit> {
             let rms_px = ((&x * &beta - &y).norm_squared() / (2 * n) as f64).sqrt();
             if best.as_ref().is_none_or(|b| rms_px < b.rms_px) {
                 best = Some(FrameFit {
-                    frame,
+                    frame: frame.with_tilts_reversed(beta[1] < 0.0),
                     rotation_deg: f64::from(deg),
                     mirrored,
                     slide_gain: beta[0],
@@ -184,7 +184,7 @@ pub fn label_frame(real: &ImageMap, sim: &ImageMap) -> LabelFrame {
             *v = s[0][i] * r[0][j] + s[1][i] * r[1][j];
         }
     }
-    LabelFrame { m }
+    LabelFrame { m, tilt_sign: 1.0 }
 }
 
 #[cfg(test)]

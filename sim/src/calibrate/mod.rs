@@ -1,10 +1,13 @@
-//! Comparing (and, to come, calibrating) the deformation model against real recordings: track
-//! the real pins ([`observe`]), find the labels' frame from the data ([`frame`]), simulate
-//! the same recordings with that label frame and
-//! deformation parameters ([`model`]), and measure the difference ([`evaluate`];
-//! `cargo xtask real-compare` prints it).
+//! Calibrating the deformation model against real recordings: track the real pins
+//! ([`observe`]), find the labels' frame from the data ([`frame`]), simulate the same
+//! recordings with that label frame and deformation parameters ([`model`]), measure the
+//! difference ([`evaluate`]; `cargo xtask real-compare` prints it), fit the parameters on 80%
+//! of the recordings ([`fitting`]) and report on the held-out 20% ([`report`];
+//! `tacsim calibrate` runs both).
 
 pub mod evaluate;
+pub mod fitting;
 pub mod frame;
 pub mod model;
 pub mod observe;
+pub mod report;

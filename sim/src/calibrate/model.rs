@@ -4,7 +4,9 @@
 //! The recording's labels live in the robot's frame; a [`LabelFrame`] (found from the data,
 //! see [`super::frame`]) maps their lateral axes to the sensor's. Tilts are rotation vectors:
 //! under an orthogonal map `M` their lateral part maps by `det(M) M` and the twist by
-//! `det(M)`.
+//! `det(M)`, times the frame's tilt sign: `-1` where the labels' tilts turn the other way
+//! (the lab's recordings do: a tilt moves the contact, and with it the deformed pins, across
+//! the image opposite to the rotation-vector convention in the frame their slides give).
 
 use std::sync::Arc;
 
@@ -15,6 +17,7 @@ use crate::contact::engine::{ContactModel, Simulation};
 use crate::contact::pose::SensorPose;
 use crate::contact::trajectory::Path as SensorPath;
 use crate::error::Result;
+use crate::pins::PinPose;
 use crate::render::PinRenderer;
 use crate::scene::{ObjectPose, Scene};
 use crate::sensor::{SensorParams, SkinModel};
@@ -26,17 +29,26 @@ use crate::tracking::median;
 pub struct LabelFrame {
     /// `sensor = m * label` for lateral vectors.
     pub m: [[f64; 2]; 2],
+    /// `1` where the labels' tilts are rotation vectors in that frame, `-1` where they turn
+    /// the other way.
+    pub tilt_sign: f64,
 }
 
 impl LabelFrame {
     /// The identity.
-    pub const IDENTITY: LabelFrame = LabelFrame { m: [[1.0, 0.0], [0.0, 1.0]] };
+    pub const IDENTITY: LabelFrame = LabelFrame { m: [[1.0, 0.0], [0.0, 1.0]], tilt_sign: 1.0 };
 
-    /// Rotation by `deg`, mirrored (`y -> -y` first) when `mirrored`.
+    /// Rotation by `deg`, mirrored (`y -> -y` first) when `mirrored`; tilts as rotation
+    /// vectors.
     pub fn new(deg: f64, mirrored: bool) -> Self {
         let (s, c) = deg.to_radians().sin_cos();
         let f = if mirrored { -1.0 } else { 1.0 };
-        LabelFrame { m: [[c, -s * f], [s, c * f]] }
+        LabelFrame { m: [[c, -s * f], [s, c * f]], tilt_sign: 1.0 }
+    }
+
+    /// This frame with the tilts reversed when `reversed`.
+    pub fn with_tilts_reversed(self, reversed: bool) -> Self {
+        Self { tilt_sign: if reversed { -1.0 } else { 1.0 }, ..self }
     }
 
     fn det(&self) -> f64 {
@@ -48,15 +60,22 @@ impl LabelFrame {
     }
 
     /// Touch-down and target sensor poses of a recording on a flat top face at the origin,
-    /// with `depth_offset_mm` added to the labelled depth.
-    pub fn poses(&self, s: &LabSample, depth_offset_mm: f64) -> (SensorPose, SensorPose) {
+    /// pressed as `press` says.
+    ///
+    /// The robot tilts the sensor about a pivot `h = press.pivot_mm` above the apex on the
+    /// sensor's axis, which stays where it is at zero tilt; so a tilt `(rx, ry)` raises the
+    /// apex by `h (1 - cos rx cos ry)` (mm) and the flat surface's indentation (the dome's
+    /// lowest point, radius `R`) is `z + (R - h)(1 - cos rx cos ry)`. The pivot's lateral motion
+    /// does not matter on a flat surface.
+    pub fn poses(&self, s: &LabSample, press: &Deformation) -> (SensorPose, SensorPose) {
         let d = self.det();
-        let tilt = self.apply([s.pose[3], s.pose[4]]);
+        let tilt = self.apply([s.pose[3], s.pose[4]]).map(|v| self.tilt_sign * v);
         let offset = self.apply([s.shear[0], s.shear[1]]);
+        let lift = press.pivot_mm * (1.0 - tilt[0].to_radians().cos() * tilt[1].to_radians().cos());
         let target = SensorPose {
             x_mm: 0.0,
             y_mm: 0.0,
-            depth_mm: s.pose[2] + depth_offset_mm,
+            depth_mm: s.pose[2] + press.depth_offset_mm - lift,
             yaw_deg: d * s.pose[5],
             rx_deg: d * tilt[0],
             ry_deg: d * tilt[1],
@@ -82,6 +101,15 @@ pub struct Deformation {
     pub friction: f64,
     /// Added to the labelled depth (mm): where the robot's zero sits against first touch.
     pub depth_offset_mm: f64,
+    /// Height (mm) above the dome apex, on the sensor's axis, of the point the robot tilts
+    /// the sensor about (0: the apex; the dome radius: its centre, so that a tilt keeps the
+    /// indentation).
+    #[serde(default)]
+    pub pivot_mm: f64,
+    /// Camera distance behind the dome centre (mm) the camera is refitted at
+    /// ([`crate::calibration::fit_camera_at`]): the undeformed image hardly tells it, the
+    /// perspective of pins pressed towards the camera does.
+    pub camera_distance_mm: f64,
 }
 
 impl Deformation {
@@ -95,6 +123,8 @@ impl Deformation {
             base_depth_mm: k.base_depth_mm,
             friction,
             depth_offset_mm: 0.0,
+            pivot_mm: 0.0,
+            camera_distance_mm: sensor.camera.distance_mm,
         }
     }
 
@@ -122,44 +152,47 @@ pub fn flat_scene(disk: &Stimulus, friction: f64) -> Result<Scene> {
 }
 
 /// Image positions (px) of the pin tips of `pins` (`None` where a tip leaves the view).
-fn tip_pixels(renderer: &PinRenderer, pins: &[crate::pins::PinPose]) -> Vec<Option<[f64; 2]>> {
+fn tip_pixels(renderer: &PinRenderer, pins: &[PinPose]) -> Vec<Option<[f64; 2]>> {
     pins.iter().map(|p| renderer.camera().project(&p.tip)).collect()
 }
 
-/// Simulated pin-tip displacements (px, per sensor pin) of a recording: touch down, slide in
-/// steps of at most `step_mm`, capture.
-pub fn simulate(
+/// The simulated pins of a recording pressed as `press` says: touch down, slide in steps of
+/// at most `step_mm`, capture.
+pub fn simulate_pins(
     model: &ContactModel,
     scene: &Scene,
-    renderer: &PinRenderer,
     frame: &LabelFrame,
-    depth_offset_mm: f64,
+    press: &Deformation,
     sample: &LabSample,
     step_mm: f64,
-) -> Result<Vec<Option<[f64; 2]>>> {
-    let (start, target) = frame.poses(sample, depth_offset_mm);
+) -> Result<Vec<PinPose>> {
+    let (start, target) = frame.poses(sample, press);
     let path = SensorPath::slide_between(start, target, step_mm, 2.0)?;
     let mut sim = Simulation::new(model, scene, &path.poses());
     for s in &path.steps {
         sim.step(s.pose)?;
     }
+    Ok(sim.pins())
+}
+
+/// Image displacements (px, per sensor pin) of `pins` from the undeformed layout of `model`.
+pub fn displacements(model: &ContactModel, renderer: &PinRenderer, pins: &[PinPose]) -> Vec<Option<[f64; 2]>> {
     let rest = tip_pixels(renderer, &model.layout.poses());
-    let moved = tip_pixels(renderer, &sim.pins());
-    Ok(rest
-        .iter()
+    let moved = tip_pixels(renderer, pins);
+    rest.iter()
         .zip(&moved)
         .map(|(a, b)| match (a, b) {
             (Some(a), Some(b)) => Some([b[0] - a[0], b[1] - a[1]]),
             _ => None,
         })
-        .collect())
+        .collect()
 }
 
 /// For each real reference pin, the sensor pin whose undeformed image lies nearest, within
 /// `radius` px (the camera fit puts them within a pixel).
 pub fn match_reference(
     renderer: &PinRenderer,
-    layout_pins: &[crate::pins::PinPose],
+    layout_pins: &[PinPose],
     reference: &[[f64; 2]],
     radius: f64,
 ) -> Vec<Option<usize>> {
@@ -244,17 +277,35 @@ mod tests {
 
     #[test]
     fn label_frames_map_offsets_as_vectors_and_tilts_as_rotation_vectors() {
-        let (start, target) = LabelFrame::IDENTITY.poses(&sample(), 0.5);
+        let mut press = Deformation::of(&SensorParams::default(), 0.5);
+        press.depth_offset_mm = 0.5;
+        let (start, target) = LabelFrame::IDENTITY.poses(&sample(), &press);
         assert_eq!((start.x_mm, start.y_mm, start.yaw_deg, target.depth_mm), (3.0, 1.0, 5.0, 2.5));
         assert_eq!((target.rx_deg, target.ry_deg), (10.0, -4.0));
+        let at_zero = Deformation::of(&SensorParams::default(), 0.5);
         // A quarter turn: x -> y, y -> -x, for offsets and tilts alike.
-        let (s, t) = LabelFrame::new(90.0, false).poses(&sample(), 0.0);
+        let (s, t) = LabelFrame::new(90.0, false).poses(&sample(), &at_zero);
         assert!((s.x_mm + 1.0).abs() < 1e-12 && (s.y_mm - 3.0).abs() < 1e-12);
         assert!((t.rx_deg - 4.0).abs() < 1e-12 && (t.ry_deg - 10.0).abs() < 1e-12 && s.yaw_deg == 5.0);
         // A mirror y -> -y flips the offset's y, and the tilt about x and the twist (axial).
-        let (s, t) = LabelFrame::new(0.0, true).poses(&sample(), 0.0);
+        let (s, t) = LabelFrame::new(0.0, true).poses(&sample(), &at_zero);
         assert_eq!((s.x_mm, s.y_mm, s.yaw_deg), (3.0, -1.0, -5.0));
         assert_eq!((t.rx_deg, t.ry_deg), (-10.0, -4.0));
+        // Reversed tilts turn the other way; offsets and twist are unchanged.
+        let (s, t) = LabelFrame::new(0.0, true).with_tilts_reversed(true).poses(&sample(), &at_zero);
+        assert_eq!((s.x_mm, s.y_mm, s.yaw_deg), (3.0, -1.0, -5.0));
+        assert_eq!((t.rx_deg, t.ry_deg), (10.0, 4.0));
+    }
+
+    #[test]
+    fn a_tilt_about_a_pivot_above_the_apex_raises_the_apex() {
+        let mut press = Deformation::of(&SensorParams::default(), 0.5);
+        press.pivot_mm = 20.0;
+        let s = LabSample { image: "x.png".into(), pose: [0.0, 0.0, 2.0, 60.0, 0.0, 0.0], shear: [0.0; 6] };
+        let (_, t) = LabelFrame::IDENTITY.poses(&s, &press);
+        assert!((t.depth_mm - (2.0 - 10.0)).abs() < 1e-9, "{t:?}");
+        let (_, t) = LabelFrame::IDENTITY.poses(&LabSample { pose: [0.0, 0.0, 2.0, 0.0, 0.0, 0.0], ..s }, &press);
+        assert!((t.depth_mm - 2.0).abs() < 1e-12);
     }
 
     #[test]

@@ -1,0 +1,325 @@
+//! Fitting the deformation model to tracked real recordings.
+//!
+//! The recordings are split once, by a hash of their image names, into a training 80% and a
+//! held-out 20% that the fit never sees ([`Split`]). On the training part the label frame is
+//! found from the data ([`super::frame::best_frame`]), then for each candidate elastic model
+//! Nelder-Mead minimises the mean relative error (mean over recordings of mean per-pin
+//! displacement error over mean real displacement) over the model's parameters
+//! ([`Deformation`]: depth offset, friction, tilt pivot, pin length, camera distance, and for
+//! the layered models the base depth and the gel's modulus ratio). The search runs on every
+//! `search_stride`-th training recording; the best model is then polished on all of them and
+//! the frame found again with the fitted response.
+
+use image::GrayImage;
+
+use super::evaluate::Simulator;
+use super::frame::{FrameFit, ImageMap, ShiftSample, best_frame};
+use super::model::{Deformation, LabelFrame, SampleError};
+use super::observe::Observations;
+use crate::calibration::fit_camera_at;
+use crate::error::{Result, SimError};
+use crate::fit::nelder_mead;
+use crate::sensor::{SensorParams, SkinModel};
+use crate::stimulus::Stimulus;
+
+/// Every `HELD_OUT_EVERY`-th hash bucket is held out (20%).
+const HELD_OUT_EVERY: u64 = 5;
+
+/// The training and held-out recordings (indices into [`Observations::samples`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Split {
+    /// Recordings the fit uses (about 80%).
+    pub train: Vec<usize>,
+    /// Recordings it never sees (about 20%).
+    pub held_out: Vec<usize>,
+}
+
+/// FNV-1a hash of a name: stable across platforms and releases.
+fn fnv1a(name: &str) -> u64 {
+    name.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}
+
+impl Split {
+    /// Holds out the recordings whose image name hashes into one bucket of five: the same
+    /// recording lands on the same side however the folder is ordered or grown.
+    pub fn of(obs: &Observations) -> Self {
+        let (mut train, mut held_out) = (Vec::new(), Vec::new());
+        for (k, o) in obs.samples.iter().enumerate() {
+            if fnv1a(&o.sample.image).is_multiple_of(HELD_OUT_EVERY) { held_out.push(k) } else { train.push(k) }
+        }
+        Self { train, held_out }
+    }
+}
+
+/// Settings of [`calibrate`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct FitOptions {
+    /// Contact grid cells across the footprint (odd).
+    pub cells: usize,
+    /// The model search uses every this-many-th training recording.
+    pub search_stride: usize,
+    /// Objective evaluations per candidate model in the search.
+    pub search_evaluations: usize,
+    /// Objective evaluations of the polish on all training recordings.
+    pub polish_evaluations: usize,
+    /// Candidate elastic models.
+    pub models: Vec<SkinModel>,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        Self {
+            cells: 17,
+            search_stride: 2,
+            search_evaluations: 120,
+            polish_evaluations: 60,
+            models: vec![SkinModel::HalfSpace, SkinModel::Layer, SkinModel::SkinOnGel],
+        }
+    }
+}
+
+/// One candidate model's search result.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Candidate {
+    /// The model's fitted parameters.
+    pub deformation: Deformation,
+    /// Mean relative error on the search recordings.
+    pub relative_error: f64,
+    /// Objective evaluations spent.
+    pub evaluations: usize,
+}
+
+/// The outcome of [`calibrate`].
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    /// The fitted sensor (camera refitted at the fitted distance).
+    pub sensor: SensorParams,
+    /// The fitted parameters.
+    pub deformation: Deformation,
+    /// The label frame.
+    pub frame: FrameFit,
+    /// Every candidate model's search result.
+    pub candidates: Vec<Candidate>,
+    /// Mean relative error on all training recordings after the polish.
+    pub train_relative_error: f64,
+}
+
+/// The data and fixed settings a fit simulates with.
+pub struct Problem<'a> {
+    /// The recordings' folder.
+    pub folder: &'a tacsim_data::LabFolder,
+    /// The sensor before the fit.
+    pub base: &'a SensorParams,
+    /// The real undeformed image (the camera is refitted on it).
+    pub reference: &'a GrayImage,
+    /// Its name, for errors.
+    pub reference_name: &'a str,
+    /// The tracked recordings.
+    pub obs: &'a Observations,
+    /// The stimulus whose flat top face the recordings pressed.
+    pub surface: &'a Stimulus,
+    /// Contact grid cells across the footprint.
+    pub cells: usize,
+}
+
+impl Problem<'_> {
+    /// Path of recording `k`'s image.
+    pub fn folder_image(&self, k: usize) -> std::path::PathBuf {
+        self.folder.image_path(&self.obs.samples[k].sample)
+    }
+
+    /// The simulator of `d`, the camera refitted at its distance.
+    pub fn simulator(&self, d: &Deformation) -> Result<Simulator> {
+        let base = fit_camera_at(self.base, self.reference, self.reference_name, Some(d.camera_distance_mm))?;
+        Simulator::new(&base, d, self.cells, self.obs, self.surface)
+    }
+
+    /// Mean relative error of `d` under `frame` over the recordings `which`.
+    pub fn relative_error(&self, d: &Deformation, frame: &LabelFrame, which: &[usize]) -> Result<f64> {
+        let errs = self.simulator(d)?.errors(self.obs, which, frame)?;
+        Ok(mean(errs.iter().map(SampleError::relative)))
+    }
+
+    /// The label frame of the recordings `which` under the response of `d`.
+    pub fn frame(&self, d: &Deformation, which: &[usize]) -> Result<FrameFit> {
+        let identity = self.simulator(d)?.errors(self.obs, which, &LabelFrame::IDENTITY)?;
+        let samples = |shift: &dyn Fn(&SampleError) -> [f64; 2]| -> Vec<ShiftSample> {
+            identity
+                .iter()
+                .zip(which)
+                .map(|(e, &k)| {
+                    let s = &self.obs.samples[k].sample;
+                    ShiftSample {
+                        offset_mm: [s.shear[0], s.shear[1]],
+                        tilt_deg: [s.pose[3], s.pose[4]],
+                        shift_px: shift(e),
+                    }
+                })
+                .collect()
+        };
+        let too_few = || SimError::Analysis {
+            source_name: self.reference_name.to_owned(),
+            reason: format!("{} recordings are too few to find the label frame: record at least 8", which.len()),
+        };
+        let sim_map = ImageMap::fit(&samples(&|e| e.sim_shift)).ok_or_else(too_few)?;
+        best_frame(&samples(&|e| e.real_shift), &sim_map).ok_or_else(too_few)
+    }
+}
+
+/// Mean of `v` (0 when empty).
+fn mean(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, n) = v.fold((0.0, 0usize), |(s, n), x| (s + x, n + 1));
+    if n == 0 { 0.0 } else { s / n as f64 }
+}
+
+/// The parameters a model fits, in the search's coordinates (friction and the gel ratio on a
+/// log scale), with the search's first steps.
+fn encode(d: &Deformation) -> (Vec<f64>, Vec<f64>) {
+    let mut p = vec![d.depth_offset_mm, d.friction.ln(), d.pivot_mm, d.pin_length_mm, d.camera_distance_mm];
+    let mut step = vec![0.4, 0.5, 5.0, 0.5, 8.0];
+    if d.model != SkinModel::HalfSpace {
+        p.push(d.base_depth_mm);
+        step.push(3.0);
+    }
+    if d.model == SkinModel::SkinOnGel {
+        p.push(d.gel_ratio.ln());
+        step.push(1.0);
+    }
+    (p, step)
+}
+
+/// Inverse of [`encode`] on `start`; `None` outside the physical bounds: depth offset
+/// -2..1.5 mm, friction 0.02..2, pivot 0..40 mm, pin length 0.5..3 mm, camera 4..80 mm,
+/// base depth 3..25 mm, gel ratio 0.003..1.
+fn decode(start: &Deformation, p: &[f64]) -> Option<Deformation> {
+    let mut d = start.clone();
+    d.depth_offset_mm = p[0];
+    d.friction = p[1].exp();
+    d.pivot_mm = p[2];
+    d.pin_length_mm = p[3];
+    d.camera_distance_mm = p[4];
+    let mut i = 5;
+    if d.model != SkinModel::HalfSpace {
+        d.base_depth_mm = p[i];
+        i += 1;
+    }
+    if d.model == SkinModel::SkinOnGel {
+        d.gel_ratio = p[i].exp();
+    }
+    let within = |v: f64, lo: f64, hi: f64| v.is_finite() && (lo..=hi).contains(&v);
+    (within(d.depth_offset_mm, -2.0, 1.5)
+        && within(d.friction, 0.02, 2.0)
+        && within(d.pivot_mm, 0.0, 40.0)
+        && within(d.pin_length_mm, 0.5, 3.0)
+        && within(d.camera_distance_mm, 4.0, 80.0)
+        && within(d.base_depth_mm, 3.0, 25.0)
+        && within(d.gel_ratio, 0.003, 1.0))
+    .then_some(d)
+}
+
+/// Minimises the mean relative error over `which` from `start`, at most `evaluations` times.
+fn minimise(
+    problem: &Problem,
+    start: &Deformation,
+    frame: &LabelFrame,
+    which: &[usize],
+    evaluations: usize,
+    progress: &dyn Fn(&str),
+) -> Candidate {
+    let (p0, step) = encode(start);
+    let mut best = f64::INFINITY;
+    let min = nelder_mead(&p0, &step, 1e-3, evaluations, |p| {
+        let Some(d) = decode(start, p) else { return f64::INFINITY };
+        let v = problem.relative_error(&d, frame, which).unwrap_or(f64::INFINITY);
+        if v < best {
+            best = v;
+            progress(&format!("{:?}: relative error {v:.3} at {d:?}", d.model));
+        }
+        v
+    });
+    let deformation = decode(start, &min.params).unwrap_or_else(|| start.clone());
+    Candidate { deformation, relative_error: min.value, evaluations: min.evaluations }
+}
+
+/// The start of every model's search: the sensor's own parameters, friction 0.3, the robot
+/// tilting about the dome centre, no depth offset; layered models 10 mm deep, the gel a tenth
+/// as stiff as the skin.
+pub fn start(base: &SensorParams, model: SkinModel) -> Deformation {
+    let mut d = Deformation::of(base, 0.3);
+    d.model = model;
+    d.pivot_mm = base.dome.outer_radius_mm;
+    if model != SkinModel::HalfSpace {
+        d.base_depth_mm = 10.0;
+        d.gel_ratio = 0.1;
+    }
+    d
+}
+
+/// Fits the deformation model to the training recordings of `split` (see the module docs);
+/// `progress` hears of every improvement.
+pub fn calibrate(problem: &Problem, split: &Split, opts: &FitOptions, progress: &dyn Fn(&str)) -> Result<Calibration> {
+    if opts.models.is_empty() {
+        return Err(SimError::invalid("calibration", "models", "name at least one candidate elastic model"));
+    }
+    let search: Vec<usize> = split.train.iter().copied().step_by(opts.search_stride.max(1)).collect();
+    let first = start(problem.base, opts.models[0]);
+    let frame = problem.frame(&first, &split.train)?;
+    progress(&format!(
+        "label frame: rotation {:.0} deg{}{}, shift residual {:.2} px",
+        frame.rotation_deg,
+        if frame.mirrored { " mirrored" } else { "" },
+        if frame.frame.tilt_sign < 0.0 { ", tilts reversed" } else { "" },
+        frame.rms_px
+    ));
+    let mut candidates = Vec::new();
+    for &model in &opts.models {
+        let c =
+            minimise(problem, &start(problem.base, model), &frame.frame, &search, opts.search_evaluations, progress);
+        progress(&format!("{model:?}: relative error {:.3} after {} evaluations", c.relative_error, c.evaluations));
+        candidates.push(c);
+    }
+    let best = candidates.iter().min_by(|a, b| a.relative_error.total_cmp(&b.relative_error)).expect("one model");
+    let frame = problem.frame(&best.deformation, &split.train)?;
+    let polished = minimise(problem, &best.deformation, &frame.frame, &split.train, opts.polish_evaluations, progress);
+    let sensor = polished.deformation.sensor(&fit_camera_at(
+        problem.base,
+        problem.reference,
+        problem.reference_name,
+        Some(polished.deformation.camera_distance_mm),
+    )?)?;
+    Ok(Calibration {
+        sensor,
+        deformation: polished.deformation,
+        frame,
+        candidates,
+        train_relative_error: polished.relative_error,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parameters_round_trip_through_the_search_coordinates_and_bounds_hold() {
+        let base = SensorParams::default();
+        for model in [SkinModel::HalfSpace, SkinModel::Layer, SkinModel::SkinOnGel] {
+            let d = start(&base, model);
+            let (p, step) = encode(&d);
+            assert_eq!(p.len(), step.len());
+            let back = decode(&d, &p).expect("in bounds");
+            assert!((back.friction - d.friction).abs() < 1e-12 && back.pivot_mm == d.pivot_mm, "{back:?}");
+            let mut bad = p.clone();
+            bad[3] = 3.5;
+            assert!(decode(&d, &bad).is_none(), "a 3.5 mm pin leaves no skin");
+        }
+    }
+
+    #[test]
+    fn the_split_holds_out_about_a_fifth_by_name() {
+        let names: Vec<String> = (0..1000).map(|i| format!("image_{i}.png")).collect();
+        let held = names.iter().filter(|n| fnv1a(n).is_multiple_of(HELD_OUT_EVERY)).count();
+        assert!((170..=230).contains(&held), "{held}");
+        assert_eq!(fnv1a("image_1.png"), fnv1a("image_1.png"));
+    }
+}
