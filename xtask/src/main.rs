@@ -3,10 +3,13 @@
 //!   files are up to date);
 //! - `fit-camera [--real PNG]`: fit the camera and ring layout to the lab's undeformed
 //!   reference image and write `sim/presets/tactip-331.toml`;
-//! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM] [--frame DEG[m][r]|auto]`: track
-//!   the lab's recordings and compare the simulated pin motion with the real one (undeformed
-//!   positions, radial profiles by depth, the label frame found from the data, used with
-//!   `--frame auto`, per-sample errors);
+//! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM]
+//!   [--base-depth MM] [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM]
+//!   [--frame DEG[m][r]|auto] [--dump FILE]`: track the lab's recordings and compare the
+//!   simulated pin motion of one parameter set with the real one (undeformed positions, radial
+//!   profiles by depth, the label frame found from the data, used with `--frame auto`, the
+//!   error left after a per-recording affine map, errors by subset); `--dump` writes every
+//!   recording's real and simulated fields as JSON (`tacsim calibrate` fits the parameters);
 //! - `reproduce [--quick] [--out DIR] [--jobs N]`: the paper's study end to end (dataset, every model,
 //!   evaluation report); see [`reproduce`];
 //! - `explore [--out DIR] [--jobs N]`: contour following with learned perception: the
@@ -56,7 +59,8 @@ fn main() -> Result<()> {
         _ => {
             eprintln!(
                 "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] [--jobs N] | explore [--out DIR] [--jobs N] | \
-                 real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM] [--frame DEG[m][r]|auto]"
+                 real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM] [--base-depth MM] \
+                 [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM] [--frame DEG[m][r]|auto] [--dump FILE]"
             );
             bail!("unknown or missing command")
         }
@@ -209,6 +213,7 @@ fn real_compare(args: &[String]) -> Result<()> {
         ("--base-depth", &mut d.base_depth_mm),
         ("--gel-ratio", &mut d.gel_ratio),
         ("--pin-length", &mut d.pin_length_mm),
+        ("--poisson", &mut d.poisson),
     ] {
         if let Some(v) = flag(args, name) {
             *field = v.parse().with_context(|| format!("{name} {v}"))?;
@@ -280,6 +285,10 @@ fn real_compare(args: &[String]) -> Result<()> {
         None => LabelFrame::IDENTITY,
     };
     let errs = sim.errors(&obs, &all, &frame)?;
+    println!(
+        "all recordings, mean relative error left after the best affine map of each simulated field onto the real one: {:.2}",
+        sim.affine_residual(&obs, &all, &frame)?
+    );
     if let Some(path) = flag(args, "--dump") {
         let rows: Vec<serde_json::Value> = all
             .iter()
@@ -290,7 +299,7 @@ fn real_compare(args: &[String]) -> Result<()> {
                     "real": obs.samples[k].tracking.displacement, "sim": simd}))
             })
             .collect::<Result<_>>()?;
-        std::fs::write(path, serde_json::to_vec(&serde_json::json!({"reference": obs.reference, "samples": rows}))?)?;
+        write_atomic(Path::new(path), &serde_json::to_vec(&serde_json::json!({"reference": obs.reference, "samples": rows}))?)?;
     }
     for (name, zmax, tmax) in
         [("depth <= 2.5 mm, tilt < 8 deg", 2.5, 8.0), ("depth <= 2.5 mm", 2.5, 90.0), ("all", f64::INFINITY, 90.0)]

@@ -117,6 +117,19 @@ impl Simulator {
         if img > 0.0 { mm / img } else { f64::NAN }
     }
 
+    /// Mean over the recordings `which` of [`super::model::affine_residual`].
+    pub fn affine_residual(&self, obs: &Observations, which: &[usize], frame: &LabelFrame) -> Result<f64> {
+        let v = which
+            .par_iter()
+            .map(|&k| {
+                let sim = self.displacements(obs, k, frame)?;
+                Ok(super::model::affine_residual(&sim, &obs.samples[k].tracking.displacement, &self.reference_to_sim))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let v: Vec<f64> = v.into_iter().flatten().collect();
+        Ok(v.iter().sum::<f64>() / v.len().max(1) as f64)
+    }
+
     /// Errors of the recordings `which` of `obs`.
     pub fn errors(&self, obs: &Observations, which: &[usize], frame: &LabelFrame) -> Result<Vec<SampleError>> {
         which

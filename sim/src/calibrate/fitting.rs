@@ -5,8 +5,9 @@
 //! found from the data ([`super::frame::best_frame`]), then for each candidate elastic model
 //! Nelder-Mead minimises the mean relative error (mean over recordings of mean per-pin
 //! displacement error over mean real displacement) over the model's parameters
-//! ([`Deformation`]: depth offset, friction, tilt pivot, pin length, camera distance, and for
-//! the layered models the base depth and the gel's modulus ratio). The search runs on every
+//! ([`Deformation`]: depth offset, friction, tilt pivot, pin length, camera distance, the
+//! skin's Poisson's ratio, and for the layered models the base depth and the gel's modulus
+//! ratio). The search runs on every
 //! `search_stride`-th training recording; the best model is then polished on all of them and
 //! the frame found again with the fitted response.
 
@@ -175,8 +176,8 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
 /// The parameters a model fits, in the search's coordinates (friction and the gel ratio on a
 /// log scale), with the search's first steps.
 fn encode(d: &Deformation) -> (Vec<f64>, Vec<f64>) {
-    let mut p = vec![d.depth_offset_mm, d.friction.ln(), d.pivot_mm, d.pin_length_mm, d.camera_distance_mm];
-    let mut step = vec![0.4, 0.5, 5.0, 0.5, 8.0];
+    let mut p = vec![d.depth_offset_mm, d.friction.ln(), d.pivot_mm, d.pin_length_mm, d.camera_distance_mm, d.poisson];
+    let mut step = vec![0.4, 0.5, 5.0, 0.5, 8.0, -0.1];
     if d.model != SkinModel::HalfSpace {
         p.push(d.base_depth_mm);
         step.push(3.0);
@@ -190,7 +191,7 @@ fn encode(d: &Deformation) -> (Vec<f64>, Vec<f64>) {
 
 /// Inverse of [`encode`] on `start`; `None` outside the physical bounds: depth offset
 /// -2..1.5 mm, friction 0.02..2, pivot 0..40 mm, pin length 0.5..3 mm, camera 4..80 mm,
-/// base depth 3..25 mm, gel ratio 0.003..1.
+/// skin Poisson's ratio 0.3..0.5, base depth 3..25 mm, gel ratio 0.003..1.
 fn decode(start: &Deformation, p: &[f64]) -> Option<Deformation> {
     let mut d = start.clone();
     d.depth_offset_mm = p[0];
@@ -198,7 +199,8 @@ fn decode(start: &Deformation, p: &[f64]) -> Option<Deformation> {
     d.pivot_mm = p[2];
     d.pin_length_mm = p[3];
     d.camera_distance_mm = p[4];
-    let mut i = 5;
+    d.poisson = p[5];
+    let mut i = 6;
     if d.model != SkinModel::HalfSpace {
         d.base_depth_mm = p[i];
         i += 1;
@@ -212,6 +214,7 @@ fn decode(start: &Deformation, p: &[f64]) -> Option<Deformation> {
         && within(d.pivot_mm, 0.0, 40.0)
         && within(d.pin_length_mm, 0.5, 3.0)
         && within(d.camera_distance_mm, 4.0, 80.0)
+        && within(d.poisson, 0.3, 0.5)
         && within(d.base_depth_mm, 3.0, 25.0)
         && within(d.gel_ratio, 0.003, 1.0))
     .then_some(d)

@@ -110,6 +110,9 @@ pub struct Deformation {
     /// ([`crate::calibration::fit_camera_at`]): the undeformed image hardly tells it, the
     /// perspective of pins pressed towards the camera does.
     pub camera_distance_mm: f64,
+    /// Poisson's ratio of the skin material (0.5: incompressible; below it, pressure pulls
+    /// the surface in towards the contact).
+    pub poisson: f64,
 }
 
 impl Deformation {
@@ -125,6 +128,7 @@ impl Deformation {
             depth_offset_mm: 0.0,
             pivot_mm: 0.0,
             camera_distance_mm: sensor.camera.distance_mm,
+            poisson: k.poisson,
         }
     }
 
@@ -137,6 +141,7 @@ impl Deformation {
         s.skin.model = self.model;
         s.skin.gel_youngs_modulus_mpa = self.gel_ratio * base.skin.youngs_modulus_mpa;
         s.skin.base_depth_mm = self.base_depth_mm;
+        s.skin.poisson = self.poisson;
         s.validate("calibration")?;
         Ok(s)
     }
@@ -263,6 +268,35 @@ pub fn compare(sim: &[Option<[f64; 2]>], real: &[Option<[f64; 2]>], reference_to
     }
 }
 
+/// The relative error left after the best affine map of the simulated field onto the real
+/// one (`d_real ~ A d_sim + c`, least squares, 6 numbers per recording): how much of the
+/// error is the field's shape rather than a gain, a rotation or a global shift. `None` with
+/// fewer than 6 pins compared.
+pub fn affine_residual(
+    sim: &[Option<[f64; 2]>],
+    real: &[Option<[f64; 2]>],
+    reference_to_sim: &[Option<usize>],
+) -> Option<f64> {
+    let pairs: Vec<([f64; 2], [f64; 2])> =
+        real.iter().zip(reference_to_sim).filter_map(|(r, m)| Some(((*r)?, sim[(*m)?]?))).collect();
+    if pairs.len() < 6 {
+        return None;
+    }
+    let x = nalgebra::DMatrix::from_fn(pairs.len(), 3, |i, j| if j < 2 { pairs[i].1[j] } else { 1.0 });
+    let svd = x.clone().svd(true, true);
+    let mut residual = vec![[0.0; 2]; pairs.len()];
+    for axis in 0..2 {
+        let y = nalgebra::DVector::from_fn(pairs.len(), |i, _| pairs[i].0[axis]);
+        let beta = svd.solve(&y, 1e-12).ok()?;
+        for (i, r) in (&x * beta - y).iter().enumerate() {
+            residual[i][axis] = *r;
+        }
+    }
+    let error: f64 = residual.iter().map(|r| r[0].hypot(r[1])).sum();
+    let real_px: f64 = pairs.iter().map(|(r, _)| r[0].hypot(r[1])).sum();
+    (real_px > 0.0).then(|| error / real_px)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -295,6 +329,19 @@ mod tests {
         let (s, t) = LabelFrame::new(0.0, true).with_tilts_reversed(true).poses(&sample(), &at_zero);
         assert_eq!((s.x_mm, s.y_mm, s.yaw_deg), (3.0, -1.0, -5.0));
         assert_eq!((t.rx_deg, t.ry_deg), (10.0, 4.0));
+    }
+
+    #[test]
+    fn an_affine_image_of_the_simulated_field_leaves_no_residual() {
+        let sim: Vec<Option<[f64; 2]>> = (0..20).map(|i| Some([(i as f64).sin(), (0.7 * i as f64).cos()])).collect();
+        let real: Vec<Option<[f64; 2]>> =
+            sim.iter().map(|s| s.map(|s| [2.0 * s[0] - s[1] + 0.5, 0.3 * s[0] + 1.5 * s[1] - 1.0])).collect();
+        let map: Vec<Option<usize>> = (0..20).map(Some).collect();
+        assert!(affine_residual(&sim, &real, &map).expect("enough pins") < 1e-9);
+        let noisy: Vec<Option<[f64; 2]>> =
+            real.iter().enumerate().map(|(i, r)| r.map(|r| [r[0] + (i % 2) as f64, r[1]])).collect();
+        assert!(affine_residual(&sim, &noisy, &map).expect("enough pins") > 0.05);
+        assert!(affine_residual(&sim[..3], &real[..3], &map[..3]).is_none());
     }
 
     #[test]

@@ -241,7 +241,7 @@ pub fn held_out(
     for (r, &k) in picks.iter().enumerate() {
         let real = read_png(&problem.folder_image(k))?;
         let simulated = sim.render(&sim.pins(obs, k, frame)?);
-        let tile = |img: &GrayImage| imageops::resize(img, TILE_PX, TILE_PX, imageops::FilterType::Triangle);
+        let tile = |img: &GrayImage| imageops::resize(img, TILE_PX, TILE_PX, imageops::FilterType::Nearest);
         let (a, b) = (tile(&real), tile(&simulated));
         let y0 = r as u32 * TILE_PX;
         for (x, y, p) in a.enumerate_pixels() {
@@ -306,7 +306,7 @@ pub fn markdown(r: &Report) -> String {
          | parameter | value |\n|---|---|\n\
          | elastic model | {:?} |\n| depth offset (added to the labelled depth) | {:.3} mm |\n\
          | friction | {:.3} |\n| tilt pivot above the apex | {:.2} mm |\n| pin length | {:.3} mm |\n\
-         | camera distance behind the dome centre | {:.2} mm |\n| base depth (layered models) | {:.2} mm |\n\
+         | camera distance behind the dome centre | {:.2} mm |\n| skin Poisson's ratio | {:.3} |\n| base depth (layered models) | {:.2} mm |\n\
          | gel / skin modulus (skin-on-gel) | {:.4} |\n\n\
          Label frame: rotation {:.0} deg{}{}, shift residual {:.2} px; `sensor = m label` with m = {:?}.\n\n\
          | candidate model | search relative error | evaluations |\n|---|---|---|\n",
@@ -316,6 +316,7 @@ pub fn markdown(r: &Report) -> String {
         d.pivot_mm,
         d.pin_length_mm,
         d.camera_distance_mm,
+        d.poisson,
         d.base_depth_mm,
         d.gel_ratio,
         r.frame.rotation_deg,
