@@ -179,7 +179,7 @@ fn flag<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
 
 fn real_compare(args: &[String]) -> Result<()> {
     use tacsim_sim::calibrate::evaluate::Simulator;
-    use tacsim_sim::calibrate::frame::{ImageMap, ShiftSample, best_frame, label_frame};
+    use tacsim_sim::calibrate::frame::{ImageMap, best_frame, label_frame, shift_samples};
     use tacsim_sim::calibrate::model::{Deformation, LabelFrame};
     use tacsim_sim::calibrate::observe::Observations;
     let dir =
@@ -237,18 +237,7 @@ fn real_compare(args: &[String]) -> Result<()> {
     // The label frame from the data: the real and the simulated (identity frame) global
     // shifts regressed on the labels.
     let identity = sim.errors(&obs, &all, &LabelFrame::IDENTITY)?;
-    let shift_samples = |shift: &dyn Fn(&tacsim_sim::calibrate::model::SampleError) -> [f64; 2]| {
-        identity
-            .iter()
-            .zip(&obs.samples)
-            .map(|(e, o)| ShiftSample {
-                offset_mm: [o.sample.shear[0], o.sample.shear[1]],
-                tilt_deg: [o.sample.pose[3], o.sample.pose[4]],
-                shift_px: shift(e),
-            })
-            .collect::<Vec<_>>()
-    };
-    let (real_samples, sim_samples) = (shift_samples(&|e| e.real_shift), shift_samples(&|e| e.sim_shift));
+    let [real_samples, sim_samples] = shift_samples(obs.samples.iter().map(|o| &o.sample), &identity);
     let too_few = "too few recordings to find the label frame";
     let (real_map, sim_map) =
         (ImageMap::fit(&real_samples).context(too_few)?, ImageMap::fit(&sim_samples).context(too_few)?);
@@ -299,7 +288,10 @@ fn real_compare(args: &[String]) -> Result<()> {
                     "real": obs.samples[k].tracking.displacement, "sim": simd}))
             })
             .collect::<Result<_>>()?;
-        write_atomic(Path::new(path), &serde_json::to_vec(&serde_json::json!({"reference": obs.reference, "samples": rows}))?)?;
+        write_atomic(
+            Path::new(path),
+            &serde_json::to_vec(&serde_json::json!({"reference": obs.reference, "samples": rows}))?,
+        )?;
     }
     for (name, zmax, tmax) in
         [("depth <= 2.5 mm, tilt < 8 deg", 2.5, 8.0), ("depth <= 2.5 mm", 2.5, 90.0), ("all", f64::INFINITY, 90.0)]

@@ -14,7 +14,7 @@
 use image::GrayImage;
 
 use super::evaluate::Simulator;
-use super::frame::{FrameFit, ImageMap, ShiftSample, best_frame};
+use super::frame::{FrameFit, ImageMap, best_frame, shift_samples};
 use super::model::{Deformation, LabelFrame, SampleError};
 use super::observe::Observations;
 use crate::calibration::fit_camera_at;
@@ -144,26 +144,13 @@ impl Problem<'_> {
     /// The label frame of the recordings `which` under the response of `d`.
     pub fn frame(&self, d: &Deformation, which: &[usize]) -> Result<FrameFit> {
         let identity = self.simulator(d)?.errors(self.obs, which, &LabelFrame::IDENTITY)?;
-        let samples = |shift: &dyn Fn(&SampleError) -> [f64; 2]| -> Vec<ShiftSample> {
-            identity
-                .iter()
-                .zip(which)
-                .map(|(e, &k)| {
-                    let s = &self.obs.samples[k].sample;
-                    ShiftSample {
-                        offset_mm: [s.shear[0], s.shear[1]],
-                        tilt_deg: [s.pose[3], s.pose[4]],
-                        shift_px: shift(e),
-                    }
-                })
-                .collect()
-        };
+        let [real, sim] = shift_samples(which.iter().map(|&k| &self.obs.samples[k].sample), &identity);
         let too_few = || SimError::Analysis {
             source_name: self.reference_name.to_owned(),
             reason: format!("{} recordings are too few to find the label frame: record at least 8", which.len()),
         };
-        let sim_map = ImageMap::fit(&samples(&|e| e.sim_shift)).ok_or_else(too_few)?;
-        best_frame(&samples(&|e| e.real_shift), &sim_map).ok_or_else(too_few)
+        let sim_map = ImageMap::fit(&sim).ok_or_else(too_few)?;
+        best_frame(&real, &sim_map).ok_or_else(too_few)
     }
 }
 

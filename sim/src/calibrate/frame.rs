@@ -11,7 +11,9 @@
 use nalgebra::{DMatrix, DVector, Matrix2};
 use serde::{Deserialize, Serialize};
 
-use super::model::LabelFrame;
+use tacsim_data::LabSample;
+
+use super::model::{LabelFrame, SampleError};
 
 /// `m v` for a row-major 2x2 matrix.
 fn mul(m: &[[f64; 2]; 2], v: [f64; 2]) -> [f64; 2] {
@@ -28,6 +30,25 @@ pub struct ShiftSample {
     pub tilt_deg: [f64; 2],
     /// Global shift of the pins (px).
     pub shift_px: [f64; 2],
+}
+
+/// The regression samples of recordings `labels` with their errors `errors` (same order):
+/// `[real, simulated]` global shifts against the labels.
+pub fn shift_samples<'a>(
+    labels: impl IntoIterator<Item = &'a LabSample>,
+    errors: &[SampleError],
+) -> [Vec<ShiftSample>; 2] {
+    let mut out = [Vec::new(), Vec::new()];
+    for (s, e) in labels.into_iter().zip(errors) {
+        for (v, shift) in out.iter_mut().zip([e.real_shift, e.sim_shift]) {
+            v.push(ShiftSample {
+                offset_mm: [s.shear[0], s.shear[1]],
+                tilt_deg: [s.pose[3], s.pose[4]],
+                shift_px: shift,
+            });
+        }
+    }
+    out
 }
 
 /// The fitted map from label offsets to image shifts.
