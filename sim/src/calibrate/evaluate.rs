@@ -4,7 +4,8 @@
 use rayon::prelude::*;
 
 use super::model::{
-    Deformation, LabelFrame, SampleError, compare, displacements, flat_scene, match_reference, simulate_pins,
+    Deformation, LabelFrame, SampleError, affine_residual, compare, displacements, flat_scene, match_reference,
+    simulate_pins, tip_pixels,
 };
 use super::observe::Observations;
 use crate::contact::engine::ContactModel;
@@ -18,6 +19,9 @@ use crate::stimulus::Stimulus;
 const MATCH_PX420: f64 = 8.0;
 /// Slide step of the simulated recordings (mm).
 const STEP_MM: f64 = 1.0;
+
+/// Simulated displacements (px) per sensor pin, `None` where a tip leaves the view.
+pub type Field = Vec<Option<[f64; 2]>>;
 
 /// One pin of a profile: radius band, real and simulated radial displacement (px).
 type RadialPoint = (usize, f64, f64);
@@ -62,8 +66,7 @@ impl Simulator {
     /// RMS distance (px) between the real reference pins and their simulated undeformed
     /// counterparts, and how many were matched.
     pub fn undeformed_rms(&self, obs: &Observations) -> (f64, usize) {
-        let sim: Vec<Option<[f64; 2]>> =
-            self.model.layout.poses().iter().map(|p| self.renderer.camera().project(&p.tip)).collect();
+        let sim = tip_pixels(&self.renderer, &self.model.layout.poses());
         let d2: Vec<f64> = obs
             .reference
             .iter()
@@ -99,7 +102,7 @@ impl Simulator {
     /// nearest-neighbour distance).
     pub fn mm_per_px(&self) -> f64 {
         let tips = self.model.layout.poses();
-        let px: Vec<Option<[f64; 2]>> = tips.iter().map(|p| self.renderer.camera().project(&p.tip)).collect();
+        let px = tip_pixels(&self.renderer, &tips);
         let (mut mm, mut img) = (0.0, 0.0);
         for (i, a) in tips.iter().enumerate() {
             let d: Vec<f64> = tips.iter().map(|b| (b.tip - a.tip).norm()).collect();
@@ -117,28 +120,25 @@ impl Simulator {
         if img > 0.0 { mm / img } else { f64::NAN }
     }
 
-    /// Mean over the recordings `which` of [`super::model::affine_residual`].
-    pub fn affine_residual(&self, obs: &Observations, which: &[usize], frame: &LabelFrame) -> Result<f64> {
-        let v = which
-            .par_iter()
-            .map(|&k| {
-                let sim = self.displacements(obs, k, frame)?;
-                Ok(super::model::affine_residual(&sim, &obs.samples[k].tracking.displacement, &self.reference_to_sim))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        let v: Vec<f64> = v.into_iter().flatten().collect();
-        Ok(v.iter().sum::<f64>() / v.len().max(1) as f64)
+    /// Simulated displacements (px per sensor pin) of the recordings `which` of `obs`.
+    pub fn fields(&self, obs: &Observations, which: &[usize], frame: &LabelFrame) -> Result<Vec<Field>> {
+        which.par_iter().map(|&k| self.displacements(obs, k, frame)).collect()
+    }
+
+    /// Error of recording `k` of `obs` given its simulated `field`.
+    pub fn error(&self, obs: &Observations, k: usize, field: &[Option<[f64; 2]>]) -> SampleError {
+        compare(field, &obs.samples[k].tracking.displacement, &self.reference_to_sim)
+    }
+
+    /// [`super::model::affine_residual`] of recording `k` of `obs` given its simulated `field`.
+    pub fn affine_residual(&self, obs: &Observations, k: usize, field: &[Option<[f64; 2]>]) -> Option<f64> {
+        affine_residual(field, &obs.samples[k].tracking.displacement, &self.reference_to_sim)
     }
 
     /// Errors of the recordings `which` of `obs`.
     pub fn errors(&self, obs: &Observations, which: &[usize], frame: &LabelFrame) -> Result<Vec<SampleError>> {
-        which
-            .par_iter()
-            .map(|&k| {
-                let sim = self.displacements(obs, k, frame)?;
-                Ok(compare(&sim, &obs.samples[k].tracking.displacement, &self.reference_to_sim))
-            })
-            .collect()
+        let fields = self.fields(obs, which, frame)?;
+        Ok(which.iter().zip(&fields).map(|(&k, f)| self.error(obs, k, f)).collect())
     }
 
     /// Mean radial displacement (px, outward from the image centre) of real and simulated

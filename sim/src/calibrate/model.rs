@@ -104,7 +104,6 @@ pub struct Deformation {
     /// Height (mm) above the dome apex, on the sensor's axis, of the point the robot tilts
     /// the sensor about (0: the apex; the dome radius: its centre, so that a tilt keeps the
     /// indentation).
-    #[serde(default)]
     pub pivot_mm: f64,
     /// Camera distance behind the dome centre (mm) the camera is refitted at
     /// ([`crate::calibration::fit_camera_at`]): the undeformed image hardly tells it, the
@@ -157,7 +156,7 @@ pub fn flat_scene(disk: &Stimulus, friction: f64) -> Result<Scene> {
 }
 
 /// Image positions (px) of the pin tips of `pins` (`None` where a tip leaves the view).
-fn tip_pixels(renderer: &PinRenderer, pins: &[PinPose]) -> Vec<Option<[f64; 2]>> {
+pub(super) fn tip_pixels(renderer: &PinRenderer, pins: &[PinPose]) -> Vec<Option<[f64; 2]>> {
     pins.iter().map(|p| renderer.camera().project(&p.tip)).collect()
 }
 
@@ -239,17 +238,20 @@ impl SampleError {
     }
 }
 
+/// `(real, simulated)` displacements of the reference pins tracked in the real image and
+/// simulated, through `reference_to_sim`.
+fn matched_pairs(
+    sim: &[Option<[f64; 2]>],
+    real: &[Option<[f64; 2]>],
+    reference_to_sim: &[Option<usize>],
+) -> Vec<([f64; 2], [f64; 2])> {
+    real.iter().zip(reference_to_sim).filter_map(|(r, m)| Some(((*r)?, sim[(*m)?]?))).collect()
+}
+
 /// Compares simulated displacements (per sensor pin) with tracked real ones (per reference
 /// pin), through `reference_to_sim`.
 pub fn compare(sim: &[Option<[f64; 2]>], real: &[Option<[f64; 2]>], reference_to_sim: &[Option<usize>]) -> SampleError {
-    let mut pairs = Vec::new();
-    for (r, m) in real.iter().zip(reference_to_sim) {
-        if let (Some(r), Some(i)) = (r, m)
-            && let Some(s) = sim[*i]
-        {
-            pairs.push((*r, s));
-        }
-    }
+    let pairs = matched_pairs(sim, real, reference_to_sim);
     let n = pairs.len();
     if n == 0 {
         return SampleError::default();
@@ -277,8 +279,7 @@ pub fn affine_residual(
     real: &[Option<[f64; 2]>],
     reference_to_sim: &[Option<usize>],
 ) -> Option<f64> {
-    let pairs: Vec<([f64; 2], [f64; 2])> =
-        real.iter().zip(reference_to_sim).filter_map(|(r, m)| Some(((*r)?, sim[(*m)?]?))).collect();
+    let pairs = matched_pairs(sim, real, reference_to_sim);
     if pairs.len() < 6 {
         return None;
     }
