@@ -183,3 +183,45 @@ fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
         assert!(w[1].1 > w[0].1, "rim/centre {} then {}", w[0].1, w[1].1);
     }
 }
+
+/// Regression: the contact plane was the tangent plane at the apex whatever the tilt, so a
+/// tilted press pushed the skin along the sensor's axis instead of the surface normal, and
+/// the pins under a tilted contact moved sideways in the image where a real sensor's do not.
+/// The contact is now solved in the frame facing the press (`ContactFrame`): by the dome's
+/// symmetry, the pin under a tilted contact moves as the apex pin of an untilted press of the
+/// same indentation, along the surface normal.
+#[test]
+fn a_tilted_press_pushes_the_skin_along_the_surface_normal() {
+    use tacsim_sim::contact::frame::press_direction;
+    let scene = scene_with("disk");
+    let model = ContactModel::new(&SensorParams::default());
+    let radius = model.sensor.dome.outer_radius_mm;
+    let indentation = 1.5;
+    let tip_motion = |pose: SensorPose, pin: usize| {
+        let frames = trajectory::run(&model, &scene, &Path::tap(pose), None).expect("tap");
+        frames[0].pins[pin].tip - model.layout.pins[pin].tip
+    };
+    // Untilted: the apex pin moves straight in along the axis.
+    let apex = tip_motion(SensorPose::new(0.0, 0.0, indentation, 0.0), 0);
+    println!("untilted apex pin: {apex:?}");
+    assert!(apex.z < -0.5 * indentation && apex.x.hypot(apex.y) < 1e-3 * apex.norm(), "{apex:?}");
+    // Tilts that put the contact point right under a pin: the press direction seen from the
+    // sensor is `(sin ry cos rx, sin rx, cos ry cos rx)` ([`press_direction`]).
+    for (ring, index) in [(4, 0), (6, 13)] {
+        let pin = model.layout.pins.iter().position(|p| p.ring == ring && p.index_in_ring == index).expect("pin");
+        let n = model.layout.pins[pin].normal;
+        let (rx, ry) = (n.y.asin().to_degrees(), n.x.atan2(n.z).to_degrees());
+        let pose = SensorPose { rx_deg: rx, ry_deg: ry, ..SensorPose::new(0.0, 0.0, 0.0, 0.0) };
+        let d = press_direction(&pose);
+        assert!((d - n).norm() < 1e-12, "{d:?} vs {n:?}");
+        let tilt = d.angle(&nalgebra::Vector3::z());
+        // The apex sits `depth` below the top; the dome's lowest point `R (1 - cos tilt)` lower.
+        let pose = SensorPose { depth_mm: indentation - radius * (1.0 - tilt.cos()), ..pose };
+        let u = tip_motion(pose, pin);
+        let along = u.dot(&-d);
+        let angle = u.angle(&-d).to_degrees();
+        println!("tilt {rx:.1}, {ry:.1} deg: pin {pin} moves {u:?}, {angle:.3} deg off the normal");
+        assert!(angle < 3.0, "the pin must move along the surface normal, moved {angle:.2} deg off it");
+        assert!((along / -apex.z - 1.0).abs() < 0.05, "{along} vs {}", -apex.z);
+    }
+}

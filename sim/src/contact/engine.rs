@@ -7,12 +7,17 @@
 //! the two are coupled) -> pins on demand. What a step does not need is skipped: no contact
 //! means no solve and the cached undeformed pins; zero friction, or a step without tangential
 //! motion on an uncoupled material, means no tangential solve; pins and images only when asked.
+//!
+//! A path is solved in its [`ContactFrame`] (the sensor frame turned about the dome centre to
+//! face the press): grid, gaps, tractions and slip live in that frame, pins are turned back
+//! into the sensor frame.
 
 use std::sync::Arc;
 
 use nalgebra::Vector3;
 use serde::Serialize;
 
+use super::frame::ContactFrame;
 use super::grid::Grid;
 use super::kernel::{DepthKernel, Elastic};
 use super::layered::{Layer, LayeredBody, LayeredKernels};
@@ -114,8 +119,13 @@ pub enum Influence {
 pub struct StepReport {
     /// Whether the skin touches a stimulus.
     pub in_contact: bool,
-    /// Total force on the skin in the sensor frame (N): shear `x`, `y` and normal (pressing).
+    /// Total force on the skin in the sensor frame (N): shear `x`, `y` and normal (pressing,
+    /// along the sensor axis).
     pub force_n: [f64; 3],
+    /// The same force in the path's contact frame (N): tangential `x`, `y` along the contact
+    /// plane and normal (pressing) across it, the split Coulomb's law bounds (equal to
+    /// `force_n` for an untilted path).
+    pub contact_force_n: [f64; 3],
     /// Cells in contact.
     pub contact_cells: usize,
     /// Cells slipping in this step.
@@ -130,11 +140,11 @@ pub struct StepReport {
     pub tangential_solved: bool,
 }
 
-/// The contact grid for a path: square, in the sensor frame, covering the union over `poses`
-/// of the cells where the undeformed dome is inside a stimulus (found by a coarse then a fine
-/// ray probe), plus one fine probe cell of margin, with `cells_across` cells per side. `None`
+/// The contact grid for a path: square, in `frame`, covering the union over `poses` of the
+/// cells where the undeformed dome is inside a stimulus (found by a coarse then a fine ray
+/// probe), plus one fine probe cell of margin, with `cells_across` cells per side. `None`
 /// when no pose touches anything.
-pub fn footprint_grid(model: &ContactModel, scene: &Scene, poses: &[SensorPose]) -> Option<Grid> {
+pub fn footprint_grid(model: &ContactModel, scene: &Scene, poses: &[SensorPose], frame: &ContactFrame) -> Option<Grid> {
     let r = model.dome_radius() * DOME_FRACTION;
     let mut bounds: Option<[f64; 4]> = None;
     for pose in poses {
@@ -144,7 +154,7 @@ pub fn footprint_grid(model: &ContactModel, scene: &Scene, poses: &[SensorPose])
         let s = 2.0 * r / PROBE_CELLS as f64;
         let coarse = Grid::square(PROBE_CELLS, s);
         let threshold = s * s / (4.0 * model.dome_radius()) * 1.01;
-        let Some(b) = probe_box(model, scene, pose, &coarse, threshold, s) else { continue };
+        let Some(b) = probe_box(model, scene, pose, frame, &coarse, threshold, s) else { continue };
         let side = (b[2] - b[0]).max(b[3] - b[1]);
         let fine_s = side / PROBE_CELLS as f64;
         let fine = Grid {
@@ -153,7 +163,7 @@ pub fn footprint_grid(model: &ContactModel, scene: &Scene, poses: &[SensorPose])
             cell_mm: fine_s,
             centre_mm: [0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3])],
         };
-        let Some(b) = probe_box(model, scene, pose, &fine, 0.0, fine_s) else { continue };
+        let Some(b) = probe_box(model, scene, pose, frame, &fine, 0.0, fine_s) else { continue };
         bounds = Some(match bounds {
             None => b,
             Some(a) => [a[0].min(b[0]), a[1].min(b[1]), a[2].max(b[2]), a[3].max(b[3])],
@@ -180,11 +190,12 @@ fn probe_box(
     model: &ContactModel,
     scene: &Scene,
     pose: &SensorPose,
+    frame: &ContactFrame,
     probe: &Grid,
     threshold: f64,
     margin: f64,
 ) -> Option<[f64; 4]> {
-    let gaps = initial_gap(model, scene, pose, probe);
+    let gaps = initial_gap(model, scene, pose, frame, probe);
     let mut b: Option<[f64; 4]> = None;
     for (k, g) in gaps.iter().enumerate() {
         if g.0 < threshold {
@@ -199,29 +210,39 @@ fn probe_box(
     b.map(|a| [(a[0] - margin).max(-r), (a[1] - margin).max(-r), (a[2] + margin).min(r), (a[3] + margin).min(r)])
 }
 
-/// Sensor-frame point of the undeformed outer dome surface above grid point `c`.
+/// Point of the undeformed outer dome surface above grid point `c` (in the grid's frame: the
+/// dome is a sphere about the origin in the sensor frame and every contact frame).
 fn dome_point(dome_radius: f64, c: [f64; 2]) -> Vector3<f64> {
     let r2 = c[0] * c[0] + c[1] * c[1];
     Vector3::new(c[0], c[1], (dome_radius * dome_radius - r2).max(0.0).sqrt())
 }
 
-/// Initial gap (mm, along sensor `+z`, negative where the undeformed dome is inside a
+/// Initial gap (mm, along `+z` of `frame`, negative where the undeformed dome is inside a
 /// stimulus, `+inf` where nothing is below or off the dome) and the friction coefficient of the
-/// stimulus under each grid cell.
-pub fn initial_gap(model: &ContactModel, scene: &Scene, pose: &SensorPose, grid: &Grid) -> Vec<(f64, f64)> {
+/// stimulus under each cell of `grid` (in `frame`).
+pub fn initial_gap(
+    model: &ContactModel,
+    scene: &Scene,
+    pose: &SensorPose,
+    frame: &ContactFrame,
+    grid: &Grid,
+) -> Vec<(f64, f64)> {
     let radius = model.dome_radius();
     let Some(top) = scene.top_height_mm() else { return vec![(f64::INFINITY, 0.0); grid.len()] };
     let rot = pose.rotation();
     let origin = pose.origin_world(radius, top);
     // Start rays behind the dome surface so that they begin outside every stimulus.
     let back = pose.depth_mm.max(0.0) + 2.0 * radius;
-    let dir = rot * Vector3::z();
+    let axis = frame.to_sensor(Vector3::z());
+    let dir = rot * axis;
     let limit = DOME_FRACTION * radius;
     let mut origins = Vec::with_capacity(grid.len());
     let mut on_dome = Vec::with_capacity(grid.len());
     for c in grid.centres() {
-        let inside = c[0].hypot(c[1]) < limit;
-        let p = origin + rot * (dome_point(radius, c) - back * Vector3::z());
+        let x = frame.to_sensor(dome_point(radius, c));
+        // Within the dome's flat-enough part around the frame's apex, and on the hemisphere.
+        let inside = c[0].hypot(c[1]) < limit && x.z > 0.0;
+        let p = origin + rot * (x - back * axis);
         origins.push([p.x, p.y, p.z]);
         on_dome.push(inside);
     }
@@ -240,6 +261,9 @@ pub fn initial_gap(model: &ContactModel, scene: &Scene, pose: &SensorPose, grid:
 pub struct Simulation<'a> {
     model: &'a ContactModel,
     scene: &'a Scene,
+    frame: ContactFrame,
+    /// The pins in `frame` (the model's layout when it is the sensor frame).
+    layout: Arc<PinLayout>,
     op: Option<Operator>,
     pressure: Vec<f64>,
     qx: Vec<f64>,
@@ -256,20 +280,30 @@ pub struct Simulation<'a> {
 
 impl<'a> Simulation<'a> {
     /// A simulation whose grid covers the footprints of `poses` (all poses the path will visit;
-    /// poses outside them are solved on the same grid, with contact cut at its border).
+    /// poses outside them are solved on the same grid, with contact cut at its border), in the
+    /// path's [`ContactFrame`].
     pub fn new(model: &'a ContactModel, scene: &'a Scene, poses: &[SensorPose]) -> Self {
-        Self::with_grid(model, scene, footprint_grid(model, scene, poses))
+        let frame = ContactFrame::of_poses(poses);
+        Self::in_frame(model, scene, footprint_grid(model, scene, poses, &frame), frame)
     }
 
     /// A simulation on a given contact grid (sensor frame), for paths not known in advance
     /// (closed-loop exploration): [`contact_disk_grid`] covers every contact up to a depth.
     /// `None`: nothing can touch.
     pub fn with_grid(model: &'a ContactModel, scene: &'a Scene, grid: Option<Grid>) -> Self {
+        Self::in_frame(model, scene, grid, ContactFrame::SENSOR)
+    }
+
+    fn in_frame(model: &'a ContactModel, scene: &'a Scene, grid: Option<Grid>, frame: ContactFrame) -> Self {
         let op = grid.map(|g| model.operator(g));
         let n = op.as_ref().map_or(0, |o| o.grid().len());
+        let layout =
+            if frame.is_sensor() { model.layout.clone() } else { Arc::new(frame.layout_to_contact(&model.layout)) };
         Self {
             model,
             scene,
+            frame,
+            layout,
             op,
             pressure: vec![0.0; n],
             qx: vec![0.0; n],
@@ -283,7 +317,13 @@ impl<'a> Simulation<'a> {
         }
     }
 
-    /// The contact grid, `None` when no pose of the path touches anything.
+    /// The frame the grid, tractions and gaps are in.
+    pub fn frame(&self) -> &ContactFrame {
+        &self.frame
+    }
+
+    /// The contact grid (in [`Simulation::frame`]), `None` when no pose of the path touches
+    /// anything.
     pub fn grid(&self) -> Option<&Grid> {
         self.op.as_ref().map(|o| o.grid())
     }
@@ -323,7 +363,8 @@ impl<'a> Simulation<'a> {
         };
         let grid = *op.grid();
         let n = grid.len();
-        let (g0, mu): (Vec<f64>, Vec<f64>) = initial_gap(self.model, self.scene, &pose, &grid).into_iter().unzip();
+        let (g0, mu): (Vec<f64>, Vec<f64>) =
+            initial_gap(self.model, self.scene, &pose, &self.frame, &grid).into_iter().unzip();
         self.friction.clone_from(&mu);
         self.gap.clone_from(&g0);
         if g0.iter().all(|g| *g >= 0.0) {
@@ -336,7 +377,7 @@ impl<'a> Simulation<'a> {
         }
         let had_contact = self.pressure.iter().any(|p| *p > 0.0);
         // Rigid slip increment of the skin over the stimulus since the previous pose, per cell
-        // (sensor frame); zero when the contact is new.
+        // (contact frame); zero when the contact is new.
         let (mut wx, mut wy) = (vec![0.0; n], vec![0.0; n]);
         if let (Some(prev), true) = (previous, had_contact) {
             let top = self.scene.top_height_mm().unwrap_or(0.0);
@@ -344,8 +385,8 @@ impl<'a> Simulation<'a> {
             let (r_new, r_old) = (pose.rotation(), prev.rotation());
             let (o_new, o_old) = (pose.origin_world(radius, top), prev.origin_world(radius, top));
             for (k, c) in grid.centres().into_iter().enumerate() {
-                let x = dome_point(radius, c);
-                let w = x - r_new.transpose() * (r_old * x + o_old - o_new);
+                let x = self.frame.to_sensor(dome_point(radius, c));
+                let w = self.frame.to_contact(x - r_new.transpose() * (r_old * x + o_old - o_new));
                 wx[k] = w.x;
                 wy[k] = w.y;
             }
@@ -442,6 +483,12 @@ impl<'a> Simulation<'a> {
             );
             extra = Some(uz);
         }
+        report.contact_force_n = report.force_n;
+        if !self.frame.is_sensor() {
+            // The force on the skin, (fx, fy, -pressing), turned into the sensor frame.
+            let f = self.frame.to_sensor(Vector3::new(report.force_n[0], report.force_n[1], -report.force_n[2]));
+            report.force_n = [f.x, f.y, -f.z];
+        }
         report.contact_cells = self.pressure.iter().filter(|p| **p > 0.0).count();
         if report.contact_cells == 0 {
             report.in_contact = false;
@@ -468,11 +515,14 @@ impl<'a> Simulation<'a> {
         let Some(op) = self.op.as_ref() else {
             return self.model.layout.poses();
         };
+        if self.pressure.iter().all(|p| *p == 0.0) && self.qx.iter().chain(&self.qy).all(|q| *q == 0.0) {
+            return self.model.layout.poses();
+        }
         let forces = CellForces::new(op.grid(), &self.pressure, &self.qx, &self.qy);
         let kernel = match &self.model.influence {
             Influence::HalfSpace(h) => PinKernel::HalfSpace(DepthKernel::new(&h.material)),
             Influence::Layered(k) => PinKernel::Layered(k),
         };
-        displaced_pins(&self.model.layout, &kernel, self.model.dome_radius(), &forces, exact)
+        self.frame.pins_to_sensor(displaced_pins(&self.layout, &kernel, self.model.dome_radius(), &forces, exact))
     }
 }

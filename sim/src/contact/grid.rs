@@ -1,5 +1,6 @@
 //! The contact grid: square cells on the contact plane (the plane tangent to the undeformed dome
-//! at its apex), in the sensor's `(x, y)` axes.
+//! at the apex of the path's [`super::frame::ContactFrame`]), in that frame's `(x, y)` axes (the
+//! sensor's for an untilted path).
 //!
 //! Cell `(i, j)` (column `i` along `x`, row `j` along `y`) has its centre at
 //! `centre_mm + ((i - (nx - 1)/2) h, (j - (ny - 1)/2) h)` with `h = cell_mm`; fields on the grid

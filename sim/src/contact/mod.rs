@@ -8,11 +8,13 @@
 //! [`validate`] runs the analytic cases.
 //!
 //! # Sign conventions
-//! On the contact plane `(x, y)` are the sensor's axes; pressure `p >= 0` presses into the
-//! skin; shear traction `q` is the stimulus's force per area on the skin (MPa); the gap `g`
-//! (mm) is measured along the sensor's `+z` and is negative for overlap.
+//! On the contact plane `(x, y)` are the axes of the path's [`frame::ContactFrame`] (the
+//! sensor's axes for an untilted path); pressure `p >= 0` presses into the skin; shear
+//! traction `q` is the stimulus's force per area on the skin (MPa); the gap `g` (mm) is
+//! measured along the frame's `+z` and is negative for overlap.
 pub mod engine;
 pub mod fft2;
+pub mod frame;
 pub mod grid;
 pub mod kernel;
 pub mod layered;

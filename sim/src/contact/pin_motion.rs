@@ -7,7 +7,7 @@
 //! ```
 //! The lever `tip - base` (pin length, mm) amplifies the skin's rotation, which is why the
 //! pins see curvature. Positions are taken relative to the contact plane (the tangent plane at
-//! the apex): on a half-space a base at sensor point `X` sits at lateral `(X.x, X.y)` and depth
+//! the apex of the contact frame, [`super::frame`], in which the layout is given): on a half-space a base at sensor point `X` sits at lateral `(X.x, X.y)` and depth
 //! `R - X.z`; on layers ([`super::layered`]) every base sits at the skin's inner surface (the
 //! top layer's bottom) under `(X.x, X.y)`: the dome unrolled onto the contact plane, so that
 //! the pins stay in the skin that carries them.
