@@ -515,10 +515,11 @@ impl<'a> Simulation<'a> {
         let Some(op) = self.op.as_ref() else {
             return self.model.layout.poses();
         };
-        if self.pressure.iter().all(|p| *p == 0.0) && self.qx.iter().chain(&self.qy).all(|q| *q == 0.0) {
+        let forces = CellForces::new(op.grid(), &self.pressure, &self.qx, &self.qy);
+        if forces.is_empty() {
+            // Unloaded: the undeformed pins exactly, without the frame's round trip.
             return self.model.layout.poses();
         }
-        let forces = CellForces::new(op.grid(), &self.pressure, &self.qx, &self.qy);
         let kernel = match &self.model.influence {
             Influence::HalfSpace(h) => PinKernel::HalfSpace(DepthKernel::new(&h.material)),
             Influence::Layered(k) => PinKernel::Layered(k),

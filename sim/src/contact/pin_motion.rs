@@ -51,8 +51,8 @@ impl PinKernel<'_> {
         }
     }
 
-    /// Depth (mm) of the sensor-frame point `p` near the pin base `base` on a dome of outer
-    /// radius `dome_radius_mm`.
+    /// Depth (mm) of the point `p` (in the layout's frame) near the pin base `base` on a dome
+    /// of outer radius `dome_radius_mm`.
     fn depth(&self, dome_radius_mm: f64, base: &Vector3<f64>, p: &Vector3<f64>) -> f64 {
         match self {
             PinKernel::HalfSpace(_) => dome_radius_mm - p.z,
@@ -157,7 +157,7 @@ impl CellForces {
         self.f.is_empty()
     }
 
-    /// Displacements (mm, sensor frame) at the sensor-frame points `at` (close together: the
+    /// Displacements (mm, in the grid's frame) at the points `at` (close together: the
     /// first decides near and far; their depths from `depth`), in one pass. Blocks far from
     /// the points act as one force; near ones cell by cell. With `exact`, every cell acts on
     /// its own.
@@ -199,8 +199,8 @@ impl CellForces {
     }
 }
 
-/// Deformed pin poses (sensor frame) for the given cell forces; `exact` sums every cell for
-/// every pin instead of grouping far cells in blocks.
+/// Deformed pin poses (in the frame of `layout` and the grid) for the given cell forces;
+/// `exact` sums every cell for every pin instead of grouping far cells in blocks.
 pub fn displaced_pins(
     layout: &PinLayout,
     kernel: &PinKernel<'_>,
