@@ -1,31 +1,12 @@
 //! `tacsim calibrate` end to end: a tiny subset of the shared real recordings into a preset
 //! and a held-out report, and malformed lab folders as clear errors.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
 use tacsim_sim::sensor::SensorParams;
 
-fn tacsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tacsim")).args(args).output().expect("tacsim runs")
-}
-
-fn err(args: &[&str]) -> String {
-    let o = tacsim(args);
-    assert!(!o.status.success(), "tacsim {args:?} should fail");
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tacsim-calibrate-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
+mod common;
+use common::{err, s, tacsim, temp_dir};
 
 const HEADER: &str =
     "sensor_image,pose_x,pose_y,pose_z,pose_Rx,pose_Ry,pose_Rz,shear_x,shear_y,shear_z,shear_Rx,shear_Ry,shear_Rz";
@@ -38,7 +19,7 @@ fn a_tiny_lab_folder_calibrates_into_a_preset_and_a_held_out_report() {
         return;
     }
     // The reference and 30 recordings, in the lab's format.
-    let dir = temp_dir("tiny");
+    let dir = temp_dir("calibrate", "tiny");
     let lab = dir.join("lab");
     std::fs::create_dir_all(lab.join("images")).expect("lab dir");
     let text = std::fs::read_to_string(real.join("targets.csv")).expect("real targets.csv");
@@ -73,7 +54,7 @@ fn a_tiny_lab_folder_calibrates_into_a_preset_and_a_held_out_report() {
 
 #[test]
 fn malformed_lab_folders_are_clear_errors() {
-    let dir = temp_dir("bad");
+    let dir = temp_dir("calibrate", "bad");
     let lab = dir.join("lab");
     std::fs::create_dir_all(lab.join("images")).expect("lab dir");
     let preset = dir.join("p.toml");

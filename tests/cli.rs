@@ -1,20 +1,12 @@
 //! End-to-end tests of the `tacsim` command line, as a user runs it.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use tacsim_sim::detect::detect_blobs;
 use tacsim_sim::png_io::read_png;
 
-fn tacsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tacsim")).args(args).output().expect("tacsim runs")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tacsim-cli-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
+mod common;
+use common::{tacsim, temp_dir};
 
 fn render_and_count(dir: &Path, file: &str, extra: &[&str]) -> (u32, usize) {
     let out = dir.join(file);
@@ -30,7 +22,7 @@ fn render_and_count(dir: &Path, file: &str, extra: &[&str]) -> (u32, usize) {
 
 #[test]
 fn render_default_gives_331_separate_blobs_at_256() {
-    let dir = temp_dir("default");
+    let dir = temp_dir("cli", "default");
     assert_eq!(render_and_count(&dir, "x.png", &[]), (256, 331));
     assert_eq!(render_and_count(&dir, "x1.png", &["--one-bit"]), (256, 331));
     assert_eq!(render_and_count(&dir, "p127.png", &["--pins", "127"]), (256, 127));
@@ -44,7 +36,7 @@ fn render_default_gives_331_separate_blobs_at_256() {
 
 #[test]
 fn render_realism_and_grey_modes() {
-    let dir = temp_dir("realism");
+    let dir = temp_dir("cli", "realism");
     let (size, blobs) = render_and_count(&dir, "r.png", &["--realism", "--seed", "3"]);
     assert_eq!(size, 256);
     assert!(blobs >= 331, "every pin plus threshold specks at the rim: {blobs}");
@@ -58,7 +50,7 @@ fn render_realism_and_grey_modes() {
 
 #[test]
 fn bad_sensor_files_are_clear_errors_and_leave_no_output() {
-    let dir = temp_dir("bad");
+    let dir = temp_dir("cli", "bad");
     let out = dir.join("never.png");
     let out_s = out.to_str().expect("utf-8");
     let bad = dir.join("bad.toml");
@@ -131,7 +123,7 @@ fn embedded_shapes_match_the_shapes_directory() {
 
 #[test]
 fn render_tap_and_slide_on_a_shape() {
-    let dir = temp_dir("contact");
+    let dir = temp_dir("cli", "contact");
     let (_, blobs) = render_and_count(&dir, "tap.png", &["--shape", "clover", "--pose", "0,0,3,0"]);
     assert_eq!(blobs, 331);
     let (_, blobs) =
@@ -161,7 +153,7 @@ fn render_tap_and_slide_on_a_shape() {
 
 #[test]
 fn render_on_layered_skins() {
-    let dir = temp_dir("layered");
+    let dir = temp_dir("cli", "layered");
     let pose = ["--shape", "disk", "--pose", "0,0,1.5,0", "--slide-from", "2.5,0"];
     let mut images = Vec::new();
     for skin in ["half-space", "layer", "skin-on-gel"] {
@@ -182,7 +174,7 @@ fn render_on_layered_skins() {
 
 #[test]
 fn bad_poses_and_shapes_are_clear_errors() {
-    let dir = temp_dir("badpose");
+    let dir = temp_dir("cli", "badpose");
     let out = dir.join("x.png");
     let out = out.to_str().expect("utf-8");
     for (args, needle) in [
@@ -222,7 +214,7 @@ fn validate_json_meets_the_bounds() {
 
 #[test]
 fn bench_json_reports_rates_breakdown_skips_and_curve() {
-    let dir = temp_dir("bench");
+    let dir = temp_dir("cli", "bench");
     let plot = dir.join("bench.svg");
     let o = tacsim(&["bench", "--json", "--samples", "4", "--cells", "9", "--plot", plot.to_str().expect("utf-8")]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -3,25 +3,14 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use tacsim_data::loader::Subset;
 use tacsim_data::{Dataset, Kind, Split};
 
-fn tacsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tacsim")).args(args).output().expect("tacsim runs")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tacsim-data-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
+mod common;
+use common::{fresh_path, s, tacsim};
 
 /// Every file under `dir` (relative path -> bytes).
 fn files(dir: &Path) -> BTreeMap<String, Vec<u8>> {
@@ -50,7 +39,7 @@ fn generate(out: &Path, extra: &[&str]) {
 
 #[test]
 fn same_seed_same_bytes_whatever_threads_and_shards() {
-    let root = temp_dir("determinism");
+    let root = fresh_path("data", "determinism");
     let (a, b, c) = (root.join("a"), root.join("b"), root.join("c"));
     generate(&a, &["--threads", "2"]);
     generate(&b, &["--threads", "1"]);
@@ -78,7 +67,7 @@ fn same_seed_same_bytes_whatever_threads_and_shards() {
 
 #[test]
 fn killed_run_resumes_to_the_same_bytes() {
-    let root = temp_dir("resume");
+    let root = fresh_path("data", "resume");
     let (full, cut) = (root.join("full"), root.join("cut"));
     generate(&full, &[]);
     let mut child = Command::new(env!("CARGO_BIN_EXE_tacsim"))
@@ -114,7 +103,7 @@ fn killed_run_resumes_to_the_same_bytes() {
 
 #[test]
 fn rows_images_labels_pairs_and_splits_keep_their_promises() {
-    let root = temp_dir("promises");
+    let root = fresh_path("data", "promises");
     generate(&root, &[]);
     let ds = Dataset::open(&root).expect("complete dataset");
     assert_eq!(ds.rows.len(), 300);
@@ -171,7 +160,7 @@ fn rows_images_labels_pairs_and_splits_keep_their_promises() {
 
 #[test]
 fn bad_recipes_and_outputs_are_clear_errors() {
-    let root = temp_dir("bad");
+    let root = fresh_path("data", "bad");
     std::fs::create_dir_all(&root).expect("dir");
     let recipe = root.join("r.toml");
     for (text, needle) in [

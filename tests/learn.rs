@@ -2,11 +2,9 @@
 //! the report, a lab recording folder with the lab's preprocessing, and bad input.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn tacsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tacsim")).args(args).output().expect("tacsim runs")
-}
+mod common;
+use common::{err, s, tacsim, temp_dir};
 
 fn ok(args: &[&str]) -> String {
     let o = tacsim(args);
@@ -14,26 +12,9 @@ fn ok(args: &[&str]) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
 
-fn err(args: &[&str]) -> String {
-    let o = tacsim(args);
-    assert!(!o.status.success(), "tacsim {args:?} should fail");
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("tacsim-learn-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).expect("temp dir");
-    dir
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().expect("utf-8 path")
-}
-
 #[test]
 fn generated_dataset_trains_every_network_and_evaluates() {
-    let dir = temp_dir("e2e");
+    let dir = temp_dir("learn", "e2e");
     let data = dir.join("data");
     ok(&["generate", "quick", "--out", s(&data), "--size", "128", "-q"]);
     let small = ["--size", "64", "--epochs", "1", "--batch", "8", "--max-batches", "2", "-q"];
@@ -62,7 +43,7 @@ fn generated_dataset_trains_every_network_and_evaluates() {
 
 #[test]
 fn bad_training_input_is_a_clear_error() {
-    let dir = temp_dir("bad");
+    let dir = temp_dir("learn", "bad");
     let out = dir.join("run");
     let e = err(&["train", "unshear", "--data", s(&dir.join("missing")), "--out", s(&out), "-q"]);
     assert!(e.contains("targets.csv"), "{e}");
@@ -94,7 +75,7 @@ fn a_lab_folder_trains_the_pose_network_with_the_labs_preprocessing() {
         return;
     };
     // A 40-recording subset of the real folder, in the lab's own format.
-    let dir = temp_dir("lab");
+    let dir = temp_dir("learn", "lab");
     let lab = dir.join("lab");
     std::fs::create_dir_all(lab.join("images")).expect("lab dir");
     let text = std::fs::read_to_string(real.join("targets.csv")).expect("real targets.csv");

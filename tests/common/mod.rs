@@ -1,0 +1,37 @@
+//! Helpers shared by the command-line integration tests: running the `tacsim` binary and
+//! fresh temporary folders. Each test binary uses a subset, hence the `dead_code` allowance.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Runs the `tacsim` binary with `args`.
+pub fn tacsim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_tacsim")).args(args).output().expect("tacsim runs")
+}
+
+/// Runs `tacsim args`, asserts it fails, and returns its stderr.
+pub fn err(args: &[&str]) -> String {
+    let o = tacsim(args);
+    assert!(!o.status.success(), "tacsim {args:?} should fail");
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A path under the system temp folder for this test run, removed if it exists (not created).
+pub fn fresh_path(prefix: &str, name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("tacsim-{prefix}-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// An empty temporary folder for this test run.
+pub fn temp_dir(prefix: &str, name: &str) -> PathBuf {
+    let dir = fresh_path(prefix, name);
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    dir
+}
+
+/// `p` as a command-line argument.
+pub fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
