@@ -119,7 +119,7 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     let header = format!(
         "# {} calibrated against {} by `{command}`.\n# Held-out mean relative error {:.3}; report: {}.\n\
          # The recordings' press (not part of the sensor): depth offset {:.3} mm, friction {:.3}, tilt pivot \
-         {:.2} mm above the apex.\n\n",
+         {:.2} mm above the apex,\n# depth compliance {:.4} mm^-0.5, tilt relaxation {:.4} per mm.\n\n",
         base.name,
         o.real.display(),
         report.held_out_means.relative_error,
@@ -127,6 +127,8 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         calib.deformation.depth_offset_mm,
         calib.deformation.friction,
         calib.deformation.pivot_mm,
+        calib.deformation.depth_compliance,
+        calib.deformation.tilt_relaxation_per_mm,
     );
     if let Some(dir) = o.output.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;

@@ -4,7 +4,7 @@
 //! - `fit-camera [--real PNG]`: fit the camera and ring layout to the lab's undeformed
 //!   reference image and write `sim/presets/tactip-331.toml`;
 //! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM]
-//!   [--base-depth MM] [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM]
+//!   [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM]
 //!   [--frame DEG[m][r]|auto] [--dump FILE]`: track the lab's recordings and compare the
 //!   simulated pin motion of one parameter set with the real one (undeformed positions, radial
 //!   profiles by depth, the label frame found from the data, used with `--frame auto`, the
@@ -59,7 +59,7 @@ fn main() -> Result<()> {
         _ => {
             eprintln!(
                 "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] [--jobs N] | explore [--out DIR] [--jobs N] | \
-                 real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM] [--base-depth MM] \
+                 real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM] [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] \
                  [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM] [--frame DEG[m][r]|auto] [--dump FILE]"
             );
             bail!("unknown or missing command")
@@ -210,6 +210,8 @@ fn real_compare(args: &[String]) -> Result<()> {
     }
     for (name, field) in [
         ("--pivot", &mut d.pivot_mm),
+        ("--depth-compliance", &mut d.depth_compliance),
+        ("--tilt-relaxation", &mut d.tilt_relaxation_per_mm),
         ("--base-depth", &mut d.base_depth_mm),
         ("--gel-ratio", &mut d.gel_ratio),
         ("--pin-length", &mut d.pin_length_mm),

@@ -5,8 +5,8 @@
 //! found from the data ([`super::frame::best_frame`]), then for each candidate elastic model
 //! Nelder-Mead minimises the mean relative error (mean over recordings of mean per-pin
 //! displacement error over mean real displacement) over the model's parameters
-//! ([`Deformation`]: depth offset, friction, tilt pivot, pin length, camera distance, the
-//! skin's Poisson's ratio, and for the layered models the base depth and the gel's modulus
+//! ([`Deformation`]: depth offset, friction, tilt pivot, the rig's depth compliance and tilt
+//! relaxation under load, pin length, camera distance, the skin's Poisson's ratio, and for the layered models the base depth and the gel's modulus
 //! ratio). The search runs on every
 //! `search_stride`-th training recording; the best model is then polished on all of them and
 //! the frame found again with the fitted response.
@@ -72,8 +72,8 @@ impl Default for FitOptions {
         Self {
             cells: 17,
             search_stride: 2,
-            search_evaluations: 120,
-            polish_evaluations: 60,
+            search_evaluations: 160,
+            polish_evaluations: 80,
             models: vec![SkinModel::HalfSpace, SkinModel::Layer, SkinModel::SkinOnGel],
         }
     }
@@ -163,8 +163,17 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
 /// The parameters a model fits, in the search's coordinates (friction and the gel ratio on a
 /// log scale), with the search's first steps.
 fn encode(d: &Deformation) -> (Vec<f64>, Vec<f64>) {
-    let mut p = vec![d.depth_offset_mm, d.friction.ln(), d.pivot_mm, d.pin_length_mm, d.camera_distance_mm, d.poisson];
-    let mut step = vec![0.4, 0.5, 5.0, 0.5, 8.0, -0.1];
+    let mut p = vec![
+        d.depth_offset_mm,
+        d.friction.ln(),
+        d.pivot_mm,
+        d.pin_length_mm,
+        d.camera_distance_mm,
+        d.poisson,
+        d.depth_compliance,
+        d.tilt_relaxation_per_mm,
+    ];
+    let mut step = vec![0.4, 0.5, 5.0, 0.5, 8.0, -0.1, 0.05, 0.04];
     if d.model != SkinModel::HalfSpace {
         p.push(d.base_depth_mm);
         step.push(3.0);
@@ -178,7 +187,8 @@ fn encode(d: &Deformation) -> (Vec<f64>, Vec<f64>) {
 
 /// Inverse of [`encode`] on `start`; `None` outside the physical bounds: depth offset
 /// -2..1.5 mm, friction 0.02..2, pivot 0..40 mm, pin length 0.5..3 mm, camera 4..80 mm,
-/// skin Poisson's ratio 0.3..0.5, base depth 3..25 mm, gel ratio 0.003..1.
+/// skin Poisson's ratio 0.3..0.5, depth compliance 0..0.3 mm^-0.5, tilt relaxation
+/// 0..0.15 per mm, base depth 3..25 mm, gel ratio 0.003..1.
 fn decode(start: &Deformation, p: &[f64]) -> Option<Deformation> {
     let mut d = start.clone();
     d.depth_offset_mm = p[0];
@@ -187,7 +197,9 @@ fn decode(start: &Deformation, p: &[f64]) -> Option<Deformation> {
     d.pin_length_mm = p[3];
     d.camera_distance_mm = p[4];
     d.poisson = p[5];
-    let mut i = 6;
+    d.depth_compliance = p[6];
+    d.tilt_relaxation_per_mm = p[7];
+    let mut i = 8;
     if d.model != SkinModel::HalfSpace {
         d.base_depth_mm = p[i];
         i += 1;
@@ -202,6 +214,8 @@ fn decode(start: &Deformation, p: &[f64]) -> Option<Deformation> {
         && within(d.pin_length_mm, 0.5, 3.0)
         && within(d.camera_distance_mm, 4.0, 80.0)
         && within(d.poisson, 0.3, 0.5)
+        && within(d.depth_compliance, 0.0, 0.3)
+        && within(d.tilt_relaxation_per_mm, 0.0, 0.15)
         && within(d.base_depth_mm, 3.0, 25.0)
         && within(d.gel_ratio, 0.003, 1.0))
     .then_some(d)

@@ -67,15 +67,24 @@ impl LabelFrame {
     /// apex by `h (1 - cos rx cos ry)` (mm) and the flat surface's indentation (the dome's
     /// lowest point, radius `R`) is `z + (R - h)(1 - cos rx cos ry)`. The pivot's lateral motion
     /// does not matter on a flat surface.
+    ///
+    /// The rig yields under the contact load (the robot's joints, the sensor's mount and
+    /// body): of a commanded indentation `c = z + depth offset` (mm) the sensor loses
+    /// `press.depth_compliance c^1.5` (the load of a sphere pressed into a half-space grows as
+    /// `c^1.5`), and its tilt relaxes to `t (1 - press.tilt_relaxation_per_mm c)`, the
+    /// off-axis load turning it back towards upright.
     pub fn poses(&self, s: &LabSample, press: &Deformation) -> (SensorPose, SensorPose) {
         let d = self.det();
-        let tilt = self.apply([s.pose[3], s.pose[4]]).map(|v| self.tilt_sign * v);
+        let commanded = s.pose[2] + press.depth_offset_mm;
+        let loaded = commanded.max(0.0);
+        let relaxed = (1.0 - press.tilt_relaxation_per_mm * loaded).max(0.0);
+        let tilt = self.apply([s.pose[3], s.pose[4]]).map(|v| self.tilt_sign * relaxed * v);
         let offset = self.apply([s.shear[0], s.shear[1]]);
         let lift = press.pivot_mm * (1.0 - tilt[0].to_radians().cos() * tilt[1].to_radians().cos());
         let target = SensorPose {
             x_mm: 0.0,
             y_mm: 0.0,
-            depth_mm: s.pose[2] + press.depth_offset_mm - lift,
+            depth_mm: commanded - press.depth_compliance * loaded.powf(1.5) - lift,
             yaw_deg: d * s.pose[5],
             rx_deg: d * tilt[0],
             ry_deg: d * tilt[1],
@@ -105,6 +114,14 @@ pub struct Deformation {
     /// the sensor about (0: the apex; the dome radius: its centre, so that a tilt keeps the
     /// indentation).
     pub pivot_mm: f64,
+    /// The rig's yield under load (mm^-0.5): a commanded indentation `c` (mm) loses
+    /// `depth_compliance c^1.5` ([`LabelFrame::poses`]).
+    #[serde(default)]
+    pub depth_compliance: f64,
+    /// The tilt's relaxation under load (1/mm): a tilt `t` becomes `t (1 - k c)` at a
+    /// commanded indentation `c` (mm) ([`LabelFrame::poses`]).
+    #[serde(default)]
+    pub tilt_relaxation_per_mm: f64,
     /// Camera distance behind the dome centre (mm) the camera is refitted at
     /// ([`crate::calibration::fit_camera_at`]): the undeformed image hardly tells it, the
     /// perspective of pins pressed towards the camera does.
@@ -126,6 +143,8 @@ impl Deformation {
             friction,
             depth_offset_mm: 0.0,
             pivot_mm: 0.0,
+            depth_compliance: 0.0,
+            tilt_relaxation_per_mm: 0.0,
             camera_distance_mm: sensor.camera.distance_mm,
             poisson: k.poisson,
         }
@@ -354,6 +373,24 @@ mod tests {
         assert!((t.depth_mm - (2.0 - 10.0)).abs() < 1e-9, "{t:?}");
         let (_, t) = LabelFrame::IDENTITY.poses(&LabSample { pose: [0.0, 0.0, 2.0, 0.0, 0.0, 0.0], ..s }, &press);
         assert!((t.depth_mm - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_loaded_rig_loses_depth_as_the_load_grows_and_relaxes_its_tilt() {
+        let mut press = Deformation::of(&SensorParams::default(), 0.5);
+        press.depth_offset_mm = 1.0;
+        press.depth_compliance = 0.1;
+        press.tilt_relaxation_per_mm = 0.05;
+        // Commanded 3 mm + 1 mm offset = 4 mm: loses 0.1 * 4^1.5 = 0.8 mm; the tilt keeps
+        // 1 - 0.05 * 4 = 80%. The pivot sits at the apex, so the tilt lifts nothing.
+        let s = LabSample { image: "x.png".into(), pose: [0.0, 0.0, 3.0, 10.0, -5.0, 0.0], shear: [0.0; 6] };
+        let (_, t) = LabelFrame::IDENTITY.poses(&s, &press);
+        assert!((t.depth_mm - 3.2).abs() < 1e-12, "{t:?}");
+        assert!((t.rx_deg - 8.0).abs() < 1e-12 && (t.ry_deg + 4.0).abs() < 1e-12, "{t:?}");
+        // Above the surface nothing is loaded: no yield, the full tilt.
+        let s = LabSample { pose: [0.0, 0.0, -2.0, 10.0, -5.0, 0.0], ..s };
+        let (_, t) = LabelFrame::IDENTITY.poses(&s, &press);
+        assert!((t.depth_mm + 1.0).abs() < 1e-12 && t.rx_deg == 10.0, "{t:?}");
     }
 
     #[test]

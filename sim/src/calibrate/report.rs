@@ -305,7 +305,9 @@ pub fn markdown(r: &Report) -> String {
         "## Fitted model\n\n\
          | parameter | value |\n|---|---|\n\
          | elastic model | {:?} |\n| depth offset (added to the labelled depth) | {:.3} mm |\n\
-         | friction | {:.3} |\n| tilt pivot above the apex | {:.2} mm |\n| pin length | {:.3} mm |\n\
+         | friction | {:.3} |\n| tilt pivot above the apex | {:.2} mm |\n\
+         | depth compliance of the rig (indentation lost: c d^1.5) | {:.4} mm^-0.5 |\n\
+         | tilt relaxation under load (tilt kept: 1 - k d) | {:.4} per mm |\n| pin length | {:.3} mm |\n\
          | camera distance behind the dome centre | {:.2} mm |\n| skin Poisson's ratio | {:.3} |\n| base depth (layered models) | {:.2} mm |\n\
          | gel / skin modulus (skin-on-gel) | {:.4} |\n\n\
          Label frame: rotation {:.0} deg{}{}, shift residual {:.2} px; `sensor = m label` with m = {:?}.\n\n\
@@ -314,6 +316,8 @@ pub fn markdown(r: &Report) -> String {
         d.depth_offset_mm,
         d.friction,
         d.pivot_mm,
+        d.depth_compliance,
+        d.tilt_relaxation_per_mm,
         d.pin_length_mm,
         d.camera_distance_mm,
         d.poisson,
