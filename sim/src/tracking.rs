@@ -107,21 +107,7 @@ impl Buckets {
 
     /// The nearest point to `q` within `radius` (squared distance, index).
     fn nearest(&self, points: &[[f64; 2]], q: [f64; 2], radius: f64) -> Option<(f64, usize)> {
-        let r = (radius / self.cell).ceil() as isize;
-        let cx = ((q[0] - self.origin[0]) / self.cell).floor() as isize;
-        let cy = ((q[1] - self.origin[1]) / self.cell).floor() as isize;
-        let mut best: Option<(f64, usize)> = None;
-        for y in (cy - r).max(0)..=(cy + r).min(self.ny as isize - 1) {
-            for x in (cx - r).max(0)..=(cx + r).min(self.nx as isize - 1) {
-                for &i in &self.cells[y as usize * self.nx + x as usize] {
-                    let d = dist2(points[i], q);
-                    if d <= radius * radius && best.is_none_or(|b| d < b.0) {
-                        best = Some((d, i));
-                    }
-                }
-            }
-        }
-        best
+        self.nearest_two(points, q, radius, |_| true).map(|(best, _)| best)
     }
 
     /// The two nearest points to `q` within `radius` that `free` accepts: (squared distance,
@@ -288,16 +274,18 @@ pub fn global_warp(
     w
 }
 
+/// The other points of `points` by distance from point `i` (squared distance, index),
+/// nearest first.
+fn others_by_distance(points: &[[f64; 2]], i: usize) -> Vec<(f64, usize)> {
+    let mut d: Vec<(f64, usize)> =
+        (0..points.len()).filter(|&j| j != i).map(|j| (dist2(points[i], points[j]), j)).collect();
+    d.sort_by(|a, b| a.0.total_cmp(&b.0));
+    d
+}
+
 /// The `k` nearest other points of each point, nearest first.
 pub fn nearest_neighbours(points: &[[f64; 2]], k: usize) -> Vec<Vec<usize>> {
-    (0..points.len())
-        .map(|i| {
-            let mut d: Vec<(f64, usize)> =
-                (0..points.len()).filter(|&j| j != i).map(|j| (dist2(points[i], points[j]), j)).collect();
-            d.sort_by(|a, b| a.0.total_cmp(&b.0));
-            d.into_iter().take(k).map(|(_, j)| j).collect()
-        })
-        .collect()
+    (0..points.len()).map(|i| others_by_distance(points, i).into_iter().take(k).map(|(_, j)| j).collect()).collect()
 }
 
 /// Fast tracking for small motions (every pin within `MATCH_FRACTION` of a spacing of its
@@ -348,13 +336,11 @@ fn assign(predicted: &[[f64; 2]], detected: &[[f64; 2]], radius: f64) -> Vec<Opt
 fn neighbours_within(points: &[[f64; 2]], radius: f64) -> Vec<Vec<usize>> {
     (0..points.len())
         .map(|i| {
-            let mut d: Vec<(f64, usize)> = (0..points.len())
-                .filter(|&j| j != i)
-                .map(|j| (dist2(points[i], points[j]), j))
-                .filter(|(d, _)| *d <= radius * radius)
-                .collect();
-            d.sort_by(|a, b| a.0.total_cmp(&b.0));
-            d.into_iter().map(|(_, j)| j).collect()
+            others_by_distance(points, i)
+                .into_iter()
+                .take_while(|(d, _)| *d <= radius * radius)
+                .map(|(_, j)| j)
+                .collect()
         })
         .collect()
 }
