@@ -420,7 +420,7 @@ fn grow(
     let mut matched: Vec<Option<usize>> = vec![None; n];
     let mut disp: Vec<Option<[f64; 2]>> = vec![None; n];
     let mut taken = vec![false; detected.len()];
-    // Per untracked pin: (margin in px, nearest detection, runner-up distance), or None.
+    // Per untracked pin: (margin over the runner-up in px, nearest free detection), or None.
     let candidate = |i: usize, disp: &[Option<[f64; 2]>], taken: &[bool]| -> Option<(f64, usize)> {
         let d = if near[i].iter().any(|&j| disp[j].is_some() && dist2(reference[i], reference[j]) <= front2) {
             local_prediction(i, reference, disp, &near[i], spacing)?
