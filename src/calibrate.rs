@@ -20,7 +20,8 @@ use tacsim_sim::sensor::{SensorParams, SkinModel};
 pub struct CalibrateOptions {
     /// The lab folder.
     pub real: PathBuf,
-    /// The sensor to start from (default: the built-in TacTip).
+    /// The sensor to start from (default: the built-in TacTip, itself calibrated on the lab's
+    /// recordings; `sim/presets/tactip-331-camera.toml` is the uncalibrated start it came from).
     pub sensor: Option<PathBuf>,
     /// Where the preset goes.
     pub output: PathBuf,
@@ -115,7 +116,9 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     write_atomic(&report_dir.join("report.json"), &serde_json::to_vec_pretty(&report)?)?;
     write_atomic(&report_dir.join("report.md"), markdown(&report).as_bytes())?;
     let mut sensor = calib.sensor.clone();
-    sensor.name = format!("{}-calibrated", base.name);
+    // Recalibrating a calibrated sensor (the default) keeps its name.
+    sensor.name =
+        if base.name.ends_with("-calibrated") { base.name.clone() } else { format!("{}-calibrated", base.name) };
     let header = format!(
         "# {} calibrated against {} by `{command}`.\n# Held-out mean relative error {:.3}; report: {}.\n\
          # The recordings' press (not part of the sensor): depth offset {:.3} mm, friction {:.3}, tilt pivot \

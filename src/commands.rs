@@ -120,9 +120,8 @@ fn pressed_pins(sensor: &SensorParams, opts: &RenderOptions) -> Result<(Vec<PinP
 /// Loads the sensor of `path` (or the default) and applies a pin-count override.
 pub fn load_sensor(path: Option<&Path>, pins: Option<usize>) -> Result<SensorParams> {
     let sensor = match path {
-        Some(p) => {
-            SensorParams::load(p).context("loading the sensor file (see sim/presets/tactip-331.toml for the format)")?
-        }
+        Some(p) => SensorParams::load(p)
+            .context("loading the sensor file (see sim/presets/tactip-331-calibrated.toml for the format)")?,
         None => SensorParams::default(),
     };
     match pins {

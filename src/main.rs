@@ -155,6 +155,10 @@ enum Command {
         /// their directory names (`posenet`, `unshear`, `baseline`).
         #[arg(long)]
         models: Option<PathBuf>,
+        /// Sensor file (TOML; default: the built-in calibrated TacTip). The learned runs'
+        /// networks must have been trained on images of the same sensor.
+        #[arg(long)]
+        sensor: Option<PathBuf>,
     },
     /// Train a network of the paper on a dataset (`tacsim generate` output): the shear-removal
     /// model, the supervised baseline or the pose network. Resumable; Ctrl-C saves a
@@ -286,8 +290,9 @@ fn main() -> Result<()> {
         Command::Merge { out, shards } => {
             print!("{}", tacsim::dataset::merge(&out, &shards)?);
         }
-        Command::Run { scenarios, out, json, models } => {
-            let (text, pass) = tacsim::explore::report::run_files(&scenarios, &out, json, models.as_deref())?;
+        Command::Run { scenarios, out, json, models, sensor } => {
+            let sensor = commands::load_sensor(sensor.as_deref(), None)?;
+            let (text, pass) = tacsim::explore::report::run_files(&scenarios, &out, json, models.as_deref(), &sensor)?;
             print!("{text}");
             if !pass {
                 std::process::exit(1);

