@@ -5,7 +5,7 @@
 //!   reference image and write `sim/presets/tactip-331-camera.toml` (the calibration's start);
 //! - `real-compare [--real DIR] [--sensor FILE] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM]
 //!   [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM]
-//!   [--frame DEG[m][r]|auto] [--dump FILE]`: track the lab's recordings and compare the
+//!   [--cells N] [--frame DEG[m][r]|auto] [--dump FILE]`: track the lab's recordings and compare the
 //!   simulated pin motion of one parameter set with the real one (undeformed positions, radial
 //!   profiles by depth, the label frame found from the data, used with `--frame auto`, the
 //!   error left after a per-recording affine map, errors by subset); `--dump` writes every
@@ -60,7 +60,7 @@ fn main() -> Result<()> {
             eprintln!(
                 "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] [--jobs N] | explore [--out DIR] [--jobs N] | \
                  real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM] [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] \
-                 [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM] [--frame DEG[m][r]|auto] [--dump FILE]"
+                 [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM] [--cells N] [--frame DEG[m][r]|auto] [--dump FILE]"
             );
             bail!("unknown or missing command")
         }
@@ -231,7 +231,9 @@ fn real_compare(args: &[String]) -> Result<()> {
     }
     let cat = Catalogue::load_dir(&root().join("shapes"))?;
     let disk = cat.get("disk")?;
-    let sim = Simulator::new(&base, &d, 17, &obs, &disk)?;
+    // 17 cells across the footprint, as `tacsim calibrate` fits; `--cells` for a finer grid.
+    let cells = flag(args, "--cells").map(str::parse).transpose()?.unwrap_or(17);
+    let sim = Simulator::new(&base, &d, cells, &obs, &disk)?;
     let (rms, matched) = sim.undeformed_rms(&obs);
     println!("{d:?}\nundeformed: {matched} pins matched, RMS {rms:.2} px from the real reference");
     println!("radial displacement (px, outward), real / simulated untilted tap, recordings tilted < 8 deg:");
