@@ -127,8 +127,7 @@ fn on_the_disk(depth_mm: f64) -> (Scene, SensorParams, ContactModel, Grid) {
     let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
     let mut scene = Scene::new();
     scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("add");
-    let sensor = SensorParams::load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("sim/presets/tactip-331-camera.toml"))
-        .expect("the camera-only preset");
+    let sensor = SensorParams::camera_only().expect("the camera-only preset");
     let model = ContactModel::new(&sensor);
     let grid = contact_disk_grid(&model, depth_mm);
     (scene, sensor, model, grid)

@@ -218,6 +218,18 @@ impl Default for CameraParams {
     }
 }
 
+/// The previous default sensor, fitted to the undeformed reference image alone (`cargo xtask
+/// fit-camera`): `sim/presets/tactip-331-camera.toml`, the calibration's starting point.
+pub const CAMERA_ONLY_PRESET: &str = include_str!("../presets/tactip-331-camera.toml");
+
+impl SensorParams {
+    /// The camera-only fit ([`CAMERA_ONLY_PRESET`]): 1.5 mm skin, 2 mm pins, Poisson 0.5,
+    /// camera 10.65 mm behind the dome centre.
+    pub fn camera_only() -> Result<Self> {
+        Self::from_toml_str(CAMERA_ONLY_PRESET, "sim/presets/tactip-331-camera.toml")
+    }
+}
+
 /// Largest supported ring count (pin count 2791).
 pub const MAX_RINGS: u32 = 30;
 /// Smallest and largest supported image size (px).
@@ -538,11 +550,7 @@ mod tests {
 
     #[test]
     fn the_previous_camera_only_default_stays_a_valid_preset() {
-        let camera = SensorParams::from_toml_str(
-            include_str!("../presets/tactip-331-camera.toml"),
-            "presets/tactip-331-camera.toml",
-        )
-        .expect("preset parses");
+        let camera = SensorParams::camera_only().expect("preset parses");
         assert_eq!(camera.pin_count(), 331);
         assert_eq!((camera.camera.distance_mm * 100.0).round(), 1065.0, "the documented old camera distance");
         assert_eq!((camera.pins.length_mm, camera.skin.poisson), (2.0, 0.5));

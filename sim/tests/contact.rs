@@ -163,11 +163,7 @@ fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
         // of the same material is then one layer, and a softer gel lets the stiff skin carry
         // the shear across the dome. The calibrated default's 0.66 mm skin is too thin for
         // that: its rim/centre ratio falls from 0.314 to 0.302 between 1 and 0.1 MPa.
-        let mut sensor = SensorParams::load(std::path::Path::new(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/presets/tactip-331-camera.toml"
-        )))
-        .expect("the camera-only preset");
+        let mut sensor = SensorParams::camera_only().expect("the camera-only preset");
         sensor.skin.model = skin;
         sensor.skin.gel_youngs_modulus_mpa = gel;
         let t = Instant::now();

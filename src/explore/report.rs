@@ -20,8 +20,9 @@ pub struct Summary {
 
 /// `tacsim run`: loads every scenario first (a bad file stops before any run), runs them in
 /// parallel, writes `out/report.json` and `out/NAME.svg`; returns the text to print and
-/// whether every run passed. `sensor` is used by the scenarios that name none. `models`, when given, is the directory the scenarios' `[models]`
-/// runs are looked up in, by their directory names ([`super::scenario::Models::under`]).
+/// whether every run passed. `sensor` is used by the scenarios that name none. `models`, when
+/// given, is the directory the scenarios' `[models]` runs are looked up in, by their directory
+/// names ([`super::scenario::Models::under`]).
 pub fn run_files(
     files: &[std::path::PathBuf],
     out: &Path,
