@@ -54,11 +54,12 @@ pub fn similarity(a: &[Vec<f32>], b: &[Vec<f32>], side: usize) -> Result<Similar
 /// Pose mean absolute errors.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PoseError {
-    /// MAE of x (mm): the paper's horizontal position error tau_x (Table I). At the
-    /// recipes' contact locations x runs across the edge of the disk and the clover.
+    /// MAE of x (mm): the paper's horizontal position error tau_x (Table I). In the edge
+    /// frame x runs across the edge; in the scene frame, across the edge of the disk and the
+    /// clover at their contact locations.
     pub x_mm: f64,
-    /// MAE of y (mm), which the paper does not report: along the edge of the disk and the
-    /// clover, where a locally straight edge does not reveal it.
+    /// MAE of y (mm), which the paper does not report: along the edge, where a locally
+    /// straight edge does not reveal it.
     pub y_mm: f64,
     /// MAE of yaw (deg).
     pub yaw_deg: f64,
@@ -98,6 +99,9 @@ pub struct Report {
     pub size: usize,
     /// Test pairs evaluated.
     pub test_pairs: usize,
+    /// Frame of the dataset's pose labels (`poses.frame` of its recipe: `scene` or `edge`).
+    #[serde(default)]
+    pub label_frame: String,
     /// MS-SSIM scales used at this size (5 from 176 px up).
     pub ms_ssim_scales: usize,
     /// `S_inp` against `U_GT`: the similarity before any shear removal.
@@ -276,6 +280,7 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
     let (_, scales) = metrics::ms_ssim(&gt[0], &gt[0], side, side)?;
     let mut report = Report {
         dataset: corpus.dataset.dir.display().to_string(),
+        label_frame: label_frame(&corpus.dataset.meta.recipe),
         size: side,
         test_pairs: pairs.len(),
         ms_ssim_scales: scales,
@@ -290,6 +295,11 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
     write_atomic(&out.join("report.md"), markdown(&report).as_bytes())?;
     write_grid(&out.join("grid.png"), &grid_columns, side, 12)?;
     Ok(report)
+}
+
+/// The recipe's `poses.frame` (`scene` when the recipe does not say).
+fn label_frame(recipe: &serde_json::Value) -> String {
+    recipe.pointer("/poses/frame").and_then(|v| v.as_str()).unwrap_or("scene").to_owned()
 }
 
 /// The semi-supervised model at the paper's 10% with the patch loss, if evaluated.
@@ -417,7 +427,11 @@ pub fn markdown(r: &Report) -> String {
         ));
     }
     s.push_str("\n## Pose MAE (paper, Table I: tap 0.43 mm / 2.13 deg; sheared 2.72 / 22.20; unsheared supervised 0.64 / 4.38; unsheared semi-supervised 0.71 / 4.81)\n\n");
-    s.push_str("Horizontal x is the paper's tau_x (across the edge of the disk and the clover at their contact locations); y, which the paper does not report, runs along those edges, and a locally straight edge does not reveal it.\n\n");
+    s.push_str(if r.label_frame == "edge" {
+        "Horizontal x is the paper's tau_x: labels are in the edge frame, x across the edge at each pose's contact point; y, which the paper does not report, runs along the edge, and a locally straight edge does not reveal it.\n\n"
+    } else {
+        "Horizontal x is the paper's tau_x (across the edge of the disk and the clover at their contact locations); y, which the paper does not report, runs along those edges, and a locally straight edge does not reveal it.\n\n"
+    });
     s.push_str("| images | horizontal x (mm) | yaw (deg) | y along the edge (mm) |\n|---|---|---|---|\n");
     s.push_str(&format!("| tap U_GT | {} |\n", pose_cells(r.pose_tap)));
     s.push_str(&format!("| sheared S_inp | {} |\n", pose_cells(r.pose_sheared)));

@@ -15,8 +15,10 @@
 //! - `explore [--out DIR] [--jobs N]`: contour following with learned perception: the
 //!   `explore` dataset, the pose network and shear-removal model trained on it, their
 //!   evaluation and the `scenarios/explore/learned/` runs; see [`explore`];
-//! - `bench-model [--quick]`: training samples/s and inference images/s of the networks on
-//!   flex at 256, 128 and 64 px and on ndarray at 64 px; writes `docs/model-bench.json`;
+//! - `bench-model [--quick] [--pytorch PYTHON]`: training samples/s and inference images/s of
+//!   the networks on flex at 256, 128 and 64 px and on ndarray at 64 px, and with `--pytorch`
+//!   the same networks in PyTorch (`model/pytorch/bench.py` under that interpreter) on one
+//!   thread and on every core, with the ratio to flex; writes `docs/model-bench.json`;
 //! - `bench`: run the benchmarks (criterion: renderer, contact operator products) and print
 //!   their figures; `tacsim bench` times whole taps and slides.
 
@@ -58,7 +60,7 @@ fn main() -> Result<()> {
         Some("bench-model") => bench_model(&args[1..]),
         _ => {
             eprintln!(
-                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] | reproduce [--quick] [--out DIR] [--jobs N] | explore [--out DIR] [--jobs N] | \
+                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] [--pytorch PYTHON] | reproduce [--quick] [--out DIR] [--jobs N] | explore [--out DIR] [--jobs N] | \
                  real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM] [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] \
                  [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM] [--cells N] [--frame DEG[m][r]|auto] [--dump FILE]"
             );
@@ -327,22 +329,28 @@ fn real_compare(args: &[String]) -> Result<()> {
     Ok(())
 }
 
-/// `cargo xtask bench-model [--quick]`: throughput of the networks (`tacsim_model::bench`).
+/// `cargo xtask bench-model [--quick] [--pytorch PYTHON]`: throughput of the networks (`tacsim_model::bench`).
 /// `--quick` measures 64 px on flex only.
 fn bench_model(args: &[String]) -> Result<()> {
     use tacsim_model::Backend;
+    use tacsim_model::bench::BenchRow;
     let quick = args.iter().any(|a| a == "--quick");
+    let python = args.iter().position(|a| a == "--pytorch").map(|i| args.get(i + 1));
+    let python = match python {
+        Some(Some(p)) => Some(p.clone()),
+        Some(None) => bail!("--pytorch needs a Python interpreter that imports torch (for example python3)"),
+        None => None,
+    };
     let mut cases = vec![(Backend::Flex, 64)];
     if !quick {
         cases = vec![(Backend::Flex, 256), (Backend::Flex, 128), (Backend::Flex, 64), (Backend::Ndarray, 64)];
     }
+    let sizes: Vec<usize> = cases.iter().filter(|c| c.0 == Backend::Flex).map(|c| c.1).collect();
     println!(
         "| backend | size | batch | self-supervised samples/s | supervised samples/s | posenet samples/s | inference images/s |"
     );
     println!("|---|---|---|---|---|---|---|");
-    let mut rows = Vec::new();
-    for (backend, size) in cases {
-        let r = tacsim_model::bench::measure(backend, size)?;
+    let print = |r: &BenchRow| {
         println!(
             "| {} | {} | {} | {:.1} | {:.1} | {:.1} | {:.1} |",
             r.backend,
@@ -352,8 +360,55 @@ fn bench_model(args: &[String]) -> Result<()> {
             r.supervised_samples_per_s,
             r.posenet_samples_per_s,
             r.inference_images_per_s
-        );
+        )
+    };
+    let mut rows = Vec::new();
+    for (backend, size) in cases {
+        let r = tacsim_model::bench::measure(backend, size)?;
+        print(&r);
         rows.push(r);
+    }
+    if let Some(python) = &python {
+        // The same networks and steps in PyTorch (model/pytorch/bench.py): one thread, as
+        // flex runs here, then every core.
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let list = sizes.iter().map(ToString::to_string).collect::<Vec<_>>().join(",");
+        for threads in if cores > 1 { vec![1, cores] } else { vec![1] } {
+            let out = root().join("target").join(format!("model-bench-pytorch-{threads}.json"));
+            let status = Command::new(python)
+                .arg(root().join("model/pytorch/bench.py"))
+                .args(["--threads", &threads.to_string(), "--sizes", &list, "--json"])
+                .arg(&out)
+                .stdout(std::process::Stdio::null())
+                .status()
+                .with_context(|| format!("running {python}: is it a Python interpreter?"))?;
+            if !status.success() {
+                bail!(
+                    "model/pytorch/bench.py failed under {python}: install PyTorch and numpy (`pip install torch numpy`)"
+                );
+            }
+            let text = std::fs::read(&out).with_context(|| format!("reading {}", out.display()))?;
+            let torch: Vec<BenchRow> =
+                serde_json::from_slice(&text).with_context(|| format!("parsing {}", out.display()))?;
+            torch.iter().for_each(print);
+            rows.extend(torch);
+        }
+        println!("\nPyTorch (one thread) over flex, per column:\n");
+        println!("| size | self-supervised | supervised | posenet | inference |\n|---|---|---|---|---|");
+        for &size in &sizes {
+            let find = |pick: &dyn Fn(&BenchRow) -> bool| rows.iter().find(|r| r.size == size && pick(r));
+            let flex = find(&|r| r.backend == Backend::Flex.to_string());
+            let torch = find(&|r| r.backend.starts_with("pytorch") && r.backend.ends_with(" 1 thread(s)"));
+            if let (Some(f), Some(t)) = (flex, torch) {
+                println!(
+                    "| {size} | {:.1}x | {:.1}x | {:.1}x | {:.1}x |",
+                    t.self_supervised_samples_per_s / f.self_supervised_samples_per_s,
+                    t.supervised_samples_per_s / f.supervised_samples_per_s,
+                    t.posenet_samples_per_s / f.posenet_samples_per_s,
+                    t.inference_images_per_s / f.inference_images_per_s
+                );
+            }
+        }
     }
     if !quick {
         let path = root().join("docs/model-bench.json");
