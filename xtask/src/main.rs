@@ -341,6 +341,16 @@ fn bench_model(args: &[String]) -> Result<()> {
         Some(None) => bail!("--pytorch needs a Python interpreter that imports torch (for example python3)"),
         None => None,
     };
+    if let Some(python) = &python {
+        // Checked before the burn measurements, which take minutes.
+        let ok = Command::new(python)
+            .args(["-c", "import torch, numpy"])
+            .status()
+            .with_context(|| format!("running {python}: is it a Python interpreter?"))?;
+        if !ok.success() {
+            bail!("{python} cannot import torch and numpy: install them (`pip install torch numpy`)");
+        }
+    }
     let mut cases = vec![(Backend::Flex, 64)];
     if !quick {
         cases = vec![(Backend::Flex, 256), (Backend::Flex, 128), (Backend::Flex, 64), (Backend::Ndarray, 64)];
@@ -373,6 +383,7 @@ fn bench_model(args: &[String]) -> Result<()> {
         // flex runs here, then every core.
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
         let list = sizes.iter().map(ToString::to_string).collect::<Vec<_>>().join(",");
+        let mut one_thread = Vec::new();
         for threads in if cores > 1 { vec![1, cores] } else { vec![1] } {
             let out = root().join("target").join(format!("model-bench-pytorch-{threads}.json"));
             let status = Command::new(python)
@@ -391,14 +402,16 @@ fn bench_model(args: &[String]) -> Result<()> {
             let torch: Vec<BenchRow> =
                 serde_json::from_slice(&text).with_context(|| format!("parsing {}", out.display()))?;
             torch.iter().for_each(print);
+            if threads == 1 {
+                one_thread.clone_from(&torch);
+            }
             rows.extend(torch);
         }
         println!("\nPyTorch (one thread) over flex, per column:\n");
         println!("| size | self-supervised | supervised | posenet | inference |\n|---|---|---|---|---|");
         for &size in &sizes {
-            let find = |pick: &dyn Fn(&BenchRow) -> bool| rows.iter().find(|r| r.size == size && pick(r));
-            let flex = find(&|r| r.backend == Backend::Flex.to_string());
-            let torch = find(&|r| r.backend.starts_with("pytorch") && r.backend.ends_with(" 1 thread(s)"));
+            let flex = rows.iter().find(|r| r.size == size && r.backend == Backend::Flex.to_string());
+            let torch = one_thread.iter().find(|r| r.size == size);
             if let (Some(f), Some(t)) = (flex, torch) {
                 println!(
                     "| {size} | {:.1}x | {:.1}x | {:.1}x | {:.1}x |",
