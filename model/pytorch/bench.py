@@ -11,7 +11,9 @@ crops of 20/256 of the side per image, the crops drawn on the CPU every step), a
 step and unshear inference (E_S then D_T, in eval mode without gradients). Each rate is the
 samples of as many steps as fit in 3 s after one warm-up step.
 
-    python3 model/pytorch/bench.py --threads 1 --json docs/model-bench-pytorch-1thread.json
+    python3 model/pytorch/bench.py --threads 1 --sizes 64 --json target/model-bench-pytorch-1.json
+
+(`cargo xtask bench-model --pytorch PYTHON` runs it and prints the ratio to flex.)
 
 PyTorch's wheel from PyPI runs on a CPU-only machine once its CUDA libraries are installed
 beside it (`pip install torch numpy`).
@@ -27,15 +29,18 @@ import torch
 from torch import nn
 
 CODE = 64
+# Stride-2 stages dropped relative to 256 px (network.rs, `Size::dropped`).
+DROPPED = {256: 0, 128: 1, 64: 2}
 
 
 def stages(full, size):
-    """Channels after dropping the first stages for smaller inputs (network.rs)."""
-    return full[{256: 0, 128: 1, 64: 2}[size]:]
+    """Encoder channels: the first stages dropped for smaller inputs."""
+    return full[DROPPED[size] :]
 
 
 def decoder(full, size):
-    keep = len(full) - {256: 0, 128: 1, 64: 2}[size]
+    """Decoder channels: the stages before the output dropped for smaller outputs."""
+    keep = len(full) - DROPPED[size]
     return full[: keep - 1] + [full[-1]]
 
 
