@@ -118,6 +118,22 @@ impl Corpus {
         self.images.batch(rows, shifts, device)
     }
 
+    /// The `(taps, slides)` batches of `(tap, slide)` row pairs: every slide shifted by its
+    /// entry of `shifts` (px), every tap by the same shift when `shift_taps`, else not at all
+    /// (supervised targets, see [`UnshearConfig::shift_targets`](crate::config::UnshearConfig::shift_targets)).
+    pub fn pair_batch(
+        &self,
+        pairs: &[(usize, usize)],
+        shifts: &[(i32, i32)],
+        shift_taps: bool,
+        device: &Device,
+    ) -> (Tensor<4>, Tensor<4>) {
+        let taps: Vec<usize> = pairs.iter().map(|p| p.0).collect();
+        let slides: Vec<usize> = pairs.iter().map(|p| p.1).collect();
+        let tap_shifts = if shift_taps { shifts } else { &[] };
+        (self.batch(&taps, tap_shifts, device), self.batch(&slides, shifts, device))
+    }
+
     /// The pose label of a row.
     pub fn pose(&self, row: usize) -> Pose {
         pose_of(&self.dataset.rows[row])

@@ -126,7 +126,8 @@ impl ImageSet {
     }
 
     /// A `[slots.len(), 1, side, side]` batch in `[0, 1]`, image `k` shifted by `shifts[k]`
-    /// (px, right and down; uncovered pixels are 0, the background of binary TacTip images).
+    /// (px, right and down; uncovered pixels are 0, the background of binary TacTip images;
+    /// images past the end of `shifts` are not shifted).
     pub fn batch(&self, slots: &[usize], shifts: &[(i32, i32)], device: &Device) -> Tensor<4> {
         let s = self.side;
         let mut data = vec![0f32; slots.len() * s * s];

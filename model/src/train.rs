@@ -332,9 +332,8 @@ pub fn train_unshear(
     let (model, state) =
         run_loop(&run, Session { model, optim, state }, &phases, &settings, progress, |m, phase, chunk, rng| {
             let sh = shifts(chunk.len(), max_shift, rng);
-            let taps: Vec<usize> = chunk.iter().map(|p| p.0).collect();
-            let slides: Vec<usize> = chunk.iter().map(|p| p.1).collect();
-            let (t, s) = (corpus.batch(&taps, &sh, &device), corpus.batch(&slides, &sh, &device));
+            let shift_taps = phase != SUPERVISED || cfg.shift_targets;
+            let (t, s) = corpus.pair_batch(chunk, &sh, shift_taps, &device);
             if phase == SUPERVISED {
                 let mask = (w.patch > 0.0)
                     .then(|| objective::patch_mask(chunk.len(), side, cfg.patch_count, crop, rng, &device));

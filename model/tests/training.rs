@@ -180,3 +180,26 @@ fn evaluation_writes_the_report_with_every_table() {
     let err = PoseReader::load(&dir.join("posenet"), Some(&dir.join("posenet")), Backend::Flex).err().expect("swap");
     assert!(err.to_string().contains("not a shear-removal model"), "{err}");
 }
+
+/// Regression: the supervised phase shifted `U_GT` with `S_inp`, so the target's pin lattice
+/// moved by an amount the network could not tell from the global shear, and `U_rec` came out
+/// a grey blur (quick study: baseline SSIM(U_rec, U_GT) 44% against 78% unshifted).
+#[test]
+fn shifted_supervised_targets_blurred_the_unsheared_images() {
+    let (_dir, corpus) = corpus("pair-shifts");
+    assert!(!UnshearConfig::default().shift_targets, "targets stay in place by default");
+    let device = Backend::Flex.device();
+    let pairs = corpus.dataset.true_pairs(tacsim_data::Split::Train, tacsim_data::Subset::All);
+    let pairs = &pairs[..3];
+    let shifts = [(2, 0), (0, -2), (1, 1)];
+    let taps: Vec<usize> = pairs.iter().map(|p| p.0).collect();
+    let slides: Vec<usize> = pairs.iter().map(|p| p.1).collect();
+    let pixels = |t: Tensor<4>| t.into_data().try_to_vec::<f32>().expect("f32");
+    let (t, s) = corpus.pair_batch(pairs, &shifts, false, &device);
+    assert_eq!(pixels(t), pixels(corpus.batch(&taps, &[], &device)), "targets not shifted");
+    let s = pixels(s);
+    assert_eq!(s, pixels(corpus.batch(&slides, &shifts, &device)), "inputs shifted");
+    assert_ne!(s, pixels(corpus.batch(&slides, &[], &device)));
+    let (t, _) = corpus.pair_batch(pairs, &shifts, true, &device);
+    assert_eq!(pixels(t), pixels(corpus.batch(&taps, &shifts, &device)), "shift_targets shifts both");
+}
