@@ -89,12 +89,11 @@ impl Dataset {
         let rows = &self.rows;
         by_pose
             .values()
-            .filter(|(t, _)| !t.is_empty())
             .flat_map(|(t, s)| {
-                s.iter().map(move |&slide| {
+                // No tap (an empty `t`): no nearest, the pose's slides are skipped.
+                s.iter().filter_map(move |&slide| {
                     let gap = |tap: usize| (rows[tap].pose_z - rows[slide].pose_z).abs();
-                    let tap = t.iter().copied().min_by(|&a, &b| gap(a).total_cmp(&gap(b)));
-                    (tap.unwrap_or(t[0]), slide)
+                    t.iter().copied().min_by(|&a, &b| gap(a).total_cmp(&gap(b))).map(|tap| (tap, slide))
                 })
             })
             .collect()

@@ -65,8 +65,8 @@ pub struct UnshearConfig {
     /// paper does not say; default no). Sliding moves every pin by 1-2.5 px at 128 px (the
     /// global shear), so a target shifted with its input puts the target's pin lattice
     /// where the network cannot tell the shift from the shear, and `U_rec` blurs: in the
-    /// quick study the baseline's SSIM(U_rec, U_GT) was 44% with shifted targets and 78%
-    /// without. The self-supervised phase compares each image with its own reconstruction,
+    /// quick study the baseline's SSIM(U_rec, U_GT) was 44% with shifted targets, 75% with
+    /// the targets in place (78% without any shift). The self-supervised phase compares each image with its own reconstruction,
     /// so it always shifts both.
     pub shift_targets: bool,
     /// L1 weight penalty per unit |w| on every conv and linear weight (the paper uses L1/L2
