@@ -182,6 +182,13 @@ pub struct PoseConfig {
     pub shift_fraction: f64,
     /// Hidden units of the regression head.
     pub hidden: usize,
+    /// Weight of y in the loss, relative to x and yaw (1). The paper's PoseNet regresses the
+    /// lateral position across the edge and yaw only; with edge-frame labels y runs along
+    /// the edge, which a locally straight edge does not reveal, and 0 stops the network
+    /// from memorising it per training pose (y is then still output, but untrained).
+    pub y_weight: f64,
+    /// L2 weight penalty per unit w^2 on every conv and linear weight (ours; 0: none).
+    pub l2: f64,
     /// Seed.
     pub seed: u64,
     /// Save a checkpoint every this many steps (and at every epoch's end).
@@ -199,6 +206,8 @@ impl Default for PoseConfig {
             lr_step_factor: 0.1,
             shift_fraction: 0.0,
             hidden: 128,
+            y_weight: 1.0,
+            l2: 0.0,
             seed: 0,
             checkpoint_steps: 200,
         }
@@ -224,7 +233,9 @@ impl PoseConfig {
         positive("hidden", self.hidden as f64)?;
         positive("lr", self.lr)?;
         positive("lr_step_factor", self.lr_step_factor)?;
-        in_range("shift_fraction", self.shift_fraction, 0.0, 0.25)
+        in_range("shift_fraction", self.shift_fraction, 0.0, 0.25)?;
+        in_range("y_weight", self.y_weight, 0.0, 1e3)?;
+        in_range("l2", self.l2, 0.0, 1.0)
     }
 }
 
@@ -272,5 +283,13 @@ mod tests {
         assert!(err.to_string().contains("256, 128 or 64"), "{err}");
         let err = serde_json::from_str::<UnshearConfig>(r#"{"bach": 3}"#).expect_err("unknown");
         assert!(err.to_string().contains("bach"), "{err}");
+        let p = PoseConfig::default();
+        p.validate().expect("pose defaults valid");
+        for (bad, field) in
+            [(PoseConfig { y_weight: -1.0, ..p.clone() }, "y_weight"), (PoseConfig { l2: f64::NAN, ..p }, "l2")]
+        {
+            let err = bad.validate().expect_err(field);
+            assert!(err.to_string().starts_with(field), "{err}");
+        }
     }
 }

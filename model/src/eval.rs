@@ -1,7 +1,8 @@
 //! Evaluation that regenerates the paper's tables on a dataset's test split: image similarity
 //! of unsheared images (SSIM, MS-SSIM, MSE), the disentanglement ablations, pose MAE on tap,
 //! sheared and unsheared images, the label-fraction sweep and the patch-loss ablation, side by
-//! side with the paper's numbers; written as `report.json`, `report.md` and image grids.
+//! side with the paper's numbers; written as `report.json`, `report.md`, image grids and the
+//! pose network's per-image predictions (`poses.csv`).
 
 use std::path::{Path, PathBuf};
 
@@ -19,7 +20,7 @@ use crate::error::{ModelError, Result};
 use crate::images::to_images;
 use crate::infer;
 use crate::metrics;
-use crate::posenet::{PoseNet, PoseScale, decode_batch};
+use crate::posenet::{Pose, PoseNet, PoseScale, decode_batch};
 
 /// Mean image similarity over a set of image pairs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -154,32 +155,58 @@ fn corpus_images(corpus: &Corpus, rows: &[usize]) -> Vec<Vec<f32>> {
     rows.iter().map(|&r| corpus.images.image(r).iter().map(|&v| f32::from(v) / 255.0).collect()).collect()
 }
 
-/// Pose MAE of the network's predictions on `images` against the poses of `rows`.
-pub fn pose_error(
-    net: &PoseNet,
-    scale: &PoseScale,
-    corpus: &Corpus,
-    images: &[Vec<f32>],
-    rows: &[usize],
-    device: &Device,
-) -> PoseError {
-    let side = corpus.side();
+/// The pose network's predictions for `images`.
+pub fn predict_poses(net: &PoseNet, scale: &PoseScale, images: &[Vec<f32>], side: usize, device: &Device) -> Vec<Pose> {
+    let mut out = Vec::with_capacity(images.len());
+    for chunk in images.chunks(32) {
+        out.extend(decode_batch(scale, net.forward(stack(chunk, side, device))));
+    }
+    out
+}
+
+/// Absolute yaw difference (deg) on the circle, in `[0, 180]`.
+pub fn yaw_difference_deg(a: f64, b: f64) -> f64 {
+    let d = (a - b).abs() % 360.0;
+    if d > 180.0 { 360.0 - d } else { d }
+}
+
+/// Pose MAE of `predicted` against `truth` (same order).
+pub fn pose_error(predicted: &[Pose], truth: &[Pose]) -> PoseError {
     let mut sums = [0.0f64; 3];
-    for (chunk, rchunk) in images.chunks(32).zip(rows.chunks(32)) {
-        let pred = decode_batch(scale, net.forward(stack(chunk, side, device)));
-        for (p, &r) in pred.iter().zip(rchunk) {
-            let t = corpus.pose(r);
-            sums[0] += (p.x_mm - t.x_mm).abs();
-            sums[1] += (p.y_mm - t.y_mm).abs();
-            let mut d = (p.yaw_deg - t.yaw_deg).abs() % 360.0;
-            if d > 180.0 {
-                d = 360.0 - d;
-            }
-            sums[2] += d;
+    for (p, t) in predicted.iter().zip(truth) {
+        sums[0] += (p.x_mm - t.x_mm).abs();
+        sums[1] += (p.y_mm - t.y_mm).abs();
+        sums[2] += yaw_difference_deg(p.yaw_deg, t.yaw_deg);
+    }
+    let n = predicted.len().min(truth.len()).max(1) as f64;
+    PoseError { x_mm: sums[0] / n, y_mm: sums[1] / n, yaw_deg: sums[2] / n }
+}
+
+/// `poses.csv`: one line per evaluated image with the true and predicted pose, so that errors
+/// can be broken down (by shape, depth, offset, ...) by joining `row` with `targets.csv`.
+fn poses_csv(corpus: &Corpus, rows: &[usize], truth: &[Pose], sets: &[(String, Vec<Pose>)]) -> String {
+    let mut s = String::from(
+        "images,row,sensor_image,shape,depth_mm,x_mm,y_mm,yaw_deg,pred_x_mm,pred_y_mm,pred_yaw_deg,yaw_error_deg\n",
+    );
+    for (name, predicted) in sets {
+        for ((&r, t), p) in rows.iter().zip(truth).zip(predicted) {
+            let row = &corpus.dataset.rows[r];
+            s.push_str(&format!(
+                "{name},{r},{},{},{:.4},{:.4},{:.4},{:.3},{:.4},{:.4},{:.3},{:.3}\n",
+                row.sensor_image,
+                row.shape,
+                row.pose_z,
+                t.x_mm,
+                t.y_mm,
+                t.yaw_deg,
+                p.x_mm,
+                p.y_mm,
+                p.yaw_deg,
+                yaw_difference_deg(p.yaw_deg, t.yaw_deg)
+            ));
         }
     }
-    let n = rows.len().max(1) as f64;
-    PoseError { x_mm: sums[0] / n, y_mm: sums[1] / n, yaw_deg: sums[2] / n }
+    s
 }
 
 /// A trained run found in a directory.
@@ -241,8 +268,17 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
             Run::Unshear(name, cfg, dir) => unshear.push((name, cfg, dir)),
         }
     }
-    let pose_of =
-        |images: &[Vec<f32>]| posenet.as_ref().map(|(n, s)| pose_error(n, s, corpus, images, &slides, &device));
+    let truth: Vec<Pose> = slides.iter().map(|&r| corpus.pose(r)).collect();
+    let mut pose_sets: Vec<(String, Vec<Pose>)> = Vec::new();
+    let mut pose_of = |name: &str, images: &[Vec<f32>]| {
+        posenet.as_ref().map(|(n, s)| {
+            let predicted = predict_poses(n, s, images, side, &device);
+            let e = pose_error(&predicted, &truth);
+            pose_sets.push((name.to_owned(), predicted));
+            e
+        })
+    };
+    let (pose_tap, pose_sheared) = (pose_of("tap", &gt), pose_of("sheared", &input));
 
     let mut models = Vec::new();
     let mut grid_columns: Vec<(String, Vec<Vec<f32>>)> = vec![("S_inp".into(), input.clone())];
@@ -272,7 +308,7 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
             sheared_reconstruction: similarity(&srec, &input, side)?,
             unsheared_from_shear_code: similarity(&u_shear, &gt, side)?,
             sheared_from_pose_code: similarity(&s_pose, &input, side)?,
-            pose: pose_of(&rec),
+            pose: pose_of(&format!("unsheared {name}"), &rec),
         });
         grid_columns.push((format!("U_rec {name}"), rec));
     }
@@ -286,14 +322,17 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
         ms_ssim_scales: scales,
         input_vs_gt: similarity(&input, &gt, side)?,
         models,
-        pose_tap: pose_of(&gt),
-        pose_sheared: pose_of(&input),
+        pose_tap,
+        pose_sheared,
         checks: Vec::new(),
     };
     report.checks = checks(&report);
     write_json(&out.join("report.json"), &report)?;
     write_atomic(&out.join("report.md"), markdown(&report).as_bytes())?;
     write_grid(&out.join("grid.png"), &grid_columns, side, 12)?;
+    if !pose_sets.is_empty() {
+        write_atomic(&out.join("poses.csv"), poses_csv(corpus, &slides, &truth, &pose_sets).as_bytes())?;
+    }
     Ok(report)
 }
 
@@ -468,4 +507,19 @@ pub fn write_grid(path: &Path, columns: &[(String, Vec<Vec<f32>>)], side: usize,
         .write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)
         .map_err(|e| ModelError::checkpoint(path, format!("could not encode the grid: {e}")))?;
     write_atomic(path, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn yaw_errors_are_measured_on_the_circle() {
+        assert_eq!(yaw_difference_deg(170.0, -170.0), 20.0);
+        assert_eq!(yaw_difference_deg(-44.0, 46.0), 90.0);
+        assert_eq!(yaw_difference_deg(10.0, 370.0), 0.0);
+        let p = |x_mm, yaw_deg| Pose { x_mm, y_mm: 0.0, yaw_deg };
+        let e = pose_error(&[p(1.0, 179.0), p(-1.0, 0.0)], &[p(0.0, -179.0), p(0.0, 4.0)]);
+        assert_eq!((e.x_mm, e.y_mm, e.yaw_deg), (1.0, 0.0, 3.0));
+    }
 }

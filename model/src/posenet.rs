@@ -4,8 +4,12 @@
 //! Architecture: the tap encoder's convolution stack (32, 32, 64, 64, 64 at 256 px; kernel 4,
 //! stride 2, batch norm, ReLU; to 8x8x64), then a linear layer of `hidden` units with ReLU and
 //! a linear output of 4 values: x and y normalised to `[-1, 1]` from the recipe's ranges, and
-//! the normalised yaw `n` encoded as `(sin(pi n), cos(pi n))` so that the output has no
-//! discontinuity; decoding uses `atan2`.
+//! the yaw as `(sin a, cos a)` of an angle `a` on the unit circle, decoded with `atan2`.
+//!
+//! The yaw's angle: a range narrower than a full turn (the recipes' `[-45, 45]` deg) maps to
+//! half a turn, `a = (pi / 2) n` for the normalised yaw `n` in `[-1, 1]`, so that the ends of
+//! the range stay half a turn apart and an overshoot past either end decodes as an overshoot.
+//! A range of a full turn or more is periodic in itself and uses the yaw's own angle.
 
 use burn::module::Module;
 use burn::nn::{Linear, LinearConfig};
@@ -84,19 +88,37 @@ impl PoseScale {
         Self { x_mm: range(&|p| p.x_mm), y_mm: range(&|p| p.y_mm), yaw_deg: range(&|p| p.yaw_deg) }
     }
 
+    /// Whether the yaw range is a full turn or more, so periodic in itself.
+    fn yaw_periodic(&self) -> bool {
+        self.yaw_deg[1] - self.yaw_deg[0] >= 360.0
+    }
+
+    /// The yaw's angle on the unit circle (rad): see the module documentation.
+    fn yaw_angle(&self, yaw_deg: f64) -> f64 {
+        if self.yaw_periodic() {
+            yaw_deg.to_radians()
+        } else {
+            std::f64::consts::FRAC_PI_2 * norm(yaw_deg, self.yaw_deg)
+        }
+    }
+
+    /// The yaw (deg) of an angle on the unit circle (rad), inverse of [`Self::yaw_angle`].
+    fn yaw_of_angle(&self, a: f64) -> f64 {
+        if self.yaw_periodic() { a.to_degrees() } else { denorm(a / std::f64::consts::FRAC_PI_2, self.yaw_deg) }
+    }
+
     /// The network's 4 targets for a pose.
     pub fn encode(&self, p: &Pose) -> [f32; 4] {
-        let a = std::f64::consts::PI * norm(p.yaw_deg, self.yaw_deg);
+        let a = self.yaw_angle(p.yaw_deg);
         [norm(p.x_mm, self.x_mm) as f32, norm(p.y_mm, self.y_mm) as f32, a.sin() as f32, a.cos() as f32]
     }
 
     /// The pose from the network's 4 outputs.
     pub fn decode(&self, o: &[f32]) -> Pose {
-        let n = f64::from(o[2]).atan2(f64::from(o[3])) / std::f64::consts::PI;
         Pose {
             x_mm: denorm(f64::from(o[0]), self.x_mm),
             y_mm: denorm(f64::from(o[1]), self.y_mm),
-            yaw_deg: denorm(n, self.yaw_deg),
+            yaw_deg: self.yaw_of_angle(f64::from(o[2]).atan2(f64::from(o[3]))),
         }
     }
 
@@ -131,7 +153,29 @@ mod tests {
             assert!((q.x_mm - p.x_mm).abs() < 1e-5 && (q.y_mm - p.y_mm).abs() < 1e-5, "{q:?}");
             assert!((q.yaw_deg - p.yaw_deg).abs() < 1e-4, "{q:?}");
         }
+        let full = PoseScale { yaw_deg: [-180.0, 180.0], ..scale };
+        for yaw_deg in [-179.0, 0.0, 120.0] {
+            let q = full.decode(&full.encode(&Pose { x_mm: 0.0, y_mm: 0.0, yaw_deg }));
+            assert!((q.yaw_deg - yaw_deg).abs() < 1e-4, "{q:?}");
+        }
         let net = PoseNet::new(Size::S64, 16, &Device::flex());
         assert_eq!(net.forward(Tensor::zeros([3, 1, 64, 64], &Device::flex())).dims(), [3, 4]);
+    }
+
+    /// The yaw used to take the full turn for the recipe's range, which put -45 deg and +45 deg
+    /// on the same point: an output 1 deg past +45 deg decoded as -44 deg, an 89 deg error, and
+    /// the study's yaw MAE counted those.
+    #[test]
+    fn yaw_just_past_the_range_decoded_at_the_other_end() {
+        let scale = PoseScale { x_mm: [-5.0, 5.0], y_mm: [-5.0, 5.0], yaw_deg: [-45.0, 45.0] };
+        let edge = scale.encode(&Pose { x_mm: 0.0, y_mm: 0.0, yaw_deg: 44.0 });
+        let other = scale.encode(&Pose { x_mm: 0.0, y_mm: 0.0, yaw_deg: -44.0 });
+        let d = ((edge[2] - other[2]).powi(2) + (edge[3] - other[3]).powi(2)).sqrt();
+        assert!(d > 1.9, "the range's ends are {d} apart on the unit circle");
+        for yaw_deg in [46.0, 60.0, -50.0] {
+            let past = scale.encode(&Pose { x_mm: 0.0, y_mm: 0.0, yaw_deg });
+            let q = scale.decode(&past);
+            assert!((q.yaw_deg - yaw_deg).abs() < 1e-3, "{yaw_deg} decoded as {}", q.yaw_deg);
+        }
     }
 }

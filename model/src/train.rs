@@ -9,6 +9,7 @@
 
 use burn::module::Module;
 use burn::optim::{AdamConfig, GradientsParams, ModuleOptimizer};
+use burn::tensor::{Tensor, TensorData};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -386,16 +387,23 @@ pub fn train_posenet(
         lr: Box::new(move |e| if e >= half && half > 0 { cfg.lr * cfg.lr_step_factor } else { cfg.lr }),
     }];
     let max_shift = cfg.max_shift_px();
+    // Per output (x, y, sin yaw, cos yaw), scaled so that the weights average 1: with
+    // `y_weight` 1 the loss is the plain mean squared error.
+    let w = [1.0, cfg.y_weight, 1.0, 1.0];
+    let mean_w = w.iter().sum::<f64>() / 4.0;
+    let output_weights: Tensor<2> =
+        Tensor::from_data(TensorData::new(w.iter().map(|v| (v / mean_w) as f32).collect::<Vec<_>>(), [1, 4]), &device);
     run_loop(&run, Session { model, optim, state }, &phases, &settings, progress, |m, _, chunk, rng| {
         let sh = shifts(chunk.len(), max_shift, rng);
         let x = corpus.batch(chunk, &sh, &device);
         let poses: Vec<_> = chunk.iter().map(|&r| corpus.pose(r)).collect();
         let y = corpus.scale.targets(&poses, &device);
-        let loss = (m.forward(x) - y).square().mean();
+        let loss = ((m.forward(x) - y).square() * output_weights.clone()).mean();
         let v = loss.clone().into_scalar::<f32>() as f64;
+        let (loss, reg) = objective::with_regularisation(loss, m, Weights { patch: 0.0, l1: 0.0, l2: cfg.l2 });
         (
             GradientsParams::from_grads(loss.backward(), m),
-            StepLosses { supervised: v, total: v, ..StepLosses::default() },
+            StepLosses { supervised: v, regularisation: reg, total: v + reg, ..StepLosses::default() },
         )
     })
 }

@@ -122,6 +122,36 @@ fn baseline_and_posenet_losses_fall() {
     assert!(h[5].mean.total < 0.7 * h[0].mean.total, "posenet {} -> {}", h[0].mean.total, h[5].mean.total);
 }
 
+/// The pose network's outputs on a few training images after a short run.
+fn posenet_outputs(corpus: &Corpus, cfg: &PoseConfig, out: &std::path::Path) -> Vec<f32> {
+    let (net, _) = train_posenet(corpus, cfg, Backend::Flex, out, false, &mut Silent).expect("posenet");
+    let x = corpus.batch(&[0, 1, 2, 3], &[], &Device::flex());
+    net.valid().forward(x).into_data().try_to_vec::<f32>().expect("outputs")
+}
+
+#[test]
+fn posenet_y_weight_0_ignores_the_y_labels_and_l2_is_logged() {
+    let (dir, corpus) = corpus("pose-weights");
+    let mut flipped = corpus.clone();
+    for row in &mut flipped.dataset.rows {
+        row.pose_y = -row.pose_y;
+    }
+    let cfg = PoseConfig { size: 64, batch: 4, epochs: 2, hidden: 16, y_weight: 0.0, ..PoseConfig::default() };
+    let a = posenet_outputs(&corpus, &cfg, &dir.join("a"));
+    let b = posenet_outputs(&flipped, &cfg, &dir.join("b"));
+    assert_eq!(a, b, "with y_weight 0 the y labels changed the network");
+    let cfg1 = PoseConfig { y_weight: 1.0, ..cfg };
+    let c = posenet_outputs(&corpus, &cfg1, &dir.join("c"));
+    let d = posenet_outputs(&flipped, &cfg1, &dir.join("d"));
+    assert_ne!(c, d, "with y_weight 1 the y labels must matter");
+
+    let l2 = PoseConfig { l2: 1e-4, ..cfg1 };
+    let (_, state) = train_posenet(&corpus, &l2, Backend::Flex, &dir.join("l2"), false, &mut Silent).expect("l2");
+    let h = &state.history;
+    assert!(h.iter().all(|e| e.mean.regularisation > 0.0), "{h:?}");
+    assert!((h[0].mean.total - h[0].mean.supervised - h[0].mean.regularisation).abs() < 1e-9, "{:?}", h[0].mean);
+}
+
 #[test]
 fn evaluation_writes_the_report_with_every_table() {
     let (dir, corpus) = corpus("eval");
@@ -144,6 +174,15 @@ fn evaluation_writes_the_report_with_every_table() {
     }
     let md = std::fs::read_to_string(out.join("report.md")).expect("md");
     assert!(md.contains("Pose MAE") && md.contains("ablations") && md.contains("92.5%"));
+    // poses.csv holds every image the MAE averaged: tap, sheared and each model's unsheared.
+    let csv = std::fs::read_to_string(out.join("poses.csv")).expect("poses.csv");
+    let lines: Vec<Vec<&str>> = csv.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(lines.len(), 8 * (2 + 2));
+    let taps: Vec<f64> =
+        lines.iter().filter(|l| l[0] == "tap").map(|l| l[11].parse::<f64>().expect("yaw error")).collect();
+    let mean = taps.iter().sum::<f64>() / taps.len() as f64;
+    let want = report.pose_tap.expect("tap MAE").yaw_deg;
+    assert!((mean - want).abs() < 1e-2, "poses.csv tap yaw MAE {mean} against the report's {want}");
     let grid = image::open(out.join("grid.png")).expect("grid").into_luma8();
     assert_eq!(grid.width() as usize, 4 * (64 + 4) + 4);
     // A run directory without weights is a clear error.
