@@ -65,12 +65,37 @@ pub fn read_json<T: DeserializeOwned>(path: &Path) -> Result<T> {
 /// per-thread buffer that `valid()` folds in but saving does not, so without this the file
 /// would hold statistics one step old (the regression test
 /// `unshear_model_losses_fall_in_both_phases_and_checkpoints_reload_to_identical_outputs`).
+/// The header's keys are then sorted ([`canonical_safetensors`]), so equal weights give
+/// equal bytes.
 pub fn save_weights<M: Module>(module: &M, path: &Path) -> Result<()> {
     let _ = module.valid();
     let tmp = temp_path(path);
     let mut store = SafetensorsStore::from_file(&tmp).overwrite(true);
     module.save_into(&mut store).map_err(|e| ModelError::checkpoint(&tmp, format!("could not save weights: {e}")))?;
-    fs::rename(&tmp, path).map_err(|e| ModelError::io(path, "rename into place", e))
+    let bytes = fs::read(&tmp).map_err(|e| ModelError::io(&tmp, "read", e))?;
+    let _ = fs::remove_file(&tmp);
+    write_atomic(path, &canonical_safetensors(&bytes).map_err(|e| ModelError::checkpoint(path, e))?)
+}
+
+/// A safetensors file with its JSON header's keys sorted and the header padded with spaces
+/// to a multiple of 8 bytes. burn writes the `__metadata__` entries in hash-map order, which
+/// changes from process to process, so two runs with equal weights wrote different bytes.
+/// Tensor offsets count from the end of the header, so the data is copied unchanged.
+pub fn canonical_safetensors(bytes: &[u8]) -> std::result::Result<Vec<u8>, String> {
+    let len_bytes: [u8; 8] =
+        bytes.get(..8).and_then(|b| b.try_into().ok()).ok_or("not safetensors: shorter than its header length")?;
+    let len = usize::try_from(u64::from_le_bytes(len_bytes)).map_err(|_| "header length out of range")?;
+    let end = 8usize.checked_add(len).filter(|&e| e <= bytes.len()).ok_or("not safetensors: header past the end")?;
+    // serde_json's map is ordered by key (no `preserve_order`), so re-serialising sorts.
+    let header: serde_json::Value =
+        serde_json::from_slice(&bytes[8..end]).map_err(|e| format!("not safetensors: header is not JSON: {e}"))?;
+    let mut text = serde_json::to_vec(&header).map_err(|e| e.to_string())?;
+    text.resize(text.len().div_ceil(8) * 8, b' ');
+    let mut out = Vec::with_capacity(8 + text.len() + bytes.len() - end);
+    out.extend_from_slice(&(text.len() as u64).to_le_bytes());
+    out.extend_from_slice(&text);
+    out.extend_from_slice(&bytes[end..]);
+    Ok(out)
 }
 
 /// Loads safetensors weights into `module`; every tensor must be present and of the right
@@ -180,5 +205,39 @@ impl RunDir {
             .map_err(|e| ModelError::checkpoint(&opt, format!("not a readable optimizer state: {e}")))?;
         let state = read_json(&dir.join("state.json"))?;
         Ok((module, optim, state))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn file(header: &str, data: &[u8]) -> Vec<u8> {
+        let mut v = (header.len() as u64).to_le_bytes().to_vec();
+        v.extend_from_slice(header.as_bytes());
+        v.extend_from_slice(data);
+        v
+    }
+
+    /// burn wrote `__metadata__` in hash-map order, so equal weights saved by two processes
+    /// differed in their bytes.
+    #[test]
+    fn weights_with_metadata_in_another_order_gave_other_bytes() {
+        let t = r#""w":{"dtype":"F32","shape":[2],"data_offsets":[0,8]}"#;
+        let a = file(&format!(r#"{{"__metadata__":{{"version":"1","format":"pt"}},{t}}}"#), &[1, 2, 3, 4, 5, 6, 7, 8]);
+        let b =
+            file(&format!(r#"{{{t},"__metadata__":{{"format":"pt","version":"1"}}}}  "#), &[1, 2, 3, 4, 5, 6, 7, 8]);
+        let (ca, cb) = (canonical_safetensors(&a).expect("a"), canonical_safetensors(&b).expect("b"));
+        assert_eq!(ca, cb);
+        let len = u64::from_le_bytes(ca[..8].try_into().expect("8 bytes")) as usize;
+        assert_eq!(len % 8, 0);
+        assert_eq!(&ca[8 + len..], &[1, 2, 3, 4, 5, 6, 7, 8]);
+        let header: serde_json::Value = serde_json::from_slice(&ca[8..8 + len]).expect("header");
+        assert_eq!(header["w"]["data_offsets"], serde_json::json!([0, 8]));
+        assert!(canonical_safetensors(&[1, 2]).is_err());
+        assert!(canonical_safetensors(&file("{not json", &[])).is_err());
+        let mut long = file("{}", &[]);
+        long[..8].copy_from_slice(&1000u64.to_le_bytes());
+        assert!(canonical_safetensors(&long).expect_err("too long").contains("past the end"));
     }
 }

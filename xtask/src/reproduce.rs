@@ -83,7 +83,10 @@ pub(crate) const LR_SUPERVISED: f64 = 2.5e-5 * 80.0;
 pub(crate) const POSE_REGRESSION: &str = "y_weight = 0.0\nl2 = 1e-5\n";
 
 /// The `tacsim` binary beside this xtask (same target directory and profile), built first:
-/// `cargo run --release -p xtask -- reproduce` uses the release build, `cargo xtask` the dev one.
+/// `cargo xtask` (a release alias, `.cargo/config.toml`) runs the release build. Two runs of
+/// one build train to identical weights, but the quick study under the dev profile gave
+/// SSIM(U_rec, U_GT) 74.0% for the semi-supervised model and 73.9% under release, on the
+/// same data (the input's scores agree in every digit): figures come from the release build.
 pub(crate) fn tacsim_binary() -> Result<PathBuf> {
     let mut args = vec!["build", "--quiet", "--bin", "tacsim"];
     if !cfg!(debug_assertions) {
