@@ -184,13 +184,13 @@ pub fn pose_error(predicted: &[Pose], truth: &[Pose]) -> PoseError {
 
 /// `poses.csv`: one line per evaluated image with the true and predicted pose, so that errors
 /// can be broken down (by shape, depth, offset, ...) by joining `row` with `targets.csv`.
-fn poses_csv(corpus: &Corpus, rows: &[usize], truth: &[Pose], sets: &[(String, Vec<Pose>)]) -> String {
+fn poses_csv(corpus: &Corpus, rows: &[usize], sets: &[(String, Vec<Pose>)]) -> String {
     let mut s = String::from(
         "images,row,sensor_image,shape,depth_mm,x_mm,y_mm,yaw_deg,pred_x_mm,pred_y_mm,pred_yaw_deg,yaw_error_deg\n",
     );
     for (name, predicted) in sets {
-        for ((&r, t), p) in rows.iter().zip(truth).zip(predicted) {
-            let row = &corpus.dataset.rows[r];
+        for (&r, p) in rows.iter().zip(predicted) {
+            let (row, t) = (&corpus.dataset.rows[r], corpus.pose(r));
             s.push_str(&format!(
                 "{name},{r},{},{},{:.4},{:.4},{:.4},{:.3},{:.4},{:.4},{:.3},{:.3}\n",
                 row.sensor_image,
@@ -331,7 +331,7 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
     write_atomic(&out.join("report.md"), markdown(&report).as_bytes())?;
     write_grid(&out.join("grid.png"), &grid_columns, side, 12)?;
     if !pose_sets.is_empty() {
-        write_atomic(&out.join("poses.csv"), poses_csv(corpus, &slides, &truth, &pose_sets).as_bytes())?;
+        write_atomic(&out.join("poses.csv"), poses_csv(corpus, &slides, &pose_sets).as_bytes())?;
     }
     Ok(report)
 }

@@ -22,10 +22,10 @@
 //! still divided by 10 after half its phase) they learn the pin lattice within an epoch: on
 //! the `study` data at 64 px, two baseline epochs reached SSIM(U_rec, U_GT) 12% at 1e-4, 39%
 //! at 1e-3 and 45% at 3e-3 (measured while the supervised targets were still shifted with
-//! their inputs, which capped every run near the mean lattice). The semi-supervised runs see 10% of the pairs, so they get more
-//! epochs than the baseline to reach a comparable number of steps (in the quick study, 10 epochs
-//! gave SSIM(U_rec, U_GT) 61% against the baseline's 75%, 40 epochs 74%; the same 10 epochs
-//! without the self-supervised phase 11%). Everything else keeps the paper's values.
+//! their inputs, which capped every run near the mean lattice). The semi-supervised runs see
+//! 10% of the pairs, so they get more epochs than the baseline to reach a comparable number of
+//! steps (in the quick study, 10 epochs gave SSIM(U_rec, U_GT) 61% against the baseline's 75%,
+//! 40 epochs 74%; the same 10 epochs without the self-supervised phase 11%). Everything else keeps the paper's values.
 //! Independent runs train in parallel (`--jobs`, default: one per core; a training is
 //! single-threaded on flex).
 
