@@ -151,6 +151,33 @@ fn render_tap_and_slide_on_a_shape() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The `study` recipes once labelled every pose in the edge frame at one contact point, with y
+/// offsets of up to 5 mm along the edge (the paper's protocol). The disk (radius 50 mm, centred
+/// on the scene origin) shows why its yaw labels were not in the images: a tap turned about the
+/// disk's centre by `phi` gives the same image, yet its label yaw at the fixed contact point is
+/// `phi` larger (4.5 deg here); in the edge frame at the contact point under the sensor
+/// (`around_contour = true`, y = 0, what the recipes use now) the two labels are equal. A tap
+/// moved by the same y without turning, which has the fixed-point labels of the first, gives
+/// another image.
+#[test]
+fn disk_taps_turned_about_its_centre_gave_one_image_but_two_yaw_labels() {
+    let dir = temp_dir("cli", "disk-symmetry");
+    let radius_mm = 51.0; // 1 mm off the material
+    let phi = (4.0f64 / radius_mm).asin();
+    let render = |file: &str, x: f64, y: f64, yaw: f64| {
+        let pose = format!("{x},{y},2,{yaw}");
+        render_and_count(&dir, file, &["--shape", "disk", "--size", "128", "--pose", &pose]);
+        read_png(&dir.join(file)).expect("written").into_raw()
+    };
+    let at_contact = render("a.png", radius_mm, 0.0, 10.0);
+    let turned = render("c.png", radius_mm * phi.cos(), 4.0, 10.0 + phi.to_degrees());
+    let moved = render("b.png", radius_mm, 4.0, 10.0);
+    assert_eq!(at_contact, turned, "a tap turned about the disk's centre is the same tap");
+    let differ = at_contact.iter().zip(&moved).filter(|(a, b)| a != b).count();
+    assert!(differ > 50, "the same fixed-point labels at another place: {differ} px differ");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn render_on_layered_skins() {
     let dir = temp_dir("cli", "layered");

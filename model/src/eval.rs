@@ -103,6 +103,11 @@ pub struct Report {
     /// Frame of the dataset's pose labels (`poses.frame` of its recipe: `scene` or `edge`).
     #[serde(default)]
     pub label_frame: String,
+    /// Whether each pose's contact point was drawn around the shape's whole contour
+    /// (`poses.around_contour` of its recipe), with y = 0 on it: the edge frame then sits
+    /// under the sensor, and x and yaw are what a tap shows.
+    #[serde(default)]
+    pub around_contour: bool,
     /// MS-SSIM scales used at this size (5 from 176 px up).
     pub ms_ssim_scales: usize,
     /// `S_inp` against `U_GT`: the similarity before any shear removal.
@@ -317,6 +322,13 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
     let mut report = Report {
         dataset: corpus.dataset.dir.display().to_string(),
         label_frame: label_frame(&corpus.dataset.meta.recipe),
+        around_contour: corpus
+            .dataset
+            .meta
+            .recipe
+            .pointer("/poses/around_contour")
+            .and_then(|v| v.as_bool())
+            .unwrap_or(false),
         size: side,
         test_pairs: pairs.len(),
         ms_ssim_scales: scales,
@@ -466,7 +478,9 @@ pub fn markdown(r: &Report) -> String {
         ));
     }
     s.push_str("\n## Pose MAE (paper, Table I: tap 0.43 mm / 2.13 deg; sheared 2.72 / 22.20; unsheared supervised 0.64 / 4.38; unsheared semi-supervised 0.71 / 4.81)\n\n");
-    s.push_str(if r.label_frame == "edge" {
+    s.push_str(if r.around_contour {
+        "Horizontal x is the paper's tau_x: labels are in the edge frame at each pose's own contact point, drawn around the whole contour: x across the edge, yaw from its tangent, and y = 0 (its column measures nothing).\n\n"
+    } else if r.label_frame == "edge" {
         "Horizontal x is the paper's tau_x: labels are in the edge frame, x across the edge at each pose's contact point; y, which the paper does not report, runs along the edge, and a locally straight edge does not reveal it.\n\n"
     } else {
         "Horizontal x is the paper's tau_x (across the edge of the disk and the clover at their contact locations); y, which the paper does not report, runs along those edges, and a locally straight edge does not reveal it.\n\n"
