@@ -8,6 +8,7 @@
 //! | | `--quick` | full (CPU scale) |
 //! |---|---|---|
 //! | recipe | `study-quick` (2,880 images at 128 px, 180 poses) | `study` (18,000 images at 128 px, 600 poses) |
+| poses | contact points around each contour, edge-frame labels | the same |
 //! | network size | 64 px (images averaged down, grey) | 128 px |
 //! | self-supervised: epochs x batches | 3 x all | 3 x 150 |
 //! | supervised at 10/8/5% and no-patch: epochs | 40 (3 batches each) | 25 (23 batches each) |
@@ -78,8 +79,9 @@ pub(crate) const LR_SUPERVISED: f64 = 2.5e-5 * 80.0;
 
 /// The pose network's loss in the studies: x and yaw only, as the paper's PoseNet (y runs along
 /// the edge, which the taps do not reveal: learning it anyway memorises the training poses),
-/// and a light L2 penalty. On the `study` data at 128 px (15 epochs, 400 test pairs) the tap
-/// MAE went from 0.40 mm / 6.97 deg to 0.32 mm / 6.47 deg (0.32 / 6.58 without the penalty).
+/// and a light L2 penalty. On the `study` data at 128 px (15 epochs, 400 test pairs), when its
+/// labels were still measured at one contact point per shape, the tap MAE went from 0.40 mm /
+/// 6.97 deg to 0.32 mm / 6.47 deg (0.32 / 6.58 without the penalty).
 pub(crate) const POSE_REGRESSION: &str = "y_weight = 0.0\nl2 = 1e-5\n";
 
 /// The `tacsim` binary beside this xtask (same target directory and profile), built first:
