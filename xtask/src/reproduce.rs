@@ -8,7 +8,7 @@
 //! | | `--quick` | full (CPU scale) |
 //! |---|---|---|
 //! | recipe | `study-quick` (2,880 images at 128 px, 180 poses) | `study` (18,000 images at 128 px, 600 poses) |
-| poses | contact points around each contour, edge-frame labels | the same |
+//! | poses | contact points around each contour, edge-frame labels | the same |
 //! | network size | 64 px (images averaged down, grey) | 128 px |
 //! | self-supervised: epochs x batches | 3 x all | 3 x 150 |
 //! | supervised at 10/8/5% and no-patch: epochs | 40 (3 batches each) | 25 (23 batches each) |
