@@ -322,13 +322,7 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
     let mut report = Report {
         dataset: corpus.dataset.dir.display().to_string(),
         label_frame: label_frame(&corpus.dataset.meta.recipe),
-        around_contour: corpus
-            .dataset
-            .meta
-            .recipe
-            .pointer("/poses/around_contour")
-            .and_then(|v| v.as_bool())
-            .unwrap_or(false),
+        around_contour: around_contour(&corpus.dataset.meta.recipe),
         size: side,
         test_pairs: pairs.len(),
         ms_ssim_scales: scales,
@@ -351,6 +345,11 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
 /// The recipe's `poses.frame` (`scene` when the recipe does not say).
 fn label_frame(recipe: &serde_json::Value) -> String {
     recipe.pointer("/poses/frame").and_then(|v| v.as_str()).unwrap_or("scene").to_owned()
+}
+
+/// The recipe's `poses.around_contour` (`false` when the recipe does not say).
+fn around_contour(recipe: &serde_json::Value) -> bool {
+    recipe.pointer("/poses/around_contour").and_then(|v| v.as_bool()).unwrap_or(false)
 }
 
 /// The semi-supervised model at the paper's 10% with the patch loss, if evaluated.
