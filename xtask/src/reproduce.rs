@@ -26,7 +26,8 @@
 //! their inputs, which capped every run near the mean lattice). The semi-supervised runs see
 //! 10% of the pairs, so they get more epochs than the baseline to reach a comparable number of
 //! steps (in the quick study, 10 epochs gave SSIM(U_rec, U_GT) 61% against the baseline's 75%,
-//! 40 epochs 74%; the same 10 epochs without the self-supervised phase 11%). Everything else keeps the paper's values.
+//! 40 epochs 74%; the same 10 epochs without the self-supervised phase 11%). Everything else
+//! keeps the paper's values.
 //! Independent runs train in parallel (`--jobs`, default: one per core; a training is
 //! single-threaded on flex).
 
