@@ -66,6 +66,50 @@ pub struct PoseError {
     pub yaw_deg: f64,
 }
 
+/// Bands of press depth (mm; lower bound included, upper excluded, none: no upper bound) that
+/// split the pose errors (`Report::pose_by_depth`): a shallow press shows a small, faint
+/// contact patch, which shear removal blurs first.
+pub const DEPTH_BANDS_MM: [(f64, Option<f64>); 3] = [(0.0, Some(2.0)), (2.0, Some(3.0)), (3.0, None)];
+
+/// Pose MAE of one set of images within one band of press depth.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PoseByDepth {
+    /// The images: `tap`, `sheared` or `unsheared <run>` (as the rows of `poses.csv`).
+    pub images: String,
+    /// Lower bound of the band (mm, included).
+    pub from_mm: f64,
+    /// Upper bound of the band (mm, excluded; none: no upper bound).
+    pub to_mm: Option<f64>,
+    /// Images in the band.
+    pub count: usize,
+    /// Their pose MAE.
+    pub error: PoseError,
+}
+
+/// Pose errors of `predicted` against `truth` by band of press depth (`depth_mm`, the same
+/// order) in each of [`DEPTH_BANDS_MM`], empty bands left out.
+pub fn pose_by_depth(images: &str, predicted: &[Pose], truth: &[Pose], depth_mm: &[f64]) -> Vec<PoseByDepth> {
+    DEPTH_BANDS_MM
+        .iter()
+        .filter_map(|&(from_mm, to_mm)| {
+            let (p, t): (Vec<Pose>, Vec<Pose>) = predicted
+                .iter()
+                .zip(truth)
+                .zip(depth_mm)
+                .filter(|&(_, &d)| d >= from_mm && to_mm.is_none_or(|to| d < to))
+                .map(|((p, t), _)| (*p, *t))
+                .unzip();
+            (!p.is_empty()).then(|| PoseByDepth {
+                images: images.to_owned(),
+                from_mm,
+                to_mm,
+                count: p.len(),
+                error: pose_error(&p, &t),
+            })
+        })
+        .collect()
+}
+
 /// Scores of one shear-removal model on the test pairs.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct UnshearScores {
@@ -118,6 +162,9 @@ pub struct Report {
     pub pose_tap: Option<PoseError>,
     /// Pose MAE on the sheared images `S_inp`.
     pub pose_sheared: Option<PoseError>,
+    /// Pose MAE of every set of images by band of press depth ([`pose_by_depth`]).
+    #[serde(default)]
+    pub pose_by_depth: Vec<PoseByDepth>,
     /// The paper's claims checked on these numbers.
     pub checks: Vec<Check>,
 }
@@ -319,6 +366,11 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
     }
     grid_columns.push(("U_GT".into(), gt.clone()));
     let (_, scales) = metrics::ms_ssim(&gt[0], &gt[0], side, side)?;
+    let depth_mm: Vec<f64> = slides.iter().map(|&r| corpus.dataset.rows[r].pose_z).collect();
+    let pose_by_depth = pose_sets
+        .iter()
+        .flat_map(|(name, predicted)| self::pose_by_depth(name, predicted, &truth, &depth_mm))
+        .collect();
     let mut report = Report {
         dataset: corpus.dataset.dir.display().to_string(),
         label_frame: label_frame(&corpus.dataset.meta.recipe),
@@ -330,6 +382,7 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
         models,
         pose_tap,
         pose_sheared,
+        pose_by_depth,
         checks: Vec::new(),
     };
     report.checks = checks(&report);
@@ -426,6 +479,33 @@ fn pose_cells(p: Option<PoseError>) -> String {
     }
 }
 
+/// The pose errors by press depth as a markdown section (empty without a pose network).
+fn depth_table(bands: &[PoseByDepth]) -> String {
+    if bands.is_empty() {
+        return String::new();
+    }
+    let label = |(from, to): (f64, Option<f64>)| match to {
+        Some(to) if from == 0.0 => format!("below {to} mm"),
+        Some(to) => format!("{from}-{to} mm"),
+        None => format!("{from} mm and deeper"),
+    };
+    let mut s = String::from("\n### Pose MAE by press depth: horizontal x (mm) / yaw (deg) (images)\n\n| images |");
+    s.push_str(&DEPTH_BANDS_MM.iter().map(|&b| format!(" {} |", label(b))).collect::<String>());
+    s.push_str(&format!("\n|---|{}\n", "---|".repeat(DEPTH_BANDS_MM.len())));
+    // Bands come grouped by images, in the order of the pose table.
+    for group in bands.chunk_by(|a, b| a.images == b.images) {
+        s.push_str(&format!("| {} |", group[0].images));
+        for &(from, to) in &DEPTH_BANDS_MM {
+            match group.iter().find(|b| b.from_mm == from && b.to_mm == to) {
+                Some(b) => s.push_str(&format!(" {:.2} / {:.1} ({}) |", b.error.x_mm, b.error.yaw_deg, b.count)),
+                None => s.push_str(" - |"),
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
 /// The report as markdown, the paper's numbers beside ours.
 pub fn markdown(r: &Report) -> String {
     let mut s = String::new();
@@ -490,6 +570,7 @@ pub fn markdown(r: &Report) -> String {
     for m in &r.models {
         s.push_str(&format!("| unsheared by {} | {} |\n", m.run, pose_cells(m.pose)));
     }
+    s.push_str(&depth_table(&r.pose_by_depth));
     s.push_str("\n## The paper's claims on these numbers\n\n");
     for c in &r.checks {
         s.push_str(&format!("- {} {}: {}\n", if c.holds { "[holds]" } else { "[does not hold]" }, c.claim, c.evidence));
@@ -534,5 +615,18 @@ mod tests {
         let p = |x_mm, yaw_deg| Pose { x_mm, y_mm: 0.0, yaw_deg };
         let e = pose_error(&[p(1.0, 179.0), p(-1.0, 0.0)], &[p(0.0, -179.0), p(0.0, 4.0)]);
         assert_eq!((e.x_mm, e.y_mm, e.yaw_deg), (1.0, 0.0, 3.0));
+    }
+
+    #[test]
+    fn pose_errors_split_by_press_depth() {
+        let p = |x_mm, yaw_deg| Pose { x_mm, y_mm: 0.0, yaw_deg };
+        let truth = [p(0.0, 0.0); 4];
+        let predicted = [p(1.0, 10.0), p(3.0, 30.0), p(0.5, 2.0), p(0.1, 1.0)];
+        let bands = pose_by_depth("tap", &predicted, &truth, &[1.2, 1.9, 2.0, 4.5]);
+        let got: Vec<_> = bands.iter().map(|b| (b.from_mm, b.to_mm, b.count, b.error.x_mm, b.error.yaw_deg)).collect();
+        assert_eq!(got, [(0.0, Some(2.0), 2, 2.0, 20.0), (2.0, Some(3.0), 1, 0.5, 2.0), (3.0, None, 1, 0.1, 1.0)]);
+        let table = depth_table(&bands);
+        assert!(table.contains("| tap | 2.00 / 20.0 (2) | 0.50 / 2.0 (1) | 0.10 / 1.0 (1) |"), "{table}");
+        assert!(table.contains("below 2 mm | 2-3 mm | 3 mm and deeper"), "{table}");
     }
 }
