@@ -12,7 +12,7 @@
 //! | network size | 64 px (images averaged down, grey) | 128 px |
 //! | self-supervised: epochs x batches | 3 x all | 3 x 150 |
 //! | supervised at 10/8/5% and no-patch: epochs | 40 (3 batches each) | 50, the paper's (23 batches each at 10%) |
-//! | baseline: epochs x batches | 5 x all (41) | 5 x all (225): as many steps as the 10% run |
+//! | baseline: epochs x batches | 5 x all (41) | 5 x all (225): 1,125 steps, the 10% run 1,150 |
 //! | pose network: epochs | 15 | 15 (113 batches each) |
 //! | pose network: loss | x and yaw (`y_weight = 0`), `l2 = 1e-5` | the same |
 //! | learning rates, self-supervised / supervised | 2e-3 / 2e-3 | 2e-3 / 2e-3 |
