@@ -263,6 +263,10 @@ fn summary(out: &Path, state: &TrainState) -> String {
             e.mean.supervised,
             e.mean.patch
         ));
+        if e.mean.critic != 0.0 {
+            s.pop();
+            s.push_str(&format!(" [adversarial {:.5}, critic {:.5}]\n", e.mean.adversarial, e.mean.critic));
+        }
     }
     s
 }

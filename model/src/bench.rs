@@ -53,7 +53,7 @@ pub fn measure(backend: Backend, size: usize) -> Result<BenchRow> {
     let batch = 32;
     let net = size_of(size)?;
     let device = backend.training_device();
-    let w = Weights { patch: 0.1, l1: 1e-7, l2: 1e-6 };
+    let w = Weights { patch: 0.1, l1: 1e-7, l2: 1e-6, adversarial: 0.0 };
     let img = || Tensor::<4>::random([batch, 1, size, size], Distribution::Uniform(0.0, 1.0), &device);
     let mut model = Some(Unshear::new(net, &device));
     let mut optim = AdamConfig::new().init();

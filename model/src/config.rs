@@ -74,6 +74,10 @@ pub struct UnshearConfig {
     pub l1: f64,
     /// L2 weight penalty per unit w^2 (ours, as `l1`).
     pub l2: f64,
+    /// Weight of the adversarial term in the self-supervised phase (not in the paper, which
+    /// has no such term: default 0, off). Above 0 the model gets a critic that tells tap
+    /// images from `M`'s output ([`crate::objective`]).
+    pub adversarial_weight: f64,
     /// Fraction of the training poses whose true pairs the supervised phase uses (paper:
     /// 0.1). The dataset's paired subset must hold at least that many poses; a smaller
     /// fraction takes the first poses of that subset (the label-fraction sweep).
@@ -106,6 +110,7 @@ impl Default for UnshearConfig {
             shift_targets: false,
             l1: 1e-7,
             l2: 1e-6,
+            adversarial_weight: 0.0,
             label_fraction: 0.1,
             seed: 0,
             checkpoint_steps: 200,
@@ -122,6 +127,12 @@ impl UnshearConfig {
     /// Crop side of the patch loss at this image size (px, at least 4).
     pub fn patch_px(&self) -> usize {
         (self.patch_px_at_256 * self.size / 256).max(4)
+    }
+
+    /// Whether training adds the adversarial term's critic: a self-supervised phase with
+    /// `adversarial_weight` above 0.
+    pub fn uses_critic(&self) -> bool {
+        self.adversarial_weight > 0.0 && self.self_supervised_epochs > 0 && self.mode != Mode::Baseline
     }
 
     /// Largest shift (px).
@@ -144,7 +155,12 @@ impl UnshearConfig {
         for (field, v) in [("beta1", self.beta1), ("beta2", self.beta2), ("label_fraction", self.label_fraction)] {
             in_range(field, v, 0.0, 1.0)?;
         }
-        for (field, v) in [("patch_weight", self.patch_weight), ("l1", self.l1), ("l2", self.l2)] {
+        for (field, v) in [
+            ("patch_weight", self.patch_weight),
+            ("l1", self.l1),
+            ("l2", self.l2),
+            ("adversarial_weight", self.adversarial_weight),
+        ] {
             in_range(field, v, 0.0, f64::MAX)?;
         }
         in_range("shift_fraction", self.shift_fraction, 0.0, 0.25)?;

@@ -225,6 +225,31 @@ impl ShearDecoder {
     }
 }
 
+/// Critic `C` of the optional adversarial term (not in the paper; see
+/// [`crate::objective`]): a patch critic scoring every 8x8 cell of an image for how much it
+/// looks like a tap image, as CycleGAN's discriminators do. Conv 32, 32, 64, 64 (batch norm,
+/// ReLU), then a linear stride-2 Conv to one channel: `[batch, 1, 8, 8]` scores.
+#[derive(Module, Debug)]
+pub struct Critic {
+    trunk: ConvStack,
+    score: Conv2d,
+}
+
+impl Critic {
+    /// The critic for `size` inputs.
+    pub fn new(size: Size, device: &Device) -> Self {
+        let ch = encoder_channels(&[32, 32, 64, 64], size);
+        let last = *ch.last().unwrap_or(&64);
+        Self { trunk: ConvStack::new(1, &ch, device), score: conv(last, 1, device) }
+    }
+
+    /// `[batch, 1, s, s]` to `[batch, 1, 8, 8]` unbounded scores (least-squares targets: 1
+    /// for taps, 0 for unsheared images).
+    pub fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        self.score.forward(self.trunk.forward(x))
+    }
+}
+
 /// Tap encoder `E_T`: unsheared image to pose code.
 #[derive(Module, Debug)]
 pub struct TapEncoder {
@@ -265,7 +290,8 @@ mod tests {
             assert_eq!(shear.dims(), [2, CODE_CHANNELS, 8, 8]);
             assert_eq!(dt.forward(pose.clone()).dims(), [2, 1, s, s]);
             assert_eq!(ds.forward(pose, shear).dims(), [2, 1, s, s]);
-            assert_eq!(et.forward(x).dims(), [2, CODE_CHANNELS, 8, 8]);
+            assert_eq!(et.forward(x.clone()).dims(), [2, CODE_CHANNELS, 8, 8]);
+            assert_eq!(Critic::new(size, &device).forward(x).dims(), [2, 1, 8, 8]);
             counts.push((size, es.num_params(), dt.num_params(), ds.num_params(), et.num_params()));
         }
         for c in &counts {

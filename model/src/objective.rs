@@ -11,6 +11,17 @@
 //!   per image, weighted by lambda = `patch_weight`;
 //! - weight regularisation `l1 sum|w| + l2 sum w^2` over every conv and linear weight.
 //!
+//! Not in the paper, off by default (`adversarial_weight = 0`): an adversarial term in the
+//! self-supervised phase, as CycleGAN pairs its cycle losses with. The paper's cycles and
+//! reconstruction are all met by `M` close to the identity with the shear left in the pose
+//! code (README, "The CPU-scale study"); a critic `C` that tells tap images from `M`'s output
+//! rules that out. Least-squares GAN losses over `C`'s 8x8 patch scores:
+//!
+//! - critic `L_C = (E(C(x_t) - 1)^2 + E C(M(x_s))^2) / 2`, with `M(x_s)` detached;
+//! - generator `L_adv = E(C(M(x_s)) - 1)^2`, weighted by `adversarial_weight`, through a
+//!   no-gradient copy of `C` (as the cycles' copy of D_S), so E_S and D_T learn from it and
+//!   `C` from `L_C` alone.
+//!
 //! The squared norms are per-pixel means (MSE). Per-module objectives: E_S minimises every
 //! term, E_T `L_cyc`, D_T `L_cyc + L_sup + lambda L_patch` and D_S `L_rec` alone. One backward
 //! pass over the sum gives exactly these gradients: in the supervised phase no other term
@@ -28,6 +39,7 @@ use crate::unshear::Unshear;
 
 /// The loss terms of one step (batch means), for logs and tests.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct StepLosses {
     /// Forward cycle `x_s -> M -> K -> x_s`.
     pub cycle_forward: f64,
@@ -41,6 +53,10 @@ pub struct StepLosses {
     pub patch: f64,
     /// Weight regularisation (weighted).
     pub regularisation: f64,
+    /// Adversarial generator term `L_adv` (unweighted; 0 without the critic).
+    pub adversarial: f64,
+    /// The critic's loss `L_C` (0 without the critic).
+    pub critic: f64,
     /// The sum that was minimised.
     pub total: f64,
 }
@@ -55,6 +71,8 @@ impl StepLosses {
             supervised: f(self.supervised, other.supervised),
             patch: f(self.patch, other.patch),
             regularisation: f(self.regularisation, other.regularisation),
+            adversarial: f(self.adversarial, other.adversarial),
+            critic: f(self.critic, other.critic),
             total: f(self.total, other.total),
         }
     }
@@ -69,6 +87,8 @@ pub struct Weights {
     pub l1: f64,
     /// L2 weight penalty.
     pub l2: f64,
+    /// Weight of the adversarial generator term (0: the paper's objective).
+    pub adversarial: f64,
 }
 
 /// Mean squared error (a scalar tensor).
@@ -93,19 +113,30 @@ pub fn self_supervised(
     let (pose, shear) = model.es.forward(sheared.clone());
     // Forward cycle: x_s -> M(x_s) -> K(M(x_s); z_s).
     let unsheared = model.dt.forward(pose.clone());
-    let back = ds_cycle.forward(model.et.forward(unsheared), shear.clone());
+    let back = ds_cycle.forward(model.et.forward(unsheared.clone()), shear.clone());
     let cycle_forward = mse(back, sheared.clone());
     let reconstruction = mse(model.ds.forward(pose, shear.clone()), sheared);
     // Backward cycle: x_t -> K(x_t; z_s) -> M(K(x_t)).
     let k = ds_cycle.forward(model.et.forward(taps.clone()), shear);
-    let cycle_backward = mse(model.unshear(k), taps);
-    let (total, reg) =
-        with_regularisation(cycle_forward.clone() + cycle_backward.clone() + reconstruction.clone(), model, w);
+    let cycle_backward = mse(model.unshear(k), taps.clone());
+    let mut objective = cycle_forward.clone() + cycle_backward.clone() + reconstruction.clone();
+    let (mut adversarial_value, mut critic_value) = (0.0, 0.0);
+    if let (Some(critic), true) = (&model.critic, w.adversarial > 0.0) {
+        let real = critic.forward(taps);
+        let fake = critic.forward(unsheared.clone().detach());
+        let critic_loss = (real.sub_scalar(1.0).square().mean() + fake.square().mean()).mul_scalar(0.5);
+        let adversarial = critic.clone().no_grad().forward(unsheared).sub_scalar(1.0).square().mean();
+        (adversarial_value, critic_value) = (scalar(&adversarial), scalar(&critic_loss));
+        objective = objective + adversarial.mul_scalar(w.adversarial) + critic_loss;
+    }
+    let (total, reg) = with_regularisation(objective, model, w);
     let losses = StepLosses {
         cycle_forward: scalar(&cycle_forward),
         cycle_backward: scalar(&cycle_backward),
         reconstruction: scalar(&reconstruction),
         regularisation: reg,
+        adversarial: adversarial_value,
+        critic: critic_value,
         total: scalar(&total),
         ..StepLosses::default()
     };
@@ -235,6 +266,13 @@ mod tests {
         c.1
     }
 
+    /// The largest difference between two gradient lists, and the largest magnitude of `b`.
+    fn max_diff(a: &[f32], b: &[f32]) -> (f32, f32) {
+        assert_eq!(a.len(), b.len());
+        let err = a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+        (err, b.iter().map(|g| g.abs()).fold(0.0f32, f32::max))
+    }
+
     /// The per-module objectives: the gradients handed to the optimizer give D_S exactly the
     /// gradient of `L_rec`, while E_S, E_T and D_T learn from the cycles too. Regression: on a
     /// module with lazily initialised parameters the cycles' `no_grad()` copy of D_S switched
@@ -245,20 +283,47 @@ mod tests {
         let model = Unshear::new(Size::S64, &device);
         let s = Tensor::<4>::random([4, 1, 64, 64], Distribution::Uniform(0.0, 1.0), &device);
         let t = Tensor::<4>::random([4, 1, 64, 64], Distribution::Uniform(0.0, 1.0), &device);
-        let w = Weights { patch: 0.1, l1: 0.0, l2: 0.0 };
+        let w = Weights { patch: 0.1, l1: 0.0, l2: 0.0, adversarial: 0.0 };
         let (grads, _) = self_supervised(&model, s.clone(), t, w);
         let (pose, shear) = model.es.forward(s.clone());
         let rec = GradientsParams::from_grads(mse(model.ds.forward(pose, shear), s).backward(), &model);
         let (from_step, from_rec) = (grads_of(&model.ds, &grads), grads_of(&model.ds, &rec));
         assert!(!from_rec.is_empty() && from_rec.iter().any(|g| *g != 0.0));
-        assert_eq!(from_step.len(), from_rec.len());
-        let err = from_step.iter().zip(&from_rec).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
-        let scale = from_rec.iter().map(|g| g.abs()).fold(0.0f32, f32::max);
+        let (err, scale) = max_diff(&from_step, &from_rec);
         assert!(err <= 1e-5 * scale, "D_S gradient differs from L_rec's: {err} (scale {scale})");
         // Every other module learns from the step too.
         for g in [grads_of(&model.es, &grads), grads_of(&model.et, &grads), grads_of(&model.dt, &grads)] {
             assert!(g.iter().any(|v| *v != 0.0));
         }
+    }
+
+    /// The adversarial term: the critic's gradient is that of `L_C` alone (the generator's
+    /// term reaches it through a no-gradient copy), while the term changes what D_T learns;
+    /// D_S still learns from `L_rec` alone.
+    #[test]
+    fn critic_learns_from_its_own_loss_alone_and_the_tap_decoder_from_the_adversarial_term() {
+        let device = Device::flex().autodiff();
+        let model = Unshear::with_critic(Size::S64, &device);
+        let s = Tensor::<4>::random([4, 1, 64, 64], Distribution::Uniform(0.0, 1.0), &device);
+        let t = Tensor::<4>::random([4, 1, 64, 64], Distribution::Uniform(0.0, 1.0), &device);
+        let w = Weights { patch: 0.1, l1: 0.0, l2: 0.0, adversarial: 0.5 };
+        let (grads, losses) = self_supervised(&model, s.clone(), t.clone(), w);
+        assert!(losses.critic > 0.0 && losses.adversarial > 0.0, "{losses:?}");
+        let critic = model.critic.as_ref().expect("critic");
+        let fake = model.unshear(s.clone()).detach();
+        let own = (critic.forward(t.clone()).sub_scalar(1.0).square().mean() + critic.forward(fake).square().mean())
+            .mul_scalar(0.5);
+        let own = GradientsParams::from_grads(own.backward(), &model);
+        let (from_step, from_own) = (grads_of(critic, &grads), grads_of(critic, &own));
+        assert!(!from_own.is_empty() && from_own.iter().any(|g| *g != 0.0));
+        let (err, scale) = max_diff(&from_step, &from_own);
+        assert!(err <= 1e-5 * scale, "critic gradient differs from L_C's: {err} (scale {scale})");
+        let (paper, paper_losses) = self_supervised(&model, s, t, Weights { adversarial: 0.0, ..w });
+        assert_eq!((paper_losses.critic, paper_losses.adversarial), (0.0, 0.0));
+        assert!(grads_of(critic, &paper).is_empty(), "the paper's objective trained the critic");
+        assert_ne!(grads_of(&model.dt, &grads), grads_of(&model.dt, &paper));
+        let (err, scale) = max_diff(&grads_of(&model.ds, &grads), &grads_of(&model.ds, &paper));
+        assert!(err <= 1e-5 * scale, "the adversarial term reached D_S: {err} (scale {scale})");
     }
 
     #[test]

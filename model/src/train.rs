@@ -285,7 +285,13 @@ pub fn train_unshear(
 ) -> Result<(Unshear, TrainState)> {
     cfg.validate()?;
     let device = seeded_device(corpus, cfg.size, backend, cfg.seed)?;
-    let mut model = Unshear::new(cfg.net_size()?, &device);
+    // The critic only where a self-supervised phase uses it: a run that starts from another
+    // run's weights (`--init`) without one loads them into a model without a critic.
+    let mut model = if cfg.uses_critic() {
+        Unshear::with_critic(cfg.net_size()?, &device)
+    } else {
+        Unshear::new(cfg.net_size()?, &device)
+    };
     if let Some(path) = init {
         model = load_weights(model, path)?;
     }
@@ -328,7 +334,7 @@ pub fn train_unshear(
         Mode::SelfSupervised => vec![ss],
         Mode::Baseline => vec![sup],
     };
-    let w = Weights { patch: cfg.patch_weight, l1: cfg.l1, l2: cfg.l2 };
+    let w = Weights { patch: cfg.patch_weight, l1: cfg.l1, l2: cfg.l2, adversarial: cfg.adversarial_weight };
     let (max_shift, side, crop) = (cfg.max_shift_px(), cfg.size, cfg.patch_px());
     let (model, state) =
         run_loop(&run, Session { model, optim, state }, &phases, &settings, progress, |m, phase, chunk, rng| {
@@ -400,7 +406,8 @@ pub fn train_posenet(
         let y = corpus.scale.targets(&poses, &device);
         let loss = ((m.forward(x) - y).square() * output_weights.clone()).mean();
         let v = loss.clone().into_scalar::<f32>() as f64;
-        let (loss, reg) = objective::with_regularisation(loss, m, Weights { patch: 0.0, l1: 0.0, l2: cfg.l2 });
+        let (loss, reg) =
+            objective::with_regularisation(loss, m, Weights { patch: 0.0, l1: 0.0, l2: cfg.l2, adversarial: 0.0 });
         (
             GradientsParams::from_grads(loss.backward(), m),
             StepLosses { supervised: v, regularisation: reg, total: v + reg, ..StepLosses::default() },

@@ -6,12 +6,15 @@
 //!   ([`Unshear::reconstruct`]);
 //! - `K: T -> S`, `K(x_t; z_s) = D_S(E_T(x_t), z_s)`: adds the shear code `z_s` of a sheared
 //!   sample to a tap image ([`Unshear::shear`]).
+//!
+//! A model trained with the optional adversarial term (not in the paper, off by default)
+//! also holds that term's critic; inference never uses it.
 
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
 
 use crate::checkpoint::canonical_ids;
-use crate::network::{ShearDecoder, ShearEncoder, Size, TapDecoder, TapEncoder};
+use crate::network::{Critic, ShearDecoder, ShearEncoder, Size, TapDecoder, TapEncoder};
 
 /// The paper's model: shear encoder, tap decoder, shear decoder and tap encoder.
 #[derive(Module, Debug)]
@@ -24,6 +27,9 @@ pub struct Unshear {
     pub ds: ShearDecoder,
     /// `E_T`: unsheared image to pose code.
     pub et: TapEncoder,
+    /// The critic of the adversarial term, when training uses it (last, so that the four
+    /// networks' parameter ids are the same with and without it).
+    pub critic: Option<Critic>,
 }
 
 impl Unshear {
@@ -37,7 +43,15 @@ impl Unshear {
             dt: TapDecoder::new(size, device),
             ds: ShearDecoder::new(size, device),
             et: TapEncoder::new(size, device),
+            critic: None,
         })
+    }
+
+    /// [`Unshear::new`] with the critic of the adversarial term. Weights saved from it load
+    /// into a model without one (the critic's are left unused).
+    pub fn with_critic(size: Size, device: &Device) -> Self {
+        let model = Self::new(size, device);
+        canonical_ids(Self { critic: Some(Critic::new(size, device)), ..model })
     }
 
     /// `E_S(x_s)`: the pose and shear codes of sheared images.

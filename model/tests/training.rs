@@ -89,6 +89,35 @@ fn unshear_model_losses_fall_in_both_phases_and_checkpoints_reload_to_identical_
 }
 
 #[test]
+fn adversarial_runs_train_a_critic_and_their_weights_load_into_a_model_without_one() {
+    let (dir, corpus) = corpus("adversarial");
+    let cfg = UnshearConfig { adversarial_weight: 0.1, ..small(Mode::SelfSupervised) };
+    let run = dir.join("ss");
+    let (model, state) = train_unshear(&corpus, &cfg, Backend::Flex, &run, false, None, &mut Silent).expect("train");
+    assert!(model.critic.is_some());
+    let h = &state.history;
+    for e in h {
+        println!("{} {}: {:?}", e.phase, e.epoch, e.mean);
+    }
+    assert!(h.iter().all(|e| e.mean.critic > 0.0 && e.mean.adversarial > 0.0), "{h:?}");
+    // The critic learns to tell taps from M's output.
+    assert!(h[3].mean.critic < h[0].mean.critic, "critic {} -> {}", h[0].mean.critic, h[3].mean.critic);
+    // Inference and evaluation load the four networks and leave the critic's weights unused.
+    let device = Device::flex();
+    let x = corpus.batch(&[0, 3, 7], &[(0, 0); 3], &device);
+    let plain = load_weights(Unshear::new(Size::S64, &device), &run.join("model.safetensors")).expect("reload");
+    assert!(plain.critic.is_none());
+    assert!(outputs(&model, x.clone()) == outputs(&plain, x), "the model without its critic unshears otherwise");
+    // A supervised phase started from it (as the studies' label fractions are) has no critic.
+    let semi = UnshearConfig { self_supervised_epochs: 0, supervised_epochs: 1, ..small(Mode::SemiSupervised) };
+    let semi = UnshearConfig { adversarial_weight: 0.1, ..semi };
+    let init = run.join("model.safetensors");
+    let (m, _) = train_unshear(&corpus, &semi, Backend::Flex, &dir.join("semi"), false, Some(&init), &mut Silent)
+        .expect("semi-supervised from the adversarial run");
+    assert!(m.critic.is_none());
+}
+
+#[test]
 fn a_label_fraction_the_data_cannot_serve_leaves_no_run_behind() {
     // Regression: the check ran after the run directory's config was written, so the
     // corrected command was refused with "already holds a training run".
