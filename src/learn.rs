@@ -251,7 +251,7 @@ fn summary(out: &Path, state: &TrainState) -> String {
     let mut s = format!("trained into {}\n", out.display());
     for e in &state.history {
         s.push_str(&format!(
-            "  {:<16} epoch {:>3}: {} steps, lr {:.2e}, loss {:.5} (cycle {:.5}/{:.5}, rec {:.5}, sup {:.5}, patch {:.5})\n",
+            "  {:<16} epoch {:>3}: {} steps, lr {:.2e}, loss {:.5} (cycle {:.5}/{:.5}, rec {:.5}, sup {:.5}, patch {:.5})",
             e.phase,
             e.epoch,
             e.steps,
@@ -264,9 +264,9 @@ fn summary(out: &Path, state: &TrainState) -> String {
             e.mean.patch
         ));
         if e.mean.critic != 0.0 {
-            s.pop();
-            s.push_str(&format!(" [adversarial {:.5}, critic {:.5}]\n", e.mean.adversarial, e.mean.critic));
+            s.push_str(&format!(" [adversarial {:.5}, critic {:.5}]", e.mean.adversarial, e.mean.critic));
         }
+        s.push('\n');
     }
     s
 }
