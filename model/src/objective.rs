@@ -121,7 +121,7 @@ pub fn self_supervised(
     let cycle_backward = mse(model.unshear(k), taps.clone());
     let mut objective = cycle_forward.clone() + cycle_backward.clone() + reconstruction.clone();
     let (mut adversarial_value, mut critic_value) = (0.0, 0.0);
-    if let (Some(critic), true) = (&model.critic, w.adversarial > 0.0) {
+    if let Some(critic) = model.critic.as_ref().filter(|_| w.adversarial > 0.0) {
         let real = critic.forward(taps);
         let fake = critic.forward(unsheared.clone().detach());
         let critic_loss = (real.sub_scalar(1.0).square().mean() + fake.square().mean()).mul_scalar(0.5);
@@ -303,7 +303,7 @@ mod tests {
     #[test]
     fn critic_learns_from_its_own_loss_alone_and_the_tap_decoder_from_the_adversarial_term() {
         let device = Device::flex().autodiff();
-        let model = Unshear::with_critic(Size::S64, &device);
+        let model = Unshear::new(Size::S64, &device).with_critic(Size::S64, &device);
         let s = Tensor::<4>::random([4, 1, 64, 64], Distribution::Uniform(0.0, 1.0), &device);
         let t = Tensor::<4>::random([4, 1, 64, 64], Distribution::Uniform(0.0, 1.0), &device);
         let w = Weights { patch: 0.1, l1: 0.0, l2: 0.0, adversarial: 0.5 };

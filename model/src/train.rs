@@ -285,15 +285,14 @@ pub fn train_unshear(
 ) -> Result<(Unshear, TrainState)> {
     cfg.validate()?;
     let device = seeded_device(corpus, cfg.size, backend, cfg.seed)?;
-    // The critic only where a self-supervised phase uses it: a run that starts from another
-    // run's weights (`--init`) without one loads them into a model without a critic.
-    let mut model = if cfg.uses_critic() {
-        Unshear::with_critic(cfg.net_size()?, &device)
-    } else {
-        Unshear::new(cfg.net_size()?, &device)
-    };
+    let mut model = Unshear::new(cfg.net_size()?, &device);
     if let Some(path) = init {
         model = load_weights(model, path)?;
+    }
+    // The critic only where a self-supervised phase uses it, added after `--init`: those
+    // weights need not hold one.
+    if cfg.uses_critic() {
+        model = model.with_critic(cfg.net_size()?, &device);
     }
     let settings = LoopSettings {
         batch: cfg.batch,

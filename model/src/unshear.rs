@@ -47,11 +47,12 @@ impl Unshear {
         })
     }
 
-    /// [`Unshear::new`] with the critic of the adversarial term. Weights saved from it load
-    /// into a model without one (the critic's are left unused).
-    pub fn with_critic(size: Size, device: &Device) -> Self {
-        let model = Self::new(size, device);
-        canonical_ids(Self { critic: Some(Critic::new(size, device)), ..model })
+    /// The model with a fresh critic for the adversarial term (replacing any it had), its
+    /// four networks as they are: a run that starts from another run's weights gets its
+    /// critic after loading them. Weights saved from it load into a model without one (the
+    /// critic's are left unused).
+    pub fn with_critic(self, size: Size, device: &Device) -> Self {
+        canonical_ids(Self { critic: Some(Critic::new(size, device)), ..self })
     }
 
     /// `E_S(x_s)`: the pose and shear codes of sheared images.

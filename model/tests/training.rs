@@ -115,6 +115,12 @@ fn adversarial_runs_train_a_critic_and_their_weights_load_into_a_model_without_o
     let (m, _) = train_unshear(&corpus, &semi, Backend::Flex, &dir.join("semi"), false, Some(&init), &mut Silent)
         .expect("semi-supervised from the adversarial run");
     assert!(m.critic.is_none());
+    // An adversarial run started from weights without a critic gets a fresh one.
+    let plain = dir.join("semi").join("model.safetensors");
+    let again = UnshearConfig { self_supervised_epochs: 1, ..cfg.clone() };
+    let (m, _) = train_unshear(&corpus, &again, Backend::Flex, &dir.join("again"), false, Some(&plain), &mut Silent)
+        .expect("adversarial run from weights without a critic");
+    assert!(m.critic.is_some());
 }
 
 #[test]
