@@ -1,6 +1,8 @@
 //! `tacsim calibrate`: fit the simulator to a lab's own recordings (`targets.csv` +
-//! `images/`, with an undeformed reference image) and write a sensor preset and a held-out
-//! report (`report.md`, `report.json`, `grid.png`).
+//! `images/`; an undeformed reference image where there is one, else the consensus of the
+//! shallowest presses; any image shape) and write a sensor preset and a held-out report
+//! (`report.md`, `report.json`, `grid.png`). `--camera-only` fits the camera, ring layout and
+//! image framing alone: the first step for a TacTip whose recordings are not of a flat surface.
 
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -10,9 +12,11 @@ use indicatif::{ProgressBar, ProgressStyle};
 use tacsim_data::LabFolder;
 use tacsim_sim::atomic::write_atomic;
 use tacsim_sim::calibrate::fitting::{FitOptions, Problem, Split, calibrate as fit};
-use tacsim_sim::calibrate::observe::Observations;
+use tacsim_sim::calibrate::observe::{Observations, pin_centres};
+use tacsim_sim::calibrate::reference::{Reference, ReferenceSource};
 use tacsim_sim::calibrate::report::{held_out, markdown};
-use tacsim_sim::png_io::read_png;
+use tacsim_sim::calibration::{compare_sensor, fit_camera_at, fit_framing, fit_ring_angles, ring_profile, ring_table};
+use tacsim_sim::render::PinRenderer;
 use tacsim_sim::sensor::{SensorParams, SkinModel};
 
 /// What `tacsim calibrate` was asked.
@@ -27,8 +31,11 @@ pub struct CalibrateOptions {
     pub output: PathBuf,
     /// Where the report goes (default: beside the preset, `<stem>-report/`).
     pub report: Option<PathBuf>,
-    /// The undeformed reference image under `images/`.
-    pub reference: String,
+    /// The undeformed reference image under `images/` (default: `image_0.png` where it
+    /// exists, else the consensus of the shallowest recordings).
+    pub reference: Option<String>,
+    /// Fit the camera, ring layout and framing only (no deformation fit).
+    pub camera_only: bool,
     /// A short fit (one model, few evaluations): for tests and a first look.
     pub quick: bool,
     /// No progress spinner.
@@ -45,25 +52,30 @@ pub fn default_report_dir(output: &Path) -> PathBuf {
 pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     let folder = LabFolder::open(&o.real)
         .with_context(|| format!("{} is not a lab folder (targets.csv + images/)", o.real.display()))?;
-    let ref_path = folder.dir.join("images").join(&o.reference);
-    if !ref_path.is_file() {
-        bail!(
-            "{}: the undeformed reference image is missing; record one with the sensor touching nothing, or name \
-             another with --reference",
-            ref_path.display()
-        );
-    }
-    let reference = read_png(&ref_path)?;
     let base = match &o.sensor {
         Some(p) => SensorParams::load(p)?,
         None => SensorParams::default(),
     };
+    // The outputs are checked writable before any work.
+    let report_dir = o.report.clone().unwrap_or_else(|| default_report_dir(&o.output));
+    for dir in
+        [o.output.parent().filter(|d| !d.as_os_str().is_empty()), Some(report_dir.as_path())].into_iter().flatten()
+    {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {} for the output", dir.display()))?;
+        let probe = dir.join(".tacsim-write-check");
+        std::fs::write(&probe, b"").with_context(|| format!("{} is not writable", dir.display()))?;
+        let _ = std::fs::remove_file(&probe);
+    }
+    let reference = Reference::of(&folder, o.reference.as_deref())?;
+    if o.camera_only {
+        return camera_only(o, &reference, &base, &report_dir, command);
+    }
     let started = std::time::Instant::now();
     let spinner = if o.quiet { ProgressBar::hidden() } else { ProgressBar::new_spinner() };
     spinner.set_style(ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_msg}")?);
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
     spinner.set_message(format!("tracking the pins of {} recordings", folder.samples.len()));
-    let obs = Observations::track(&folder, &o.reference)?;
+    let obs = Observations::track(&folder, &reference)?;
     let split = Split::of(&obs);
     if split.train.len() < 8 || split.held_out.is_empty() {
         bail!(
@@ -91,7 +103,6 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         folder: &folder,
         base: &base,
         reference: &reference,
-        reference_name: &o.reference,
         obs: &obs,
         surface: &surface,
         cells: opts.cells,
@@ -104,12 +115,17 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         }
         spinner.set_message(m.to_owned());
     };
-    let calib = fit(&problem, &split, &opts, &progress)?;
+    let calib = fit(&problem, &split, &opts, &progress).with_context(|| match &reference.source {
+        ReferenceSource::Consensus(names) => format!(
+            "the reference is the consensus of the {} shallowest recordings: where those presses move the pins too \
+             much for a clear layout, name an undeformed image with --reference or record a few shallow presses",
+            names.len()
+        ),
+        ReferenceSource::Image(name) => format!("fitting against the reference {name}"),
+    })?;
     spinner.set_message("held-out report");
-    let report_dir = o.report.clone().unwrap_or_else(|| default_report_dir(&o.output));
     let (report, grid) = held_out(&problem, &calib, &split, command, &o.real.display().to_string(), "grid.png")?;
     spinner.finish_and_clear();
-    std::fs::create_dir_all(&report_dir).with_context(|| format!("creating {}", report_dir.display()))?;
     let mut png = Vec::new();
     grid.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
     write_atomic(&report_dir.join("grid.png"), &png)?;
@@ -133,9 +149,6 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         calib.deformation.depth_compliance,
         calib.deformation.tilt_relaxation_per_mm,
     );
-    if let Some(dir) = o.output.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
     write_atomic(&o.output, format!("{header}{}", sensor.to_toml()).as_bytes())?;
     let m = &report.held_out_means;
     Ok(format!(
@@ -155,4 +168,98 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         o.output.display(),
         report_dir.join("report.md").display()
     ))
+}
+
+/// Side of each tile of the camera-only grid (px).
+const TILE_PX: u32 = 256;
+
+/// `--camera-only`: the camera and ring layout of `base` fitted to the reference (camera
+/// distance kept: an undeformed image hardly tells it; then each ring's polar angle), the image size set to the
+/// reference's, the rim and mask fitted; writes the preset and a report (`report.md`,
+/// `grid.png`: real reference, simulated, difference).
+fn camera_only(
+    o: &CalibrateOptions,
+    reference: &Reference,
+    base: &SensorParams,
+    report_dir: &Path,
+    command: &str,
+) -> Result<String> {
+    let name = reference.describe();
+    let side = reference.image.width();
+    let camera = fit_camera_at(base, &reference.image, &name, Some(base.camera.distance_mm))
+        .with_context(|| format!("fitting the camera to the reference ({name})"))?;
+    let real_profile = ring_profile(&reference.image, base.pins.rings, &name)?;
+    let mut sensor = fit_ring_angles(&camera, &real_profile)?;
+    sensor.camera.image_size = side;
+    // A new sensor: named after its preset file.
+    sensor.name = o.output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| base.name.clone());
+    let renderer = PinRenderer::new(&sensor, side)?;
+    let principal = renderer.camera().principal;
+    let field =
+        renderer.undeformed_discs().iter().map(|d| (d.u - principal[0]).hypot(d.v - principal[1])).fold(0.0, f64::max);
+    sensor.framing = fit_framing(&reference.image, principal, field);
+    sensor.validate("camera fit")?;
+    let renderer = PinRenderer::new(&sensor, side)?;
+    let discs = renderer.undeformed_discs();
+    let (cmp, sim_profile, real_profile) = compare_sensor(&sensor, &reference.image, &name)?;
+    // Pin by pin: each real pin's nearest simulated pin, within half a spacing.
+    let real = pin_centres(&reference.image);
+    let spacing = tacsim_sim::calibrate::observe::SPACING_PX420 * side as f64 / 420.0;
+    let near: Vec<f64> = real
+        .iter()
+        .filter_map(|p| {
+            let d = discs.iter().map(|d| (d.u - p[0]).hypot(d.v - p[1])).fold(f64::INFINITY, f64::min);
+            (d <= 0.5 * spacing).then_some(d)
+        })
+        .collect();
+    let rms = (near.iter().map(|d| d * d).sum::<f64>() / near.len().max(1) as f64).sqrt();
+    let framing = match (sensor.framing.rim_radius, sensor.framing.rim_width) {
+        (Some(r), Some(w)) => format!(
+            "rim at {:.1} px, {:.1} px wide, mask beyond {:.1} px",
+            r * side as f64,
+            w * side as f64,
+            sensor.framing.mask_radius.unwrap_or(0.0) * side as f64
+        ),
+        _ => "no rim found (none drawn)".to_owned(),
+    };
+    let summary = format!(
+        "{} pins in the reference, {} matched within half a spacing: RMS {rms:.2} px at {side} px ({:.2} px at 420); \
+         ring radius RMS {:.2} px, blob area error {:+.1}%; {framing}",
+        real.len(),
+        near.len(),
+        rms * 420.0 / side as f64,
+        cmp.ring_radius_rms_px,
+        100.0 * cmp.area_rel_err,
+    );
+    let simulated = renderer.render_undeformed();
+    let tile =
+        |img: &image::GrayImage| image::imageops::resize(img, TILE_PX, TILE_PX, image::imageops::FilterType::Nearest);
+    let (a, b) = (tile(&reference.image), tile(&simulated));
+    let mut grid = image::RgbImage::new(3 * TILE_PX, TILE_PX);
+    for (x, y, p) in a.enumerate_pixels() {
+        let q = b.get_pixel(x, y)[0];
+        grid.put_pixel(x, y, image::Rgb([p[0]; 3]));
+        grid.put_pixel(TILE_PX + x, y, image::Rgb([q; 3]));
+        grid.put_pixel(2 * TILE_PX + x, y, image::Rgb([p[0], q, q]));
+    }
+    let mut png = Vec::new();
+    grid.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+    write_atomic(&report_dir.join("grid.png"), &png)?;
+    let md = format!(
+        "# Camera fit against real TacTip recordings\n\nMade by `{command}` from `{}`.\n\nReference: {name}.\n\n\
+         {summary}.\n\nThe camera distance ({:.2} mm), the dome, the skin and the pins' length are the starting \
+         sensor's: an undeformed image does not tell them.\n\n```\n{}```\n\n`grid.png`: the reference, the \
+         simulated undeformed image, their difference (real only red, simulated only cyan).\n",
+        o.real.display(),
+        sensor.camera.distance_mm,
+        ring_table(&sim_profile, &real_profile),
+    );
+    write_atomic(&report_dir.join("report.md"), md.as_bytes())?;
+    let header = format!(
+        "# {} camera, ring layout and framing fitted to {} by `{command}`.\n# Reference: {name}.\n# {summary}.\n\n",
+        base.name,
+        o.real.display()
+    );
+    write_atomic(&o.output, format!("{header}{}", sensor.to_toml()).as_bytes())?;
+    Ok(format!("{summary}\nwrote {} and {}\n", o.output.display(), report_dir.join("report.md").display()))
 }

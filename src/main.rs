@@ -202,9 +202,16 @@ enum Command {
         /// Report directory (default: `<preset stem>-report/` beside the preset).
         #[arg(long)]
         report: Option<PathBuf>,
-        /// The undeformed reference image under images/.
-        #[arg(long, default_value = "image_0.png")]
-        reference: String,
+        /// The undeformed reference image under images/ (default: image_0.png where it exists,
+        /// else the pixel-wise majority of the shallowest 5% of the recordings, at least 30; 20 of the
+        /// surface recordings left a layout the ring grouping could not read).
+        #[arg(long)]
+        reference: Option<String>,
+        /// Fit the camera, ring layout and image framing (rim, mask) to the reference only:
+        /// a preset at the recordings' image size, for a TacTip whose recordings are not of a
+        /// flat surface.
+        #[arg(long, conflicts_with = "quick")]
+        camera_only: bool,
         /// A short fit (one model, few evaluations) for a first look.
         #[arg(long)]
         quick: bool,
@@ -304,12 +311,21 @@ fn main() -> Result<()> {
         Command::Eval { data, out, max_pairs, backend, lab, runs } => {
             print!("{}", tacsim::learn::evaluate(&data, &runs, &out, max_pairs, backend, lab)?);
         }
-        Command::Calibrate { real, sensor, output, report, reference, quick, quiet } => {
+        Command::Calibrate { real, sensor, output, report, reference, camera_only, quick, quiet } => {
             let command = std::iter::once("tacsim".to_owned())
                 .chain(std::env::args().skip(1))
                 .map(|a| if a.contains(' ') { format!("'{a}'") } else { a })
                 .collect::<Vec<_>>();
-            let o = tacsim::calibrate::CalibrateOptions { real, sensor, output, report, reference, quick, quiet };
+            let o = tacsim::calibrate::CalibrateOptions {
+                real,
+                sensor,
+                output,
+                report,
+                reference,
+                camera_only,
+                quick,
+                quiet,
+            };
             print!("{}", tacsim::calibrate::calibrate(&o, &command.join(" "))?);
         }
         Command::Shapes { dir } => {

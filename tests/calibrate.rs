@@ -3,7 +3,8 @@
 
 use std::path::Path;
 
-use tacsim_sim::sensor::SensorParams;
+use tacsim_sim::render::PinRenderer;
+use tacsim_sim::sensor::{FramingParams, SensorParams};
 
 mod common;
 use common::{err, s, tacsim, temp_dir};
@@ -71,14 +72,172 @@ fn malformed_lab_folders_are_clear_errors() {
     std::fs::write(lab.join("targets.csv"), format!("{HEADER}\n{}", row("image_1.png"))).expect("csv");
     let e = run();
     assert!(e.contains("images/image_1.png does not exist"), "{e}");
-    // No reference image.
+    // A named reference image that is not there.
     std::fs::write(lab.join("images/image_1.png"), b"not a png").expect("image");
+    let e = err(&["calibrate", "--real", s(&lab), "-o", s(&preset), "--reference", "ref.png", "--quick", "-q"]);
+    assert!(e.contains("ref.png") && e.contains("reference"), "{e}");
+    // No reference image: the consensus of the recordings reads them, and names the bad one.
     let e = run();
-    assert!(e.contains("image_0.png") && e.contains("reference"), "{e}");
+    assert!(e.contains("image_1.png"), "{e}");
     // An unreadable recording (the reference rendered by the simulator).
     let o = tacsim(&["render", "--size", "420", "-o", s(&lab.join("images/image_0.png"))]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let e = run();
     assert!(e.contains("image_1.png"), "{e}");
     assert!(!preset.exists(), "no preset is written when the folder is bad");
+}
+
+/// Copies `n` recordings of a lab folder (rows and images) into `dest`, each image passed
+/// through `cut`.
+fn derived_folder(
+    real: &Path,
+    dest: &Path,
+    n: usize,
+    cut: impl Fn(image::GrayImage) -> image::GrayImage,
+) -> Vec<String> {
+    std::fs::create_dir_all(dest.join("images")).expect("lab dir");
+    let text = std::fs::read_to_string(real.join("targets.csv")).expect("real targets.csv");
+    // The header and the `n` shallowest recordings (a folder of that many shallow presses).
+    let mut rows: Vec<&str> = text.lines().skip(1).filter(|l| !l.starts_with("image_0.png,")).collect();
+    let depth = |l: &str| l.split(',').nth(3).and_then(|v| v.parse::<f64>().ok()).expect("pose_z");
+    rows.sort_by(|a, b| depth(a).total_cmp(&depth(b)));
+    let lines: Vec<&str> = text.lines().take(1).chain(rows.into_iter().take(n)).collect();
+    std::fs::write(dest.join("targets.csv"), lines.join("\n") + "\n").expect("csv");
+    let names: Vec<String> = lines[1..].iter().map(|l| l.split(',').next().expect("image column").to_owned()).collect();
+    for name in &names {
+        let img = image::open(real.join("images").join(name)).expect("real image").to_luma8();
+        cut(img).save(dest.join("images").join(name)).expect("save");
+    }
+    names
+}
+
+#[test]
+fn a_lab_folder_with_non_square_images_calibrates() {
+    let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/real-tactip-surface3d");
+    if !real.join("targets.csv").is_file() {
+        eprintln!("skipped: ../shared/data/real-tactip-surface3d is not here");
+        return;
+    }
+    // The 40 shallowest recordings and the undeformed image, each 420 px image put into a
+    // 452 x 430 frame at (20, 4).
+    let dir = temp_dir("calibrate", "derived");
+    let lab = dir.join("lab");
+    let pad = |img: image::GrayImage| {
+        let mut wide = image::GrayImage::new(452, 430);
+        image::imageops::replace(&mut wide, &img, 20, 4);
+        wide
+    };
+    derived_folder(&real, &lab, 40, pad);
+    let reference = image::open(real.join("images/image_0.png")).expect("image_0").to_luma8();
+    pad(reference).save(lab.join("images/image_0.png")).expect("save");
+    let preset = dir.join("out/preset.toml");
+    let o = tacsim(&["calibrate", "--real", s(&lab), "-o", s(&preset), "--quick", "-q"]);
+    assert!(o.status.success(), "calibrate failed: {}", String::from_utf8_lossy(&o.stderr));
+    SensorParams::load(&preset).expect("the preset loads as a sensor");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out/preset-report/report.json")).expect("report.json"))
+            .expect("json");
+    let reference = report["reference"].as_str().expect("reference");
+    assert!(reference.contains("image_0.png") && reference.contains("452x430"), "{reference}");
+    assert!(report["undeformed_rms_px420"].as_f64().expect("rms") < 1.0, "{report}");
+    assert!(report["tracked_mean"].as_f64().expect("tracked") > 300.0, "{report}");
+}
+
+#[test]
+fn the_consensus_of_the_shallowest_presses_stands_in_for_the_undeformed_image() {
+    use tacsim_sim::calibrate::observe::pin_centres;
+    use tacsim_sim::calibrate::reference::Reference;
+    let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/real-tactip-surface3d");
+    if !real.join("targets.csv").is_file() {
+        eprintln!("skipped: ../shared/data/real-tactip-surface3d is not here");
+        return;
+    }
+    let lab = tacsim_data::LabFolder::open(&real).expect("lab folder");
+    let truth = pin_centres(&Reference::image(&lab, "image_0.png").expect("image_0").image);
+    let consensus = Reference::consensus(&lab).expect("consensus");
+    let found = pin_centres(&consensus.image);
+    // Each true pin's nearest consensus pin, within half a spacing (17.5 px at 420).
+    let near: Vec<f64> = truth
+        .iter()
+        .filter_map(|t| {
+            let d = found.iter().map(|f| (f[0] - t[0]).hypot(f[1] - t[1])).fold(f64::INFINITY, f64::min);
+            (d < 8.75).then_some(d)
+        })
+        .collect();
+    let rms = (near.iter().map(|d| d * d).sum::<f64>() / near.len() as f64).sqrt();
+    eprintln!("consensus: {} of {} pins, RMS {rms:.2} px at 420", near.len(), truth.len());
+    assert!(near.len() + 10 >= truth.len() && rms < 3.0, "{} of {} pins, RMS {rms:.2} px", near.len(), truth.len());
+    // But flat presses all push the central pins, so the consensus's centre is smeared and the
+    // ring fit cannot read it (ring 1 shows 3 of its 6 pins): calibrate says what to do.
+    let e = err(&["calibrate", "--real", s(&real), "--reference", "none.png", "--camera-only", "-o", "/tmp/x.toml"]);
+    assert!(e.contains("none.png"), "{e}");
+}
+
+#[test]
+fn camera_only_recovers_a_simulated_sensor_from_framed_non_square_images_without_a_reference() {
+    // The truth: the default sensor at 128 px with a rim, drawn into 150 x 136 frames (no
+    // reference image; the lab's older column names).
+    let mut truth = SensorParams::default();
+    truth.camera.fov_deg *= 1.1;
+    truth.framing = FramingParams { rim_radius: Some(0.455), rim_width: Some(0.02), mask_radius: Some(0.47) };
+    let img = PinRenderer::new(&truth, 128).expect("renderable").render_undeformed();
+    let dir = temp_dir("calibrate", "camera-only");
+    let lab = dir.join("lab");
+    std::fs::create_dir_all(lab.join("images")).expect("lab dir");
+    let mut csv = String::from(
+        "sensor_image,pose_1,pose_2,pose_3,pose_4,pose_5,pose_6,move_1,move_2,move_3,move_4,move_5,move_6\n",
+    );
+    for i in 1..=24 {
+        let mut wide = image::GrayImage::new(150, 136);
+        image::imageops::replace(&mut wide, &img, 11, 4);
+        wide.save(lab.join(format!("images/image_{i}.png"))).expect("save");
+        csv.push_str(&format!("image_{i}.png,0,{},{},0,0,{},0,0,0,0,0,0\n", i % 5, 3.0 + 0.05 * i as f64, 15 * i));
+    }
+    std::fs::write(lab.join("targets.csv"), csv).expect("csv");
+    let preset = dir.join("fitted.toml");
+    let o = tacsim(&["calibrate", "--real", s(&lab), "-o", s(&preset), "--camera-only", "-q"]);
+    assert!(o.status.success(), "calibrate failed: {}", String::from_utf8_lossy(&o.stderr));
+    let fitted = SensorParams::load(&preset).expect("preset");
+    assert_eq!(fitted.camera.image_size, 136);
+    // 128 px of truth in a 136 px square: the rim at 0.455 * 128 px.
+    let px = |f: Option<f64>| f.expect("rim fitted") * 136.0;
+    assert!((px(fitted.framing.rim_radius) - 0.455 * 128.0).abs() < 1.0, "{:?}", fitted.framing);
+    assert!((px(fitted.framing.rim_width) - 0.02 * 128.0).abs() < 0.75, "{:?}", fitted.framing);
+    // Rendered, the fitted sensor draws the same image (but for boundary pixels).
+    let again = PinRenderer::new(&fitted, 136).expect("renderable").render_undeformed();
+    let folder = tacsim_data::LabFolder::open(&lab).expect("lab folder");
+    let framed = tacsim_sim::calibrate::reference::Reference::of(&folder, None).expect("reference").image;
+    let differ = again.as_raw().iter().zip(framed.as_raw()).filter(|(a, b)| a != b).count();
+    assert!(differ < 400, "{differ} of {} pixels differ", 136 * 136);
+    let md = std::fs::read_to_string(dir.join("fitted-report/report.md")).expect("report.md");
+    assert!(md.contains("consensus") && md.contains("150x136"), "{md}");
+}
+
+#[test]
+fn the_edge2d_preset_is_what_camera_only_makes_of_the_edge_recordings() {
+    let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/real-tactip-edge2d");
+    if !real.join("targets.csv").is_file() {
+        eprintln!("skipped: ../shared/data/real-tactip-edge2d is not here");
+        return;
+    }
+    // The command in the preset's header (no reference image, the older column names).
+    let dir = temp_dir("calibrate", "edge2d");
+    let preset = dir.join("tactip-331-edge2d.toml");
+    let o = tacsim(&["calibrate", "--real", s(&real), "--camera-only", "-o", s(&preset), "-q"]);
+    assert!(o.status.success(), "calibrate failed: {}", String::from_utf8_lossy(&o.stderr));
+    let fitted = SensorParams::load(&preset).expect("preset");
+    assert_eq!(
+        fitted,
+        SensorParams::edge2d().expect("committed preset"),
+        "rerun the command in sim/presets/tactip-331-edge2d.toml"
+    );
+    // Every real pin within 0.5 px RMS of the simulated one (1.6 px at 420).
+    let summary = String::from_utf8_lossy(&o.stdout);
+    let rms: f64 = summary
+        .split("RMS ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .expect("RMS in the summary");
+    assert!(rms < 0.5, "{summary}");
 }

@@ -1,6 +1,13 @@
 //! The lab's recording folders (`targets.csv` + `images/`, as in
 //! `../shared/data/real-tactip-surface3d/`): the labels each sample carries, read by column
 //! name, with errors naming the file, the column and the line.
+//!
+//! Two column namings are read (a folder uses one of them whole):
+//! - [`COLUMNS`]: `pose_x, pose_y, pose_z, pose_Rx, pose_Ry, pose_Rz` and the touch-down offset
+//!   `shear_x .. shear_Rz` (the lab's current collection code);
+//! - [`OLDER_COLUMNS`]: `pose_1 .. pose_6` and `move_1 .. move_6`, the same six components in
+//!   the same order (x, y, z mm; Rx, Ry, Rz deg), as the lab's older collection code wrote them
+//!   (`../shared/data/real-tactip-edge2d/`: `pose_2` lateral, `pose_3` depth, `pose_6` yaw).
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -45,21 +52,52 @@ pub const COLUMNS: [&str; 13] = [
     "shear_Rz",
 ];
 
+/// The lab's older naming of [`COLUMNS`], in the same order: `pose_1..pose_6` are `pose_x ..
+/// pose_Rz` and `move_1..move_6` are `shear_x .. shear_Rz`.
+pub const OLDER_COLUMNS: [&str; 13] = [
+    "sensor_image",
+    "pose_1",
+    "pose_2",
+    "pose_3",
+    "pose_4",
+    "pose_5",
+    "pose_6",
+    "move_1",
+    "move_2",
+    "move_3",
+    "move_4",
+    "move_5",
+    "move_6",
+];
+
 impl LabFolder {
-    /// Reads `dir/targets.csv` and checks that every image exists.
+    /// Reads `dir/targets.csv` (either naming of the columns) and checks that every image
+    /// exists.
     pub fn open(dir: &Path) -> Result<Self> {
         let csv_path = dir.join("targets.csv");
         let text = std::fs::read(&csv_path).map_err(|e| DataError::io(&csv_path, "read", e))?;
         let mut r = csv::Reader::from_reader(text.as_slice());
         let headers = r.headers().map_err(|e| DataError::format(&csv_path, e.to_string()))?.clone();
         let col: HashMap<&str, usize> = headers.iter().enumerate().map(|(i, h)| (h, i)).collect();
-        let missing: Vec<&str> = COLUMNS.iter().copied().filter(|c| !col.contains_key(c)).collect();
-        if !missing.is_empty() {
-            return Err(DataError::format(
-                &csv_path,
-                format!("missing column(s) {}; a lab folder needs {}", missing.join(", "), COLUMNS.join(", ")),
-            ));
-        }
+        let missing_of = |names: &[&'static str]| -> Vec<&'static str> {
+            names.iter().copied().filter(|c| !col.contains_key(c)).collect()
+        };
+        let (missing, older) = (missing_of(&COLUMNS), missing_of(&OLDER_COLUMNS));
+        let names = match (missing.is_empty(), older.is_empty()) {
+            (true, _) => COLUMNS,
+            (false, true) => OLDER_COLUMNS,
+            (false, false) => {
+                return Err(DataError::format(
+                    &csv_path,
+                    format!(
+                        "missing column(s) {}; a lab folder needs {} (or the older naming {})",
+                        missing.join(", "),
+                        COLUMNS.join(", "),
+                        OLDER_COLUMNS.join(", ")
+                    ),
+                ));
+            }
+        };
         let mut samples = Vec::new();
         for (line, rec) in r.records().enumerate() {
             let rec = rec.map_err(|e| DataError::format(&csv_path, e.to_string()))?;
@@ -76,18 +114,16 @@ impl LabFolder {
             if !dir.join("images").join(&image).is_file() {
                 return Err(DataError::format(&csv_path, format!("line {}: images/{image} does not exist", line + 2)));
             }
-            let g = |names: [&str; 6]| -> Result<[f64; 6]> {
+            let g = |cols: [&str; 6]| -> Result<[f64; 6]> {
                 let mut v = [0.0; 6];
-                for (o, n) in v.iter_mut().zip(names) {
+                for (o, n) in v.iter_mut().zip(cols) {
                     *o = field(n)?;
                 }
                 Ok(v)
             };
-            samples.push(LabSample {
-                image,
-                pose: g(["pose_x", "pose_y", "pose_z", "pose_Rx", "pose_Ry", "pose_Rz"])?,
-                shear: g(["shear_x", "shear_y", "shear_z", "shear_Rx", "shear_Ry", "shear_Rz"])?,
-            });
+            let pose = [names[1], names[2], names[3], names[4], names[5], names[6]];
+            let shear = [names[7], names[8], names[9], names[10], names[11], names[12]];
+            samples.push(LabSample { image, pose: g(pose)?, shear: g(shear)? });
         }
         if samples.is_empty() {
             return Err(DataError::format(&csv_path, "has no samples"));
@@ -98,5 +134,39 @@ impl LabFolder {
     /// Path of a sample's image.
     pub fn image_path(&self, s: &LabSample) -> PathBuf {
         self.dir.join("images").join(&s.image)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn folder(name: &str, csv: &str, images: &[&str]) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("tacsim-lab-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("images")).expect("dir");
+        std::fs::write(dir.join("targets.csv"), csv).expect("csv");
+        for i in images {
+            std::fs::write(dir.join("images").join(i), b"").expect("image");
+        }
+        dir
+    }
+
+    #[test]
+    fn the_older_column_names_read_as_the_same_six_components() {
+        let csv = "sensor_video,sensor_image,obj_id,pose_1,pose_2,pose_3,pose_4,pose_5,pose_6,\
+                   move_1,move_2,move_3,move_4,move_5,move_6\n\
+                   v.mp4,a.png,1,0.0,1.5,4.0,0.0,0.0,-170.0,0.5,0,0,0,0,2.0\n";
+        let dir = folder("older", csv, &["a.png"]);
+        let f = LabFolder::open(&dir).expect("older naming");
+        assert_eq!(f.samples[0].pose, [0.0, 1.5, 4.0, 0.0, 0.0, -170.0]);
+        assert_eq!(f.samples[0].shear, [0.5, 0.0, 0.0, 0.0, 0.0, 2.0]);
+    }
+
+    #[test]
+    fn a_folder_with_neither_naming_names_what_is_missing() {
+        let dir = folder("neither", "sensor_image,pose_x,pose_1\na.png,1,2\n", &["a.png"]);
+        let e = LabFolder::open(&dir).expect_err("incomplete").to_string();
+        assert!(e.contains("targets.csv") && e.contains("pose_y") && e.contains("move_1"), "{e}");
     }
 }

@@ -344,3 +344,105 @@ pub fn fit_realism(
     let scale = 0.5 * (lo + hi);
     Ok((Realism { pin_radius_scale: scale, ..start.clone() }, area_err(scale)?))
 }
+
+/// Angular bins of [`fit_framing`]'s rim search (5 deg each).
+const RIM_BINS: usize = 72;
+
+/// Fits the rim ring and mask of a lab's framing ([`FramingParams`]) to a real undeformed
+/// image, about the principal point `centre` (px), given the pin field's radius `field_px`
+/// (px, to the outermost pin centres). The white pixels beyond `1.08 field_px` are the rim's
+/// candidates; a rim is found when they fill a band at least 0.8 px thick in 60% of the
+/// [`RIM_BINS`] 5-degree sectors (specks and clutter near a masked edge do not). Its radius is the median candidate distance, its width the median over
+/// sectors of the candidates' radial thickness (count over arc length), and the mask closes
+/// half a pixel past its outer edge. No rim (the surface recordings: the lab masked it off):
+/// the default framing, nothing drawn.
+pub fn fit_framing(real: &GrayImage, centre: [f64; 2], field_px: f64) -> crate::sensor::FramingParams {
+    let size = real.width() as f64;
+    let mut dist = Vec::new();
+    let mut per_bin = vec![Vec::new(); RIM_BINS];
+    for (x, y, p) in real.enumerate_pixels() {
+        let (du, dv) = (x as f64 + 0.5 - centre[0], y as f64 + 0.5 - centre[1]);
+        let d = du.hypot(dv);
+        if p.0[0] >= 128 && d > 1.08 * field_px {
+            let bin = ((dv.atan2(du) + std::f64::consts::PI) / std::f64::consts::TAU * RIM_BINS as f64) as usize;
+            per_bin[bin.min(RIM_BINS - 1)].push(d);
+            dist.push(d);
+        }
+    }
+    if dist.is_empty() {
+        return crate::sensor::FramingParams::default();
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    let radius = median(&mut dist);
+    // A sector holds the rim when its candidates would fill a band 0.8 px thick along its arc.
+    let arc = radius * std::f64::consts::TAU / RIM_BINS as f64;
+    let holds = |b: &&Vec<f64>| b.len() as f64 >= 0.8 * arc;
+    if (per_bin.iter().filter(holds).count() as f64) < 0.6 * RIM_BINS as f64 {
+        return crate::sensor::FramingParams::default();
+    }
+    let mut widths: Vec<f64> = per_bin.iter().filter(holds).map(|b| b.len() as f64 / arc).collect();
+    let width = median(&mut widths).clamp(1.0, crate::sensor::RIM_WIDTH_MAX * size);
+    crate::sensor::FramingParams {
+        rim_radius: Some(radius / size),
+        rim_width: Some(width / size),
+        mask_radius: Some(((radius + 0.5 * width + 0.5) / size).min(crate::sensor::FRAMING_RADIUS_MAX)),
+    }
+}
+
+/// Refines a camera fit ring by ring: each ring's polar angle (`pins.ring_polar_deg`) set so
+/// that its projected radius equals the real ring's mean radius in `real` (secant steps from
+/// the ring pitch's angles). A uniform pitch cannot follow a dome whose rings are spaced
+/// unevenly (the edge recordings' TacTip: 5.5 px to ring 1, 4.3 px between the outer rings at
+/// 128 px); the camera (field of view, distortion) stays as fitted. Rings the real profile
+/// lacks keep their pitch's angle; the result keeps the angles increasing within (0, 90) deg.
+pub fn fit_ring_angles(sensor: &SensorParams, real: &RingProfile) -> Result<SensorParams> {
+    let size = real.size;
+    let mut angles: Vec<f64> = sensor.ring_polar_rad().iter().map(|a| a.to_degrees()).collect();
+    let radius_of = |angles: &[f64]| -> Option<Vec<f64>> {
+        let mut s = sensor.clone();
+        s.pins.ring_polar_deg = Some(angles.to_vec());
+        let cam = crate::camera::Camera::new(&s.camera, size);
+        let layout = crate::pins::PinLayout::new(&s);
+        (1..=s.pins.rings)
+            .map(|k| {
+                let pin = layout.pins.iter().find(|q| q.ring == k)?;
+                let d = cam.project_disc(&pin.tip, &pin.normal, layout.tip_radius_mm)?;
+                Some((d.u - cam.principal[0]).hypot(d.v - cam.principal[1]))
+            })
+            .collect()
+    };
+    let target: Vec<Option<f64>> =
+        (1..=sensor.pins.rings).map(|k| real.rings.iter().find(|r| r.ring == k).map(|r| r.mean_radius_px)).collect();
+    let fail = |reason: &str| SimError::Analysis { source_name: real_name(real), reason: reason.to_owned() };
+    for _ in 0..30 {
+        let r0 = radius_of(&angles).ok_or_else(|| fail("a ring leaves the camera's view"))?;
+        let h = 1e-3;
+        let bumped: Vec<f64> = angles.iter().map(|a| a + h).collect();
+        let r1 = radius_of(&bumped).ok_or_else(|| fail("a ring leaves the camera's view"))?;
+        let mut worst: f64 = 0.0;
+        for (k, t) in target.iter().enumerate() {
+            let Some(t) = t else { continue };
+            let slope = (r1[k] - r0[k]) / h;
+            if slope > 0.0 {
+                let step = ((t - r0[k]) / slope).clamp(-1.0, 1.0);
+                angles[k] += step;
+                worst = worst.max((t - r0[k]).abs());
+            }
+        }
+        if worst < 1e-4 {
+            break;
+        }
+    }
+    let mut out = sensor.clone();
+    out.pins.ring_polar_deg = Some(angles);
+    out.validate("ring angle fit")?;
+    Ok(out)
+}
+
+/// A name for errors about a profile.
+fn real_name(real: &RingProfile) -> String {
+    format!("the real reference ({} px, {} pins)", real.size, real.pins)
+}

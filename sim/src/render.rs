@@ -8,7 +8,7 @@ use crate::error::{Result, SimError};
 use crate::pins::PinLayout;
 
 use crate::raster;
-use crate::sensor::SensorParams;
+use crate::sensor::{FramingParams, SensorParams};
 
 /// Smallest projected pin radius the renderer accepts (px). A disc centred on a pixel corner
 /// covers its four pixels equally, `pi r^2 / 4` each, which is the worst case for the best-covered
@@ -16,8 +16,10 @@ use crate::sensor::SensorParams;
 /// = 0.7979 px. (0.75 px let a pin vanish: see the regression test in `raster`.)
 pub const MIN_PIN_RADIUS_PX: f64 = 0.8;
 /// Smallest gap between two undeformed pins' discs (px). Above sqrt(2), pixels of two pins
-/// are never 8-connected, so the pins stay separate blobs.
-pub const MIN_PIN_GAP_PX: f64 = 1.5;
+/// are never 8-connected (a pixel is white only when its centre lies inside a disc), so the
+/// pins stay separate blobs. (It was 1.5, which refused the edge recordings' TacTip at their
+/// 128 px: its outer rings' pins are 1.44 px apart there, and separate in the real images.)
+pub const MIN_PIN_GAP_PX: f64 = std::f64::consts::SQRT_2;
 
 /// Renders one sensor at one image size. Building it checks that the undeformed pins are
 /// separate, large enough and inside the image, so every undeformed render shows exactly
@@ -27,6 +29,7 @@ pub struct PinRenderer {
     camera: Camera,
     layout: PinLayout,
     undeformed: Vec<Disc>,
+    framing: FramingParams,
 }
 
 impl PinRenderer {
@@ -67,12 +70,12 @@ impl PinRenderer {
                 let gap = ((a.u - b.u).powi(2) + (a.v - b.v).powi(2)).sqrt() - a.r - b.r;
                 if gap < MIN_PIN_GAP_PX {
                     return Err(fail(format!(
-                        "neighbouring pins are {gap:.2} px apart (< {MIN_PIN_GAP_PX}): they would merge; use a larger image, smaller tips or a wider ring pitch"
+                        "neighbouring pins are {gap:.2} px apart (< {MIN_PIN_GAP_PX:.3}): they would merge; use a larger image, smaller tips or a wider ring pitch"
                     )));
                 }
             }
         }
-        Ok(Self { camera, layout, undeformed })
+        Ok(Self { camera, layout, undeformed, framing: sensor.framing.clone() })
     }
 
     /// The camera in use.
@@ -101,9 +104,33 @@ impl PinRenderer {
         pins.iter().filter_map(|p| self.camera.project_disc(&p.tip, &p.axis, self.layout.tip_radius_mm)).collect()
     }
 
-    /// Renders the binary image of pins at `pins` into `out`.
+    /// Renders the binary image of pins at `pins` into `out`, framed as the sensor's
+    /// [`FramingParams`] say.
     pub fn render_pins(&self, pins: &[PinPose], out: &mut GrayImage) {
         raster::draw_binary(&self.discs(pins), self.camera.size, out);
+        self.frame(out);
+    }
+
+    /// Draws the rim ring and applies the mask of [`FramingParams`] (circles about the
+    /// principal point; a pixel belongs to them by its centre).
+    fn frame(&self, out: &mut GrayImage) {
+        let f = &self.framing;
+        if f.rim_radius.is_none() && f.mask_radius.is_none() {
+            return;
+        }
+        let s = self.camera.size as f64;
+        let [cu, cv] = self.camera.principal;
+        let rim = f.rim_radius.zip(f.rim_width).map(|(r, w)| ((r - 0.5 * w) * s, (r + 0.5 * w) * s));
+        let mask = f.mask_radius.map(|m| m * s);
+        for (x, y, p) in out.enumerate_pixels_mut() {
+            let d = (x as f64 + 0.5 - cu).hypot(y as f64 + 0.5 - cv);
+            if rim.is_some_and(|(lo, hi)| d >= lo && d <= hi) {
+                p.0[0] = 255;
+            }
+            if mask.is_some_and(|m| d > m) {
+                p.0[0] = 0;
+            }
+        }
     }
 
     /// Renders the binary image of pins at `pins` into a new image.
@@ -116,6 +143,7 @@ impl PinRenderer {
     /// Renders the undeformed sensor into `out` (reusing its buffer).
     pub fn render_undeformed_into(&self, out: &mut GrayImage) {
         raster::draw_binary(&self.undeformed, self.camera.size, out);
+        self.frame(out);
     }
 
     /// Renders the undeformed sensor.
@@ -137,6 +165,49 @@ mod tests {
         let b = r.render_undeformed();
         assert_eq!(a.as_raw(), b.as_raw());
         assert!(a.as_raw().iter().all(|&p| p == 0 || p == 255));
+    }
+
+    #[test]
+    fn framing_draws_the_rim_ring_and_masks_outside_its_circle() {
+        let mut sensor = SensorParams::default();
+        sensor.framing = FramingParams { rim_radius: Some(0.46), rim_width: Some(0.02), mask_radius: Some(0.48) };
+        let plain = PinRenderer::new(&SensorParams::default(), 128).expect("renderable").render_undeformed();
+        let r = PinRenderer::new(&sensor, 128).expect("renderable");
+        let framed = r.render_undeformed();
+        let [cu, cv] = r.camera().principal;
+        let (mut rim, mut rim_white, mut outside_white) = (0, 0, 0);
+        for (x, y, p) in framed.enumerate_pixels() {
+            let d = (x as f64 + 0.5 - cu).hypot(y as f64 + 0.5 - cv) / 128.0;
+            if (d - 0.46).abs() <= 0.01 {
+                rim += 1;
+                rim_white += usize::from(p.0[0] == 255);
+            } else if d > 0.48 {
+                outside_white += usize::from(p.0[0] == 255);
+            } else {
+                // Inside the rim, the pins are untouched.
+                assert_eq!(p.0[0], plain.get_pixel(x, y).0[0], "pixel {x},{y}");
+            }
+        }
+        // The ring's area 2 pi r w = 2 pi 0.46 0.02 128^2 = 947 px.
+        assert!((rim as f64 - 947.0).abs() < 60.0 && rim_white == rim, "{rim} {rim_white}");
+        assert_eq!(outside_white, 0);
+    }
+
+    #[test]
+    fn the_framing_fit_recovers_a_rendered_rim_and_finds_none_without_one() {
+        let mut sensor = SensorParams::default();
+        sensor.framing = FramingParams { rim_radius: Some(0.46), rim_width: Some(0.025), mask_radius: Some(0.48) };
+        let r = PinRenderer::new(&sensor, 128).expect("renderable");
+        let field =
+            r.undeformed_discs().iter().map(|d| (d.u - r.camera().principal[0]).hypot(d.v - r.camera().principal[1]));
+        let field = field.fold(0.0, f64::max);
+        let f = crate::calibration::fit_framing(&r.render_undeformed(), r.camera().principal, field);
+        let (radius, width) = (f.rim_radius.expect("rim"), f.rim_width.expect("rim"));
+        // Within a pixel of 128 in radius, half a pixel in width.
+        assert!((radius - 0.46).abs() < 1.0 / 128.0 && (width - 0.025).abs() < 0.5 / 128.0, "{f:?}");
+        let plain = PinRenderer::new(&SensorParams::default(), 128).expect("renderable");
+        let none = crate::calibration::fit_framing(&plain.render_undeformed(), plain.camera().principal, field);
+        assert_eq!(none, FramingParams::default());
     }
 
     #[test]

@@ -39,7 +39,33 @@ pub struct SensorParams {
     pub camera: CameraParams,
     /// Elastic model of the skin and the contact grid.
     pub skin: SkinParams,
+    /// How the lab's processed images frame the pin field (rim ring, circular mask).
+    pub framing: FramingParams,
 }
+
+/// How a lab's processed images frame the pin field, in the image (not the sensor): the
+/// sensor's rim as a white ring and the circular mask outside which the lab's processing
+/// blacks the image. Both are circles about the principal point (`camera.principal_offset`).
+/// Radii and widths are fractions of the image size (size-independent, like `camera.fov_deg`):
+/// a 128 px image with `rim_radius = 0.46` draws the rim's centre line 58.9 px from the
+/// principal point. Unset fields draw nothing: the default, as the surface recordings (their
+/// rim is masked off) show.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FramingParams {
+    /// Radius of the rim ring's centre line (fraction of the image size), in (0, 0.75].
+    pub rim_radius: Option<f64>,
+    /// Width of the rim ring (fraction of the image size), in (0, 0.1]; set with `rim_radius`.
+    pub rim_width: Option<f64>,
+    /// Radius of the mask (fraction of the image size), in (0, 0.75]: pixels whose centre lies
+    /// farther from the principal point are black.
+    pub mask_radius: Option<f64>,
+}
+
+/// Largest rim or mask radius (fraction of the image size): past the image's corners.
+pub const FRAMING_RADIUS_MAX: f64 = 0.75;
+/// Largest rim width (fraction of the image size).
+pub const RIM_WIDTH_MAX: f64 = 0.1;
 
 /// Elastic influence model of the skin.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -178,6 +204,7 @@ impl Default for SensorParams {
             pins: PinParams::default(),
             camera: CameraParams::default(),
             skin: SkinParams::default(),
+            framing: FramingParams::default(),
         }
     }
 }
@@ -222,7 +249,17 @@ impl Default for CameraParams {
 /// fit-camera`): `sim/presets/tactip-331-camera.toml`, the calibration's starting point.
 pub const CAMERA_ONLY_PRESET: &str = include_str!("../presets/tactip-331-camera.toml");
 
+/// The TacTip of the edge recordings (`../shared/data/real-tactip-edge2d/`): camera, ring
+/// layout and framing (128 px, rim visible) fitted by `tacsim calibrate --camera-only` to the
+/// consensus of its shallowest taps; dome, skin and pins are the calibrated default's.
+pub const EDGE2D_PRESET: &str = include_str!("../presets/tactip-331-edge2d.toml");
+
 impl SensorParams {
+    /// The edge recordings' TacTip ([`EDGE2D_PRESET`]).
+    pub fn edge2d() -> Result<Self> {
+        Self::from_toml_str(EDGE2D_PRESET, "sim/presets/tactip-331-edge2d.toml")
+    }
+
     /// The camera-only fit ([`CAMERA_ONLY_PRESET`]): 1.5 mm skin, 2 mm pins, Poisson 0.5,
     /// camera 10.65 mm behind the dome centre.
     pub fn camera_only() -> Result<Self> {
@@ -436,6 +473,24 @@ impl SensorParams {
                 format!("must be in [{}, {}] px, got {}", IMAGE_SIZE_RANGE.0, IMAGE_SIZE_RANGE.1, c.image_size),
             );
         }
+        let f = &self.framing;
+        for (field, v, max) in [
+            ("framing.rim_radius", f.rim_radius, FRAMING_RADIUS_MAX),
+            ("framing.rim_width", f.rim_width, RIM_WIDTH_MAX),
+            ("framing.mask_radius", f.mask_radius, FRAMING_RADIUS_MAX),
+        ] {
+            if let Some(v) = v
+                && !(v.is_finite() && v > 0.0 && v <= max)
+            {
+                return bad(field, format!("must be in (0, {max}] (fraction of the image size), got {v}"));
+            }
+        }
+        if f.rim_radius.is_some() != f.rim_width.is_some() {
+            return bad(
+                if f.rim_radius.is_some() { "framing.rim_width" } else { "framing.rim_radius" },
+                "the rim needs both framing.rim_radius and framing.rim_width (fractions of the image size)".to_owned(),
+            );
+        }
         let k = &self.skin;
         finite("skin.youngs_modulus_mpa", k.youngs_modulus_mpa)?;
         finite("skin.poisson", k.poisson)?;
@@ -532,6 +587,28 @@ mod tests {
         let e = SensorParams::from_toml_str("[pins]\nrings = 4\nring_polar_deg = [10.0, 5.0, 20.0, 30.0]\n", "s.toml")
             .expect_err("decreasing");
         assert!(e.to_string().contains("ring_polar_deg[1]"), "{e}");
+        for (text, field) in [
+            ("[framing]\nmask_radius = 0.9\n", "framing.mask_radius"),
+            ("[framing]\nrim_radius = 0.4\nrim_width = -0.01\n", "framing.rim_width"),
+            ("[framing]\nrim_radius = 0.4\n", "framing.rim_width"),
+            ("[framing]\nrim_width = 0.02\n", "framing.rim_radius"),
+        ] {
+            let e = SensorParams::from_toml_str(text, "s.toml").expect_err(text).to_string();
+            assert!(e.contains("s.toml") && e.contains(field), "{text}: {e}");
+        }
+    }
+
+    #[test]
+    fn the_edge2d_preset_renders_every_pin_and_its_rim_at_its_128_px() {
+        let sensor = SensorParams::edge2d().expect("valid preset");
+        assert_eq!((sensor.camera.image_size, sensor.pin_count()), (128, 331));
+        let img = crate::render::PinRenderer::new(&sensor, 128).expect("renderable").render_undeformed();
+        let (lo, hi) = crate::calibration::pin_area_range(128);
+        assert_eq!(crate::detect::detect_pins(&img, lo, hi).len(), 331);
+        // The rim: a white ring near the border, black beyond it.
+        assert_eq!(img.get_pixel(64, 1).0[0], 0);
+        let ring = (0..64).filter(|&y| img.get_pixel(64, y).0[0] == 255).count();
+        assert!(ring >= 2, "{ring}");
     }
 
     #[test]

@@ -9,6 +9,7 @@ use std::path::PathBuf;
 
 use tacsim_data::LabFolder;
 use tacsim_sim::calibrate::observe::Observations;
+use tacsim_sim::calibrate::reference::Reference;
 
 fn folder() -> Option<PathBuf> {
     common::shared("data/real-tactip-surface3d")
@@ -18,7 +19,8 @@ fn folder() -> Option<PathBuf> {
 fn real_pins_are_tracked_and_the_label_frame_is_found() {
     let Some(dir) = folder() else { return };
     let lab = LabFolder::open(&dir).expect("lab folder");
-    let obs = Observations::track(&lab, "image_0.png").expect("tracking");
+    let reference = Reference::image(&lab, "image_0.png").expect("reference");
+    let obs = Observations::track(&lab, &reference).expect("tracking");
     let n = obs.reference.len();
     let tracked: Vec<usize> = obs.samples.iter().map(|o| n - o.tracking.unmatched()).collect();
     let mean = tracked.iter().sum::<usize>() as f64 / tracked.len() as f64;

@@ -189,7 +189,8 @@ fn real_compare(args: &[String]) -> Result<()> {
     let dir =
         flag(args, "--real").map(PathBuf::from).unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d"));
     let lab = tacsim_data::LabFolder::open(&dir)?;
-    let obs = Observations::track(&lab, "image_0.png")?;
+    let reference = tacsim_sim::calibrate::reference::Reference::of(&lab, None)?;
+    let obs = Observations::track(&lab, &reference)?;
     let n = obs.reference.len();
     let tracked: Vec<usize> = obs.samples.iter().map(|o| n - o.tracking.unmatched()).collect();
     println!(
@@ -204,8 +205,8 @@ fn real_compare(args: &[String]) -> Result<()> {
         None => SensorParams::default(),
     };
     if let Some(v) = flag(args, "--camera-distance") {
-        let reference = tacsim_sim::png_io::read_png(&dir.join("images/image_0.png"))?;
-        base = tacsim_sim::calibration::fit_camera_at(&base, &reference, "image_0.png", Some(v.parse()?))?;
+        base =
+            tacsim_sim::calibration::fit_camera_at(&base, &reference.image, &reference.describe(), Some(v.parse()?))?;
         println!("camera refitted at {v} mm: {:?}", base.camera);
     }
     let mut d = Deformation::of(&base, 0.5);

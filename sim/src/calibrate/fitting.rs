@@ -17,6 +17,7 @@ use super::evaluate::Simulator;
 use super::frame::{FrameFit, ImageMap, best_frame, shift_samples};
 use super::model::{Deformation, LabelFrame, SampleError};
 use super::observe::Observations;
+use super::reference::Reference;
 use crate::calibration::fit_camera_at;
 use crate::error::{Result, SimError};
 use crate::fit::nelder_mead;
@@ -111,10 +112,8 @@ pub struct Problem<'a> {
     pub folder: &'a tacsim_data::LabFolder,
     /// The sensor before the fit.
     pub base: &'a SensorParams,
-    /// The real undeformed image (the camera is refitted on it).
-    pub reference: &'a GrayImage,
-    /// Its name, for errors.
-    pub reference_name: &'a str,
+    /// The real undeformed reference (the camera is refitted on it; every image is cut as it).
+    pub reference: &'a Reference,
     /// The tracked recordings.
     pub obs: &'a Observations,
     /// The stimulus whose flat top face the recordings pressed.
@@ -131,8 +130,18 @@ impl Problem<'_> {
 
     /// The simulator of `d`, the camera refitted at its distance.
     pub fn simulator(&self, d: &Deformation) -> Result<Simulator> {
-        let base = fit_camera_at(self.base, self.reference, self.reference_name, Some(d.camera_distance_mm))?;
+        let base = self.camera_at(d.camera_distance_mm)?;
         Simulator::new(&base, d, self.cells, self.obs, self.surface)
+    }
+
+    /// The base sensor with its camera refitted on the reference at `distance_mm`.
+    pub fn camera_at(&self, distance_mm: f64) -> Result<SensorParams> {
+        fit_camera_at(self.base, &self.reference.image, &self.reference.describe(), Some(distance_mm))
+    }
+
+    /// Recording `k`'s image, cut as the reference.
+    pub fn real_image(&self, k: usize) -> Result<GrayImage> {
+        self.reference.read(&self.folder_image(k))
     }
 
     /// Mean relative error of `d` under `frame` over the recordings `which`.
@@ -146,7 +155,7 @@ impl Problem<'_> {
         let identity = self.simulator(d)?.errors(self.obs, which, &LabelFrame::IDENTITY)?;
         let [real, sim] = shift_samples(which.iter().map(|&k| &self.obs.samples[k].sample), &identity);
         let too_few = || SimError::Analysis {
-            source_name: self.reference_name.to_owned(),
+            source_name: self.reference.describe(),
             reason: format!("{} recordings are too few to find the label frame: record at least 8", which.len()),
         };
         let sim_map = ImageMap::fit(&sim).ok_or_else(too_few)?;
@@ -285,12 +294,7 @@ pub fn calibrate(problem: &Problem, split: &Split, opts: &FitOptions, progress: 
     let best = candidates.iter().min_by(|a, b| a.relative_error.total_cmp(&b.relative_error)).expect("one model");
     let frame = problem.frame(&best.deformation, &split.train)?;
     let polished = minimise(problem, &best.deformation, &frame.frame, &split.train, opts.polish_evaluations, progress);
-    let sensor = polished.deformation.sensor(&fit_camera_at(
-        problem.base,
-        problem.reference,
-        problem.reference_name,
-        Some(polished.deformation.camera_distance_mm),
-    )?)?;
+    let sensor = polished.deformation.sensor(&problem.camera_at(polished.deformation.camera_distance_mm)?)?;
     Ok(Calibration {
         sensor,
         deformation: polished.deformation,

@@ -3,11 +3,13 @@
 //! recordings with that label frame and deformation parameters ([`model`]), measure the
 //! difference ([`evaluate`]; `cargo xtask real-compare` prints it), fit the parameters on 80%
 //! of the recordings ([`fitting`]) and report on the held-out 20% ([`report`];
-//! `tacsim calibrate` runs both).
+//! `tacsim calibrate` runs both). [`reference`] finds the undeformed layout (an undeformed
+//! image, or the consensus of the shallowest presses) and cuts non-square images square.
 
 pub mod evaluate;
 pub mod fitting;
 pub mod frame;
 pub mod model;
 pub mod observe;
+pub mod reference;
 pub mod report;

@@ -4,10 +4,10 @@
 use rayon::prelude::*;
 use tacsim_data::{LabFolder, LabSample};
 
+use super::reference::Reference;
 use crate::calibration::pin_area_range;
 use crate::detect::detect_pins;
 use crate::error::{Result, SimError};
-use crate::png_io::read_png;
 use crate::tracking::{Tracking, global_warp, track};
 
 /// Pin spacing of the lab's 420 px images (px), scaled with the image size.
@@ -44,40 +44,35 @@ pub fn pin_centres(img: &image::GrayImage) -> Vec<[f64; 2]> {
 }
 
 impl Observations {
-    /// Tracks every sample of `folder` against its reference image `reference_image`; samples
-    /// naming the reference are skipped.
-    pub fn track(folder: &LabFolder, reference_image: &str) -> Result<Self> {
-        let ref_path = folder.dir.join("images").join(reference_image);
-        let reference_img = read_png(&ref_path)?;
-        let (w, h) = reference_img.dimensions();
-        if w != h {
-            return Err(SimError::Image { path: ref_path, reason: format!("must be square, is {w}x{h}") });
+    /// Tracks every sample of `folder` against `reference` (every image cut as it is); a
+    /// sample naming the reference image is skipped.
+    pub fn track(folder: &LabFolder, reference: &Reference) -> Result<Self> {
+        let (w, h) = reference.image.dimensions();
+        let reference_pins = pin_centres(&reference.image);
+        if reference_pins.len() < 7 {
+            return Err(SimError::Analysis {
+                source_name: reference.describe(),
+                reason: format!("{} pins found in the reference: too few to track", reference_pins.len()),
+            });
         }
-        let reference = pin_centres(&reference_img);
         let spacing = SPACING_PX420 * w as f64 / 420.0;
+        let skip = reference.image_name();
         let samples = folder
             .samples
             .par_iter()
-            .filter(|s| s.image != reference_image)
+            .filter(|s| Some(s.image.as_str()) != skip)
             .map(|s| -> Result<Observation> {
-                let path = folder.image_path(s);
-                let img = read_png(&path)?;
-                if img.dimensions() != (w, h) {
-                    return Err(SimError::Image {
-                        path,
-                        reason: format!("is {}x{}, the reference {w}x{h}", img.width(), img.height()),
-                    });
-                }
+                let img = reference.read(&folder.image_path(s))?;
                 let detected = pin_centres(&img);
                 // The lab's recordings move pins by under half a spacing as a whole (the largest
                 // shift of a tracked sample is about 0.3 spacing), but a deep press spreads the
                 // outer rings by most of a spacing: start from the best spread and shift.
                 let centre = [0.5 * w as f64, 0.5 * h as f64];
-                let start = global_warp(&reference, &detected, spacing, centre, MAX_SPREAD);
-                let tracking = track(&reference, &detected, spacing, &start);
+                let start = global_warp(&reference_pins, &detected, spacing, centre, MAX_SPREAD);
+                let tracking = track(&reference_pins, &detected, spacing, &start);
                 Ok(Observation { sample: s.clone(), tracking })
             })
             .collect::<Result<Vec<_>>>()?;
-        Ok(Self { size: w, reference, samples })
+        Ok(Self { size: w, reference: reference_pins, samples })
     }
 }

@@ -9,7 +9,6 @@ use serde::Serialize;
 use super::fitting::{Calibration, Candidate, Problem, Split};
 use super::model::{Deformation, SampleError};
 use crate::error::Result;
-use crate::png_io::read_png;
 
 /// Real global shifts above this (px at 420) count for the direction criterion.
 pub const DIRECTION_MIN_SHIFT_PX420: f64 = 2.0;
@@ -99,6 +98,8 @@ pub struct Report {
     pub command: String,
     /// The recordings' folder.
     pub real_dir: String,
+    /// The undeformed reference: an image, or the consensus of the shallowest recordings.
+    pub reference: String,
     /// Recordings (the reference excluded).
     pub recordings: usize,
     /// Reference pins and the mean tracked per recording.
@@ -208,6 +209,7 @@ pub fn held_out(
     let report = Report {
         command: command.to_owned(),
         real_dir: real_dir.to_owned(),
+        reference: problem.reference.describe(),
         recordings: obs.samples.len(),
         reference_pins: n,
         tracked_mean: tracked as f64 / obs.samples.len().max(1) as f64,
@@ -239,7 +241,7 @@ pub fn held_out(
         .collect();
     let mut grid = RgbImage::new(3 * TILE_PX, TILE_PX * picks.len() as u32);
     for (r, &k) in picks.iter().enumerate() {
-        let real = read_png(&problem.folder_image(k))?;
+        let real = problem.real_image(k)?;
         let simulated = sim.render(&sim.pins(obs, k, frame)?);
         let tile = |img: &GrayImage| imageops::resize(img, TILE_PX, TILE_PX, imageops::FilterType::Nearest);
         let (a, b) = (tile(&real), tile(&simulated));
@@ -269,7 +271,7 @@ pub fn markdown(r: &Report) -> String {
         yes(r.direction_target_met)
     );
     let mut s = format!(
-        "# Calibration against real TacTip recordings\n\nMade by `{}` from `{}`.\n\n\
+        "# Calibration against real TacTip recordings\n\nMade by `{}` from `{}`. Reference: {}.\n\n\
          {} recordings ({} reference pins, {:.1} tracked per recording): {} fitted, {} held out \
          (never used in the fit). Pixels are given at 420 px; 1 px at the pin tips is {:.3} mm.\n\n\
          ## Held-out result\n\n\
@@ -283,6 +285,7 @@ pub fn markdown(r: &Report) -> String {
          | training recordings, mean relative error | {:.3} | |\n\n",
         r.command,
         r.real_dir,
+        r.reference,
         r.recordings,
         r.reference_pins,
         r.tracked_mean,
