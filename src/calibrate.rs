@@ -11,12 +11,12 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use tacsim_data::LabFolder;
 use tacsim_sim::atomic::write_atomic;
+use tacsim_sim::calibrate::camera::fit_camera_only;
 use tacsim_sim::calibrate::fitting::{FitOptions, Problem, Split, calibrate as fit};
-use tacsim_sim::calibrate::observe::{Observations, pin_centres};
+use tacsim_sim::calibrate::observe::Observations;
 use tacsim_sim::calibrate::reference::{Reference, ReferenceSource};
-use tacsim_sim::calibrate::report::{held_out, markdown};
-use tacsim_sim::calibration::{compare_sensor, fit_camera_at, fit_framing, fit_ring_angles, ring_profile, ring_table};
-use tacsim_sim::render::PinRenderer;
+use tacsim_sim::calibrate::report::{comparison_row, held_out, markdown};
+use tacsim_sim::calibration::ring_table;
 use tacsim_sim::sensor::{SensorParams, SkinModel};
 
 /// What `tacsim calibrate` was asked.
@@ -173,10 +173,8 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
 /// Side of each tile of the camera-only grid (px).
 const TILE_PX: u32 = 256;
 
-/// `--camera-only`: the camera and ring layout of `base` fitted to the reference (camera
-/// distance kept: an undeformed image hardly tells it; then each ring's polar angle), the image size set to the
-/// reference's, the rim and mask fitted; writes the preset and a report (`report.md`,
-/// `grid.png`: real reference, simulated, difference).
+/// `--camera-only` ([`fit_camera_only`]): writes the preset, named after its file, and a
+/// report (`report.md`, `grid.png`: real reference, simulated, difference).
 fn camera_only(
     o: &CalibrateOptions,
     reference: &Reference,
@@ -185,65 +183,14 @@ fn camera_only(
     command: &str,
 ) -> Result<String> {
     let name = reference.describe();
-    let side = reference.image.width();
-    let camera = fit_camera_at(base, &reference.image, &name, Some(base.camera.distance_mm))
-        .with_context(|| format!("fitting the camera to the reference ({name})"))?;
-    let real_profile = ring_profile(&reference.image, base.pins.rings, &name)?;
-    let mut sensor = fit_ring_angles(&camera, &real_profile)?;
-    sensor.camera.image_size = side;
-    // A new sensor: named after its preset file.
+    let fit =
+        fit_camera_only(base, reference).with_context(|| format!("fitting the camera to the reference ({name})"))?;
+    let mut sensor = fit.sensor.clone();
     sensor.name = o.output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| base.name.clone());
-    let renderer = PinRenderer::new(&sensor, side)?;
-    let principal = renderer.camera().principal;
-    let field =
-        renderer.undeformed_discs().iter().map(|d| (d.u - principal[0]).hypot(d.v - principal[1])).fold(0.0, f64::max);
-    sensor.framing = fit_framing(&reference.image, principal, field);
-    sensor.validate("camera fit")?;
-    let renderer = PinRenderer::new(&sensor, side)?;
-    let discs = renderer.undeformed_discs();
-    let (cmp, sim_profile, real_profile) = compare_sensor(&sensor, &reference.image, &name)?;
-    // Pin by pin: each real pin's nearest simulated pin, within half a spacing.
-    let real = pin_centres(&reference.image);
-    let spacing = tacsim_sim::calibrate::observe::SPACING_PX420 * side as f64 / 420.0;
-    let near: Vec<f64> = real
-        .iter()
-        .filter_map(|p| {
-            let d = discs.iter().map(|d| (d.u - p[0]).hypot(d.v - p[1])).fold(f64::INFINITY, f64::min);
-            (d <= 0.5 * spacing).then_some(d)
-        })
-        .collect();
-    let rms = (near.iter().map(|d| d * d).sum::<f64>() / near.len().max(1) as f64).sqrt();
-    let framing = match (sensor.framing.rim_radius, sensor.framing.rim_width) {
-        (Some(r), Some(w)) => format!(
-            "rim at {:.1} px, {:.1} px wide, mask beyond {:.1} px",
-            r * side as f64,
-            w * side as f64,
-            sensor.framing.mask_radius.unwrap_or(0.0) * side as f64
-        ),
-        _ => "no rim found (none drawn)".to_owned(),
-    };
-    let summary = format!(
-        "{} pins in the reference, {} matched within half a spacing: RMS {rms:.2} px at {side} px ({:.2} px at 420); \
-         ring radius RMS {:.2} px, blob area error {:+.1}%; {framing}",
-        real.len(),
-        near.len(),
-        rms * 420.0 / side as f64,
-        cmp.ring_radius_rms_px,
-        100.0 * cmp.area_rel_err,
-    );
-    let simulated = renderer.render_undeformed();
-    let tile =
-        |img: &image::GrayImage| image::imageops::resize(img, TILE_PX, TILE_PX, image::imageops::FilterType::Nearest);
-    let (a, b) = (tile(&reference.image), tile(&simulated));
-    let mut grid = image::RgbImage::new(3 * TILE_PX, TILE_PX);
-    for (x, y, p) in a.enumerate_pixels() {
-        let q = b.get_pixel(x, y)[0];
-        grid.put_pixel(x, y, image::Rgb([p[0]; 3]));
-        grid.put_pixel(TILE_PX + x, y, image::Rgb([q; 3]));
-        grid.put_pixel(2 * TILE_PX + x, y, image::Rgb([p[0], q, q]));
-    }
+    let summary = fit.summary();
     let mut png = Vec::new();
-    grid.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
+    comparison_row(&reference.image, &fit.simulated, TILE_PX)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
     write_atomic(&report_dir.join("grid.png"), &png)?;
     let md = format!(
         "# Camera fit against real TacTip recordings\n\nMade by `{command}` from `{}`.\n\nReference: {name}.\n\n\
@@ -252,7 +199,7 @@ fn camera_only(
          simulated undeformed image, their difference (real only red, simulated only cyan).\n",
         o.real.display(),
         sensor.camera.distance_mm,
-        ring_table(&sim_profile, &real_profile),
+        ring_table(&fit.sim, &fit.real),
     );
     write_atomic(&report_dir.join("report.md"), md.as_bytes())?;
     let header = format!(

@@ -7,18 +7,14 @@ use tacsim_sim::render::PinRenderer;
 use tacsim_sim::sensor::{FramingParams, SensorParams};
 
 mod common;
-use common::{err, s, tacsim, temp_dir};
+use common::{err, lab_folder, s, tacsim, temp_dir};
 
 const HEADER: &str =
     "sensor_image,pose_x,pose_y,pose_z,pose_Rx,pose_Ry,pose_Rz,shear_x,shear_y,shear_z,shear_Rx,shear_Ry,shear_Rz";
 
 #[test]
 fn a_tiny_lab_folder_calibrates_into_a_preset_and_a_held_out_report() {
-    let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/real-tactip-surface3d");
-    if !real.join("targets.csv").is_file() {
-        eprintln!("skipped: ../shared/data/real-tactip-surface3d is not here");
-        return;
-    }
+    let Some(real) = lab_folder("real-tactip-surface3d") else { return };
     // The reference and 30 recordings, in the lab's format.
     let dir = temp_dir("calibrate", "tiny");
     let lab = dir.join("lab");
@@ -113,11 +109,7 @@ fn derived_folder(
 
 #[test]
 fn a_lab_folder_with_non_square_images_calibrates() {
-    let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/real-tactip-surface3d");
-    if !real.join("targets.csv").is_file() {
-        eprintln!("skipped: ../shared/data/real-tactip-surface3d is not here");
-        return;
-    }
+    let Some(real) = lab_folder("real-tactip-surface3d") else { return };
     // The 40 shallowest recordings and the undeformed image, each 420 px image put into a
     // 452 x 430 frame at (20, 4).
     let dir = temp_dir("calibrate", "derived");
@@ -147,11 +139,7 @@ fn a_lab_folder_with_non_square_images_calibrates() {
 fn the_consensus_of_the_shallowest_presses_stands_in_for_the_undeformed_image() {
     use tacsim_sim::calibrate::observe::pin_centres;
     use tacsim_sim::calibrate::reference::Reference;
-    let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/real-tactip-surface3d");
-    if !real.join("targets.csv").is_file() {
-        eprintln!("skipped: ../shared/data/real-tactip-surface3d is not here");
-        return;
-    }
+    let Some(real) = lab_folder("real-tactip-surface3d") else { return };
     let lab = tacsim_data::LabFolder::open(&real).expect("lab folder");
     let truth = pin_centres(&Reference::image(&lab, "image_0.png").expect("image_0").image);
     let consensus = Reference::consensus(&lab).expect("consensus");
@@ -169,8 +157,10 @@ fn the_consensus_of_the_shallowest_presses_stands_in_for_the_undeformed_image() 
     assert!(near.len() + 10 >= truth.len() && rms < 3.0, "{} of {} pins, RMS {rms:.2} px", near.len(), truth.len());
     // But flat presses all push the central pins, so the consensus's centre is smeared and the
     // ring fit cannot read it (ring 1 shows 3 of its 6 pins): calibrate says what to do.
-    let e = err(&["calibrate", "--real", s(&real), "--reference", "none.png", "--camera-only", "-o", "/tmp/x.toml"]);
-    assert!(e.contains("none.png"), "{e}");
+    let dir = temp_dir("calibrate", "consensus");
+    derived_folder(&real, &dir.join("lab"), 40, |img| img);
+    let e = err(&["calibrate", "--real", s(&dir.join("lab")), "-o", s(&dir.join("p.toml")), "--quick", "-q"]);
+    assert!(e.contains("consensus of the 30 shallowest") && e.contains("--reference"), "{e}");
 }
 
 #[test]
@@ -215,11 +205,7 @@ fn camera_only_recovers_a_simulated_sensor_from_framed_non_square_images_without
 
 #[test]
 fn the_edge2d_preset_is_what_camera_only_makes_of_the_edge_recordings() {
-    let real = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/real-tactip-edge2d");
-    if !real.join("targets.csv").is_file() {
-        eprintln!("skipped: ../shared/data/real-tactip-edge2d is not here");
-        return;
-    }
+    let Some(real) = lab_folder("real-tactip-edge2d") else { return };
     // The command in the preset's header (no reference image, the older column names).
     let dir = temp_dir("calibrate", "edge2d");
     let preset = dir.join("tactip-331-edge2d.toml");

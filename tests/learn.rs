@@ -1,10 +1,8 @@
 //! `tacsim train` and `tacsim eval` end to end: a generated dataset through every network to
 //! the report, a lab recording folder with the lab's preprocessing, and bad input.
 
-use std::path::{Path, PathBuf};
-
 mod common;
-use common::{err, s, tacsim, temp_dir};
+use common::{err, lab_folder, s, tacsim, temp_dir};
 
 fn ok(args: &[&str]) -> String {
     let o = tacsim(args);
@@ -62,18 +60,9 @@ fn bad_training_input_is_a_clear_error() {
     assert!(e.contains("targets.csv") && e.contains("pose_y"), "{e}");
 }
 
-/// The shared real recordings, if this checkout has them.
-fn real_folder() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/real-tactip-surface3d");
-    dir.join("targets.csv").is_file().then_some(dir)
-}
-
 #[test]
 fn a_lab_folder_trains_the_pose_network_with_the_labs_preprocessing() {
-    let Some(real) = real_folder() else {
-        eprintln!("skipped: ../shared/data/real-tactip-surface3d is not here");
-        return;
-    };
+    let Some(real) = lab_folder("real-tactip-surface3d") else { return };
     // A 40-recording subset of the real folder, in the lab's own format.
     let dir = temp_dir("learn", "lab");
     let lab = dir.join("lab");

@@ -29,7 +29,8 @@ pub struct PinRenderer {
     camera: Camera,
     layout: PinLayout,
     undeformed: Vec<Disc>,
-    framing: FramingParams,
+    /// The framing's pixels as runs `(first, end, value)` of raster indices, found once.
+    framing: Vec<(usize, usize, u8)>,
 }
 
 impl PinRenderer {
@@ -75,7 +76,8 @@ impl PinRenderer {
                 }
             }
         }
-        Ok(Self { camera, layout, undeformed, framing: sensor.framing.clone() })
+        let framing = framing_runs(&sensor.framing, camera.principal, size);
+        Ok(Self { camera, layout, undeformed, framing })
     }
 
     /// The camera in use.
@@ -111,25 +113,11 @@ impl PinRenderer {
         self.frame(out);
     }
 
-    /// Draws the rim ring and applies the mask of [`FramingParams`] (circles about the
-    /// principal point; a pixel belongs to them by its centre).
+    /// Draws the rim ring and applies the mask of [`FramingParams`].
     fn frame(&self, out: &mut GrayImage) {
-        let f = &self.framing;
-        if f.rim_radius.is_none() && f.mask_radius.is_none() {
-            return;
-        }
-        let s = self.camera.size as f64;
-        let [cu, cv] = self.camera.principal;
-        let rim = f.rim_radius.zip(f.rim_width).map(|(r, w)| ((r - 0.5 * w) * s, (r + 0.5 * w) * s));
-        let mask = f.mask_radius.map(|m| m * s);
-        for (x, y, p) in out.enumerate_pixels_mut() {
-            let d = (x as f64 + 0.5 - cu).hypot(y as f64 + 0.5 - cv);
-            if rim.is_some_and(|(lo, hi)| d >= lo && d <= hi) {
-                p.0[0] = 255;
-            }
-            if mask.is_some_and(|m| d > m) {
-                p.0[0] = 0;
-            }
+        let buf: &mut [u8] = out;
+        for &(first, end, value) in &self.framing {
+            buf[first..end].fill(value);
         }
     }
 
@@ -154,6 +142,37 @@ impl PinRenderer {
     }
 }
 
+/// The pixels [`FramingParams`] sets in a `size` px image, as runs `(first, end, value)` of
+/// raster indices: black beyond the mask, else white on the rim ring; circles about the
+/// principal point `centre` (px), a pixel belonging to them by its centre.
+fn framing_runs(f: &FramingParams, centre: [f64; 2], size: u32) -> Vec<(usize, usize, u8)> {
+    if f.rim_radius.is_none() && f.mask_radius.is_none() {
+        return Vec::new();
+    }
+    let s = size as f64;
+    let rim = f.rim_radius.zip(f.rim_width).map(|(r, w)| ((r - 0.5 * w) * s, (r + 0.5 * w) * s));
+    let mask = f.mask_radius.map(|m| m * s);
+    let mut runs: Vec<(usize, usize, u8)> = Vec::new();
+    for y in 0..size {
+        for x in 0..size {
+            let d = (x as f64 + 0.5 - centre[0]).hypot(y as f64 + 0.5 - centre[1]);
+            let value = if mask.is_some_and(|m| d > m) {
+                0
+            } else if rim.is_some_and(|(lo, hi)| d >= lo && d <= hi) {
+                255
+            } else {
+                continue;
+            };
+            let i = (y * size + x) as usize;
+            match runs.last_mut() {
+                Some(run) if run.1 == i && run.2 == value => run.1 += 1,
+                _ => runs.push((i, i + 1, value)),
+            }
+        }
+    }
+    runs
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -169,8 +188,10 @@ mod tests {
 
     #[test]
     fn framing_draws_the_rim_ring_and_masks_outside_its_circle() {
-        let mut sensor = SensorParams::default();
-        sensor.framing = FramingParams { rim_radius: Some(0.46), rim_width: Some(0.02), mask_radius: Some(0.48) };
+        let sensor = SensorParams {
+            framing: FramingParams { rim_radius: Some(0.46), rim_width: Some(0.02), mask_radius: Some(0.48) },
+            ..SensorParams::default()
+        };
         let plain = PinRenderer::new(&SensorParams::default(), 128).expect("renderable").render_undeformed();
         let r = PinRenderer::new(&sensor, 128).expect("renderable");
         let framed = r.render_undeformed();

@@ -35,3 +35,15 @@ pub fn temp_dir(prefix: &str, name: &str) -> PathBuf {
 pub fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
+
+/// The lab folder `../shared/data/<name>` (with its `targets.csv`), or `None` after printing
+/// why the test skips.
+pub fn lab_folder(name: &str) -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data").join(name);
+    if dir.join("targets.csv").is_file() {
+        Some(dir)
+    } else {
+        eprintln!("skipped: ../shared/data/{name} is not here");
+        None
+    }
+}

@@ -130,12 +130,7 @@ impl SquareCrop {
             return Ok(img);
         }
         let mut out = GrayImage::new(self.side, self.side);
-        for (x, y, p) in out.enumerate_pixels_mut() {
-            let (sx, sy) = (self.x0 + i64::from(x), self.y0 + i64::from(y));
-            if sx >= 0 && sy >= 0 && sx < i64::from(self.source.0) && sy < i64::from(self.source.1) {
-                *p = *img.get_pixel(sx as u32, sy as u32);
-            }
-        }
+        image::imageops::replace(&mut out, &img, -self.x0, -self.y0);
         Ok(out)
     }
 }
@@ -196,11 +191,15 @@ impl Reference {
         order.sort_by(|a, b| a.pose[2].total_cmp(&b.pose[2]).then_with(|| a.image.cmp(&b.image)));
         order.truncate(consensus_count(order.len()));
         let first = folder.image_path(order[0]);
-        let (w, h) = read_checked(&first)?.dimensions();
-        let mut votes = vec![0u32; (w * h) as usize];
+        let (mut w, mut h) = (0, 0);
+        let mut votes = Vec::new();
         for s in &order {
             let path = folder.image_path(s);
             let img = read_checked(&path)?;
+            if votes.is_empty() {
+                (w, h) = img.dimensions();
+                votes = vec![0u32; (w * h) as usize];
+            }
             if img.dimensions() != (w, h) {
                 return Err(SimError::Image {
                     path,

@@ -243,18 +243,24 @@ pub fn held_out(
     for (r, &k) in picks.iter().enumerate() {
         let real = problem.real_image(k)?;
         let simulated = sim.render(&sim.pins(obs, k, frame)?);
-        let tile = |img: &GrayImage| imageops::resize(img, TILE_PX, TILE_PX, imageops::FilterType::Nearest);
-        let (a, b) = (tile(&real), tile(&simulated));
-        let y0 = r as u32 * TILE_PX;
-        for (x, y, p) in a.enumerate_pixels() {
-            let q = b.get_pixel(x, y)[0];
-            grid.put_pixel(x, y0 + y, Rgb([p[0]; 3]));
-            grid.put_pixel(TILE_PX + x, y0 + y, Rgb([q; 3]));
-            // Difference: real only red, simulated only cyan, both white.
-            grid.put_pixel(2 * TILE_PX + x, y0 + y, Rgb([p[0], q, q]));
-        }
+        imageops::replace(&mut grid, &comparison_row(&real, &simulated, TILE_PX), 0, i64::from(r as u32 * TILE_PX));
     }
     Ok((report, grid))
+}
+
+/// One row of a comparison grid: `real`, `simulated` and their difference (real only red,
+/// simulated only cyan, both white), each resized to `tile_px` square tiles.
+pub fn comparison_row(real: &GrayImage, simulated: &GrayImage, tile_px: u32) -> RgbImage {
+    let tile = |img: &GrayImage| imageops::resize(img, tile_px, tile_px, imageops::FilterType::Nearest);
+    let (a, b) = (tile(real), tile(simulated));
+    let mut row = RgbImage::new(3 * tile_px, tile_px);
+    for (x, y, p) in a.enumerate_pixels() {
+        let q = b.get_pixel(x, y)[0];
+        row.put_pixel(x, y, Rgb([p[0]; 3]));
+        row.put_pixel(tile_px + x, y, Rgb([q; 3]));
+        row.put_pixel(2 * tile_px + x, y, Rgb([p[0], q, q]));
+    }
+    row
 }
 
 /// The report as markdown.
