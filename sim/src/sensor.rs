@@ -39,7 +39,9 @@ pub struct SensorParams {
     pub camera: CameraParams,
     /// Elastic model of the skin and the contact grid.
     pub skin: SkinParams,
-    /// How the lab's processed images frame the pin field (rim ring, circular mask).
+    /// How the lab's processed images frame the pin field (rim ring, circular mask). Left out
+    /// of written files when nothing is drawn.
+    #[serde(skip_serializing_if = "FramingParams::draws_nothing")]
     pub framing: FramingParams,
 }
 
@@ -60,6 +62,13 @@ pub struct FramingParams {
     /// Radius of the mask (fraction of the image size), in (0, 0.75]: pixels whose centre lies
     /// farther from the principal point are black.
     pub mask_radius: Option<f64>,
+}
+
+impl FramingParams {
+    /// Whether no field is set (the default: nothing drawn).
+    pub fn draws_nothing(&self) -> bool {
+        *self == Self::default()
+    }
 }
 
 /// Largest rim or mask radius (fraction of the image size): past the image's corners.
