@@ -61,10 +61,7 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     for dir in
         [o.output.parent().filter(|d| !d.as_os_str().is_empty()), Some(report_dir.as_path())].into_iter().flatten()
     {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {} for the output", dir.display()))?;
-        let probe = dir.join(".tacsim-write-check");
-        std::fs::write(&probe, b"").with_context(|| format!("{} is not writable", dir.display()))?;
-        let _ = std::fs::remove_file(&probe);
+        crate::commands::ensure_writable(dir)?;
     }
     let reference = Reference::of(&folder, o.reference.as_deref())?;
     if o.camera_only {

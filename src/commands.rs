@@ -12,7 +12,7 @@ use tacsim_sim::pins::{PinLayout, PinPose};
 use tacsim_sim::png_io::{PngDepth, write_png};
 use tacsim_sim::realism::Realism;
 use tacsim_sim::scene::{ObjectPose, Scene};
-use tacsim_sim::sensor::SkinModel;
+use tacsim_sim::sensor::{PRESETS, SkinModel};
 use tacsim_sim::stimulus::Catalogue;
 use tacsim_sim::{PinRenderer, SensorParams};
 
@@ -120,14 +120,40 @@ fn pressed_pins(sensor: &SensorParams, opts: &RenderOptions) -> Result<(Vec<PinP
 /// Loads the sensor of `path` (or the default) and applies a pin-count override.
 pub fn load_sensor(path: Option<&Path>, pins: Option<usize>) -> Result<SensorParams> {
     let sensor = match path {
-        Some(p) => SensorParams::load(p)
-            .context("loading the sensor file (see sim/presets/tactip-331-calibrated.toml for the format)")?,
+        Some(p) => sensor_file_or_preset(&p.to_string_lossy(), None)?,
         None => SensorParams::default(),
     };
     match pins {
         Some(n) => Ok(sensor.with_pin_count(n)?),
         None => Ok(sensor),
     }
+}
+
+/// Creates `dir` and checks that files can be written in it, before any work.
+pub fn ensure_writable(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir).with_context(|| format!("creating {} for the output", dir.display()))?;
+    let probe = dir.join(".tacsim-write-check");
+    std::fs::write(&probe, b"").with_context(|| format!("{} is not writable", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// A sensor named by a file path or, where no such file exists, by a built-in preset's name
+/// (`tactip-331-edge2d`); a relative path is taken from `dir` when given.
+pub fn sensor_file_or_preset(arg: &str, dir: Option<&Path>) -> Result<SensorParams> {
+    let path = dir.map_or_else(|| PathBuf::from(arg), |d| d.join(arg));
+    if path.is_file() {
+        return SensorParams::load(&path)
+            .context("loading the sensor file (see sim/presets/tactip-331-calibrated.toml for the format)");
+    }
+    if PRESETS.iter().any(|(n, _)| *n == arg) {
+        return Ok(SensorParams::preset(arg)?);
+    }
+    anyhow::bail!(
+        "sensor `{arg}` is neither a file ({} does not exist) nor a built-in preset ({})",
+        path.display(),
+        PRESETS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+    )
 }
 
 /// `tacsim render`: renders the undeformed sensor. Returns a one-line summary.

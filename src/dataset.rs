@@ -4,12 +4,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use tacsim_sim::PinRenderer;
 use tacsim_sim::contact::engine::ContactModel;
 use tacsim_sim::dataset::generate::{self, Context, Summary, Target};
 use tacsim_sim::dataset::plan::Plan;
 use tacsim_sim::dataset::recipe::Recipe;
 use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::{PinRenderer, SensorParams};
 
 use crate::commands::load_catalogue;
 use crate::embedded::RECIPES;
@@ -84,7 +84,7 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
     recipe.validate(&source)?;
     let catalogue = load_catalogue(None)?;
     let plan = Plan::new(&recipe, &catalogue, &source)?;
-    let base = crate::commands::load_sensor(opts.sensor.as_deref(), None)?;
+    let base = recipe_base_sensor(&recipe, opts)?;
     let sensor = generate::recipe_sensor(&plan, &base)?;
     let model = ContactModel::new(&sensor);
     let renderer = PinRenderer::new(&sensor, recipe.image_size)?;
@@ -118,6 +118,19 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
     .with_context(|| format!("generating {} into {}", recipe.name, opts.out.display()))?;
     bar.finish_and_clear();
     Ok(report(&recipe, &opts.out, total, &summary))
+}
+
+/// The sensor a generate run starts from: `--sensor`, else the recipe's `sensor` (a preset
+/// name, or a file beside the recipe), else the calibrated TacTip.
+pub fn recipe_base_sensor(recipe: &Recipe, opts: &GenerateOptions) -> Result<SensorParams> {
+    match (&opts.sensor, &recipe.sensor) {
+        (Some(_), _) | (None, None) => crate::commands::load_sensor(opts.sensor.as_deref(), None),
+        (None, Some(name)) => {
+            let dir = opts.recipe.as_deref().map(Path::new).filter(|p| p.is_file()).and_then(Path::parent);
+            crate::commands::sensor_file_or_preset(name, dir)
+                .with_context(|| format!("the sensor of recipe {} (its `sensor` field)", recipe.name))
+        }
+    }
 }
 
 fn report(recipe: &Recipe, out: &Path, total: usize, s: &Summary) -> String {

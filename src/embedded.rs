@@ -19,6 +19,7 @@ pub const SHAPE_FILES: &[(&str, &str)] = &[
 
 /// `(name, contents)` of the dataset recipes of `scenarios/datasets/`.
 pub const RECIPES: &[(&str, &str)] = &[
+    ("edge-2d", include_str!("../scenarios/datasets/edge-2d.toml")),
     ("paper", include_str!("../scenarios/datasets/paper.toml")),
     ("quick", include_str!("../scenarios/datasets/quick.toml")),
     ("study", include_str!("../scenarios/datasets/study.toml")),

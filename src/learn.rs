@@ -100,9 +100,14 @@ pub struct LabOptions {
 }
 
 impl LabOptions {
-    fn open(&self, dir: &Path, side: usize) -> Result<Corpus> {
-        let pre = Preprocess { crop: self.crop, side: side as u32, threshold: self.threshold };
-        Ok(Corpus::open_any(dir, &pre)?)
+    /// Opens a dataset or lab folder at the network side `side` with these options.
+    pub fn open(&self, dir: &Path, side: usize) -> Result<Corpus> {
+        Ok(Corpus::open_any(dir, &self.preprocess(side))?)
+    }
+
+    /// The preprocessing to the network side `side`.
+    pub fn preprocess(&self, side: usize) -> Preprocess {
+        Preprocess { crop: self.crop, side: side as u32, threshold: self.threshold }
     }
 }
 
@@ -190,20 +195,26 @@ pub fn pose_config(o: &TrainOptions) -> Result<PoseConfig> {
 }
 
 /// A progress bar with the running loss and rate; Ctrl-C asks the loop to stop.
-struct Bar {
+pub struct Bar {
     bar: Option<ProgressBar>,
     stop: Arc<AtomicBool>,
     recent: Vec<f64>,
 }
 
 impl Bar {
-    fn new(quiet: bool) -> Self {
+    /// A bar (hidden when `quiet`) with Ctrl-C handling.
+    pub fn new(quiet: bool) -> Self {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         // A second handler cannot be installed (tests call this repeatedly): then Ctrl-C
         // simply ends the process and the last periodic checkpoint remains.
         let _ = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst));
         Self { bar: (!quiet).then(ProgressBar::hidden), stop, recent: Vec::new() }
+    }
+
+    /// Whether Ctrl-C stopped the loop (it saved a checkpoint).
+    pub fn stopped(&self) -> bool {
+        self.stop.load(Ordering::SeqCst)
     }
 }
 

@@ -4,7 +4,8 @@
 //! [`embedded`] carries the built-in stimuli and recipes so the binary runs anywhere;
 //! [`commands`] holds one function per subcommand, called by the thin `main.rs`; [`dataset`]
 //! runs `generate` and `merge`; [`explore`] is the closed-loop contour follower (`run`); [`validation`] and [`bench`] run the contact checks and
-//! benchmarks; [`learn`] trains and evaluates the networks of `tacsim-model`.
+//! benchmarks; [`learn`] trains and evaluates the networks of `tacsim-model`; [`sim2real`]
+//! measures how a network trained on simulated images reads a lab's real ones.
 
 pub mod bench;
 pub mod calibrate;
@@ -13,4 +14,5 @@ pub mod dataset;
 pub mod embedded;
 pub mod explore;
 pub mod learn;
+pub mod sim2real;
 pub mod validation;

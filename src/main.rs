@@ -219,12 +219,26 @@ enum Command {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Sim-to-real benchmark on a lab's recordings: generates the recipe's simulated set,
+    /// trains the pose network on it only and, beside it, on the lab folder's fitting part
+    /// (80%); fits the label map on the fitting part; reports both on the held-out 20%
+    /// (report.md, report.json, grid.png). Resumable: rerun the same command.
+    Sim2real(tacsim::sim2real::Sim2RealOptions),
     /// List the stimuli with size, material and friction.
     Shapes {
         /// Catalogue directory (default: the built-in shapes).
         #[arg(long)]
         dir: Option<PathBuf>,
     },
+}
+
+/// The command line as typed, for reports.
+fn command_line() -> String {
+    std::iter::once("tacsim".to_owned())
+        .chain(std::env::args().skip(1))
+        .map(|a| if a.contains(' ') { format!("'{a}'") } else { a })
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 fn main() -> Result<()> {
@@ -312,10 +326,6 @@ fn main() -> Result<()> {
             print!("{}", tacsim::learn::evaluate(&data, &runs, &out, max_pairs, backend, lab)?);
         }
         Command::Calibrate { real, sensor, output, report, reference, camera_only, quick, quiet } => {
-            let command = std::iter::once("tacsim".to_owned())
-                .chain(std::env::args().skip(1))
-                .map(|a| if a.contains(' ') { format!("'{a}'") } else { a })
-                .collect::<Vec<_>>();
             let o = tacsim::calibrate::CalibrateOptions {
                 real,
                 sensor,
@@ -326,7 +336,10 @@ fn main() -> Result<()> {
                 quick,
                 quiet,
             };
-            print!("{}", tacsim::calibrate::calibrate(&o, &command.join(" "))?);
+            print!("{}", tacsim::calibrate::calibrate(&o, &command_line())?);
+        }
+        Command::Sim2real(o) => {
+            print!("{}", tacsim::sim2real::sim2real(&o, &command_line())?);
         }
         Command::Shapes { dir } => {
             print!("{}", commands::shapes_table(&commands::load_catalogue(dir.as_deref())?));

@@ -224,3 +224,47 @@ fn bad_recipes_and_outputs_are_clear_errors() {
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("i < n"));
     let _ = std::fs::remove_dir_all(&root);
 }
+
+#[test]
+fn randomised_recipes_keep_the_draws_record_the_variation_and_stay_deterministic() {
+    let root = fresh_path("data", "randomise");
+    std::fs::create_dir_all(&root).expect("root");
+    let quick = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/datasets/quick.toml"))
+        .expect("quick recipe");
+    let randomised = root.join("dr.toml");
+    std::fs::write(
+        &randomised,
+        format!(
+            "{quick}\n[randomise]\ncamera_shift_px = [-2.0, 2.0]\ncamera_roll_deg = [-1.0, 1.0]\npin_scale = [0.9, 1.1]\n\
+             depth_offset_mm = [0.0, 0.2]\nblur_px = [0.0, 1.0]\nthreshold = [0.4, 0.6]\nspecks = [0, 10]\n"
+        ),
+    )
+    .expect("recipe");
+    let run = |out: &Path, recipe: &str, threads: &str| {
+        let o = tacsim(&["generate", recipe, "--quiet", "--out", s(out), "--threads", threads]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let (a, b, plain) = (root.join("a"), root.join("b"), root.join("plain"));
+    run(&a, s(&randomised), "2");
+    run(&b, s(&randomised), "1");
+    run(&plain, "quick", "2");
+    let (fa, fp) = (files(&a), files(&plain));
+    assert!(fa == files(&b), "1 thread and 2 threads give the same bytes with randomisation");
+    // The same poses, taps and slides as without it; the draw in the dr_* columns.
+    let (da, dp) = (Dataset::open(&a).expect("open"), Dataset::open(&plain).expect("open"));
+    assert_eq!(da.rows.len(), dp.rows.len());
+    for (r, p) in da.rows.iter().zip(&dp.rows) {
+        assert_eq!((r.pose(), r.shear(), r.split), (p.pose(), p.shear(), p.split));
+        let scale = r.dr_pin_scale.expect("dr_pin_scale recorded");
+        assert!((0.9..=1.1).contains(&scale), "{scale}");
+        assert!(r.dr_specks.is_some_and(|n| n <= 10) && r.dr_threshold.is_some_and(|t| (0.4..=0.6).contains(&t)));
+        assert!(p.dr_pin_scale.is_none(), "no dr_* columns without [randomise]");
+    }
+    let header = |f: &BTreeMap<String, Vec<u8>>| {
+        String::from_utf8_lossy(&f["targets.csv"]).lines().next().unwrap_or("").to_owned()
+    };
+    assert!(header(&fa).ends_with("dr_blur_px,dr_threshold,dr_specks") && !header(&fp).contains("dr_"));
+    let differ = fa.iter().filter(|(k, v)| k.starts_with("images/image_") && fp.get(*k) != Some(v)).count();
+    assert!(differ > 250, "the images vary: {differ} of 300 differ");
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -137,9 +137,34 @@ impl LabFolder {
     }
 }
 
+/// One hash bucket in this many is held out (20%).
+const HELD_OUT_EVERY: u64 = 5;
+
+impl LabSample {
+    /// Whether the recording belongs to the held-out 20% that no fit may see (`tacsim
+    /// calibrate`'s report, `tacsim sim2real`'s test): its image name hashes into one bucket of
+    /// five, so a recording lands on the same side however the folder is ordered or grown.
+    pub fn is_held_out(&self) -> bool {
+        fnv1a(&self.image).is_multiple_of(HELD_OUT_EVERY)
+    }
+}
+
+/// FNV-1a hash of a name: stable across platforms and releases.
+fn fnv1a(name: &str) -> u64 {
+    name.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_held_out_part_is_about_a_fifth_by_name() {
+        let sample = |i: usize| LabSample { image: format!("image_{i}.png"), pose: [0.0; 6], shear: [0.0; 6] };
+        let held = (0..1000).filter(|&i| sample(i).is_held_out()).count();
+        assert!((170..=230).contains(&held), "{held}");
+        assert_eq!(sample(1).is_held_out(), sample(1).is_held_out());
+    }
 
     fn folder(name: &str, csv: &str, images: &[&str]) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("tacsim-lab-{}-{name}", std::process::id()));

@@ -7,20 +7,22 @@ use serde::{Deserialize, Serialize};
 use crate::error::{DataError, Result};
 
 /// How a sample was taken.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Kind {
     /// Pressed straight down onto the pose (canonical, unsheared).
+    #[default]
     Tap,
     /// Touched down at `pose + shear` and slid to the pose (sheared).
     Slide,
 }
 
 /// Which part of the data a pose belongs to (split by pose, never by image).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Split {
     /// Training.
+    #[default]
     Train,
     /// Validation.
     Val,
@@ -29,7 +31,7 @@ pub enum Split {
 }
 
 /// A row of `targets.csv` (mm and degrees).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 #[allow(missing_docs)]
 pub struct Row {
@@ -63,6 +65,32 @@ pub struct Row {
     pub split: Split,
     /// Whether the pose is in the paired (supervised) training subset.
     pub paired: bool,
+    // The sample's domain randomisation draw (a recipe's `[randomise]`; see
+    // `tacsim_sim::variation::Variation`): columns present only when the recipe randomises.
+    /// Pin field shifted right (px); with `[randomise]` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dr_shift_x_px: Option<f64>,
+    /// Pin field shifted down (px); with `[randomise]` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dr_shift_y_px: Option<f64>,
+    /// Pins rolled about the camera axis (deg); with `[randomise]` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dr_roll_deg: Option<f64>,
+    /// Factor on the pin tips' radius; with `[randomise]` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dr_pin_scale: Option<f64>,
+    /// Added to the pressed depth, label unchanged (mm); with `[randomise]` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dr_depth_offset_mm: Option<f64>,
+    /// Blur of the pin coverage (px); with `[randomise]` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dr_blur_px: Option<f64>,
+    /// Coverage threshold; with `[randomise]` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dr_threshold: Option<f64>,
+    /// Bright specks drawn; with `[randomise]` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dr_specks: Option<u32>,
 }
 
 impl Row {

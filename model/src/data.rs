@@ -44,8 +44,9 @@ impl Corpus {
     /// `../shared/data/real-tactip-surface3d/`) with the lab's preprocessing `pre` (crop,
     /// resize, threshold), so that a simulator-trained model can be fine-tuned or evaluated on
     /// real recordings. Recordings with zero shear count as taps, the others as slides; each
-    /// recording is its own pose, split 60:20:20 by its index (3 of every 5 train, then val,
-    /// then test); none is paired.
+    /// recording is its own pose; the held-out 20% ([`tacsim_data::LabSample::is_held_out`],
+    /// the part `tacsim calibrate` never fits) is the test split, the rest the training split;
+    /// none is paired.
     pub fn open_lab(dir: &Path, pre: &Preprocess) -> Result<Self> {
         let folder = LabFolder::open(dir)?;
         let rows: Vec<Row> = folder
@@ -69,12 +70,9 @@ impl Corpus {
                 kind: if s.shear.iter().all(|v| *v == 0.0) { Kind::Tap } else { Kind::Slide },
                 shape: "lab".into(),
                 pose_id: i,
-                split: match i % 5 {
-                    0..=2 => Split::Train,
-                    3 => Split::Val,
-                    _ => Split::Test,
-                },
+                split: if s.is_held_out() { Split::Test } else { Split::Train },
                 paired: false,
+                ..Default::default()
             })
             .collect();
         let images = ImageSet::load(rows.len(), pre, |k| {
@@ -102,10 +100,15 @@ impl Corpus {
         Ok(Self { dataset: Dataset { dir: dir.to_owned(), meta, rows }, images, scale })
     }
 
-    /// Opens `dir` as a `tacsim generate` dataset when it holds a `meta.json`, else as a lab
-    /// folder with the preprocessing `pre`.
+    /// Opens `dir` as a `tacsim generate` dataset when it holds tacsim's `meta.json` (one with
+    /// a `format` field), else as a lab folder with the preprocessing `pre` (a lab's own
+    /// `meta.json`, as the edge recordings' rig frames, is not tacsim's).
     pub fn open_any(dir: &Path, pre: &Preprocess) -> Result<Self> {
-        if dir.join("meta.json").is_file() { Self::open(dir, pre.side as usize) } else { Self::open_lab(dir, pre) }
+        let tacsim_meta = std::fs::read_to_string(dir.join("meta.json"))
+            .ok()
+            .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+            .is_some_and(|v| v.get("format").is_some());
+        if tacsim_meta { Self::open(dir, pre.side as usize) } else { Self::open_lab(dir, pre) }
     }
 
     /// Image side (px).

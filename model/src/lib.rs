@@ -8,6 +8,7 @@
 //! - [`config`]: every hyperparameter, the paper's values as defaults;
 //! - [`data`], [`images`]: datasets in memory, batches, the lab's preprocessing;
 //! - [`infer`]: poses read from single images by trained runs (robot perception);
+//! - [`transfer`]: label maps from a simulated dataset's labels to a lab's (sim-to-real);
 //! - [`train`]: seeded, checkpointed, resumable training loops;
 //! - [`checkpoint`]: safetensors weights, optimizer state, run directories;
 //! - [`metrics`]: SSIM, MS-SSIM and MSE, checked against reference values;
@@ -27,6 +28,7 @@ pub mod network;
 pub mod objective;
 pub mod posenet;
 pub mod train;
+pub mod transfer;
 pub mod unshear;
 
 pub use backend::Backend;

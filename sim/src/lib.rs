@@ -26,6 +26,7 @@ pub mod scene;
 pub mod sensor;
 pub mod stimulus;
 pub mod tracking;
+pub mod variation;
 
 pub use error::{Result, SimError};
 pub use render::PinRenderer;

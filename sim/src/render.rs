@@ -9,6 +9,7 @@ use crate::pins::PinLayout;
 
 use crate::raster;
 use crate::sensor::{FramingParams, SensorParams};
+use crate::variation::Variation;
 
 /// Smallest projected pin radius the renderer accepts (px). A disc centred on a pixel corner
 /// covers its four pixels equally, `pi r^2 / 4` each, which is the worst case for the best-covered
@@ -128,6 +129,51 @@ impl PinRenderer {
         out
     }
 
+    /// Renders pins at `pins` with a sample's [`Variation`]: pins rolled about the camera
+    /// axis, tips scaled, the field shifted; specks added over the pin field; then either the
+    /// binary coverage test or, with blur or another threshold, coverage blurred and cut at
+    /// the threshold; framed as [`Self::render`]. Equal to [`Self::render`] for
+    /// [`Variation::NOMINAL`].
+    pub fn render_varied(&self, pins: &[PinPose], v: &Variation) -> GrayImage {
+        let (sin, cos) = v.roll_deg.to_radians().sin_cos();
+        let roll = |x: f64, y: f64| (cos * x - sin * y, sin * x + cos * y);
+        let size = self.camera.size;
+        let mut discs: Vec<Disc> = pins
+            .iter()
+            .filter_map(|p| {
+                let (tx, ty) = roll(p.tip.x, p.tip.y);
+                let (ax, ay) = roll(p.axis.x, p.axis.y);
+                let tip = nalgebra::Point3::new(tx, ty, p.tip.z);
+                let axis = nalgebra::Vector3::new(ax, ay, p.axis.z);
+                self.camera.project_disc(&tip, &axis, self.layout.tip_radius_mm * v.pin_scale)
+            })
+            .map(|d| Disc { u: d.u + v.shift_px[0], v: d.v + v.shift_px[1], ..d })
+            .collect();
+        let field_px = self
+            .undeformed
+            .iter()
+            .map(|d| (d.u - self.camera.principal[0]).hypot(d.v - self.camera.principal[1]) + d.r)
+            .fold(0.0, f64::max);
+        discs.extend(v.speck_discs(self.camera.principal, field_px, size));
+        let mut out = GrayImage::new(size, size);
+        if v.needs_coverage() {
+            let cov = raster::draw_coverage(&discs, size);
+            let grey: Vec<u8> = cov.iter().map(|&c| (255.0 * c).round() as u8).collect();
+            let mut img = GrayImage::from_raw(size, size, grey).unwrap_or_else(|| GrayImage::new(size, size));
+            if v.blur_px > 0.0 {
+                img = imageproc::filter::gaussian_blur_f32(&img, v.blur_px as f32);
+            }
+            let cut = (255.0 * v.threshold).round().clamp(1.0, 255.0) as u8;
+            for (o, g) in out.pixels_mut().zip(img.pixels()) {
+                o.0[0] = if g.0[0] >= cut { 255 } else { 0 };
+            }
+        } else {
+            raster::draw_binary(&discs, size, &mut out);
+        }
+        self.frame(&mut out);
+        out
+    }
+
     /// Renders the undeformed sensor into `out` (reusing its buffer).
     pub fn render_undeformed_into(&self, out: &mut GrayImage) {
         raster::draw_binary(&self.undeformed, self.camera.size, out);
@@ -232,6 +278,40 @@ mod tests {
         let plain = PinRenderer::new(&sensor, 192).expect("renderable");
         let none = crate::calibration::fit_framing(&plain.render_undeformed(), plain.camera().principal, field);
         assert_eq!(none, FramingParams::default());
+    }
+
+    #[test]
+    fn a_nominal_variation_renders_as_the_binary_renderer_and_others_change_the_image() {
+        let r = PinRenderer::new(&SensorParams::edge2d().expect("preset"), 128).expect("renderable");
+        let pins = r.layout().poses();
+        let nominal = r.render(&pins);
+        assert_eq!(r.render_varied(&pins, &Variation::NOMINAL), nominal);
+        let count = |img: &GrayImage| crate::detect::detect_blobs(img).len();
+        // Shifted by a whole pixel: the same pins, one column to the right (the rim stays).
+        let shifted = r.render_varied(&pins, &Variation { shift_px: [1.0, 0.0], ..Variation::NOMINAL });
+        let inside = |img: &GrayImage, x: u32, y: u32| img.get_pixel(x, y).0[0];
+        let (mut same, mut total) = (0, 0);
+        for y in 20..108 {
+            for x in 20..107 {
+                if (f64::from(x) - 64.0).hypot(f64::from(y) - 64.0) > 45.0 {
+                    continue;
+                }
+                total += 1;
+                same += usize::from(inside(&nominal, x, y) == inside(&shifted, x + 1, y));
+            }
+        }
+        assert_eq!(same, total, "a 1 px shift moves every pin pixel by one column");
+        // Larger tips, blur and a low threshold grow the white area; specks add blobs.
+        let white = |img: &GrayImage| img.pixels().filter(|p| p.0[0] > 0).count();
+        let bigger = r.render_varied(&pins, &Variation { pin_scale: 1.2, ..Variation::NOMINAL });
+        let blurred = r.render_varied(&pins, &Variation { blur_px: 0.8, threshold: 0.3, ..Variation::NOMINAL });
+        assert!(white(&bigger) > white(&nominal) && white(&blurred) > white(&nominal));
+        let specks = r.render_varied(&pins, &Variation { specks: 40, speck_seed: 3, ..Variation::NOMINAL });
+        assert!(count(&specks) > count(&nominal), "{} vs {}", count(&specks), count(&nominal));
+        // A roll turns the pin field: another image, the same for the same roll.
+        let rolled = Variation { roll_deg: 7.0, ..Variation::NOMINAL };
+        assert_ne!(r.render_varied(&pins, &rolled), nominal);
+        assert_eq!(r.render_varied(&pins, &rolled), r.render_varied(&pins, &rolled));
     }
 
     #[test]

@@ -263,7 +263,31 @@ pub const CAMERA_ONLY_PRESET: &str = include_str!("../presets/tactip-331-camera.
 /// consensus of its shallowest taps; dome, skin and pins are the calibrated default's.
 pub const EDGE2D_PRESET: &str = include_str!("../presets/tactip-331-edge2d.toml");
 
+/// The TacTip of the flat-surface recordings (`../shared/data/real-tactip-surface3d/`), as
+/// `tacsim calibrate` wrote it: equal to [`SensorParams::default`].
+pub const CALIBRATED_PRESET: &str = include_str!("../presets/tactip-331-calibrated.toml");
+
+/// `(name, contents)` of the presets of `sim/presets/`, compiled in so that `--sensor` and a
+/// recipe's `sensor` can name them from any directory.
+pub const PRESETS: &[(&str, &str)] = &[
+    ("tactip-331-calibrated", CALIBRATED_PRESET),
+    ("tactip-331-camera", CAMERA_ONLY_PRESET),
+    ("tactip-331-edge2d", EDGE2D_PRESET),
+];
+
 impl SensorParams {
+    /// The built-in preset `name` (a file stem of `sim/presets/`, see [`PRESETS`]).
+    pub fn preset(name: &str) -> Result<Self> {
+        match PRESETS.iter().find(|(n, _)| *n == name) {
+            Some((n, text)) => Self::from_toml_str(text, &format!("built-in preset sim/presets/{n}.toml")),
+            None => Err(SimError::Unknown {
+                kind: "sensor preset",
+                name: name.to_owned(),
+                known: PRESETS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+            }),
+        }
+    }
+
     /// The edge recordings' TacTip ([`EDGE2D_PRESET`]).
     pub fn edge2d() -> Result<Self> {
         Self::from_toml_str(EDGE2D_PRESET, "sim/presets/tactip-331-edge2d.toml")

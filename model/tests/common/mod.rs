@@ -108,6 +108,7 @@ pub fn write_dataset(dir: &Path, side: usize, poses: usize, taps: usize, slides:
                     pose_id: p,
                     split,
                     paired: split == Split::Train && p < paired,
+                    ..Default::default()
                 });
                 k += 1;
             }

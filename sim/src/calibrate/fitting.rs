@@ -24,9 +24,6 @@ use crate::fit::nelder_mead;
 use crate::sensor::{SensorParams, SkinModel};
 use crate::stimulus::Stimulus;
 
-/// Every `HELD_OUT_EVERY`-th hash bucket is held out (20%).
-const HELD_OUT_EVERY: u64 = 5;
-
 /// The training and held-out recordings (indices into [`Observations::samples`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Split {
@@ -36,18 +33,12 @@ pub struct Split {
     pub held_out: Vec<usize>,
 }
 
-/// FNV-1a hash of a name: stable across platforms and releases.
-fn fnv1a(name: &str) -> u64 {
-    name.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
-}
-
 impl Split {
-    /// Holds out the recordings whose image name hashes into one bucket of five: the same
-    /// recording lands on the same side however the folder is ordered or grown.
+    /// Holds out the recordings of [`tacsim_data::LabSample::is_held_out`].
     pub fn of(obs: &Observations) -> Self {
         let (mut train, mut held_out) = (Vec::new(), Vec::new());
         for (k, o) in obs.samples.iter().enumerate() {
-            if fnv1a(&o.sample.image).is_multiple_of(HELD_OUT_EVERY) { held_out.push(k) } else { train.push(k) }
+            if o.sample.is_held_out() { held_out.push(k) } else { train.push(k) }
         }
         Self { train, held_out }
     }
@@ -321,13 +312,5 @@ mod tests {
             bad[3] = 3.5;
             assert!(decode(&d, &bad).is_none(), "a 3.5 mm pin leaves no skin");
         }
-    }
-
-    #[test]
-    fn the_split_holds_out_about_a_fifth_by_name() {
-        let names: Vec<String> = (0..1000).map(|i| format!("image_{i}.png")).collect();
-        let held = names.iter().filter(|n| fnv1a(n).is_multiple_of(HELD_OUT_EVERY)).count();
-        assert!((170..=230).contains(&held), "{held}");
-        assert_eq!(fnv1a("image_1.png"), fnv1a("image_1.png"));
     }
 }

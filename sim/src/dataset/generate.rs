@@ -25,6 +25,7 @@ use crate::png_io::{PngDepth, encode_png};
 use crate::render::PinRenderer;
 use crate::scene::Scene;
 use crate::sensor::SensorParams;
+use crate::variation::Variation;
 
 /// Tool name and version recorded in `meta.json`.
 pub const TOOL: &str = concat!("tacsim ", env!("CARGO_PKG_VERSION"));
@@ -190,7 +191,11 @@ pub fn sample_png(ctx: &Context<'_>, s: &Sample) -> Result<(Vec<u8>, [f64; 3])> 
     }
     let pins = sim.pins();
     let t1 = Instant::now();
-    let img = ctx.renderer.render(&pins);
+    let img = if s.variation == Variation::NOMINAL {
+        ctx.renderer.render(&pins)
+    } else {
+        ctx.renderer.render_varied(&pins, &s.variation)
+    };
     let t2 = Instant::now();
     let png = encode_png(&img, PngDepth::Grey8)?;
     let t3 = Instant::now();

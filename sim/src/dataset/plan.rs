@@ -17,6 +17,7 @@ use crate::contact::pose::SensorPose;
 use crate::error::{Result, SimError};
 use crate::stimulus::Catalogue;
 use crate::stimulus::contour::Contour;
+use crate::variation::Variation;
 
 /// Where a pose's labels are measured from: the label `(x, y)` is the point
 /// `origin + x X + y Y` with `X` the unit vector at `x_axis_deg` from the scene's `x` and `Y`
@@ -109,6 +110,8 @@ pub struct Sample {
     pub pose: [f64; 6],
     /// Label shear `[x, y, z, Rx, Ry, Rz]`: the touch-down offset of a slide.
     pub shear: [f64; 6],
+    /// Domain randomisation draw ([`Variation::NOMINAL`] without `[randomise]`).
+    pub variation: Variation,
 }
 
 /// The plan of a recipe.
@@ -245,7 +248,7 @@ impl Plan {
             let j = self.recipe.taps.depth_jitter_mm;
             let mut pose = base;
             pose[2] += draw(&mut rng, [-0.5 * j, 0.5 * j]);
-            Sample { index, pose_id, kind: Kind::Tap, pose, shear: [0.0; 6] }
+            Sample { index, pose_id, kind: Kind::Tap, pose, shear: [0.0; 6], variation: self.variation(index) }
         } else {
             let s = &self.recipe.slides;
             let mut rng = stream(self.recipe.seed, &[4, pose_id as u64, (k - taps) as u64]);
@@ -258,15 +261,44 @@ impl Plan {
                 Axes::Y => (0.0, dy),
                 Axes::Both => (dx, dy),
             };
-            Sample { index, pose_id, kind: Kind::Slide, pose: base, shear: [sx, sy, 0.0, 0.0, 0.0, twist] }
+            Sample {
+                index,
+                pose_id,
+                kind: Kind::Slide,
+                pose: base,
+                shear: [sx, sy, 0.0, 0.0, 0.0, twist],
+                variation: self.variation(index),
+            }
         }
     }
 
-    /// The sensor poses (scene frame) of a sample: touch-down and target (equal for a tap).
+    /// Sample `index`'s domain randomisation draw, from its own stream (so the other draws
+    /// are those of the recipe without `[randomise]`).
+    fn variation(&self, index: usize) -> Variation {
+        let d = &self.recipe.randomise;
+        if !d.is_on() {
+            return Variation::NOMINAL;
+        }
+        let mut rng = stream(self.recipe.seed, &[5, index as u64]);
+        Variation {
+            shift_px: [draw(&mut rng, d.camera_shift_px), draw(&mut rng, d.camera_shift_px)],
+            roll_deg: draw(&mut rng, d.camera_roll_deg),
+            pin_scale: draw(&mut rng, d.pin_scale),
+            depth_offset_mm: draw(&mut rng, d.depth_offset_mm),
+            blur_px: draw(&mut rng, d.blur_px),
+            threshold: draw(&mut rng, d.threshold),
+            specks: rng.random_range(d.specks[0]..=d.specks[1]),
+            speck_seed: rng.random(),
+        }
+    }
+
+    /// The sensor poses (scene frame) of a sample: touch-down and target (equal for a tap),
+    /// pressed by the variation's depth offset beyond the label.
     /// The touch-down offset is in the pose's label frame too.
     pub fn sensor_poses(&self, s: &Sample) -> (SensorPose, SensorPose) {
         let f = &self.poses[s.pose_id].frame;
         let [x, y, z, rx, ry, rz] = s.pose;
+        let z = z + s.variation.depth_offset_mm;
         let [tx, ty] = f.point(x, y);
         let target =
             SensorPose { x_mm: tx, y_mm: ty, depth_mm: z, yaw_deg: f.yaw_zero_deg + rz, rx_deg: rx, ry_deg: ry };
@@ -280,6 +312,9 @@ impl Plan {
         let p = &self.poses[s.pose_id];
         let [pose_x, pose_y, pose_z, pose_rx, pose_ry, pose_rz] = s.pose;
         let [shear_x, shear_y, shear_z, shear_rx, shear_ry, shear_rz] = s.shear;
+        let v = &s.variation;
+        let on = self.recipe.randomise.is_on();
+        let dr = |value: f64| on.then_some(value);
         Row {
             sensor_image: image_name(s.index),
             pose_x,
@@ -299,6 +334,14 @@ impl Plan {
             pose_id: s.pose_id,
             split: p.split,
             paired: p.paired,
+            dr_shift_x_px: dr(v.shift_px[0]),
+            dr_shift_y_px: dr(v.shift_px[1]),
+            dr_roll_deg: dr(v.roll_deg),
+            dr_pin_scale: dr(v.pin_scale),
+            dr_depth_offset_mm: dr(v.depth_offset_mm),
+            dr_blur_px: dr(v.blur_px),
+            dr_threshold: dr(v.threshold),
+            dr_specks: on.then_some(v.specks),
         }
     }
 }

@@ -22,6 +22,10 @@ pub struct Recipe {
     pub cells_across: Option<usize>,
     /// Elastic model behind the skin, overriding the sensor's `skin.model`.
     pub skin: Option<SkinModel>,
+    /// The sensor the recipe is written for: a built-in preset's name (`tactip-331-edge2d`,
+    /// see `tacsim_sim::sensor::PRESETS`) or a sensor file, relative to the recipe's
+    /// directory; default: the calibrated TacTip. `tacsim generate --sensor` overrides it.
+    pub sensor: Option<String>,
     /// The stimuli, each pressed around its contact location.
     pub shapes: Vec<ShapeSpec>,
     /// Poses per shape and the ranges they are drawn from.
@@ -32,6 +36,9 @@ pub struct Recipe {
     pub slides: SlideSpec,
     /// Split by pose.
     pub split: SplitSpec,
+    /// Domain randomisation: per-sample draws of sensor and image parameters (off by
+    /// default).
+    pub randomise: RandomiseSpec,
 }
 
 /// A stimulus of the recipe.
@@ -110,6 +117,51 @@ pub enum Axes {
     Both,
 }
 
+/// Domain randomisation ranges: each sample draws every parameter uniformly from its
+/// `[low, high]` (from its own seeded stream, so the poses, taps and slides are the same
+/// draws as without it) and records the draw in `targets.csv` (`dr_*` columns). The defaults
+/// are the nominal sensor and renderer: no randomisation. Friction is not varied (taps do not
+/// slide; slides keep the catalogue's friction).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RandomiseSpec {
+    /// Shift of the pin field in the image, each of right and down (px at `image_size`).
+    pub camera_shift_px: [f64; 2],
+    /// Roll of the pins about the camera axis (deg).
+    pub camera_roll_deg: [f64; 2],
+    /// Factor on the pin tips' radius.
+    pub pin_scale: [f64; 2],
+    /// Added to the pressed depth, the label unchanged (mm): the rig's depth zero.
+    pub depth_offset_mm: [f64; 2],
+    /// Gaussian blur of the pin coverage before the threshold (px at `image_size`).
+    pub blur_px: [f64; 2],
+    /// Coverage at which a pixel turns white (0.5: the binary renderer).
+    pub threshold: [f64; 2],
+    /// Number of bright specks over the pin field.
+    pub specks: [u32; 2],
+}
+
+impl Default for RandomiseSpec {
+    fn default() -> Self {
+        Self {
+            camera_shift_px: [0.0, 0.0],
+            camera_roll_deg: [0.0, 0.0],
+            pin_scale: [1.0, 1.0],
+            depth_offset_mm: [0.0, 0.0],
+            blur_px: [0.0, 0.0],
+            threshold: [0.5, 0.5],
+            specks: [0, 0],
+        }
+    }
+}
+
+impl RandomiseSpec {
+    /// Whether any parameter varies or departs from the nominal.
+    pub fn is_on(&self) -> bool {
+        *self != Self::default()
+    }
+}
+
 /// Slides: touch down at `pose + offset` (and twist), slide to the pose, capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -151,6 +203,7 @@ impl Default for Recipe {
             image_size: 256,
             cells_across: None,
             skin: None,
+            sensor: None,
             shapes: ["disk", "clover", "teardrop"]
                 .into_iter()
                 .map(|n| ShapeSpec { name: n.into(), contact_mm: None })
@@ -159,6 +212,7 @@ impl Default for Recipe {
             taps: TapSpec::default(),
             slides: SlideSpec::default(),
             split: SplitSpec::default(),
+            randomise: RandomiseSpec::default(),
         }
     }
 }
@@ -295,6 +349,29 @@ impl Recipe {
         if !(s.step_deg.is_finite() && s.step_deg > 0.0) {
             return bad("slides.step_deg", format!("must be a positive number of degrees, got {}", s.step_deg));
         }
+        let d = &self.randomise;
+        let side = f64::from(self.image_size);
+        range("randomise.camera_shift_px", d.camera_shift_px, -side / 8.0, side / 8.0)?;
+        range("randomise.camera_roll_deg", d.camera_roll_deg, -180.0, 180.0)?;
+        range("randomise.pin_scale", d.pin_scale, 0.25, 4.0)?;
+        range("randomise.depth_offset_mm", d.depth_offset_mm, -5.0, 5.0)?;
+        range("randomise.blur_px", d.blur_px, 0.0, side / 16.0)?;
+        range("randomise.threshold", d.threshold, 0.01, 0.99)?;
+        if d.specks[0] > d.specks[1] || d.specks[1] > 1000 {
+            return bad(
+                "randomise.specks",
+                format!("must be [low, high] with low <= high <= 1000, got {:?}", d.specks),
+            );
+        }
+        if p.depth_mm[0] - 0.5 * t.depth_jitter_mm + d.depth_offset_mm[0] <= 0.0 {
+            return bad(
+                "randomise.depth_offset_mm",
+                format!(
+                    "has its low end at {} mm, which lifts the shallowest press ({} mm, less half the jitter) out of contact: keep depth + offset above 0",
+                    d.depth_offset_mm[0], p.depth_mm[0]
+                ),
+            );
+        }
         let sp = &self.split;
         for (field, v) in [("split.train", sp.train), ("split.val", sp.val), ("split.test", sp.test)] {
             if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
@@ -345,6 +422,13 @@ mod tests {
             ("cells_across = 12\n", "cells_across"),
             ("[poses]\naround_contour = true\n", "poses.around_contour"),
             ("[poses]\nframe = \"sensor\"\n", "frame"),
+            ("[randomise]\npin_scale = [1.2, 0.8]\n", "randomise.pin_scale"),
+            ("[randomise]\nthreshold = [0.0, 0.5]\n", "randomise.threshold"),
+            ("[randomise]\ncamera_shift_px = [-64.0, 64.0]\n", "randomise.camera_shift_px"),
+            ("[randomise]\nblur_px = [0.0, inf]\n", "randomise.blur_px"),
+            ("[randomise]\nspecks = [5, 2]\n", "randomise.specks"),
+            ("[randomise]\ndepth_offset_mm = [-2.0, 0.0]\n", "randomise.depth_offset_mm"),
+            ("[randomise]\nfriction = [0.2, 0.8]\n", "friction"),
         ] {
             let e = Recipe::from_toml_str(text, "r.toml").expect_err(text).to_string();
             assert!(e.contains("r.toml") && e.contains(field), "{text}: {e}");

@@ -1,0 +1,79 @@
+"""How much each edge tap changes the image, real against simulated: the fit behind the
+`edge-2d` recipe's depth range (issue 30).
+
+For every image, the fraction of pin-field pixels (within 46 px of the centre at 128 px) that
+differ from the undeformed image (real: the pixel-wise majority of the 75 shallowest taps, as
+`tacsim calibrate` builds it; simulated: the set's own image_0.png). The simulated fraction is
+tabulated over (lateral x, depth) and the real taps are looked up through a map
+    sim x = sign * pose_2 + offset,   sim depth = gain * (pose_3 - zero)
+whose parameters a grid search chooses (least squares). Needs numpy, pillow, scipy.
+
+    python3 docs/sim2real-edge2d/image_change_fit.py ../shared/data/real-tactip-edge2d SIMSET...
+"""
+import csv
+import sys
+
+import numpy as np
+from PIL import Image
+from scipy.interpolate import RegularGridInterpolator
+
+YY, XX = np.mgrid[0:128, 0:128]
+INNER = ((XX - 64.4) ** 2 + (YY - 64.5) ** 2) < 46 ** 2
+
+
+def load(path):
+    return np.array(Image.open(path).convert("L")) > 127
+
+
+def changes(images, reference):
+    return np.array([(im ^ reference)[INNER].mean() for im in images])
+
+
+def main(real_dir, sim_dirs):
+    rows = list(csv.DictReader(open(f"{real_dir}/targets.csv")))
+    imgs = np.array([load(f"{real_dir}/images/{r['sensor_image']}") for r in rows])
+    depth = np.array([float(r["pose_3"]) for r in rows])
+    lat = np.array([float(r["pose_2"]) for r in rows])
+    ref = imgs[np.argsort(depth)[:75]].mean(0) > 0.5
+    real = changes(imgs, ref)
+    print(f"real: {len(rows)} taps, image change {real.mean():.4f} +- {real.std():.4f}")
+    for sim_dir in sim_dirs:
+        srows = list(csv.DictReader(open(f"{sim_dir}/targets.csv")))
+        simgs = np.array([load(f"{sim_dir}/images/{r['sensor_image']}") for r in srows])
+        sd = np.array([float(r["pose_z"]) for r in srows])
+        sx = np.array([float(r["pose_x"]) for r in srows])
+        sim = changes(simgs, load(f"{sim_dir}/images/image_0.png"))
+        xe = np.linspace(-6, 6, 13)
+        de = np.linspace(sd.min(), sd.max(), 12)
+        xc, dc = (xe[:-1] + xe[1:]) / 2, (de[:-1] + de[1:]) / 2
+        table = np.full((len(xc), len(dc)), np.nan)
+        for i in range(len(xc)):
+            for j in range(len(dc)):
+                m = (sx >= xe[i]) & (sx < xe[i + 1]) & (sd >= de[j]) & (sd < de[j + 1])
+                if m.any():
+                    table[i, j] = sim[m].mean()
+        look = RegularGridInterpolator((xc, dc), table, bounds_error=False, fill_value=None)
+
+        def predict(sign, offset, zero, gain):
+            x = np.clip(sign * lat + offset, xc[0], xc[-1])
+            d = np.clip(gain * (depth - zero), dc[0], dc[-1])
+            return look(np.stack([x, d], 1))
+
+        best = min(
+            (np.mean((predict(s, o, z, g) - real) ** 2), s, o, z, g)
+            for s in (-1, 1)
+            for o in np.arange(-4, 4.01, 0.25)
+            for z in np.arange(2.0, 3.55, 0.1)
+            for g in np.arange(0.2, 1.55, 0.1)
+        )
+        e, s, o, z, g = best
+        p = predict(s, o, z, g)
+        print(
+            f"{sim_dir}: rms {np.sqrt(e):.4f}, correlation {np.corrcoef(p, real)[0, 1]:.3f}; "
+            f"sim x = {s:+d} pose_2 {o:+.2f} mm; sim depth = {g:.1f} (pose_3 - {z:.1f}): "
+            f"pose_3 3 -> {g * (3 - z):.2f} mm, 5 -> {g * (5 - z):.2f} mm"
+        )
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2:])

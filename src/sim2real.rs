@@ -1,0 +1,318 @@
+//! `tacsim sim2real`: does a network trained only on simulated images read a lab's real ones?
+//!
+//! One pipeline, each stage a named step whose output lands under `--out`, so an interrupted
+//! run resumes where it stopped:
+//! 1. [`generate_sim`]: the recipe's dataset with the sensor (`sim/`);
+//! 2. [`train_both`]: the pose network on the simulated taps (`sim-posenet/`) and the same
+//!    network, same settings, on the lab folder's fitting part (`real-posenet/`);
+//! 3. [`score`]: the label map (component, sign and offset, [`LabelMap::fit`]) from the
+//!    simulator-trained network's readings of the fitting part, then both networks on the
+//!    held-out part (the 20% `tacsim calibrate` never fits either);
+//! 4. `report.md`, `report.json` and `grid.png` (held-out real images beside the simulated
+//!    image nearest them in label), in `--report` (default `--out`).
+//!
+//! The pose network reads x, y and yaw, so the lab's labels scored are those of them that
+//! vary (the edge recordings' lateral `pose_2` and yaw `pose_6`); a folder whose labels are
+//! depth, tilt and slide offsets (the surface recordings) is refused with that reason.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, Result, bail};
+use image::GrayImage;
+use serde::Serialize;
+use tacsim_data::{Kind, Split, Subset};
+use tacsim_model::Backend;
+use tacsim_model::config::PoseConfig;
+use tacsim_model::data::Corpus;
+use tacsim_model::eval::predict_poses;
+use tacsim_model::infer::load_posenet;
+use tacsim_model::posenet::{Pose, PoseScale};
+use tacsim_model::train;
+use tacsim_model::transfer::{Component, LabelMap, varying};
+
+use crate::dataset::GenerateOptions;
+use crate::learn::{Bar, LabOptions};
+
+/// Options of `tacsim sim2real`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct Sim2RealOptions {
+    /// The lab folder (`targets.csv` + `images/`); its held-out 20% is the test.
+    #[arg(long)]
+    pub real: PathBuf,
+    /// Recipe of the simulated set: a file or a built-in name.
+    #[arg(long, default_value = "edge-2d")]
+    pub recipe: String,
+    /// Sensor file or built-in preset (default: the recipe's `sensor`, else the calibrated
+    /// TacTip).
+    #[arg(long)]
+    pub sensor: Option<PathBuf>,
+    /// Work directory: the simulated set (sim/) and the two runs; rerun to resume.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Where report.md, report.json and grid.png go (default: --out).
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Network image side: 64, 128 or 256.
+    #[arg(long, default_value_t = 64)]
+    pub size: usize,
+    /// Epochs of both trainings.
+    #[arg(long, default_value_t = 30)]
+    pub epochs: usize,
+    /// Seed of both trainings.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Backend: flex (default), ndarray; wgpu / cuda with those features.
+    #[arg(long, default_value = "flex")]
+    pub backend: Backend,
+    /// The lab folder's preprocessing.
+    #[command(flatten)]
+    pub lab: LabOptions,
+    /// No progress bars.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// One label's errors on the held-out real images.
+#[derive(Clone, Debug, Serialize)]
+pub struct LabelScore {
+    /// The lab's label, with unit.
+    pub label: String,
+    /// Mean absolute error of the simulator-trained network through the label map.
+    pub sim_trained: f64,
+    /// Mean absolute error of the network trained on the lab's fitting part.
+    pub real_trained: f64,
+    /// `sim_trained / real_trained`.
+    pub ratio: f64,
+    /// Mean absolute error of always answering the fitting part's median (chance).
+    pub chance: f64,
+}
+
+/// `report.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct Sim2RealReport {
+    /// The command that made the report.
+    pub command: String,
+    /// The lab folder.
+    pub real: String,
+    /// The recipe.
+    pub recipe: String,
+    /// Simulated training taps.
+    pub sim_train: usize,
+    /// Real recordings the real-trained network and the label map saw.
+    pub real_fitting: usize,
+    /// Real recordings neither saw: the test.
+    pub real_held_out: usize,
+    /// The pose networks' settings (both).
+    pub posenet: PoseConfig,
+    /// The fitted label map.
+    pub map: Vec<String>,
+    /// Errors per label on the held-out part.
+    pub labels: Vec<LabelScore>,
+    /// Wall time (s).
+    pub seconds: f64,
+}
+
+/// Runs `tacsim sim2real`; `command` is recorded in the report. Returns the summary to print.
+pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
+    let started = std::time::Instant::now();
+    let cfg = PoseConfig { size: o.size, epochs: o.epochs, seed: o.seed, ..PoseConfig::default() };
+    cfg.validate()?;
+    let report_dir = o.report.clone().unwrap_or_else(|| o.out.clone());
+    crate::commands::ensure_writable(&o.out)?;
+    crate::commands::ensure_writable(&report_dir)?;
+    let mut real = Corpus::open_lab(&o.real, &o.lab.preprocess(o.size))
+        .with_context(|| format!("{} is not a lab folder (targets.csv + images/)", o.real.display()))?;
+    // The real network's label scale comes from the fitting part alone.
+    let fitting = real.dataset.indices(Split::Train, Subset::All, Kind::Tap);
+    let fitting =
+        if fitting.is_empty() { real.dataset.indices(Split::Train, Subset::All, Kind::Slide) } else { fitting };
+    let held_out: Vec<usize> =
+        (0..real.dataset.rows.len()).filter(|&r| real.dataset.rows[r].split == Split::Test).collect();
+    if fitting.len() < 10 || held_out.is_empty() {
+        bail!(
+            "{} has {} fitting and {} held-out recordings: sim2real needs at least 10 and 1",
+            o.real.display(),
+            fitting.len(),
+            held_out.len()
+        );
+    }
+    let fit_poses: Vec<Pose> = fitting.iter().map(|&r| real.pose(r)).collect();
+    if varying(&fit_poses).is_empty() {
+        bail!(
+            "no label the pose network reads (x, y, yaw: pose_x, pose_y, pose_Rz or pose_1, pose_2, pose_6) varies in {}: sim2real scores those",
+            o.real.display()
+        );
+    }
+    real.scale = PoseScale::covering(&fit_poses);
+
+    let sim_dir = generate_sim(o)?;
+    let sim = Corpus::open(&sim_dir, o.size)?;
+    let sim_train = sim.dataset.indices(Split::Train, Subset::All, Kind::Tap).len();
+    let (sim_run, real_run) = train_both(o, &cfg, &sim, &real)?;
+    let (labels, map, nearest) = score(o, &sim, &real, &fitting, &held_out, &sim_run, &real_run)?;
+    write_grid(&report_dir.join("grid.png"), &sim, &real, &held_out, &nearest)?;
+
+    let report = Sim2RealReport {
+        command: command.to_owned(),
+        real: o.real.display().to_string(),
+        recipe: o.recipe.clone(),
+        sim_train,
+        real_fitting: fitting.len(),
+        real_held_out: held_out.len(),
+        posenet: cfg,
+        map: map.describe(),
+        labels,
+        seconds: started.elapsed().as_secs_f64(),
+    };
+    let json = serde_json::to_string_pretty(&report)?;
+    tacsim_model::checkpoint::write_atomic(&report_dir.join("report.json"), json.as_bytes())?;
+    let md = markdown(&report);
+    tacsim_model::checkpoint::write_atomic(&report_dir.join("report.md"), md.as_bytes())?;
+    Ok(format!("{md}\nreport: {}\n", report_dir.join("report.md").display()))
+}
+
+/// Step 1: the simulated set under `out/sim` (resumed when a previous run started it).
+fn generate_sim(o: &Sim2RealOptions) -> Result<PathBuf> {
+    let dir = o.out.join("sim");
+    let g = GenerateOptions {
+        recipe: Some(o.recipe.clone()),
+        out: dir.clone(),
+        sensor: o.sensor.clone(),
+        resume: dir.join("meta.json").is_file(),
+        quiet: o.quiet,
+        ..GenerateOptions::default()
+    };
+    let line = crate::dataset::generate(&g).context("generating the simulated set")?;
+    if !o.quiet {
+        eprint!("{line}");
+    }
+    Ok(dir)
+}
+
+/// Step 2: the pose network on each domain (each resumed when a previous run started it).
+fn train_both(o: &Sim2RealOptions, cfg: &PoseConfig, sim: &Corpus, real: &Corpus) -> Result<(PathBuf, PathBuf)> {
+    let runs = [("simulated", sim, o.out.join("sim-posenet")), ("real", real, o.out.join("real-posenet"))];
+    for (name, corpus, dir) in &runs {
+        let mut bar = Bar::new(o.quiet);
+        let resume = dir.join("config.json").is_file();
+        train::train_posenet(corpus, cfg, o.backend, dir, resume, &mut bar)
+            .with_context(|| format!("training the pose network on the {name} images into {}", dir.display()))?;
+        if bar.stopped() {
+            bail!("interrupted: rerun the same command to resume");
+        }
+    }
+    let [(_, _, s), (_, _, r)] = runs;
+    Ok((s, r))
+}
+
+type Scores = (Vec<LabelScore>, LabelMap, Vec<usize>);
+
+/// Step 3: the label map on the fitting part, both networks on the held-out part; with, for
+/// each held-out image, the simulated training tap nearest its label (for the grid).
+fn score(
+    o: &Sim2RealOptions,
+    sim: &Corpus,
+    real: &Corpus,
+    fitting: &[usize],
+    held_out: &[usize],
+    sim_run: &Path,
+    real_run: &Path,
+) -> Result<Scores> {
+    let device = o.backend.device();
+    let images = |rows: &[usize]| -> Vec<Vec<f32>> {
+        rows.iter().map(|&r| real.images.image(r).iter().map(|&v| f32::from(v) / 255.0).collect()).collect()
+    };
+    let poses = |rows: &[usize]| -> Vec<Pose> { rows.iter().map(|&r| real.pose(r)).collect() };
+    let (sim_net, _, sim_scale) = load_posenet(sim_run, &device)?;
+    let (real_net, _, real_scale) = load_posenet(real_run, &device)?;
+    let fit_truth = poses(fitting);
+    let map = LabelMap::fit(&predict_poses(&sim_net, &sim_scale, &images(fitting), o.size, &device), &fit_truth)?;
+    let truth = poses(held_out);
+    let test_images = images(held_out);
+    let sim_err = map.errors(&predict_poses(&sim_net, &sim_scale, &test_images, o.size, &device), &truth);
+    let identity = LabelMap::identity(&fit_truth);
+    let real_err = identity.errors(&predict_poses(&real_net, &real_scale, &test_images, o.size, &device), &truth);
+    // Chance: one constant for every image, the best on the fitting part.
+    let zero = Pose { x_mm: 0.0, y_mm: 0.0, yaw_deg: 0.0 };
+    let chance = LabelMap::fit(&vec![zero; fit_truth.len()], &fit_truth)?.errors(&vec![zero; truth.len()], &truth);
+    let labels = identity
+        .links
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            let s = map.links.iter().position(|m| m.real == l.real).map_or(f64::NAN, |i| sim_err[i]);
+            LabelScore {
+                label: l.real.label().to_owned(),
+                sim_trained: s,
+                real_trained: real_err[k],
+                ratio: s / real_err[k],
+                chance: chance[k],
+            }
+        })
+        .collect();
+    let sim_rows = sim.dataset.indices(Split::Train, Subset::All, Kind::Tap);
+    let nearest = truth
+        .iter()
+        .map(|t| {
+            let want = map.sim_pose(t);
+            // Label distance with 10 deg of yaw as far as 1 mm.
+            let d = |r: usize| {
+                let p = sim.pose(r);
+                map.links
+                    .iter()
+                    .map(|l| {
+                        let unit = if l.sim == Component::Yaw { 10.0 } else { 1.0 };
+                        (l.sim.difference(l.sim.of(&p), l.sim.of(&want)) / unit).powi(2)
+                    })
+                    .sum::<f64>()
+            };
+            sim_rows.iter().copied().min_by(|a, b| d(*a).total_cmp(&d(*b))).unwrap_or(0)
+        })
+        .collect();
+    Ok((labels, map, nearest))
+}
+
+/// `grid.png`: up to 8 held-out real images (top) over the simulated taps nearest their labels
+/// (bottom), at the network side.
+fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], nearest: &[usize]) -> Result<()> {
+    let side = real.side() as u32;
+    let n = held_out.len().min(8);
+    let step = (held_out.len() / n.max(1)).max(1);
+    let mut grid = GrayImage::new(side * n as u32, side * 2);
+    for k in 0..n {
+        let i = k * step;
+        for (row, img) in [(0, real.images.image(held_out[i])), (1, sim.images.image(nearest[i]))] {
+            let tile = GrayImage::from_raw(side, side, img.to_vec()).context("an image of the wrong size")?;
+            image::imageops::replace(&mut grid, &tile, i64::from(k as u32 * side), i64::from(row * side));
+        }
+    }
+    let mut bytes = Vec::new();
+    grid.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
+    tacsim_model::checkpoint::write_atomic(path, &bytes)?;
+    Ok(())
+}
+
+fn markdown(r: &Sim2RealReport) -> String {
+    let mut s = format!(
+        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training taps; the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s.\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance |\n|---|---|---|---|---|\n",
+        r.recipe,
+        r.real,
+        r.command,
+        r.sim_train,
+        r.real_fitting,
+        r.real_held_out,
+        r.posenet.size,
+        r.posenet.epochs,
+        r.posenet.seed,
+        r.seconds,
+        r.map.join("; "),
+    );
+    for l in &r.labels {
+        s.push_str(&format!(
+            "| {} | {:.2} | {:.2} | {:.1}x | {:.2} |\n",
+            l.label, l.sim_trained, l.real_trained, l.ratio, l.chance
+        ));
+    }
+    s.push_str("\ngrid.png: held-out real images (top) above the simulated training taps nearest their labels through the map (bottom).\n");
+    s
+}

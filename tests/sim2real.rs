@@ -1,0 +1,129 @@
+//! `tacsim sim2real` end to end on a lab folder derived from simulated taps (labels in the
+//! lab's older columns, in another frame), the recipe's `sensor` field, and bad input.
+
+mod common;
+
+use common::{err, s, tacsim, temp_dir};
+use std::path::Path;
+
+fn ok(args: &[&str]) -> String {
+    let o = tacsim(args);
+    assert!(o.status.success(), "tacsim {args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// A small edge-tap recipe (128 px, as the edge preset needs) with the edge preset, `taps` poses.
+fn recipe(dir: &Path, name: &str, seed: u64, taps: usize) -> std::path::PathBuf {
+    let path = dir.join(format!("{name}.toml"));
+    let text = format!(
+        "name = \"{name}\"\nseed = {seed}\nimage_size = 128\ncells_across = 9\nsensor = \"tactip-331-edge2d\"\n\
+         [[shapes]]\nname = \"square\"\ncontact_mm = [45.0, 0.0]\n\
+         [poses]\nper_shape = {taps}\nframe = \"edge\"\nx_mm = [-6.0, 6.0]\ny_mm = [0.0, 0.0]\ndepth_mm = [0.3, 1.0]\nyaw_deg = [-180.0, 180.0]\n\
+         [taps]\nper_pose = 1\ndepth_jitter_mm = 0.0\n[slides]\nper_pose = 0\n\
+         [split]\ntrain = 0.8\nval = 0.2\ntest = 0.0\npaired_fraction = 0.0\n"
+    );
+    std::fs::write(&path, text).expect("recipe");
+    path
+}
+
+#[test]
+fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
+    let dir = temp_dir("sim2real", "e2e");
+    // The "lab": other simulated taps, relabelled as the edge recordings are: lateral in
+    // pose_2 with the opposite sign and 0.5 mm off, yaw in pose_6 turned by 90 deg.
+    let sim = dir.join("lab-sim");
+    ok(&["generate", s(&recipe(&dir, "lab", 11, 60)), "--out", s(&sim), "-q"]);
+    let lab = dir.join("lab");
+    std::fs::create_dir_all(lab.join("images")).expect("lab dir");
+    std::fs::write(lab.join("meta.json"), "{\"tap_depth\": -5.0}").expect("the lab's own meta.json");
+    let text = std::fs::read_to_string(sim.join("targets.csv")).expect("targets");
+    let mut rows = vec![
+        "sensor_image,pose_1,pose_2,pose_3,pose_4,pose_5,pose_6,move_1,move_2,move_3,move_4,move_5,move_6".to_owned(),
+    ];
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        let (x, z, yaw): (f64, f64, f64) =
+            (f[1].parse().expect("x"), f[3].parse().expect("z"), f[6].parse().expect("yaw"));
+        rows.push(format!(
+            "{},0,{},{},0,0,{},0,0,0,0,0,0",
+            f[0],
+            -x + 0.5,
+            z + 3.0,
+            (yaw + 90.0 + 180.0).rem_euclid(360.0) - 180.0
+        ));
+        std::fs::copy(sim.join("images").join(f[0]), lab.join("images").join(f[0])).expect("image");
+    }
+    std::fs::write(lab.join("targets.csv"), rows.join("\n") + "\n").expect("csv");
+
+    let out = dir.join("out");
+    let train = recipe(&dir, "train", 5, 60);
+    let args = ["sim2real", "--real", s(&lab), "--recipe", s(&train), "--out", s(&out)];
+    let text = ok(&[&args[..], &["--epochs", "2", "-q"]].concat());
+    assert!(text.contains("trained on tacsim") && text.contains("yaw (deg)"), "{text}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
+    // x (pose_1) is constant in the lab's labels: only the lateral y and the yaw are scored.
+    let labels: Vec<&str> =
+        report["labels"].as_array().expect("labels").iter().map(|l| l["label"].as_str().expect("label")).collect();
+    assert_eq!(labels, ["y (mm)", "yaw (deg)"]);
+    let (fitting, held_out) =
+        (report["real_fitting"].as_u64().expect("n"), report["real_held_out"].as_u64().expect("n"));
+    assert_eq!(fitting + held_out, 60);
+    assert!((5..=20).contains(&held_out), "about a fifth held out: {held_out}");
+    for l in report["labels"].as_array().expect("labels") {
+        for k in ["sim_trained", "real_trained", "chance"] {
+            assert!(l[k].as_f64().is_some_and(|v| v.is_finite() && v >= 0.0), "{k}: {l}");
+        }
+    }
+    let grid = image::open(out.join("grid.png")).expect("grid.png");
+    assert_eq!((grid.width(), grid.height()), (8 * 64, 2 * 64));
+    // A rerun finds both runs finished and the set generated: the same errors.
+    let again = ok(&[&args[..], &["--epochs", "2", "-q"]].concat());
+    let table = |t: &str| {
+        t.lines().filter(|l| l.starts_with("| y") || l.starts_with("| yaw")).map(str::to_owned).collect::<Vec<_>>()
+    };
+    assert_eq!(table(&again), table(&text));
+}
+
+#[test]
+fn a_recipes_sensor_names_a_preset_or_a_file_and_bad_ones_are_clear_errors() {
+    let dir = temp_dir("sim2real", "sensor");
+    let out = dir.join("set");
+    ok(&["generate", s(&recipe(&dir, "edge", 1, 4)), "--out", s(&out), "-q"]);
+    let meta = std::fs::read_to_string(out.join("meta.json")).expect("meta");
+    assert!(meta.contains("tactip-331-edge2d"), "the recipe's sensor is the edge preset: {meta}");
+    // The built-in edge-2d recipe runs the edge preset too.
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/datasets/edge-2d.toml"))
+        .expect("edge-2d");
+    assert!(text.contains("sensor = \"tactip-331-edge2d\""));
+    // An unknown sensor names the recipe, the field and the presets.
+    let bad = dir.join("bad.toml");
+    std::fs::write(
+        &bad,
+        std::fs::read_to_string(recipe(&dir, "x", 1, 4))
+            .expect("recipe")
+            .replace("tactip-331-edge2d", "no-such-sensor"),
+    )
+    .expect("bad");
+    let e = err(&["generate", s(&bad), "--out", s(&dir.join("bad-out")), "-q"]);
+    assert!(e.contains("no-such-sensor") && e.contains("`sensor` field") && e.contains("tactip-331-edge2d"), "{e}");
+    // sim2real: a missing lab folder, before any work.
+    let e = err(&["sim2real", "--real", s(&dir.join("none")), "--out", s(&dir.join("s2r")), "-q"]);
+    assert!(e.contains("not a lab folder") && e.contains("targets.csv"), "{e}");
+    assert!(!dir.join("s2r/sim").exists(), "nothing generated");
+    // A lab folder whose varying labels the pose network does not read (depth only, as a
+    // flat surface pressed straight down): refused with the reason, before any work.
+    let lab = dir.join("depth-only");
+    std::fs::create_dir_all(lab.join("images")).expect("lab");
+    let mut rows = vec![
+        "sensor_image,pose_1,pose_2,pose_3,pose_4,pose_5,pose_6,move_1,move_2,move_3,move_4,move_5,move_6".to_owned(),
+    ];
+    for k in 1..=20 {
+        std::fs::copy(out.join("images/image_1.png"), lab.join(format!("images/image_{k}.png"))).expect("image");
+        rows.push(format!("image_{k}.png,0,0,{},0,0,0,0,0,0,0,0,0", 1.0 + 0.1 * f64::from(k)));
+    }
+    std::fs::write(lab.join("targets.csv"), rows.join("\n") + "\n").expect("csv");
+    let e = err(&["sim2real", "--real", s(&lab), "--out", s(&dir.join("s2r-depth")), "-q"]);
+    assert!(e.contains("no label the pose network reads") && e.contains("pose_6"), "{e}");
+    assert!(!dir.join("s2r-depth/sim").exists(), "nothing generated");
+}
