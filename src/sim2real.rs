@@ -8,8 +8,9 @@
 //! 3. [`score`]: the label map (component, sign and offset, [`LabelMap::fit`]) from the
 //!    simulator-trained network's readings of the fitting part, then both networks on the
 //!    held-out part (the 20% `tacsim calibrate` never fits either);
-//! 4. `report.md`, `report.json` and `grid.png` (held-out real images beside the simulated
-//!    image nearest them in label), in `--report` (default `--out`).
+//! 4. `report.md`, `report.json`, `predictions.csv` (each held-out image's labels and both
+//!    networks' readings, in the lab's frame) and `grid.png` (held-out real images beside the
+//!    simulated image nearest them in label), in `--report` (default `--out`).
 //!
 //! The pose network reads x, y and yaw, so the lab's labels scored are those of them that
 //! vary (the edge recordings' lateral `pose_2` and yaw `pose_6`); a folder whose labels are
@@ -85,6 +86,10 @@ pub struct LabelScore {
     pub ratio: f64,
     /// Mean absolute error of always answering the fitting part's median (chance).
     pub chance: f64,
+    /// Slope of the simulator-trained readings (through the map) against the labels, least
+    /// squares, for a length (1: the simulated images change with it as the real ones do;
+    /// below 1: the network reads real images as if they changed less). None for the yaw.
+    pub sim_trained_gain: Option<f64>,
 }
 
 /// `report.json`.
@@ -149,7 +154,8 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let sim = Corpus::open(&sim_dir, o.size)?;
     let sim_train = sim.dataset.indices(Split::Train, Subset::All, Kind::Tap).len();
     let (sim_run, real_run) = train_both(o, &cfg, &sim, &real)?;
-    let (labels, map, nearest) = score(o, &sim, &real, &fitting, &held_out, &sim_run, &real_run)?;
+    let (labels, map, nearest, predictions) = score(o, &sim, &real, &fitting, &held_out, &sim_run, &real_run)?;
+    tacsim_model::checkpoint::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
     write_grid(&report_dir.join("grid.png"), &sim, &real, &held_out, &nearest)?;
 
     let report = Sim2RealReport {
@@ -205,7 +211,9 @@ fn train_both(o: &Sim2RealOptions, cfg: &PoseConfig, sim: &Corpus, real: &Corpus
     Ok((s, r))
 }
 
-type Scores = (Vec<LabelScore>, LabelMap, Vec<usize>);
+/// What [`score`] finds: errors per label, the map, for each held-out image the nearest
+/// simulated tap, and `predictions.csv`.
+type Scores = (Vec<LabelScore>, LabelMap, Vec<usize>, String);
 
 /// Step 3: the label map on the fitting part, both networks on the held-out part; with, for
 /// each held-out image, the simulated training tap nearest its label (for the grid).
@@ -229,9 +237,25 @@ fn score(
     let map = LabelMap::fit(&predict_poses(&sim_net, &sim_scale, &images(fitting), o.size, &device), &fit_truth)?;
     let truth = poses(held_out);
     let test_images = images(held_out);
-    let sim_err = map.errors(&predict_poses(&sim_net, &sim_scale, &test_images, o.size, &device), &truth);
+    let sim_read = predict_poses(&sim_net, &sim_scale, &test_images, o.size, &device);
+    let sim_err = map.errors(&sim_read, &truth);
     let identity = LabelMap::identity(&fit_truth);
-    let real_err = identity.errors(&predict_poses(&real_net, &real_scale, &test_images, o.size, &device), &truth);
+    let real_read = predict_poses(&real_net, &real_scale, &test_images, o.size, &device);
+    let real_err = identity.errors(&real_read, &truth);
+    let mut csv = String::from("image");
+    for l in &identity.links {
+        let name = l.real.label().split(' ').next().unwrap_or("label");
+        csv.push_str(&format!(",{name},{name}_sim_trained,{name}_real_trained"));
+    }
+    csv.push('\n');
+    for (k, &r) in held_out.iter().enumerate() {
+        csv.push_str(&real.dataset.rows[r].sensor_image);
+        for l in &identity.links {
+            let sim_value = map.links.iter().find(|m| m.real == l.real).map_or(f64::NAN, |m| m.apply(&sim_read[k]));
+            csv.push_str(&format!(",{:.4},{sim_value:.4},{:.4}", l.real.of(&truth[k]), l.apply(&real_read[k])));
+        }
+        csv.push('\n');
+    }
     // Chance: one constant for every image, the best on the fitting part.
     let zero = Pose { x_mm: 0.0, y_mm: 0.0, yaw_deg: 0.0 };
     let chance = LabelMap::fit(&vec![zero; fit_truth.len()], &fit_truth)?.errors(&vec![zero; truth.len()], &truth);
@@ -240,13 +264,20 @@ fn score(
         .iter()
         .enumerate()
         .map(|(k, l)| {
-            let s = map.links.iter().position(|m| m.real == l.real).map_or(f64::NAN, |i| sim_err[i]);
+            let link = map.links.iter().position(|m| m.real == l.real);
+            let s = link.map_or(f64::NAN, |i| sim_err[i]);
+            let gain = link.filter(|_| l.real != Component::Yaw).map(|i| {
+                let pairs: Vec<(f64, f64)> =
+                    truth.iter().zip(&sim_read).map(|(t, p)| (l.real.of(t), map.links[i].apply(p))).collect();
+                slope(&pairs)
+            });
             LabelScore {
                 label: l.real.label().to_owned(),
                 sim_trained: s,
                 real_trained: real_err[k],
                 ratio: s / real_err[k],
                 chance: chance[k],
+                sim_trained_gain: gain,
             }
         })
         .collect();
@@ -269,7 +300,16 @@ fn score(
             sim_rows.iter().copied().min_by(|a, b| d(*a).total_cmp(&d(*b))).unwrap_or(0)
         })
         .collect();
-    Ok((labels, map, nearest))
+    Ok((labels, map, nearest, csv))
+}
+
+/// Least-squares slope of `y` on `x` over `(x, y)` pairs (0 when `x` does not vary).
+fn slope(pairs: &[(f64, f64)]) -> f64 {
+    let n = pairs.len().max(1) as f64;
+    let (mx, my) = (pairs.iter().map(|p| p.0).sum::<f64>() / n, pairs.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxx: f64 = pairs.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = pairs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    if sxx > 0.0 { sxy / sxx } else { 0.0 }
 }
 
 /// `grid.png`: up to 8 held-out real images (top) over the simulated taps nearest their labels
@@ -294,7 +334,7 @@ fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], near
 
 fn markdown(r: &Sim2RealReport) -> String {
     let mut s = format!(
-        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training taps; the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s.\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance |\n|---|---|---|---|---|\n",
+        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training taps; the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s.\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
         r.recipe,
         r.real,
         r.command,
@@ -309,8 +349,13 @@ fn markdown(r: &Sim2RealReport) -> String {
     );
     for l in &r.labels {
         s.push_str(&format!(
-            "| {} | {:.2} | {:.2} | {:.1}x | {:.2} |\n",
-            l.label, l.sim_trained, l.real_trained, l.ratio, l.chance
+            "| {} | {:.2} | {:.2} | {:.1}x | {:.2} | {} |\n",
+            l.label,
+            l.sim_trained,
+            l.real_trained,
+            l.ratio,
+            l.chance,
+            l.sim_trained_gain.map_or("-".to_owned(), |g| format!("{g:.2}"))
         ));
     }
     s.push_str("\ngrid.png: held-out real images (top) above the simulated training taps nearest their labels through the map (bottom).\n");

@@ -209,7 +209,8 @@ fn the_edge2d_preset_is_what_camera_only_makes_of_the_edge_recordings() {
     // The command in the preset's header (no reference image, the older column names).
     let dir = temp_dir("calibrate", "edge2d");
     let preset = dir.join("tactip-331-edge2d.toml");
-    let o = tacsim(&["calibrate", "--real", s(&real), "--camera-only", "-o", s(&preset), "-q"]);
+    let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/calibration-edge2d/base.toml");
+    let o = tacsim(&["calibrate", "--real", s(&real), "--camera-only", "--sensor", s(&base), "-o", s(&preset), "-q"]);
     assert!(o.status.success(), "calibrate failed: {}", String::from_utf8_lossy(&o.stderr));
     let fitted = SensorParams::load(&preset).expect("preset");
     assert_eq!(

@@ -75,6 +75,10 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
             assert!(l[k].as_f64().is_some_and(|v| v.is_finite() && v >= 0.0), "{k}: {l}");
         }
     }
+    // predictions.csv: one line per held-out image, the labels and both readings.
+    let csv = std::fs::read_to_string(out.join("predictions.csv")).expect("predictions.csv");
+    assert!(csv.starts_with("image,y,y_sim_trained,y_real_trained,yaw,yaw_sim_trained,yaw_real_trained\n"), "{csv}");
+    assert_eq!(csv.lines().count() as u64, held_out + 1);
     let grid = image::open(out.join("grid.png")).expect("grid.png");
     assert_eq!((grid.width(), grid.height()), (8 * 64, 2 * 64));
     // A rerun finds both runs finished and the set generated: the same errors.

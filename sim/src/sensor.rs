@@ -260,7 +260,9 @@ pub const CAMERA_ONLY_PRESET: &str = include_str!("../presets/tactip-331-camera.
 
 /// The TacTip of the edge recordings (`../shared/data/real-tactip-edge2d/`): camera, ring
 /// layout and framing (128 px, rim visible) fitted by `tacsim calibrate --camera-only` to the
-/// consensus of its shallowest taps; dome, skin and pins are the calibrated default's.
+/// consensus of its shallowest taps, from `docs/calibration-edge2d/base.toml`: the calibrated
+/// default's skin and pins, the dome's radius (40 mm, an effective contact radius) chosen by
+/// the edge taps (README, "Sim-to-real").
 pub const EDGE2D_PRESET: &str = include_str!("../presets/tactip-331-edge2d.toml");
 
 /// The TacTip of the flat-surface recordings (`../shared/data/real-tactip-surface3d/`), as
