@@ -120,7 +120,8 @@ pub fn parse_crop(s: &str) -> Result<[u32; 4], String> {
     <[u32; 4]>::try_from(v).map_err(|_| format!("crop `{s}`: give left,top,width,height"))
 }
 
-fn load_config<C: DeserializeOwned + Default>(path: Option<&Path>) -> Result<C> {
+/// A training config from a TOML file (its fields; the rest default), or the defaults.
+pub fn load_config<C: DeserializeOwned + Default>(path: Option<&Path>) -> Result<C> {
     match path {
         None => Ok(C::default()),
         Some(p) => {

@@ -53,6 +53,10 @@ pub struct Sim2RealOptions {
     /// Where report.md, report.json and grid.png go (default: --out).
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Pose network config (TOML, the fields of `tacsim train posenet --config`) for both
+    /// trainings; the flags below override it.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
     /// Network image side: 64, 128 or 256.
     #[arg(long, default_value_t = 64)]
     pub size: usize,
@@ -120,8 +124,12 @@ pub struct Sim2RealReport {
 /// Runs `tacsim sim2real`; `command` is recorded in the report. Returns the summary to print.
 pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let started = std::time::Instant::now();
-    let cfg = PoseConfig { size: o.size, epochs: o.epochs, seed: o.seed, ..PoseConfig::default() };
+    let file: PoseConfig = crate::learn::load_config(o.config.as_deref())?;
+    let cfg = PoseConfig { size: o.size, epochs: o.epochs, seed: o.seed, ..file };
     cfg.validate()?;
+    // Bad input stops here, before any work: the recipe, its sensor, the outputs.
+    let (recipe, _) = crate::dataset::load_recipe(Some(&o.recipe))?;
+    crate::dataset::recipe_base_sensor(&recipe, &generate_options(o))?;
     let report_dir = o.report.clone().unwrap_or_else(|| o.out.clone());
     crate::commands::ensure_writable(&o.out)?;
     crate::commands::ensure_writable(&report_dir)?;
@@ -179,20 +187,25 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
 
 /// Step 1: the simulated set under `out/sim` (resumed when a previous run started it).
 fn generate_sim(o: &Sim2RealOptions) -> Result<PathBuf> {
-    let dir = o.out.join("sim");
-    let g = GenerateOptions {
-        recipe: Some(o.recipe.clone()),
-        out: dir.clone(),
-        sensor: o.sensor.clone(),
-        resume: dir.join("meta.json").is_file(),
-        quiet: o.quiet,
-        ..GenerateOptions::default()
-    };
+    let g = generate_options(o);
     let line = crate::dataset::generate(&g).context("generating the simulated set")?;
     if !o.quiet {
         eprint!("{line}");
     }
-    Ok(dir)
+    Ok(g.out)
+}
+
+/// `tacsim generate`'s options for the simulated set (`out/sim`, resumed where it exists).
+fn generate_options(o: &Sim2RealOptions) -> GenerateOptions {
+    let dir = o.out.join("sim");
+    GenerateOptions {
+        recipe: Some(o.recipe.clone()),
+        resume: dir.join("meta.json").is_file(),
+        out: dir,
+        sensor: o.sensor.clone(),
+        quiet: o.quiet,
+        ..GenerateOptions::default()
+    }
 }
 
 /// Step 2: the pose network on each domain (each resumed when a previous run started it).

@@ -111,7 +111,10 @@ fn a_recipes_sensor_names_a_preset_or_a_file_and_bad_ones_are_clear_errors() {
     .expect("bad");
     let e = err(&["generate", s(&bad), "--out", s(&dir.join("bad-out")), "-q"]);
     assert!(e.contains("no-such-sensor") && e.contains("`sensor` field") && e.contains("tactip-331-edge2d"), "{e}");
-    // sim2real: a missing lab folder, before any work.
+    // sim2real: a bad recipe's sensor and a missing lab folder, before any work.
+    let e = err(&["sim2real", "--real", s(&dir.join("none")), "--recipe", s(&bad), "--out", s(&dir.join("s2r")), "-q"]);
+    assert!(e.contains("no-such-sensor"), "{e}");
+    assert!(!dir.join("s2r/sim").exists(), "nothing generated");
     let e = err(&["sim2real", "--real", s(&dir.join("none")), "--out", s(&dir.join("s2r")), "-q"]);
     assert!(e.contains("not a lab folder") && e.contains("targets.csv"), "{e}");
     assert!(!dir.join("s2r/sim").exists(), "nothing generated");
