@@ -52,10 +52,7 @@ pub fn default_report_dir(output: &Path) -> PathBuf {
 pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     let folder = LabFolder::open(&o.real)
         .with_context(|| format!("{} is not a lab folder (targets.csv + images/)", o.real.display()))?;
-    let base = match &o.sensor {
-        Some(p) => SensorParams::load(p)?,
-        None => SensorParams::default(),
-    };
+    let base = crate::commands::load_sensor(o.sensor.as_deref(), None)?;
     // The outputs are checked writable before any work.
     let report_dir = o.report.clone().unwrap_or_else(|| default_report_dir(&o.output));
     for dir in

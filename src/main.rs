@@ -20,7 +20,8 @@ struct Cli {
 enum Command {
     /// Render the sensor to a PNG: undeformed, or tapped / slid onto a stimulus.
     Render {
-        /// Sensor TOML (default: the built-in TacTip calibrated to the lab's images).
+        /// Sensor TOML or built-in preset (tactip-331-calibrated, tactip-331-camera,
+        /// tactip-331-edge2d; default: the TacTip calibrated to the lab's images).
         #[arg(long)]
         sensor: Option<PathBuf>,
         /// Image size in px (default: the sensor's camera.image_size, 256).
@@ -104,7 +105,8 @@ enum Command {
         /// Output directory (new or empty; the same dataset with --resume).
         #[arg(long)]
         out: PathBuf,
-        /// Sensor TOML (default: the built-in TacTip).
+        /// Sensor TOML or built-in preset name (default: the recipe's `sensor`, else the built-in
+        /// calibrated TacTip).
         #[arg(long)]
         sensor: Option<PathBuf>,
         /// Image size (px), overriding the recipe's.
@@ -155,7 +157,7 @@ enum Command {
         /// their directory names (`posenet`, `unshear`, `baseline`).
         #[arg(long)]
         models: Option<PathBuf>,
-        /// Sensor file (TOML; default: the built-in calibrated TacTip). The learned runs'
+        /// Sensor file or built-in preset (default: the built-in calibrated TacTip). The learned runs'
         /// networks must have been trained on images of the same sensor.
         #[arg(long)]
         sensor: Option<PathBuf>,
@@ -193,7 +195,7 @@ enum Command {
         /// The lab folder.
         #[arg(long)]
         real: PathBuf,
-        /// Sensor TOML to start from (default: the built-in TacTip).
+        /// Sensor TOML or built-in preset to start from (default: the built-in TacTip).
         #[arg(long)]
         sensor: Option<PathBuf>,
         /// The preset TOML to write.
