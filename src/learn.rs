@@ -212,11 +212,6 @@ impl Bar {
         let _ = ctrlc::set_handler(move || flag.store(true, Ordering::SeqCst));
         Self { bar: (!quiet).then(ProgressBar::hidden), stop, recent: Vec::new() }
     }
-
-    /// Whether Ctrl-C stopped the loop (it saved a checkpoint).
-    pub fn stopped(&self) -> bool {
-        self.stop.load(Ordering::SeqCst)
-    }
 }
 
 impl Progress for Bar {

@@ -21,11 +21,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, Result, bail};
 use image::GrayImage;
 use serde::Serialize;
-use tacsim_data::{Kind, Split, Subset};
+use tacsim_data::Split;
 use tacsim_model::Backend;
 use tacsim_model::config::PoseConfig;
 use tacsim_model::data::Corpus;
-use tacsim_model::eval::predict_poses;
+use tacsim_model::eval::{corpus_images, predict_poses};
 use tacsim_model::infer::load_posenet;
 use tacsim_model::posenet::{Pose, PoseScale};
 use tacsim_model::train;
@@ -136,9 +136,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let mut real = Corpus::open_lab(&o.real, &o.lab.preprocess(o.size))
         .with_context(|| format!("{} is not a lab folder (targets.csv + images/)", o.real.display()))?;
     // The real network's label scale comes from the fitting part alone.
-    let fitting = real.dataset.indices(Split::Train, Subset::All, Kind::Tap);
-    let fitting =
-        if fitting.is_empty() { real.dataset.indices(Split::Train, Subset::All, Kind::Slide) } else { fitting };
+    let fitting = real.pose_rows(Split::Train);
     let held_out: Vec<usize> =
         (0..real.dataset.rows.len()).filter(|&r| real.dataset.rows[r].split == Split::Test).collect();
     if fitting.len() < 10 || held_out.is_empty() {
@@ -160,7 +158,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
 
     let sim_dir = generate_sim(o)?;
     let sim = Corpus::open(&sim_dir, o.size)?;
-    let sim_train = sim.dataset.indices(Split::Train, Subset::All, Kind::Tap).len();
+    let sim_train = sim.pose_rows(Split::Train).len();
     let (sim_run, real_run) = train_both(o, &cfg, &sim, &real)?;
     let (labels, map, nearest, predictions) = score(o, &sim, &real, &fitting, &held_out, &sim_run, &real_run)?;
     tacsim_model::checkpoint::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
@@ -212,13 +210,10 @@ fn generate_options(o: &Sim2RealOptions) -> GenerateOptions {
 fn train_both(o: &Sim2RealOptions, cfg: &PoseConfig, sim: &Corpus, real: &Corpus) -> Result<(PathBuf, PathBuf)> {
     let runs = [("simulated", sim, o.out.join("sim-posenet")), ("real", real, o.out.join("real-posenet"))];
     for (name, corpus, dir) in &runs {
-        let mut bar = Bar::new(o.quiet);
         let resume = dir.join("config.json").is_file();
-        train::train_posenet(corpus, cfg, o.backend, dir, resume, &mut bar)
-            .with_context(|| format!("training the pose network on the {name} images into {}", dir.display()))?;
-        if bar.stopped() {
-            bail!("interrupted: rerun the same command to resume");
-        }
+        train::train_posenet(corpus, cfg, o.backend, dir, resume, &mut Bar::new(o.quiet)).with_context(|| {
+            format!("training the pose network on the {name} images into {} (rerun to resume)", dir.display())
+        })?;
     }
     let [(_, _, s), (_, _, r)] = runs;
     Ok((s, r))
@@ -240,9 +235,7 @@ fn score(
     real_run: &Path,
 ) -> Result<Scores> {
     let device = o.backend.device();
-    let images = |rows: &[usize]| -> Vec<Vec<f32>> {
-        rows.iter().map(|&r| real.images.image(r).iter().map(|&v| f32::from(v) / 255.0).collect()).collect()
-    };
+    let images = |rows: &[usize]| corpus_images(real, rows);
     let poses = |rows: &[usize]| -> Vec<Pose> { rows.iter().map(|&r| real.pose(r)).collect() };
     let (sim_net, _, sim_scale) = load_posenet(sim_run, &device)?;
     let (real_net, _, real_scale) = load_posenet(real_run, &device)?;
@@ -294,7 +287,7 @@ fn score(
             }
         })
         .collect();
-    let sim_rows = sim.dataset.indices(Split::Train, Subset::All, Kind::Tap);
+    let sim_rows = sim.pose_rows(Split::Train);
     let nearest = truth
         .iter()
         .map(|t| {

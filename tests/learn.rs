@@ -2,13 +2,7 @@
 //! the report, a lab recording folder with the lab's preprocessing, and bad input.
 
 mod common;
-use common::{err, lab_folder, s, tacsim, temp_dir};
-
-fn ok(args: &[&str]) -> String {
-    let o = tacsim(args);
-    assert!(o.status.success(), "tacsim {args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
+use common::{err, lab_folder, ok, s, temp_dir};
 
 #[test]
 fn generated_dataset_trains_every_network_and_evaluates() {

@@ -3,14 +3,8 @@
 
 mod common;
 
-use common::{err, s, tacsim, temp_dir};
+use common::{err, ok, s, temp_dir};
 use std::path::Path;
-
-fn ok(args: &[&str]) -> String {
-    let o = tacsim(args);
-    assert!(o.status.success(), "tacsim {args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
 
 /// A small edge-tap recipe (128 px, as the edge preset needs) with the edge preset, `taps` poses.
 fn recipe(dir: &Path, name: &str, seed: u64, taps: usize) -> std::path::PathBuf {

@@ -137,6 +137,13 @@ impl Corpus {
         (self.batch(&taps, tap_shifts, device), self.batch(&slides, shifts, device))
     }
 
+    /// The rows of `split` the pose network learns from: the taps, or the slides where there
+    /// are no taps (a lab folder where every recording slid, as the surface recordings).
+    pub fn pose_rows(&self, split: Split) -> Vec<usize> {
+        let taps = self.dataset.indices(split, Subset::All, Kind::Tap);
+        if taps.is_empty() { self.dataset.indices(split, Subset::All, Kind::Slide) } else { taps }
+    }
+
     /// The pose label of a row.
     pub fn pose(&self, row: usize) -> Pose {
         pose_of(&self.dataset.rows[row])

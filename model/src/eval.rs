@@ -203,7 +203,8 @@ fn stack(images: &[Vec<f32>], side: usize, device: &Device) -> Tensor<4> {
     Tensor::from_data(TensorData::new(flat, [images.len(), 1, side, side]), device)
 }
 
-fn corpus_images(corpus: &Corpus, rows: &[usize]) -> Vec<Vec<f32>> {
+/// The images of `rows` as network inputs (values in [0, 1]).
+pub fn corpus_images(corpus: &Corpus, rows: &[usize]) -> Vec<Vec<f32>> {
     rows.iter().map(|&r| corpus.images.image(r).iter().map(|&v| f32::from(v) / 255.0).collect()).collect()
 }
 

@@ -377,11 +377,8 @@ pub fn train_posenet(
         progress.message("the run had already finished");
         return Ok((model, state));
     }
-    let mut taps = corpus.dataset.indices(Split::Train, Subset::All, Kind::Tap);
-    if taps.is_empty() {
-        // A lab folder where every recording slid (as the shared surface recordings): learn
-        // the pose from all of them.
-        taps = corpus.dataset.indices(Split::Train, Subset::All, Kind::Slide);
+    let taps = corpus.pose_rows(Split::Train);
+    if corpus.dataset.indices(Split::Train, Subset::All, Kind::Tap).is_empty() {
         progress.message("no tap images in the training split: training the pose network on the slides");
     }
     let half = cfg.epochs / 2;

@@ -135,6 +135,9 @@ impl PinRenderer {
     /// the threshold; framed as [`Self::render`]. Equal to [`Self::render`] for
     /// [`Variation::NOMINAL`].
     pub fn render_varied(&self, pins: &[PinPose], v: &Variation) -> GrayImage {
+        if *v == Variation::NOMINAL {
+            return self.render(pins);
+        }
         let (sin, cos) = v.roll_deg.to_radians().sin_cos();
         let roll = |x: f64, y: f64| (cos * x - sin * y, sin * x + cos * y);
         let size = self.camera.size;
@@ -149,12 +152,14 @@ impl PinRenderer {
             })
             .map(|d| Disc { u: d.u + v.shift_px[0], v: d.v + v.shift_px[1], ..d })
             .collect();
-        let field_px = self
-            .undeformed
-            .iter()
-            .map(|d| (d.u - self.camera.principal[0]).hypot(d.v - self.camera.principal[1]) + d.r)
-            .fold(0.0, f64::max);
-        discs.extend(v.speck_discs(self.camera.principal, field_px, size));
+        if v.specks > 0 {
+            let field_px = self
+                .undeformed
+                .iter()
+                .map(|d| (d.u - self.camera.principal[0]).hypot(d.v - self.camera.principal[1]) + d.r)
+                .fold(0.0, f64::max);
+            discs.extend(v.speck_discs(self.camera.principal, field_px, size));
+        }
         let mut out = GrayImage::new(size, size);
         if v.needs_coverage() {
             let cov = raster::draw_coverage(&discs, size);

@@ -648,11 +648,7 @@ mod tests {
 
     #[test]
     fn default_equals_the_calibrated_preset() {
-        let preset = SensorParams::from_toml_str(
-            include_str!("../presets/tactip-331-calibrated.toml"),
-            "presets/tactip-331-calibrated.toml",
-        )
-        .expect("preset parses");
+        let preset = SensorParams::preset("tactip-331-calibrated").expect("preset parses");
         assert_eq!(
             preset,
             SensorParams::default(),

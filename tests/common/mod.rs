@@ -10,6 +10,13 @@ pub fn tacsim(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_tacsim")).args(args).output().expect("tacsim runs")
 }
 
+/// Runs `tacsim args`, asserts it succeeds, and returns its stdout.
+pub fn ok(args: &[&str]) -> String {
+    let o = tacsim(args);
+    assert!(o.status.success(), "tacsim {args:?} failed: {}", String::from_utf8_lossy(&o.stderr));
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
 /// Runs `tacsim args`, asserts it fails, and returns its stderr.
 pub fn err(args: &[&str]) -> String {
     let o = tacsim(args);

@@ -25,7 +25,6 @@ use crate::png_io::{PngDepth, encode_png};
 use crate::render::PinRenderer;
 use crate::scene::Scene;
 use crate::sensor::SensorParams;
-use crate::variation::Variation;
 
 /// Tool name and version recorded in `meta.json`.
 pub const TOOL: &str = concat!("tacsim ", env!("CARGO_PKG_VERSION"));
@@ -191,11 +190,7 @@ pub fn sample_png(ctx: &Context<'_>, s: &Sample) -> Result<(Vec<u8>, [f64; 3])> 
     }
     let pins = sim.pins();
     let t1 = Instant::now();
-    let img = if s.variation == Variation::NOMINAL {
-        ctx.renderer.render(&pins)
-    } else {
-        ctx.renderer.render_varied(&pins, &s.variation)
-    };
+    let img = ctx.renderer.render_varied(&pins, &s.variation);
     let t2 = Instant::now();
     let png = encode_png(&img, PngDepth::Grey8)?;
     let t3 = Instant::now();
