@@ -91,9 +91,14 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
     let scenes = plan
         .shapes
         .iter()
-        .map(|(name, _)| -> Result<Scene> {
+        .zip(&plan.recipe.shapes)
+        .map(|((name, _), spec)| -> Result<Scene> {
+            let mut stimulus = catalogue.get(name)?;
+            if let Some(f) = spec.friction {
+                std::sync::Arc::make_mut(&mut stimulus).entry.friction = f;
+            }
             let mut scene = Scene::new();
-            scene.add(catalogue.get(name)?, ObjectPose::default())?;
+            scene.add(stimulus, ObjectPose::default())?;
             Ok(scene)
         })
         .collect::<Result<Vec<_>>>()?;

@@ -24,6 +24,7 @@ pub const RECIPES: &[(&str, &str)] = &[
     ("quick", include_str!("../scenarios/datasets/quick.toml")),
     ("study", include_str!("../scenarios/datasets/study.toml")),
     ("study-quick", include_str!("../scenarios/datasets/study-quick.toml")),
+    ("surface-3d", include_str!("../scenarios/datasets/surface-3d.toml")),
     ("tilted-surface", include_str!("../scenarios/datasets/tilted-surface.toml")),
     ("twist", include_str!("../scenarios/datasets/twist.toml")),
 ];

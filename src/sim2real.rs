@@ -3,7 +3,7 @@
 //! One pipeline, each stage a named step whose output lands under `--out`, so an interrupted
 //! run resumes where it stopped:
 //! 1. [`generate_sim`]: the recipe's dataset with the sensor (`sim/`);
-//! 2. [`train_both`]: the pose network on the simulated taps (`sim-posenet/`) and the same
+//! 2. [`train_both`]: the pose network on the simulated images (`sim-posenet/`) and the same
 //!    network, same settings, on the lab folder's fitting part (`real-posenet/`);
 //! 3. [`score`]: the label map (component, sign and offset, [`LabelMap::fit`]) from the
 //!    simulator-trained network's readings of the fitting part, then both networks on the
@@ -12,9 +12,12 @@
 //!    networks' readings, in the lab's frame) and `grid.png` (held-out real images beside the
 //!    simulated image nearest them in label), in `--report` (default `--out`).
 //!
-//! The pose network reads x, y and yaw, so the lab's labels scored are those of them that
-//! vary (the edge recordings' lateral `pose_2` and yaw `pose_6`); a folder whose labels are
-//! depth, tilt and slide offsets (the surface recordings) is refused with that reason.
+//! Every label that varies over the lab's fitting part is scored (the edge recordings'
+//! lateral `pose_2`, depth `pose_3` and yaw `pose_6`; the surface recordings' depth, tilts and
+//! slide offsets). The real-trained network reads those labels; the simulator-trained one
+//! reads every label that varies over the simulated training images (taps, or the slides when
+//! the lab's labels include a slide offset), and the map picks which of its readings is which
+//! lab label.
 
 use std::path::{Path, PathBuf};
 
@@ -27,9 +30,9 @@ use tacsim_model::config::PoseConfig;
 use tacsim_model::data::Corpus;
 use tacsim_model::eval::{corpus_images, predict_poses};
 use tacsim_model::infer::load_posenet;
-use tacsim_model::posenet::{Pose, PoseScale};
+use tacsim_model::posenet::{Column, Pose};
 use tacsim_model::train;
-use tacsim_model::transfer::{Component, LabelMap, varying};
+use tacsim_model::transfer::{LabelMap, difference, label};
 
 use crate::dataset::GenerateOptions;
 use crate::learn::{Bar, LabOptions};
@@ -105,13 +108,15 @@ pub struct Sim2RealReport {
     pub real: String,
     /// The recipe.
     pub recipe: String,
-    /// Simulated training taps.
+    /// Simulated training images.
     pub sim_train: usize,
+    /// The labels the simulator-trained network reads.
+    pub sim_labels: Vec<Column>,
     /// Real recordings the real-trained network and the label map saw.
     pub real_fitting: usize,
     /// Real recordings neither saw: the test.
     pub real_held_out: usize,
-    /// The pose networks' settings (both).
+    /// The pose networks' settings (both; `labels` are the lab's, the real-trained network's).
     pub posenet: PoseConfig,
     /// The fitted label map.
     pub map: Vec<String>,
@@ -133,12 +138,16 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let report_dir = o.report.clone().unwrap_or_else(|| o.out.clone());
     crate::commands::ensure_writable(&o.out)?;
     crate::commands::ensure_writable(&report_dir)?;
-    let mut real = Corpus::open_lab(&o.real, &o.lab.preprocess(o.size))
+    let real = Corpus::open_lab(&o.real, &o.lab.preprocess(o.size))
         .with_context(|| format!("{} is not a lab folder (targets.csv + images/)", o.real.display()))?;
-    // The real network's label scale comes from the fitting part alone.
-    let fitting = real.pose_rows(Split::Train);
-    let held_out: Vec<usize> =
-        (0..real.dataset.rows.len()).filter(|&r| real.dataset.rows[r].split == Split::Test).collect();
+    let lab_train: Vec<usize> =
+        (0..real.dataset.rows.len()).filter(|&r| real.dataset.rows[r].split == Split::Train).collect();
+    let real_labels = real.varying(&Column::ALL, &lab_train);
+    if real_labels.is_empty() {
+        bail!("no label varies over the fitting part of {}: sim2real scores the labels that vary", o.real.display());
+    }
+    let fitting = real.pose_rows(Split::Train, &real_labels);
+    let held_out = real.pose_rows(Split::Test, &real_labels);
     if fitting.len() < 10 || held_out.is_empty() {
         bail!(
             "{} has {} fitting and {} held-out recordings: sim2real needs at least 10 and 1",
@@ -147,20 +156,19 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
             held_out.len()
         );
     }
-    let fit_poses: Vec<Pose> = fitting.iter().map(|&r| real.pose(r)).collect();
-    if varying(&fit_poses).is_empty() {
-        bail!(
-            "no label the pose network reads (x, y, yaw: pose_x, pose_y, pose_Rz or pose_1, pose_2, pose_6) varies in {}: sim2real scores those",
-            o.real.display()
-        );
-    }
-    real.scale = PoseScale::covering(&fit_poses);
+    let real_cfg = PoseConfig { labels: real_labels.clone(), ..cfg.clone() };
 
     let sim_dir = generate_sim(o)?;
     let sim = Corpus::open(&sim_dir, o.size)?;
-    let sim_train = sim.pose_rows(Split::Train).len();
-    let (sim_run, real_run) = train_both(o, &cfg, &sim, &real)?;
-    let (labels, map, nearest, predictions) = score(o, &sim, &real, &fitting, &held_out, &sim_run, &real_run)?;
+    let sim_rows = sim.pose_rows(Split::Train, &real_labels);
+    let sim_labels = sim.varying(&Column::ALL, &sim_rows);
+    if sim_labels.is_empty() {
+        bail!("no label varies over the simulated training images of {}: check the recipe's ranges", sim_dir.display());
+    }
+    let sim_cfg = PoseConfig { labels: sim_labels.clone(), ..cfg.clone() };
+    let (sim_run, real_run) = train_both(o, [&sim_cfg, &real_cfg], &sim, &real)?;
+    let (labels, map, nearest, predictions) =
+        score(o, &sim, &real, &real_labels, &fitting, &held_out, &sim_run, &real_run)?;
     tacsim_model::checkpoint::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
     write_grid(&report_dir.join("grid.png"), &sim, &real, &held_out, &nearest)?;
 
@@ -168,10 +176,11 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         command: command.to_owned(),
         real: o.real.display().to_string(),
         recipe: o.recipe.clone(),
-        sim_train,
+        sim_train: sim_rows.len(),
+        sim_labels,
         real_fitting: fitting.len(),
         real_held_out: held_out.len(),
-        posenet: cfg,
+        posenet: real_cfg,
         map: map.describe(),
         labels,
         seconds: started.elapsed().as_secs_f64(),
@@ -207,15 +216,16 @@ fn generate_options(o: &Sim2RealOptions) -> GenerateOptions {
 }
 
 /// Step 2: the pose network on each domain (each resumed when a previous run started it).
-fn train_both(o: &Sim2RealOptions, cfg: &PoseConfig, sim: &Corpus, real: &Corpus) -> Result<(PathBuf, PathBuf)> {
-    let runs = [("simulated", sim, o.out.join("sim-posenet")), ("real", real, o.out.join("real-posenet"))];
-    for (name, corpus, dir) in &runs {
+fn train_both(o: &Sim2RealOptions, cfg: [&PoseConfig; 2], sim: &Corpus, real: &Corpus) -> Result<(PathBuf, PathBuf)> {
+    let runs =
+        [("simulated", sim, o.out.join("sim-posenet"), cfg[0]), ("real", real, o.out.join("real-posenet"), cfg[1])];
+    for (name, corpus, dir, cfg) in &runs {
         let resume = dir.join("config.json").is_file();
         train::train_posenet(corpus, cfg, o.backend, dir, resume, &mut Bar::new(o.quiet)).with_context(|| {
             format!("training the pose network on the {name} images into {} (rerun to resume)", dir.display())
         })?;
     }
-    let [(_, _, s), (_, _, r)] = runs;
+    let [(_, _, s, _), (_, _, r, _)] = runs;
     Ok((s, r))
 }
 
@@ -224,11 +234,13 @@ fn train_both(o: &Sim2RealOptions, cfg: &PoseConfig, sim: &Corpus, real: &Corpus
 type Scores = (Vec<LabelScore>, LabelMap, Vec<usize>, String);
 
 /// Step 3: the label map on the fitting part, both networks on the held-out part; with, for
-/// each held-out image, the simulated training tap nearest its label (for the grid).
+/// each held-out image, the simulated training image nearest its label (for the grid).
+#[allow(clippy::too_many_arguments)]
 fn score(
     o: &Sim2RealOptions,
     sim: &Corpus,
     real: &Corpus,
+    real_labels: &[Column],
     fitting: &[usize],
     held_out: &[usize],
     sim_run: &Path,
@@ -240,66 +252,67 @@ fn score(
     let (sim_net, _, sim_scale) = load_posenet(sim_run, &device)?;
     let (real_net, _, real_scale) = load_posenet(real_run, &device)?;
     let fit_truth = poses(fitting);
-    let map = LabelMap::fit(&predict_poses(&sim_net, &sim_scale, &images(fitting), o.size, &device), &fit_truth)?;
+    let fit_read = predict_poses(&sim_net, &sim_scale, &images(fitting), o.size, &device);
+    let map = LabelMap::fit(&fit_read, &sim_scale.columns(), &fit_truth, real_labels)?;
     let truth = poses(held_out);
     let test_images = images(held_out);
     let sim_read = predict_poses(&sim_net, &sim_scale, &test_images, o.size, &device);
     let sim_err = map.errors(&sim_read, &truth);
-    let identity = LabelMap::identity(&fit_truth);
+    let identity = LabelMap::identity(real_labels);
     let real_read = predict_poses(&real_net, &real_scale, &test_images, o.size, &device);
     let real_err = identity.errors(&real_read, &truth);
     let mut csv = String::from("image");
-    for l in &identity.links {
-        let name = l.real.label().split(' ').next().unwrap_or("label");
-        csv.push_str(&format!(",{name},{name}_sim_trained,{name}_real_trained"));
+    for c in real_labels {
+        csv.push_str(&format!(",{c},{c}_sim_trained,{c}_real_trained"));
     }
     csv.push('\n');
     for (k, &r) in held_out.iter().enumerate() {
         csv.push_str(&real.dataset.rows[r].sensor_image);
-        for l in &identity.links {
-            let sim_value = map.links.iter().find(|m| m.real == l.real).map_or(f64::NAN, |m| m.apply(&sim_read[k]));
-            csv.push_str(&format!(",{:.4},{sim_value:.4},{:.4}", l.real.of(&truth[k]), l.apply(&real_read[k])));
+        for (m, l) in map.links.iter().zip(&identity.links) {
+            csv.push_str(&format!(
+                ",{:.4},{:.4},{:.4}",
+                truth[k].get(l.real),
+                m.apply(&sim_read[k]),
+                l.apply(&real_read[k])
+            ));
         }
         csv.push('\n');
     }
     // Chance: one constant for every image, the best on the fitting part.
-    let zero = Pose { x_mm: 0.0, y_mm: 0.0, yaw_deg: 0.0 };
-    let chance = LabelMap::fit(&vec![zero; fit_truth.len()], &fit_truth)?.errors(&vec![zero; truth.len()], &truth);
-    let labels = identity
+    let chance = LabelMap::constant(real_labels, &fit_truth).errors(&vec![Pose::default(); truth.len()], &truth);
+    let labels = map
         .links
         .iter()
         .enumerate()
         .map(|(k, l)| {
-            let link = map.links.iter().position(|m| m.real == l.real);
-            let s = link.map_or(f64::NAN, |i| sim_err[i]);
-            let gain = link.filter(|_| l.real != Component::Yaw).map(|i| {
+            let gain = (!l.real.is_angle()).then(|| {
                 let pairs: Vec<(f64, f64)> =
-                    truth.iter().zip(&sim_read).map(|(t, p)| (l.real.of(t), map.links[i].apply(p))).collect();
+                    truth.iter().zip(&sim_read).map(|(t, p)| (t.get(l.real), l.apply(p))).collect();
                 slope(&pairs)
             });
             LabelScore {
-                label: l.real.label().to_owned(),
-                sim_trained: s,
+                label: label(l.real),
+                sim_trained: sim_err[k],
                 real_trained: real_err[k],
-                ratio: s / real_err[k],
+                ratio: sim_err[k] / real_err[k],
                 chance: chance[k],
                 sim_trained_gain: gain,
             }
         })
         .collect();
-    let sim_rows = sim.pose_rows(Split::Train);
+    let sim_rows = sim.pose_rows(Split::Train, real_labels);
     let nearest = truth
         .iter()
         .map(|t| {
             let want = map.sim_pose(t);
-            // Label distance with 10 deg of yaw as far as 1 mm.
+            // Label distance with 10 deg as far as 1 mm.
             let d = |r: usize| {
                 let p = sim.pose(r);
                 map.links
                     .iter()
                     .map(|l| {
-                        let unit = if l.sim == Component::Yaw { 10.0 } else { 1.0 };
-                        (l.sim.difference(l.sim.of(&p), l.sim.of(&want)) / unit).powi(2)
+                        let unit = if l.sim.is_angle() { 10.0 } else { 1.0 };
+                        (difference(l.sim, p.get(l.sim), want.get(l.sim)) / unit).powi(2)
                     })
                     .sum::<f64>()
             };
@@ -340,11 +353,12 @@ fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], near
 
 fn markdown(r: &Sim2RealReport) -> String {
     let mut s = format!(
-        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training taps; the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s.\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
+        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s.\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
         r.recipe,
         r.real,
         r.command,
         r.sim_train,
+        r.sim_labels.iter().map(|c| c.name()).collect::<Vec<_>>().join(", "),
         r.real_fitting,
         r.real_held_out,
         r.posenet.size,
@@ -364,6 +378,6 @@ fn markdown(r: &Sim2RealReport) -> String {
             l.sim_trained_gain.map_or("-".to_owned(), |g| format!("{g:.2}"))
         ));
     }
-    s.push_str("\ngrid.png: held-out real images (top) above the simulated training taps nearest their labels through the map (bottom).\n");
+    s.push_str("\ngrid.png: held-out real images (top) above the simulated training images nearest their labels through the map (bottom).\n");
     s
 }

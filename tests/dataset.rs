@@ -268,3 +268,44 @@ fn randomised_recipes_keep_the_draws_record_the_variation_and_stay_deterministic
     assert!(differ > 250, "the images vary: {differ} of 300 differ");
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// A recipe's `[rig]` takes each sample's labels (in the lab's frame) to the sensor poses the
+/// lab's robot reached, as calibration models it (`RigFrame::poses`); the labels in
+/// `targets.csv` stay the lab's. Without a rig the labels are the sensor poses.
+#[test]
+fn a_rig_takes_the_labs_labels_where_its_robot_went() {
+    use tacsim_sim::dataset::plan::Plan;
+    use tacsim_sim::dataset::recipe::Recipe;
+    let text = "[[shapes]]\nname = \"disk\"\ncontact_mm = [0.0, 0.0]\n\
+                [poses]\nper_shape = 20\nx_mm = [0.0, 0.0]\ny_mm = [0.0, 0.0]\ndepth_mm = [1.0, 5.0]\n\
+                yaw_deg = [0.0, 0.0]\nrx_deg = [-25.0, 25.0]\nry_deg = [-25.0, 25.0]\n\
+                [taps]\nper_pose = 0\n[slides]\nper_pose = 1\noffset_mm = [-5.0, 5.0]\naxes = [\"both\"]\ntwist_deg = [-5.0, 5.0]\n";
+    let rig = "[rig]\nrotation_deg = 160.0\nmirrored = true\ntilts_reversed = true\ndepth_offset_mm = 0.2\n\
+               pivot_mm = 25.0\ndepth_compliance = 0.09\ntilt_relaxation_per_mm = 0.05\n";
+    let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
+    let plain = Recipe::from_toml_str(text, "plain.toml").expect("recipe");
+    let rigged = Recipe::from_toml_str(&format!("{text}{rig}"), "rig.toml").expect("recipe");
+    let (plain, rigged_plan) = (
+        Plan::new(&plain, &catalogue, "plain.toml").expect("plan"),
+        Plan::new(&rigged, &catalogue, "rig.toml").expect("plan"),
+    );
+    let frame = rigged.rig.frame();
+    let press = rigged.rig.press();
+    for i in 0..plain.len() {
+        let (a, b) = (plain.sample(i), rigged_plan.sample(i));
+        assert_eq!((a.pose, a.shear), (b.pose, b.shear), "the rig changes no draw");
+        assert_eq!(plain.row(&a), rigged_plan.row(&b), "nor any label");
+        let (s0, t0) = plain.sensor_poses(&a);
+        assert_eq!((t0.depth_mm, t0.rx_deg, t0.ry_deg), (a.pose[2], a.pose[3], a.pose[4]), "no rig: labels as poses");
+        assert_eq!((s0.x_mm, s0.y_mm), (a.shear[0], a.shear[1]));
+        let (s1, t1) = rigged_plan.sensor_poses(&b);
+        let (s2, t2) = frame.poses(&b.pose, &b.shear, &press);
+        assert_eq!((s1, t1), (s2, t2), "sample {i}");
+        // The rig loses depth under load, lifts the apex with a tilt, turns and mirrors the
+        // offsets (lengths kept) and keeps less tilt.
+        assert!(t1.depth_mm < b.pose[2] + 0.2, "{t1:?}");
+        let moved = (s1.x_mm - t1.x_mm).hypot(s1.y_mm - t1.y_mm);
+        assert!((moved - b.shear[0].hypot(b.shear[1])).abs() < 1e-9);
+        assert!(t1.rx_deg.hypot(t1.ry_deg) < b.pose[3].hypot(b.pose[4]) + 1e-9);
+    }
+}

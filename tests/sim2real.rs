@@ -53,13 +53,15 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     let train = recipe(&dir, "train", 5, 60);
     let args = ["sim2real", "--real", s(&lab), "--recipe", s(&train), "--out", s(&out)];
     let text = ok(&[&args[..], &["--epochs", "2", "-q"]].concat());
-    assert!(text.contains("trained on tacsim") && text.contains("yaw (deg)"), "{text}");
+    assert!(text.contains("trained on tacsim") && text.contains("pose_Rz (deg)"), "{text}");
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
-    // x (pose_1) is constant in the lab's labels: only the lateral y and the yaw are scored.
+    // x (pose_1) is constant in the lab's labels: the lateral y, the depth and the yaw are
+    // scored; the simulator-trained network reads what varies in the simulated taps.
     let labels: Vec<&str> =
         report["labels"].as_array().expect("labels").iter().map(|l| l["label"].as_str().expect("label")).collect();
-    assert_eq!(labels, ["y (mm)", "yaw (deg)"]);
+    assert_eq!(labels, ["pose_y (mm)", "pose_z (mm)", "pose_Rz (deg)"]);
+    assert_eq!(report["sim_labels"], serde_json::json!(["pose_x", "pose_z", "pose_Rz"]));
     let (fitting, held_out) =
         (report["real_fitting"].as_u64().expect("n"), report["real_held_out"].as_u64().expect("n"));
     assert_eq!(fitting + held_out, 60);
@@ -71,15 +73,16 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     }
     // predictions.csv: one line per held-out image, the labels and both readings.
     let csv = std::fs::read_to_string(out.join("predictions.csv")).expect("predictions.csv");
-    assert!(csv.starts_with("image,y,y_sim_trained,y_real_trained,yaw,yaw_sim_trained,yaw_real_trained\n"), "{csv}");
+    assert!(
+        csv.starts_with("image,pose_y,pose_y_sim_trained,pose_y_real_trained,pose_z,pose_z_sim_trained,pose_z_real_trained,pose_Rz,pose_Rz_sim_trained,pose_Rz_real_trained\n"),
+        "{csv}"
+    );
     assert_eq!(csv.lines().count() as u64, held_out + 1);
     let grid = image::open(out.join("grid.png")).expect("grid.png");
     assert_eq!((grid.width(), grid.height()), (8 * 64, 2 * 64));
     // A rerun finds both runs finished and the set generated: the same errors.
     let again = ok(&[&args[..], &["--epochs", "2", "-q"]].concat());
-    let table = |t: &str| {
-        t.lines().filter(|l| l.starts_with("| y") || l.starts_with("| yaw")).map(str::to_owned).collect::<Vec<_>>()
-    };
+    let table = |t: &str| t.lines().filter(|l| l.starts_with("| pose_")).map(str::to_owned).collect::<Vec<_>>();
     assert_eq!(table(&again), table(&text));
 }
 
@@ -112,19 +115,123 @@ fn a_recipes_sensor_names_a_preset_or_a_file_and_bad_ones_are_clear_errors() {
     let e = err(&["sim2real", "--real", s(&dir.join("none")), "--out", s(&dir.join("s2r")), "-q"]);
     assert!(e.contains("not a lab folder") && e.contains("targets.csv"), "{e}");
     assert!(!dir.join("s2r/sim").exists(), "nothing generated");
-    // A lab folder whose varying labels the pose network does not read (depth only, as a
-    // flat surface pressed straight down): refused with the reason, before any work.
-    let lab = dir.join("depth-only");
+    // A lab folder where no label varies: refused with the reason, before any work.
+    let lab = dir.join("constant");
     std::fs::create_dir_all(lab.join("images")).expect("lab");
     let mut rows = vec![
         "sensor_image,pose_1,pose_2,pose_3,pose_4,pose_5,pose_6,move_1,move_2,move_3,move_4,move_5,move_6".to_owned(),
     ];
     for k in 1..=20 {
         std::fs::copy(out.join("images/image_1.png"), lab.join(format!("images/image_{k}.png"))).expect("image");
-        rows.push(format!("image_{k}.png,0,0,{},0,0,0,0,0,0,0,0,0", 1.0 + 0.1 * f64::from(k)));
+        rows.push(format!("image_{k}.png,0,0,3.5,0,0,0,0,0,0,0,0,0"));
     }
     std::fs::write(lab.join("targets.csv"), rows.join("\n") + "\n").expect("csv");
-    let e = err(&["sim2real", "--real", s(&lab), "--out", s(&dir.join("s2r-depth")), "-q"]);
-    assert!(e.contains("no label the pose network reads") && e.contains("pose_6"), "{e}");
-    assert!(!dir.join("s2r-depth/sim").exists(), "nothing generated");
+    let e = err(&["sim2real", "--real", s(&lab), "--out", s(&dir.join("s2r-constant")), "-q"]);
+    assert!(e.contains("no label varies"), "{e}");
+    assert!(!dir.join("s2r-constant/sim").exists(), "nothing generated");
+}
+
+/// Slid recordings labelled with depth and slide offsets (as the surface recordings): the
+/// networks learn from slides and read the slide offsets; the simulator-trained one's readings
+/// are mapped onto the lab's by label, sign and offset.
+#[test]
+fn sim2real_scores_slide_offsets_on_slid_recordings() {
+    let dir = temp_dir("sim2real", "slides");
+    let recipe = |name: &str, seed: u64| {
+        let path = dir.join(format!("{name}.toml"));
+        let text = format!(
+            "name = \"{name}\"\nseed = {seed}\nimage_size = 128\ncells_across = 9\n\
+             [[shapes]]\nname = \"disk\"\ncontact_mm = [0.0, 0.0]\n\
+             [poses]\nper_shape = 30\nx_mm = [0.0, 0.0]\ny_mm = [0.0, 0.0]\ndepth_mm = [1.0, 3.0]\nyaw_deg = [0.0, 0.0]\n\
+             [taps]\nper_pose = 1\ndepth_jitter_mm = 0.0\n\
+             [slides]\nper_pose = 2\noffset_mm = [-3.0, 3.0]\naxes = [\"both\"]\nstep_mm = 1.0\n"
+        );
+        std::fs::write(&path, text).expect("recipe");
+        path
+    };
+    // The "lab": other simulated slides in the surface folder's columns, slide x and y swapped
+    // and y negated, depth 2 mm deeper.
+    let sim = dir.join("lab-sim");
+    ok(&["generate", s(&recipe("lab", 3)), "--out", s(&sim), "-q"]);
+    let lab = dir.join("lab");
+    std::fs::create_dir_all(lab.join("images")).expect("lab dir");
+    let mut rows = vec![
+        "sensor_image,pose_x,pose_y,pose_z,pose_Rx,pose_Ry,pose_Rz,shear_x,shear_y,shear_z,shear_Rx,shear_Ry,shear_Rz"
+            .to_owned(),
+    ];
+    let text = std::fs::read_to_string(sim.join("targets.csv")).expect("targets");
+    let header: Vec<&str> = text.lines().next().expect("header").split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).expect("column");
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f[col("kind")] != "slide" {
+            continue;
+        }
+        let v = |name: &str| f[col(name)].parse::<f64>().expect("number");
+        rows.push(format!("{},0,0,{},0,0,0,{},{},0,0,0,0", f[0], v("pose_z") + 2.0, v("shear_y"), -v("shear_x")));
+        std::fs::copy(sim.join("images").join(f[0]), lab.join("images").join(f[0])).expect("image");
+    }
+    assert_eq!(rows.len(), 61, "60 slides");
+    std::fs::write(lab.join("targets.csv"), rows.join("\n") + "\n").expect("csv");
+    let out = dir.join("out");
+    let text = ok(&[
+        "sim2real",
+        "--real",
+        s(&lab),
+        "--recipe",
+        s(&recipe("train", 8)),
+        "--out",
+        s(&out),
+        "--epochs",
+        "2",
+        "-q",
+    ]);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
+    let labels: Vec<&str> =
+        report["labels"].as_array().expect("labels").iter().map(|l| l["label"].as_str().expect("label")).collect();
+    assert_eq!(labels, ["pose_z (mm)", "shear_x (mm)", "shear_y (mm)"], "{text}");
+    assert_eq!(report["sim_labels"], serde_json::json!(["pose_z", "shear_x", "shear_y"]));
+    // The simulated training images are the slides of the training poses (2 per pose).
+    let sim_train = report["sim_train"].as_u64().expect("n");
+    assert!(sim_train % 2 == 0 && (30..=60).contains(&sim_train), "{sim_train}");
+    // Each lab label is read from a distinct simulated label.
+    let map: Vec<&str> = report["map"].as_array().expect("map").iter().map(|l| l.as_str().expect("line")).collect();
+    let sims: std::collections::BTreeSet<&str> = map
+        .iter()
+        .map(|l| l.split(" = ").nth(1).expect("rhs").trim_start_matches('-').split(' ').nth(1).expect("sim"))
+        .collect();
+    assert_eq!(sims.len(), 3, "{map:?}");
+}
+
+/// The built-in `surface-3d` recipe replays the rig `tacsim calibrate` fitted to the surface
+/// recordings (`docs/calibration/report.json`): label frame, press and friction, to the
+/// precision the recipe writes them. A recalibration must update the recipe too.
+#[test]
+fn the_surface_3d_recipe_carries_the_calibrated_rig() {
+    use tacsim_sim::dataset::recipe::Recipe;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let recipe = Recipe::from_toml_str(
+        &std::fs::read_to_string(root.join("scenarios/datasets/surface-3d.toml")).expect("recipe"),
+        "surface-3d.toml",
+    )
+    .expect("valid recipe");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(root.join("docs/calibration/report.json")).expect("report.json"))
+            .expect("json");
+    let (d, f) = (&report["deformation"], &report["frame"]);
+    let num = |v: &serde_json::Value| v.as_f64().expect("number");
+    let r = &recipe.rig;
+    assert_eq!(r.rotation_deg, num(&f["rotation_deg"]));
+    assert_eq!((r.mirrored, r.tilts_reversed), (f["mirrored"] == true, f["tilts_reversed"] == true));
+    for (got, want, tol) in [
+        (r.depth_offset_mm, num(&d["depth_offset_mm"]), 1e-3),
+        (r.pivot_mm, num(&d["pivot_mm"]), 1e-2),
+        (r.depth_compliance, num(&d["depth_compliance"]), 1e-4),
+        (r.tilt_relaxation_per_mm, num(&d["tilt_relaxation_per_mm"]), 1e-4),
+        (recipe.shapes[0].friction.expect("friction"), num(&d["friction"]), 1e-3),
+    ] {
+        assert!((got - want).abs() <= tol, "recipe {got}, calibration {want}");
+    }
+    assert_eq!(recipe.sensor.as_deref(), Some("tactip-331-calibrated"));
 }

@@ -13,12 +13,14 @@
 //! slide (the sensor touched down at `pose + shear` and slid to `pose`), zero for taps.
 
 pub mod atomic;
+pub mod column;
 pub mod error;
 pub mod lab;
 pub mod loader;
 pub mod meta;
 pub mod row;
 
+pub use column::Column;
 pub use error::{DataError, Result};
 pub use lab::{LabFolder, LabSample};
 pub use loader::{Dataset, Subset};

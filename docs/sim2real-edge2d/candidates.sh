@@ -51,6 +51,6 @@ if [ "$S2R" = "--sim2real" ]; then
     echo "$CANDIDATES" | while IFS='|' read -r name expr skin depth; do
         [ -n "$name" ] || continue
         recipe "$name" "$W/$name.toml" "$skin" "$depth" 2000 "$W/$name-s2r.toml"
-        "$TACSIM" sim2real --real "$REAL" --recipe "$W/$name-s2r.toml" --out "$W/$name-s2r" -q | grep -E "^\| (y|yaw) " | sed "s/^/$name /"
+        "$TACSIM" sim2real --real "$REAL" --recipe "$W/$name-s2r.toml" --out "$W/$name-s2r" -q | grep -E "^\| pose_" | sed "s/^/$name /"
     done
 fi

@@ -70,7 +70,8 @@ pub fn measure(backend: Backend, size: usize) -> Result<BenchRow> {
     };
     let ss = rate(batch, || step(false));
     let sup = rate(batch, || step(true));
-    let mut pose = Some(PoseNet::new(net, 128, &device));
+    // The default labels: x, y and the yaw as (sin, cos).
+    let mut pose = Some(PoseNet::new(net, 128, 4, &device));
     let mut popt = AdamConfig::new().init();
     let target = Tensor::<2>::zeros([batch, 4], &device);
     let ps = rate(batch, || {

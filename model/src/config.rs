@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, Result};
 use crate::network::Size;
+use crate::posenet::Column;
 
 /// Which training the unshear model gets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -198,7 +199,10 @@ pub struct PoseConfig {
     pub shift_fraction: f64,
     /// Hidden units of the regression head.
     pub hidden: usize,
-    /// Weight of y in the loss, relative to x and yaw (1). The paper's PoseNet regresses the
+    /// The `targets.csv` columns the network reads (default `pose_x`, `pose_y`, `pose_Rz`,
+    /// the paper's PoseNet); with a slide offset (`shear_*`) it learns from the slides.
+    pub labels: Vec<Column>,
+    /// Weight of y (`pose_y`) in the loss, relative to x and yaw (1). The paper's PoseNet regresses the
     /// lateral position across the edge and yaw only; with edge-frame labels y runs along
     /// the edge, which a locally straight edge does not reveal, and 0 stops the network
     /// from memorising it per training pose (y is then still output, but untrained).
@@ -222,6 +226,7 @@ impl Default for PoseConfig {
             lr_step_factor: 0.1,
             shift_fraction: 0.0,
             hidden: 128,
+            labels: vec![Column::PoseX, Column::PoseY, Column::PoseRz],
             y_weight: 1.0,
             l2: 0.0,
             seed: 0,
@@ -247,6 +252,12 @@ impl PoseConfig {
         positive("batch", self.batch as f64)?;
         positive("epochs", self.epochs as f64)?;
         positive("hidden", self.hidden as f64)?;
+        if self.labels.is_empty() {
+            return Err(ModelError::config("labels", "is empty: name at least one targets.csv column, such as pose_x"));
+        }
+        if let Some(c) = self.labels.iter().enumerate().find(|(i, c)| self.labels[..*i].contains(c)).map(|(_, c)| c) {
+            return Err(ModelError::config("labels", format!("names {c} twice")));
+        }
         positive("lr", self.lr)?;
         positive("lr_step_factor", self.lr_step_factor)?;
         in_range("shift_fraction", self.shift_fraction, 0.0, 0.25)?;

@@ -12,7 +12,7 @@ use tacsim_data::{Dataset, Kind, LabFolder, Meta, Row, Split, Subset};
 
 use crate::error::{ModelError, Result};
 use crate::images::{ImageSet, Preprocess};
-use crate::posenet::{Pose, PoseScale};
+use crate::posenet::{Column, LabelRange, Pose, PoseScale};
 
 /// A dataset with every image loaded at one side.
 #[derive(Clone, Debug)]
@@ -21,8 +21,6 @@ pub struct Corpus {
     pub dataset: Dataset,
     /// One image per row, in row order.
     pub images: ImageSet,
-    /// Ranges that normalise the pose labels: the recipe's pose ranges, else the labels'.
-    pub scale: PoseScale,
 }
 
 impl Corpus {
@@ -35,9 +33,7 @@ impl Corpus {
             let row = &dataset.rows[k];
             Ok((dataset.image(row)?, dataset.image_path(row).display().to_string()))
         })?;
-        let scale = recipe_scale(&dataset.meta.recipe)
-            .unwrap_or_else(|| PoseScale::covering(&dataset.rows.iter().map(pose_of).collect::<Vec<_>>()));
-        Ok(Self { dataset, images, scale })
+        Ok(Self { dataset, images })
     }
 
     /// Opens a lab recording folder (`targets.csv` + `images/`, as in
@@ -96,8 +92,7 @@ impl Corpus {
             sensor: serde_json::Value::Null,
             shard: None,
         };
-        let scale = PoseScale::covering(&rows.iter().map(pose_of).collect::<Vec<_>>());
-        Ok(Self { dataset: Dataset { dir: dir.to_owned(), meta, rows }, images, scale })
+        Ok(Self { dataset: Dataset { dir: dir.to_owned(), meta, rows }, images })
     }
 
     /// Opens `dir` as a `tacsim generate` dataset when it holds tacsim's `meta.json` (one with
@@ -137,16 +132,48 @@ impl Corpus {
         (self.batch(&taps, tap_shifts, device), self.batch(&slides, shifts, device))
     }
 
-    /// The rows of `split` the pose network learns from: the taps, or the slides where there
-    /// are no taps (a lab folder where every recording slid, as the surface recordings).
-    pub fn pose_rows(&self, split: Split) -> Vec<usize> {
+    /// The rows of `split` a pose network reading `labels` learns from: the slides when it
+    /// reads a slide's offset (`shear_*`, zero on taps), else the taps, or the slides where
+    /// there are no taps (a lab folder where every recording slid, as the surface recordings).
+    pub fn pose_rows(&self, split: Split, labels: &[Column]) -> Vec<usize> {
+        let slides = || self.dataset.indices(split, Subset::All, Kind::Slide);
+        if labels.iter().any(|c| c.is_shear()) {
+            return slides();
+        }
         let taps = self.dataset.indices(split, Subset::All, Kind::Tap);
-        if taps.is_empty() { self.dataset.indices(split, Subset::All, Kind::Slide) } else { taps }
+        if taps.is_empty() { slides() } else { taps }
     }
 
-    /// The pose label of a row.
+    /// The labels of a row.
     pub fn pose(&self, row: usize) -> Pose {
-        pose_of(&self.dataset.rows[row])
+        Pose::of_row(&self.dataset.rows[row])
+    }
+
+    /// The ranges that normalise `labels` for a network trained on `rows`: the recipe's pose
+    /// ranges (`poses.x_mm`, `poses.y_mm`, `poses.yaw_deg`) where the dataset's meta holds a
+    /// recipe, else the smallest ranges holding the labels of `rows`.
+    pub fn pose_scale(&self, labels: &[Column], rows: &[usize]) -> PoseScale {
+        let poses: Vec<Pose> = rows.iter().map(|&r| self.pose(r)).collect();
+        let mut scale = PoseScale::covering(labels, &poses);
+        for l in &mut scale.labels {
+            if let Some(range) = recipe_range(&self.dataset.meta.recipe, l.column) {
+                *l = LabelRange { column: l.column, range };
+            }
+        }
+        scale
+    }
+
+    /// The labels among `candidates` that vary over `rows` (by more than 1e-6 mm or deg).
+    pub fn varying(&self, candidates: &[Column], rows: &[usize]) -> Vec<Column> {
+        candidates
+            .iter()
+            .copied()
+            .filter(|&c| {
+                let v = rows.iter().map(|&r| c.of(&self.dataset.rows[r]));
+                let (lo, hi) = v.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)));
+                hi - lo > 1e-6
+            })
+            .collect()
     }
 
     /// True `(tap, slide)` pairs for the supervised phase at a label `fraction` of the
@@ -194,22 +221,20 @@ fn key(r: &Row) -> (String, usize) {
     (r.shape.clone(), r.pose_id)
 }
 
-/// The pose label of a row: `pose_x`, `pose_y` (mm) and `pose_rz` (deg).
-pub fn pose_of(r: &Row) -> Pose {
-    Pose { x_mm: r.pose_x, y_mm: r.pose_y, yaw_deg: r.pose_rz }
-}
-
 /// The recipe's `split.paired_fraction`, if the meta holds a recipe.
 fn recipe_paired_fraction(recipe: &serde_json::Value) -> Option<f64> {
     recipe.get("split")?.get("paired_fraction")?.as_f64()
 }
 
-/// The recipe's pose ranges (`poses.x_mm`, `poses.y_mm`, `poses.yaw_deg`), if the meta holds
-/// a recipe.
-fn recipe_scale(recipe: &serde_json::Value) -> Option<PoseScale> {
-    let range = |name: &str| -> Option<[f64; 2]> {
-        let v = recipe.get("poses")?.get(name)?.as_array()?;
-        Some([v.first()?.as_f64()?, v.get(1)?.as_f64()?])
+/// The recipe's range of a pose label (`poses.x_mm`, `poses.y_mm`, `poses.yaw_deg` for
+/// `pose_x`, `pose_y`, `pose_Rz`), if the meta holds a recipe.
+fn recipe_range(recipe: &serde_json::Value, column: Column) -> Option<[f64; 2]> {
+    let name = match column {
+        Column::PoseX => "x_mm",
+        Column::PoseY => "y_mm",
+        Column::PoseRz => "yaw_deg",
+        _ => return None,
     };
-    Some(PoseScale { x_mm: range("x_mm")?, y_mm: range("y_mm")?, yaw_deg: range("yaw_deg")? })
+    let v = recipe.get("poses")?.get(name)?.as_array()?;
+    Some([v.first()?.as_f64()?, v.get(1)?.as_f64()?])
 }

@@ -20,7 +20,7 @@ use crate::error::{ModelError, Result};
 use crate::images::to_images;
 use crate::infer;
 use crate::metrics;
-use crate::posenet::{Pose, PoseNet, PoseScale, decode_batch};
+use crate::posenet::{Column, Pose, PoseNet, PoseScale, decode_batch};
 
 /// Mean image similarity over a set of image pairs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -227,9 +227,9 @@ pub fn yaw_difference_deg(a: f64, b: f64) -> f64 {
 pub fn pose_error(predicted: &[Pose], truth: &[Pose]) -> PoseError {
     let mut sums = [0.0f64; 3];
     for (p, t) in predicted.iter().zip(truth) {
-        sums[0] += (p.x_mm - t.x_mm).abs();
-        sums[1] += (p.y_mm - t.y_mm).abs();
-        sums[2] += yaw_difference_deg(p.yaw_deg, t.yaw_deg);
+        sums[0] += (p.x_mm() - t.x_mm()).abs();
+        sums[1] += (p.y_mm() - t.y_mm()).abs();
+        sums[2] += yaw_difference_deg(p.yaw_deg(), t.yaw_deg());
     }
     let n = predicted.len().min(truth.len()).max(1) as f64;
     PoseError { x_mm: sums[0] / n, y_mm: sums[1] / n, yaw_deg: sums[2] / n }
@@ -249,13 +249,13 @@ fn poses_csv(corpus: &Corpus, rows: &[usize], sets: &[(String, Vec<Pose>)]) -> S
                 row.sensor_image,
                 row.shape,
                 row.pose_z,
-                t.x_mm,
-                t.y_mm,
-                t.yaw_deg,
-                p.x_mm,
-                p.y_mm,
-                p.yaw_deg,
-                yaw_difference_deg(p.yaw_deg, t.yaw_deg)
+                t.x_mm(),
+                t.y_mm(),
+                t.yaw_deg(),
+                p.x_mm(),
+                p.y_mm(),
+                p.yaw_deg(),
+                yaw_difference_deg(p.yaw_deg(), t.yaw_deg())
             ));
         }
     }
@@ -316,6 +316,17 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
                     ));
                 }
                 let (net, _, scale) = infer::load_posenet(&dir, &device)?;
+                let planar = [Column::PoseX, Column::PoseY, Column::PoseRz];
+                if !planar.iter().all(|&c| scale.reads(c)) {
+                    return Err(ModelError::config(
+                        "labels",
+                        format!(
+                            "{} reads {}; the paper's scores need pose_x, pose_y and pose_Rz (train it with the default labels)",
+                            dir.display(),
+                            scale.columns().iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
+                        ),
+                    ));
+                }
                 posenet = Some((net, scale));
             }
             Run::Unshear(name, cfg, dir) => unshear.push((name, cfg, dir)),
@@ -622,14 +633,14 @@ mod tests {
         assert_eq!(yaw_difference_deg(170.0, -170.0), 20.0);
         assert_eq!(yaw_difference_deg(-44.0, 46.0), 90.0);
         assert_eq!(yaw_difference_deg(10.0, 370.0), 0.0);
-        let p = |x_mm, yaw_deg| Pose { x_mm, y_mm: 0.0, yaw_deg };
+        let p = |x_mm, yaw_deg| Pose::planar(x_mm, 0.0, yaw_deg);
         let e = pose_error(&[p(1.0, 179.0), p(-1.0, 0.0)], &[p(0.0, -179.0), p(0.0, 4.0)]);
         assert_eq!((e.x_mm, e.y_mm, e.yaw_deg), (1.0, 0.0, 3.0));
     }
 
     #[test]
     fn pose_errors_split_by_press_depth() {
-        let p = |x_mm, yaw_deg| Pose { x_mm, y_mm: 0.0, yaw_deg };
+        let p = |x_mm, yaw_deg| Pose::planar(x_mm, 0.0, yaw_deg);
         let truth = [p(0.0, 0.0); 4];
         let predicted = [p(1.0, 10.0), p(3.0, 30.0), p(0.5, 2.0), p(0.1, 1.0)];
         let bands = pose_by_depth("tap", &predicted, &truth, &[1.2, 1.9, 2.0, 4.5]);

@@ -40,8 +40,8 @@ pub fn load_posenet(dir: &Path, device: &Device) -> Result<(PoseNet, PoseConfig,
         return Err(ModelError::checkpoint(dir, "no scale.json: not a pose network run (`tacsim train posenet`)"));
     }
     let cfg: PoseConfig = read_json(&dir.join("config.json"))?;
-    let net = load_weights(PoseNet::new(cfg.net_size()?, cfg.hidden, device), &weights)?.valid();
     let scale: PoseScale = read_json(&dir.join("scale.json"))?;
+    let net = load_weights(PoseNet::new(cfg.net_size()?, cfg.hidden, scale.width(), device), &weights)?.valid();
     Ok((net, cfg, scale))
 }
 
@@ -97,6 +97,11 @@ impl PoseReader {
     /// The networks' image side (px).
     pub fn side(&self) -> usize {
         self.side
+    }
+
+    /// The labels the pose network reads.
+    pub fn labels(&self) -> Vec<crate::posenet::Column> {
+        self.scale.columns()
     }
 
     /// The pose in the frame of the pose network's training labels.

@@ -22,7 +22,7 @@ use crate::config::{Mode, PoseConfig, UnshearConfig};
 use crate::data::Corpus;
 use crate::error::{ModelError, Result};
 use crate::objective::{self, StepLosses, Weights};
-use crate::posenet::PoseNet;
+use crate::posenet::{Column, PoseNet};
 use crate::unshear::Unshear;
 
 /// Name of the self-supervised phase in logs.
@@ -351,8 +351,9 @@ pub fn train_unshear(
     Ok((model, state))
 }
 
-/// Trains the pose network on the training taps of `corpus` into `out` (on the slides when
-/// the data has no taps, as a lab folder of slid recordings).
+/// Trains the pose network to read `cfg.labels` from the training rows of `corpus`
+/// ([`Corpus::pose_rows`]: the taps, or the slides for slide offsets or where there are no
+/// taps) into `out`.
 pub fn train_posenet(
     corpus: &Corpus,
     cfg: &PoseConfig,
@@ -363,7 +364,16 @@ pub fn train_posenet(
 ) -> Result<(PoseNet, TrainState)> {
     cfg.validate()?;
     let device = seeded_device(corpus, cfg.size, backend, cfg.seed)?;
-    let model = canonical_ids(PoseNet::new(cfg.net_size()?, cfg.hidden, &device));
+    let taps = corpus.pose_rows(Split::Train, &cfg.labels);
+    if taps.is_empty() {
+        return Err(crate::error::ModelError::Insufficient(format!(
+            "{} has no training images for the labels {}",
+            corpus.dataset.dir.display(),
+            cfg.labels.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
+        )));
+    }
+    let scale = corpus.pose_scale(&cfg.labels, &taps);
+    let model = canonical_ids(PoseNet::new(cfg.net_size()?, cfg.hidden, scale.width(), &device));
     let settings = LoopSettings {
         batch: cfg.batch,
         max_batches: cfg.max_batches_per_epoch,
@@ -372,14 +382,13 @@ pub fn train_posenet(
         adam: AdamConfig::new(),
     };
     let (run, model, optim, state) = open_run(out, cfg, resume, model, settings.adam.init())?;
-    write_json(&out.join("scale.json"), &corpus.scale)?;
+    write_json(&out.join("scale.json"), &scale)?;
     if state.done {
         progress.message("the run had already finished");
         return Ok((model, state));
     }
-    let taps = corpus.pose_rows(Split::Train);
-    if corpus.dataset.indices(Split::Train, Subset::All, Kind::Tap).is_empty() {
-        progress.message("no tap images in the training split: training the pose network on the slides");
+    if corpus.dataset.rows[taps[0]].kind == Kind::Slide {
+        progress.message("training the pose network on the slides (slide offsets read, or no tap images)");
     }
     let half = cfg.epochs / 2;
     let phases = vec![PhasePlan {
@@ -389,17 +398,14 @@ pub fn train_posenet(
         lr: Box::new(move |e| if e >= half && half > 0 { cfg.lr * cfg.lr_step_factor } else { cfg.lr }),
     }];
     let max_shift = cfg.max_shift_px();
-    // Per output (x, y, sin yaw, cos yaw), scaled so that the weights average 1: with
-    // `y_weight` 1 the loss is the plain mean squared error.
-    let w = [1.0, cfg.y_weight, 1.0, 1.0];
-    let mean_w = w.iter().sum::<f64>() / 4.0;
-    let output_weights: Tensor<2> =
-        Tensor::from_data(TensorData::new(w.iter().map(|v| (v / mean_w) as f32).collect::<Vec<_>>(), [1, 4]), &device);
+    // Per output, averaging 1: with `y_weight` 1 the loss is the plain mean squared error.
+    let w = scale.output_weights(|c| if c == Column::PoseY { cfg.y_weight } else { 1.0 });
+    let output_weights: Tensor<2> = Tensor::from_data(TensorData::new(w.clone(), [1, w.len()]), &device);
     run_loop(&run, Session { model, optim, state }, &phases, &settings, progress, |m, _, chunk, rng| {
         let sh = shifts(chunk.len(), max_shift, rng);
         let x = corpus.batch(chunk, &sh, &device);
         let poses: Vec<_> = chunk.iter().map(|&r| corpus.pose(r)).collect();
-        let y = corpus.scale.targets(&poses, &device);
+        let y = scale.targets(&poses, &device);
         let loss = ((m.forward(x) - y).square() * output_weights.clone()).mean();
         let v = loss.clone().into_scalar::<f32>() as f64;
         let (loss, reg) =

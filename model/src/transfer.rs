@@ -1,82 +1,41 @@
 //! Sim-to-real label maps: how the labels of a simulated dataset relate to a lab's.
 //!
 //! A lab's labels are given in its rig's frame (which side of an edge is positive, where yaw 0
-//! points, which column is the lateral offset), a simulated dataset's in the recipe's frame.
-//! The two agree up to a choice of component, a sign and an offset, which the lab's data
-//! fixes: a pose network trained on simulated images reads the lab's fitting part, and for
-//! every lab label that varies the map takes the simulated component and sign whose
-//! predictions, after the best offset, are nearest the lab's labels (least mean absolute
-//! error; for a yaw, on the circle). No scale is fitted: a network that reads magnitudes wrong
-//! must show it in the error.
+//! points, which column is the lateral offset, where depth 0 is), a simulated dataset's in the
+//! recipe's frame. The two agree up to a choice of label, a sign and an offset, which the
+//! lab's data fixes: a pose network trained on simulated images reads the lab's fitting part,
+//! and every lab label that varies takes the simulated label and sign whose readings, after
+//! the best offset, are nearest the lab's labels (least mean absolute error; for a rotation,
+//! on the circle), positions from positions and rotations from rotations, no two lab labels
+//! from one simulated label. No scale is fitted: a network that reads magnitudes wrong must
+//! show it in the error.
 //!
-//! `real = sign * sim + offset` (mm, or deg modulo 360 for the yaw).
+//! `real = sign * sim + offset` (mm, or deg modulo 360 for a rotation).
 
 use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, Result};
 use crate::eval::yaw_difference_deg;
-use crate::posenet::Pose;
+use crate::posenet::{Column, Pose};
 
-/// A component of a [`Pose`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Component {
-    /// x (mm).
-    X,
-    /// y (mm).
-    Y,
-    /// Yaw (deg).
-    Yaw,
+/// Absolute difference of two values of `c` (mm or deg): plain, or on the circle for a
+/// rotation.
+pub fn difference(c: Column, a: f64, b: f64) -> f64 {
+    if c.is_angle() { yaw_difference_deg(a, b) } else { (a - b).abs() }
 }
 
-impl Component {
-    /// Every component.
-    pub const ALL: [Component; 3] = [Component::X, Component::Y, Component::Yaw];
-
-    /// The component's value in `p`.
-    pub fn of(self, p: &Pose) -> f64 {
-        match self {
-            Component::X => p.x_mm,
-            Component::Y => p.y_mm,
-            Component::Yaw => p.yaw_deg,
-        }
-    }
-
-    /// `p` with the component set to `v`.
-    pub fn set(self, p: &mut Pose, v: f64) {
-        match self {
-            Component::X => p.x_mm = v,
-            Component::Y => p.y_mm = v,
-            Component::Yaw => p.yaw_deg = v,
-        }
-    }
-
-    /// Name with unit, as in reports.
-    pub fn label(self) -> &'static str {
-        match self {
-            Component::X => "x (mm)",
-            Component::Y => "y (mm)",
-            Component::Yaw => "yaw (deg)",
-        }
-    }
-
-    fn is_angle(self) -> bool {
-        self == Component::Yaw
-    }
-
-    /// Absolute difference (mm or deg): plain, or on the circle for the yaw.
-    pub fn difference(self, a: f64, b: f64) -> f64 {
-        if self.is_angle() { yaw_difference_deg(a, b) } else { (a - b).abs() }
-    }
+/// The label `c` with its unit, as in reports: `pose_y (mm)`.
+pub fn label(c: Column) -> String {
+    format!("{} ({})", c.name(), c.unit())
 }
 
-/// One lab label and the simulated component it is read from: `real = sign * sim + offset`.
+/// One lab label and the simulated label it is read from: `real = sign * sim + offset`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Link {
-    /// The lab's component.
-    pub real: Component,
-    /// The simulated component.
-    pub sim: Component,
+    /// The lab's label.
+    pub real: Column,
+    /// The simulated label.
+    pub sim: Column,
     /// +1 or -1.
     pub sign: f64,
     /// Offset (mm or deg).
@@ -86,7 +45,7 @@ pub struct Link {
 impl Link {
     /// The lab's value of the simulated pose `p`.
     pub fn apply(&self, p: &Pose) -> f64 {
-        let v = self.sign * self.sim.of(p) + self.offset;
+        let v = self.sign * p.get(self.sim) + self.offset;
         if self.real.is_angle() { wrap_deg(v) } else { v }
     }
 
@@ -100,36 +59,35 @@ impl Link {
 /// The map from a simulated dataset's labels to a lab's.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LabelMap {
-    /// One link per lab label that varies.
+    /// One link per lab label.
     pub links: Vec<Link>,
 }
 
-/// Labels whose spread is below this (mm or deg) are constant: not mapped, not scored.
-const CONSTANT_SPREAD: f64 = 1e-6;
-
-/// The lab's components that vary over `real`.
-pub fn varying(real: &[Pose]) -> Vec<Component> {
-    Component::ALL
-        .into_iter()
-        .filter(|c| {
-            let lo = real.iter().map(|p| c.of(p)).fold(f64::INFINITY, f64::min);
-            let hi = real.iter().map(|p| c.of(p)).fold(f64::NEG_INFINITY, f64::max);
-            hi - lo > CONSTANT_SPREAD
-        })
-        .collect()
-}
-
 impl LabelMap {
-    /// The identity on the varying components of `real` (a network trained on the lab's own
-    /// labels).
-    pub fn identity(real: &[Pose]) -> Self {
-        Self { links: varying(real).into_iter().map(|c| Link { real: c, sim: c, sign: 1.0, offset: 0.0 }).collect() }
+    /// The identity on `labels` (a network trained on the lab's own labels).
+    pub fn identity(labels: &[Column]) -> Self {
+        Self { links: labels.iter().map(|&c| Link { real: c, sim: c, sign: 1.0, offset: 0.0 }).collect() }
     }
 
-    /// Fits the map from `predicted` (a simulator-trained network's poses of the lab's fitting
-    /// images) to their lab labels `real` (same order); see the module documentation. The
-    /// yaw links to the yaw, x and y to either of x and y.
-    pub fn fit(predicted: &[Pose], real: &[Pose]) -> Result<Self> {
+    /// Chance: each of `labels` answered by the one constant that fits `real` best (the
+    /// median; for a rotation, on the circle).
+    pub fn constant(labels: &[Column], real: &[Pose]) -> Self {
+        let zero = vec![Pose::default(); real.len()];
+        Self {
+            links: labels
+                .iter()
+                .map(|&c| Link { real: c, sim: c, sign: 1.0, offset: best_offset(c, c, 1.0, &zero, real) })
+                .collect(),
+        }
+    }
+
+    /// Fits the map from `predicted` (a simulator-trained network's readings, of the
+    /// labels `sim`, of the lab's fitting images) to their lab labels `real` (same order) for
+    /// the lab's labels `labels`; see the module documentation. Positions link to positions
+    /// and rotations to rotations, one lab label to one simulated label where there are as
+    /// many: of every such assignment, the one of least summed error, each label's error
+    /// relative to its chance error (so that millimetres and degrees weigh alike).
+    pub fn fit(predicted: &[Pose], sim: &[Column], real: &[Pose], labels: &[Column]) -> Result<Self> {
         if predicted.len() != real.len() || real.is_empty() {
             return Err(ModelError::Insufficient(format!(
                 "a label map needs predictions for every fitting image: {} predictions, {} labels",
@@ -137,24 +95,52 @@ impl LabelMap {
                 real.len()
             )));
         }
-        let links = varying(real)
-            .into_iter()
-            .map(|r| {
-                let sims: &[Component] = if r.is_angle() { &[Component::Yaw] } else { &[Component::X, Component::Y] };
-                let mut best: Option<(f64, Link)> = None;
-                for &sim in sims {
-                    for sign in [1.0, -1.0] {
-                        let link = Link { real: r, sim, sign, offset: best_offset(r, sim, sign, predicted, real) };
-                        let e = mean_error(&link, predicted, real);
-                        if best.as_ref().is_none_or(|(b, _)| e < *b) {
-                            best = Some((e, link));
-                        }
-                    }
-                }
-                best.map(|(_, l)| l).expect("at least one candidate")
-            })
-            .collect();
-        Ok(Self { links })
+        let chance = Self::constant(labels, real).errors(&vec![Pose::default(); real.len()], real);
+        let mut links: Vec<Option<Link>> = vec![None; labels.len()];
+        for angle in [false, true] {
+            let lab: Vec<usize> = (0..labels.len()).filter(|&k| labels[k].is_angle() == angle).collect();
+            let cands: Vec<Column> = sim.iter().copied().filter(|c| c.is_angle() == angle).collect();
+            if lab.is_empty() {
+                continue;
+            }
+            if cands.is_empty() {
+                return Err(ModelError::Insufficient(format!(
+                    "the simulator-trained network reads no {} label to map the lab's {} onto",
+                    if angle { "rotation" } else { "position" },
+                    lab.iter().map(|&k| labels[k].name()).collect::<Vec<_>>().join(", ")
+                )));
+            }
+            // The best link of every (lab, simulated) pair and its relative error.
+            let best: Vec<Vec<(f64, Link)>> = lab
+                .iter()
+                .map(|&k| {
+                    cands
+                        .iter()
+                        .map(|&s| {
+                            [1.0, -1.0]
+                                .into_iter()
+                                .map(|sign| {
+                                    let r = labels[k];
+                                    let link = Link {
+                                        real: r,
+                                        sim: s,
+                                        sign,
+                                        offset: best_offset(r, s, sign, predicted, real),
+                                    };
+                                    (mean_error(&link, predicted, real) / chance[k].max(1e-12), link)
+                                })
+                                .min_by(|a, b| a.0.total_cmp(&b.0))
+                                .expect("two signs")
+                        })
+                        .collect()
+                })
+                .collect();
+            let choice = assign(&best, cands.len() >= lab.len());
+            for (i, &k) in lab.iter().enumerate() {
+                links[k] = Some(best[i][choice[i]].1);
+            }
+        }
+        Ok(Self { links: links.into_iter().map(|l| l.expect("every label assigned")).collect() })
     }
 
     /// Mean absolute error per link (mm or deg) of `predicted` through the map against the
@@ -163,25 +149,25 @@ impl LabelMap {
         self.links.iter().map(|l| mean_error(l, predicted, real)).collect()
     }
 
-    /// The simulated pose of a lab pose (components the map does not name are 0).
+    /// The simulated pose of a lab pose (labels the map does not name are 0).
     pub fn sim_pose(&self, real: &Pose) -> Pose {
-        let mut p = Pose { x_mm: 0.0, y_mm: 0.0, yaw_deg: 0.0 };
+        let mut p = Pose::default();
         for l in &self.links {
-            l.sim.set(&mut p, l.invert(l.real.of(real)));
+            p.set(l.sim, l.invert(real.get(l.real)));
         }
         p
     }
 
-    /// One line per link, such as `lab y (mm) = -1 x sim x (mm) + 0.12`.
+    /// One line per link, such as `lab pose_y (mm) = -sim pose_x (mm) + 0.12`.
     pub fn describe(&self) -> Vec<String> {
         self.links
             .iter()
             .map(|l| {
                 format!(
                     "lab {} = {}sim {} {} {:.2}",
-                    l.real.label(),
+                    label(l.real),
                     if l.sign < 0.0 { "-" } else { "" },
-                    l.sim.label(),
+                    label(l.sim),
                     if l.offset < 0.0 { "-" } else { "+" },
                     l.offset.abs()
                 )
@@ -190,8 +176,35 @@ impl LabelMap {
     }
 }
 
+/// The choice of column per row of `cost` (`cost[i][j].0`) of least sum, distinct columns
+/// when `distinct` (exhaustive: a handful of labels).
+fn assign<T>(cost: &[Vec<(f64, T)>], distinct: bool) -> Vec<usize> {
+    fn go<T>(cost: &[Vec<(f64, T)>], distinct: bool, at: &mut Vec<usize>, best: &mut (f64, Vec<usize>), sum: f64) {
+        if sum >= best.0 {
+            return;
+        }
+        let i = at.len();
+        if i == cost.len() {
+            *best = (sum, at.clone());
+            return;
+        }
+        for j in 0..cost[i].len() {
+            if distinct && at.contains(&j) {
+                continue;
+            }
+            at.push(j);
+            go(cost, distinct, at, best, sum + cost[i][j].0);
+            at.pop();
+        }
+    }
+    let mut best = (f64::INFINITY, vec![0; cost.len()]);
+    go(cost, distinct, &mut Vec::new(), &mut best, 0.0);
+    best.1
+}
+
 fn mean_error(link: &Link, predicted: &[Pose], real: &[Pose]) -> f64 {
-    let sum: f64 = predicted.iter().zip(real).map(|(p, t)| link.real.difference(link.apply(p), link.real.of(t))).sum();
+    let sum: f64 =
+        predicted.iter().zip(real).map(|(p, t)| difference(link.real, link.apply(p), t.get(link.real))).sum();
     sum / real.len().max(1) as f64
 }
 
@@ -204,8 +217,8 @@ fn wrap_deg(v: f64) -> f64 {
 /// The offset of least mean absolute error: the median of the differences for a length; for an
 /// angle, the best of a 0.5 deg grid over the circle, refined to the circular median of the
 /// differences within 90 deg of it.
-fn best_offset(real: Component, sim: Component, sign: f64, predicted: &[Pose], labels: &[Pose]) -> f64 {
-    let mut d: Vec<f64> = predicted.iter().zip(labels).map(|(p, t)| real.of(t) - sign * sim.of(p)).collect();
+fn best_offset(real: Column, sim: Column, sign: f64, predicted: &[Pose], labels: &[Pose]) -> f64 {
+    let mut d: Vec<f64> = predicted.iter().zip(labels).map(|(p, t)| t.get(real) - sign * p.get(sim)).collect();
     if !real.is_angle() {
         d.sort_by(f64::total_cmp);
         let n = d.len();
@@ -228,37 +241,84 @@ mod tests {
     use super::*;
 
     fn pose(x_mm: f64, y_mm: f64, yaw_deg: f64) -> Pose {
-        Pose { x_mm, y_mm, yaw_deg }
+        Pose::planar(x_mm, y_mm, yaw_deg)
     }
+
+    const SIM: [Column; 3] = [Column::PoseX, Column::PoseY, Column::PoseRz];
 
     #[test]
     fn a_flipped_swapped_shifted_frame_is_recovered() {
         // Lab frame: lateral in y with the opposite sign, 0.4 mm off; yaw reversed and 90 deg
-        // off. The predictions are the simulated labels with a little noise.
+        // off. The predictions are the simulated labels with a little noise; the simulated y
+        // is read too, but noise only.
         let sim: Vec<Pose> = (0..200)
             .map(|i| {
                 let t = i as f64;
                 pose(-6.0 + 12.0 * ((t * 0.618) % 1.0), 0.0, -180.0 + 360.0 * ((t * 0.377) % 1.0))
             })
             .collect();
-        let real: Vec<Pose> = sim.iter().map(|p| pose(0.0, -p.x_mm + 0.4, wrap_deg(-p.yaw_deg + 90.0))).collect();
+        let real: Vec<Pose> = sim.iter().map(|p| pose(0.0, -p.x_mm() + 0.4, wrap_deg(-p.yaw_deg() + 90.0))).collect();
         let noisy: Vec<Pose> = sim
             .iter()
             .enumerate()
-            .map(|(i, p)| pose(p.x_mm + 0.05 * ((i % 3) as f64 - 1.0), 0.0, p.yaw_deg + ((i % 5) as f64 - 2.0)))
+            .map(|(i, p)| {
+                pose(
+                    p.x_mm() + 0.05 * ((i % 3) as f64 - 1.0),
+                    0.3 * ((i % 7) as f64 - 3.0),
+                    p.yaw_deg() + ((i % 5) as f64 - 2.0),
+                )
+            })
             .collect();
-        let map = LabelMap::fit(&noisy, &real).expect("fit");
-        assert_eq!(map.links.len(), 2, "x is constant in the lab's labels: {map:?}");
+        let labels = [Column::PoseY, Column::PoseRz];
+        let map = LabelMap::fit(&noisy, &SIM, &real, &labels).expect("fit");
+        assert_eq!(map.links.len(), 2, "{map:?}");
         let (lat, yaw) = (map.links[0], map.links[1]);
-        assert_eq!((lat.real, lat.sim, lat.sign), (Component::Y, Component::X, -1.0));
+        assert_eq!((lat.real, lat.sim, lat.sign), (Column::PoseY, Column::PoseX, -1.0));
         assert!((lat.offset - 0.4).abs() < 0.06, "{lat:?}");
-        assert_eq!((yaw.real, yaw.sim, yaw.sign), (Component::Yaw, Component::Yaw, -1.0));
+        assert_eq!((yaw.real, yaw.sim, yaw.sign), (Column::PoseRz, Column::PoseRz, -1.0));
         assert!(yaw_difference_deg(yaw.offset, 90.0) < 1.5, "{yaw:?}");
         let e = map.errors(&noisy, &real);
         assert!(e[0] < 0.05 && e[1] < 1.5, "{e:?}");
         // The inverse takes a lab pose back to the simulated one.
         let back = map.sim_pose(&real[7]);
-        assert!((back.x_mm - sim[7].x_mm).abs() < 0.06 && yaw_difference_deg(back.yaw_deg, sim[7].yaw_deg) < 1.5);
+        assert!(
+            (back.x_mm() - sim[7].x_mm()).abs() < 0.06 && yaw_difference_deg(back.yaw_deg(), sim[7].yaw_deg()) < 1.5
+        );
+    }
+
+    /// Two lab labels that the simulated readings fit alike (both near one simulated label)
+    /// must not both take it: the assignment is one to one, of least summed relative error.
+    #[test]
+    fn two_lab_labels_never_share_one_simulated_label() {
+        let n = 120;
+        let sim: Vec<Pose> = (0..n)
+            .map(|i| {
+                let mut p = Pose::default();
+                p.set(Column::PoseZ, 1.0 + 4.0 * ((i as f64 * 0.618) % 1.0));
+                p.set(Column::ShearX, -5.0 + 10.0 * ((i as f64 * 0.377) % 1.0));
+                p
+            })
+            .collect();
+        // The lab's depth is the simulated depth + 2 mm; its slide x follows the simulated
+        // depth more than the simulated slide x, so each lab label alone would take depth.
+        let real: Vec<Pose> = sim
+            .iter()
+            .map(|p| {
+                let mut q = Pose::default();
+                q.set(Column::PoseZ, p.get(Column::PoseZ) + 2.0);
+                q.set(Column::ShearX, p.get(Column::PoseZ) - 0.3 * p.get(Column::ShearX));
+                q
+            })
+            .collect();
+        let labels = [Column::PoseZ, Column::ShearX];
+        let alone = LabelMap::fit(&sim, &[Column::PoseZ], &real, &labels[1..]).expect("fit");
+        let both = LabelMap::fit(&sim, &labels, &real, &labels[1..]).expect("fit");
+        assert_eq!((alone.links[0].sim, both.links[0].sim), (Column::PoseZ, Column::PoseZ), "{both:?}");
+        let map = LabelMap::fit(&sim, &labels, &real, &labels).expect("fit");
+        let sims: Vec<Column> = map.links.iter().map(|l| l.sim).collect();
+        assert_eq!(sims, vec![Column::PoseZ, Column::ShearX], "{map:?}");
+        assert_eq!(map.links[1].sign, -1.0);
+        assert!((map.links[0].offset - 2.0).abs() < 1e-9);
     }
 
     #[test]
@@ -266,17 +326,22 @@ mod tests {
         // A network that says the same for every image: the best offset cannot make it right.
         let real: Vec<Pose> = (0..100).map(|i| pose(0.0, -6.0 + 0.12 * i as f64, -180.0 + 3.6 * i as f64)).collect();
         let flat = vec![pose(0.0, 0.0, 0.0); 100];
-        let map = LabelMap::fit(&flat, &real).expect("fit");
+        let labels = [Column::PoseY, Column::PoseRz];
+        let map = LabelMap::fit(&flat, &SIM, &real, &labels).expect("fit");
         let e = map.errors(&flat, &real);
         assert!(
             (e[0] - 3.0).abs() < 0.1 && (e[1] - 90.0).abs() < 2.0,
             "uniform labels: 3 mm and 90 deg at chance, {e:?}"
         );
+        let chance = LabelMap::constant(&labels, &real).errors(&flat, &real);
+        assert!((chance[0] - e[0]).abs() < 1e-9 && (chance[1] - e[1]).abs() < 1.0, "{chance:?} {e:?}");
     }
 
     #[test]
     fn an_empty_or_uneven_fit_is_an_error() {
-        assert!(LabelMap::fit(&[], &[]).is_err());
-        assert!(LabelMap::fit(&[pose(0.0, 0.0, 0.0)], &[]).is_err());
+        assert!(LabelMap::fit(&[], &SIM, &[], &[Column::PoseX]).is_err());
+        assert!(LabelMap::fit(&[pose(0.0, 0.0, 0.0)], &SIM, &[], &[Column::PoseX]).is_err());
+        let e = LabelMap::fit(&[pose(0.0, 0.0, 0.0)], &[Column::PoseX], &[pose(0.0, 0.0, 5.0)], &[Column::PoseRz]);
+        assert!(e.is_err_and(|e| e.to_string().contains("no rotation label")));
     }
 }

@@ -244,7 +244,10 @@ fn evaluation_writes_the_report_with_every_table() {
             (reader.read(&img).expect("read"), reader.read(&img).expect("read"), raw.read(&img).expect("read"));
         assert_eq!(got, again, "inference is deterministic");
         for (a, b) in [(got, want[k]), (got_raw, want_raw[k])] {
-            assert!((a.x_mm - b.x_mm).abs() < 1e-4 && (a.yaw_deg - b.yaw_deg).abs() < 1e-3, "{a:?} against {b:?}");
+            assert!(
+                (a.x_mm() - b.x_mm()).abs() < 1e-4 && (a.yaw_deg() - b.yaw_deg()).abs() < 1e-3,
+                "{a:?} against {b:?}"
+            );
         }
     }
     // A larger image is resized to the networks' side first.

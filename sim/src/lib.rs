@@ -22,6 +22,7 @@ pub mod processing;
 pub mod raster;
 pub mod realism;
 pub mod render;
+pub mod rig;
 pub mod scene;
 pub mod sensor;
 pub mod stimulus;

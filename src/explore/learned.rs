@@ -36,6 +36,15 @@ impl Learned {
                 unshear.map(|u| format!(" and {}", u.display())).unwrap_or_default()
             )
         })?;
+        let read = reader.labels();
+        let needed = [tacsim_data::Column::PoseX, tacsim_data::Column::PoseRz];
+        if !needed.iter().all(|c| read.contains(c)) {
+            anyhow::bail!(
+                "field `models`: {} reads {}, perception needs pose_x and pose_Rz (train it with the default labels)",
+                models.posenet.display(),
+                read.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
+            );
+        }
         let reference = renderer.render_undeformed();
         Ok(Self { reference, reader })
     }
@@ -50,6 +59,6 @@ impl Learned {
             return Ok(None);
         }
         let pose = self.reader.read(img)?;
-        Ok(Some(EdgeEstimate { offset_mm: pose.x_mm, angle_deg: wrap_deg(-pose.yaw_deg) }))
+        Ok(Some(EdgeEstimate { offset_mm: pose.x_mm(), angle_deg: wrap_deg(-pose.yaw_deg()) }))
     }
 }

@@ -184,7 +184,7 @@ fn flag<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
 fn real_compare(args: &[String]) -> Result<()> {
     use tacsim_sim::calibrate::evaluate::Simulator;
     use tacsim_sim::calibrate::frame::{ImageMap, best_frame, label_frame, shift_samples};
-    use tacsim_sim::calibrate::model::{Deformation, LabelFrame};
+    use tacsim_sim::calibrate::model::{Deformation, RigFrame};
     use tacsim_sim::calibrate::observe::Observations;
     let dir =
         flag(args, "--real").map(PathBuf::from).unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d"));
@@ -248,7 +248,7 @@ fn real_compare(args: &[String]) -> Result<()> {
     let all: Vec<usize> = (0..obs.samples.len()).collect();
     // The label frame from the data: the real and the simulated (identity frame) global
     // shifts regressed on the labels.
-    let identity = sim.errors(&obs, &all, &LabelFrame::IDENTITY)?;
+    let identity = sim.errors(&obs, &all, &RigFrame::IDENTITY)?;
     let [real_samples, sim_samples] = shift_samples(obs.samples.iter().map(|o| &o.sample), &identity);
     let too_few = "too few recordings to find the label frame";
     let (real_map, sim_map) =
@@ -281,9 +281,9 @@ fn real_compare(args: &[String]) -> Result<()> {
         Some(f) => {
             let reversed = f.ends_with('r');
             let f = f.trim_end_matches('r');
-            LabelFrame::new(f.trim_end_matches('m').parse()?, f.ends_with('m')).with_tilts_reversed(reversed)
+            RigFrame::new(f.trim_end_matches('m').parse()?, f.ends_with('m')).with_tilts_reversed(reversed)
         }
-        None => LabelFrame::IDENTITY,
+        None => RigFrame::IDENTITY,
     };
     // One simulation per recording serves the errors, the affine residual and the dump.
     let fields = sim.fields(&obs, &all, &frame)?;

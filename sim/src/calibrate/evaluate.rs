@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use super::model::{
-    Deformation, LabelFrame, SampleError, affine_residual, compare, displacements, flat_scene, match_reference,
+    Deformation, RigFrame, SampleError, affine_residual, compare, displacements, flat_scene, match_reference,
     simulate_pins, tip_pixels,
 };
 use super::observe::Observations;
@@ -78,7 +78,7 @@ impl Simulator {
     }
 
     /// Simulated pins of recording `k` of `obs`.
-    pub fn pins(&self, obs: &Observations, k: usize, frame: &LabelFrame) -> Result<Vec<PinPose>> {
+    pub fn pins(&self, obs: &Observations, k: usize, frame: &RigFrame) -> Result<Vec<PinPose>> {
         simulate_pins(&self.model, &self.scene, frame, &self.deformation, &obs.samples[k].sample, STEP_MM)
     }
 
@@ -88,7 +88,7 @@ impl Simulator {
     }
 
     /// Simulated displacements (px per sensor pin) of recording `k` of `obs`.
-    pub fn displacements(&self, obs: &Observations, k: usize, frame: &LabelFrame) -> Result<Vec<Option<[f64; 2]>>> {
+    pub fn displacements(&self, obs: &Observations, k: usize, frame: &RigFrame) -> Result<Vec<Option<[f64; 2]>>> {
         Ok(self.displacements_of(&self.pins(obs, k, frame)?))
     }
 
@@ -121,7 +121,7 @@ impl Simulator {
     }
 
     /// Simulated displacements (px per sensor pin) of the recordings `which` of `obs`.
-    pub fn fields(&self, obs: &Observations, which: &[usize], frame: &LabelFrame) -> Result<Vec<Field>> {
+    pub fn fields(&self, obs: &Observations, which: &[usize], frame: &RigFrame) -> Result<Vec<Field>> {
         which.par_iter().map(|&k| self.displacements(obs, k, frame)).collect()
     }
 
@@ -136,7 +136,7 @@ impl Simulator {
     }
 
     /// Errors of the recordings `which` of `obs`.
-    pub fn errors(&self, obs: &Observations, which: &[usize], frame: &LabelFrame) -> Result<Vec<SampleError>> {
+    pub fn errors(&self, obs: &Observations, which: &[usize], frame: &RigFrame) -> Result<Vec<SampleError>> {
         let fields = self.fields(obs, which, frame)?;
         Ok(which.iter().zip(&fields).map(|(&k, f)| self.error(obs, k, f)).collect())
     }
@@ -160,7 +160,7 @@ impl Simulator {
                 s.pose[3] = 0.0;
                 s.pose[4] = 0.0;
                 let pins =
-                    simulate_pins(&self.model, &self.scene, &LabelFrame::IDENTITY, &self.deformation, &s, STEP_MM)?;
+                    simulate_pins(&self.model, &self.scene, &RigFrame::IDENTITY, &self.deformation, &s, STEP_MM)?;
                 let sim = self.displacements_of(&pins);
                 let band = (o.sample.pose[2] - 1.0).floor().clamp(0.0, 3.0) as usize;
                 let mut v = Vec::new();

@@ -15,7 +15,7 @@ use image::GrayImage;
 
 use super::evaluate::Simulator;
 use super::frame::{FrameFit, ImageMap, best_frame, shift_samples};
-use super::model::{Deformation, LabelFrame, SampleError};
+use super::model::{Deformation, RigFrame, SampleError};
 use super::observe::Observations;
 use super::reference::Reference;
 use crate::calibration::fit_camera_at;
@@ -136,14 +136,14 @@ impl Problem<'_> {
     }
 
     /// Mean relative error of `d` under `frame` over the recordings `which`.
-    pub fn relative_error(&self, d: &Deformation, frame: &LabelFrame, which: &[usize]) -> Result<f64> {
+    pub fn relative_error(&self, d: &Deformation, frame: &RigFrame, which: &[usize]) -> Result<f64> {
         let errs = self.simulator(d)?.errors(self.obs, which, frame)?;
         Ok(mean(errs.iter().map(SampleError::relative)))
     }
 
     /// The label frame of the recordings `which` under the response of `d`.
     pub fn frame(&self, d: &Deformation, which: &[usize]) -> Result<FrameFit> {
-        let identity = self.simulator(d)?.errors(self.obs, which, &LabelFrame::IDENTITY)?;
+        let identity = self.simulator(d)?.errors(self.obs, which, &RigFrame::IDENTITY)?;
         let [real, sim] = shift_samples(which.iter().map(|&k| &self.obs.samples[k].sample), &identity);
         let too_few = || SimError::Analysis {
             source_name: self.reference.describe(),
@@ -225,7 +225,7 @@ fn decode(start: &Deformation, p: &[f64]) -> Option<Deformation> {
 fn minimise(
     problem: &Problem,
     start: &Deformation,
-    frame: &LabelFrame,
+    frame: &RigFrame,
     which: &[usize],
     evaluations: usize,
     progress: &dyn Fn(&str),

@@ -4,7 +4,7 @@
 //! and tilt `t` (label frame, mm and deg) about linearly while the skin sticks. Regressing
 //! `g = A s + B t + c` over recordings gives the label-to-image map `A`; its nearest
 //! orthogonal map `Q` (polar decomposition) is a rotation, mirrored when `det Q < 0`. The same
-//! regression on recordings simulated with the identity [`LabelFrame`] gives the
+//! regression on recordings simulated with the identity [`RigFrame`] gives the
 //! sensor-to-image map `Q_sim`, and the label frame is `F = Q_sim^T Q` (simulating with `F`
 //! then moves the image as the real recordings do).
 
@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use tacsim_data::LabSample;
 
-use super::model::{LabelFrame, SampleError};
+use super::model::{RigFrame, SampleError};
 
 /// `m v` for a row-major 2x2 matrix.
 fn mul(m: &[[f64; 2]; 2], v: [f64; 2]) -> [f64; 2] {
@@ -110,7 +110,7 @@ impl ImageMap {
         let q = u * v_t;
         let det = q.determinant();
         let mirrored = det < 0.0;
-        // q = R(theta) diag(1, -1) when mirrored (as LabelFrame::new), R(theta) otherwise.
+        // q = R(theta) diag(1, -1) when mirrored (as RigFrame::new), R(theta) otherwise.
         let r = if mirrored { q * Matrix2::new(1.0, 0.0, 0.0, -1.0) } else { q };
         let s = polar.singular_values;
         Some(Self {
@@ -131,7 +131,7 @@ impl ImageMap {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameFit {
     /// The frame, its tilts reversed where the fitted tilt gain is negative.
-    pub frame: LabelFrame,
+    pub frame: RigFrame,
     /// Its rotation (deg), after mirroring `y` when `mirrored`.
     pub rotation_deg: f64,
     /// Whether it flips handedness.
@@ -162,7 +162,7 @@ pub fn best_frame(real: &[ShiftSample], sim: &ImageMap) -> Option<FrameFit> {
     let mut best: Option<FrameFit> = None;
     for mirrored in [false, true] {
         for deg in -179..=180 {
-            let frame = LabelFrame::new(f64::from(deg), mirrored);
+            let frame = RigFrame::new(f64::from(deg), mirrored);
             let d = if mirrored { -1.0 } else { 1.0 };
             // Columns: alpha, beta, c_x, c_y.
             let x = DMatrix::from_fn(2 * n, 4, |r, j| {
@@ -197,7 +197,7 @@ pub fn best_frame(real: &[ShiftSample], sim: &ImageMap) -> Option<FrameFit> {
 /// The label frame that makes the simulation (image map `sim`, fitted on recordings simulated
 /// with the identity frame) move the image as the real recordings do (image map `real`):
 /// `F = Q_sim^T Q_real`.
-pub fn label_frame(real: &ImageMap, sim: &ImageMap) -> LabelFrame {
+pub fn label_frame(real: &ImageMap, sim: &ImageMap) -> RigFrame {
     let (r, s) = (real.q, sim.q);
     let mut m = [[0.0; 2]; 2];
     for (i, row) in m.iter_mut().enumerate() {
@@ -205,7 +205,7 @@ pub fn label_frame(real: &ImageMap, sim: &ImageMap) -> LabelFrame {
             *v = s[0][i] * r[0][j] + s[1][i] * r[1][j];
         }
     }
-    LabelFrame { m, tilt_sign: 1.0 }
+    RigFrame { m, tilt_sign: 1.0 }
 }
 
 #[cfg(test)]
@@ -215,7 +215,7 @@ mod tests {
     /// Samples whose shift is `gain * R(deg) [mirror] offset` plus a tilt term and a small
     /// deterministic wobble.
     fn samples(deg: f64, mirrored: bool, gain: f64) -> Vec<ShiftSample> {
-        let frame = LabelFrame::new(deg, mirrored);
+        let frame = RigFrame::new(deg, mirrored);
         (0..60)
             .map(|i| {
                 let f = i as f64;
@@ -250,7 +250,7 @@ mod tests {
         let sim = ImageMap::fit(&samples(0.0, false, 3.0)).expect("sim");
         // Real labels in a frame rotated by 40 deg and mirrored: the shifts the simulation
         // gives for the sensor-frame labels F s, F t (tilts as rotation vectors: det F).
-        let f = LabelFrame::new(40.0, true);
+        let f = RigFrame::new(40.0, true);
         let real: Vec<ShiftSample> = samples(0.0, false, 1.0)
             .into_iter()
             .map(|s| {
@@ -271,7 +271,7 @@ mod tests {
         let sim = ImageMap::fit(&samples(90.0, false, 3.0)).expect("sim");
         let real = ImageMap::fit(&samples(30.0, true, 2.0)).expect("real");
         let f = label_frame(&real, &sim);
-        let want = LabelFrame::new(-60.0, true);
+        let want = RigFrame::new(-60.0, true);
         for i in 0..2 {
             for j in 0..2 {
                 assert!((f.m[i][j] - want.m[i][j]).abs() < 1e-3, "{f:?} vs {want:?}");

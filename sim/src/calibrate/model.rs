@@ -1,12 +1,9 @@
 //! The simulated counterpart of a lab recording: the same labels on a flat surface, the pin
 //! displacements in the real image's pixels, and their error against the tracked real ones.
 //!
-//! The recording's labels live in the robot's frame; a [`LabelFrame`] (found from the data,
-//! see [`super::frame`]) maps their lateral axes to the sensor's. Tilts are rotation vectors:
-//! under an orthogonal map `M` their lateral part maps by `det(M) M` and the twist by
-//! `det(M)`, times the frame's tilt sign: `-1` where the labels' tilts turn the other way
-//! (the lab's recordings do: a tilt moves the contact, and with it the deformed pins, across
-//! the image opposite to the rotation-vector convention in the frame their slides give).
+//! The recording's labels live in the robot's frame; a [`RigFrame`] (found from the data,
+//! see [`super::frame`]) maps them to the sensor's and a [`Press`] (fitted with the skin) says
+//! how the rig pressed ([`crate::rig`]).
 
 use std::sync::Arc;
 
@@ -14,85 +11,15 @@ use serde::{Deserialize, Serialize};
 use tacsim_data::LabSample;
 
 use crate::contact::engine::{ContactModel, Simulation};
-use crate::contact::pose::SensorPose;
 use crate::contact::trajectory::Path as SensorPath;
 use crate::error::Result;
 use crate::pins::PinPose;
 use crate::render::PinRenderer;
+pub use crate::rig::{Press, RigFrame};
 use crate::scene::{ObjectPose, Scene};
 use crate::sensor::{SensorParams, SkinModel};
 use crate::stimulus::Stimulus;
 use crate::tracking::median;
-
-/// An orthogonal map from the labels' lateral axes to the sensor's (row-major).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct LabelFrame {
-    /// `sensor = m * label` for lateral vectors.
-    pub m: [[f64; 2]; 2],
-    /// `1` where the labels' tilts are rotation vectors in that frame, `-1` where they turn
-    /// the other way.
-    pub tilt_sign: f64,
-}
-
-impl LabelFrame {
-    /// The identity.
-    pub const IDENTITY: LabelFrame = LabelFrame { m: [[1.0, 0.0], [0.0, 1.0]], tilt_sign: 1.0 };
-
-    /// Rotation by `deg`, mirrored (`y -> -y` first) when `mirrored`; tilts as rotation
-    /// vectors.
-    pub fn new(deg: f64, mirrored: bool) -> Self {
-        let (s, c) = deg.to_radians().sin_cos();
-        let f = if mirrored { -1.0 } else { 1.0 };
-        LabelFrame { m: [[c, -s * f], [s, c * f]], tilt_sign: 1.0 }
-    }
-
-    /// This frame with the tilts reversed when `reversed`.
-    pub fn with_tilts_reversed(self, reversed: bool) -> Self {
-        Self { tilt_sign: if reversed { -1.0 } else { 1.0 }, ..self }
-    }
-
-    fn det(&self) -> f64 {
-        self.m[0][0] * self.m[1][1] - self.m[0][1] * self.m[1][0]
-    }
-
-    fn apply(&self, v: [f64; 2]) -> [f64; 2] {
-        [self.m[0][0] * v[0] + self.m[0][1] * v[1], self.m[1][0] * v[0] + self.m[1][1] * v[1]]
-    }
-
-    /// Touch-down and target sensor poses of a recording on a flat top face at the origin,
-    /// pressed as `press` says.
-    ///
-    /// The robot tilts the sensor about a pivot `h = press.pivot_mm` above the apex on the
-    /// sensor's axis, which stays where it is at zero tilt; so a tilt `(rx, ry)` raises the
-    /// apex by `h (1 - cos rx cos ry)` (mm) and the flat surface's indentation (the dome's
-    /// lowest point, radius `R`) is `z + (R - h)(1 - cos rx cos ry)`. The pivot's lateral motion
-    /// does not matter on a flat surface.
-    ///
-    /// The rig yields under the contact load (the robot's joints, the sensor's mount and
-    /// body): of a commanded indentation `c = z + depth offset` (mm) the sensor loses
-    /// `press.depth_compliance c^1.5` (the load of a sphere pressed into a half-space grows as
-    /// `c^1.5`), and its tilt relaxes to `t (1 - press.tilt_relaxation_per_mm c)`, the
-    /// off-axis load turning it back towards upright.
-    pub fn poses(&self, s: &LabSample, press: &Deformation) -> (SensorPose, SensorPose) {
-        let d = self.det();
-        let commanded = s.pose[2] + press.depth_offset_mm;
-        let loaded = commanded.max(0.0);
-        let relaxed = (1.0 - press.tilt_relaxation_per_mm * loaded).max(0.0);
-        let tilt = self.apply([s.pose[3], s.pose[4]]).map(|v| self.tilt_sign * relaxed * v);
-        let offset = self.apply([s.shear[0], s.shear[1]]);
-        let lift = press.pivot_mm * (1.0 - tilt[0].to_radians().cos() * tilt[1].to_radians().cos());
-        let target = SensorPose {
-            x_mm: 0.0,
-            y_mm: 0.0,
-            depth_mm: commanded - press.depth_compliance * loaded.powf(1.5) - lift,
-            yaw_deg: d * s.pose[5],
-            rx_deg: d * tilt[0],
-            ry_deg: d * tilt[1],
-        };
-        let start = SensorPose { x_mm: offset[0], y_mm: offset[1], yaw_deg: target.yaw_deg + d * s.shear[5], ..target };
-        (start, target)
-    }
-}
 
 /// The deformation parameters a calibration fits.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -115,11 +42,11 @@ pub struct Deformation {
     /// indentation).
     pub pivot_mm: f64,
     /// The rig's yield under load (mm^-0.5): a commanded indentation `c` (mm) loses
-    /// `depth_compliance c^1.5` ([`LabelFrame::poses`]).
+    /// `depth_compliance c^1.5` ([`RigFrame::poses`]).
     #[serde(default)]
     pub depth_compliance: f64,
     /// The tilt's relaxation under load (1/mm): a tilt `t` becomes `t (1 - k c)` at a
-    /// commanded indentation `c` (mm) ([`LabelFrame::poses`]).
+    /// commanded indentation `c` (mm) ([`RigFrame::poses`]).
     #[serde(default)]
     pub tilt_relaxation_per_mm: f64,
     /// Camera distance behind the dome centre (mm) the camera is refitted at
@@ -148,6 +75,11 @@ impl Deformation {
             camera_distance_mm: sensor.camera.distance_mm,
             poisson: k.poisson,
         }
+    }
+
+    /// The rig's press of these parameters.
+    pub fn press(&self) -> Press {
+        Press::new(self.depth_offset_mm, self.pivot_mm, self.depth_compliance, self.tilt_relaxation_per_mm)
     }
 
     /// `base` with these parameters (validated).
@@ -184,12 +116,12 @@ pub(super) fn tip_pixels(renderer: &PinRenderer, pins: &[PinPose]) -> Vec<Option
 pub fn simulate_pins(
     model: &ContactModel,
     scene: &Scene,
-    frame: &LabelFrame,
+    frame: &RigFrame,
     press: &Deformation,
     sample: &LabSample,
     step_mm: f64,
 ) -> Result<Vec<PinPose>> {
-    let (start, target) = frame.poses(sample, press);
+    let (start, target) = frame.poses(&sample.pose, &sample.shear, &press.press());
     let path = SensorPath::slide_between(start, target, step_mm, 2.0)?;
     let mut sim = Simulation::new(model, scene, &path.poses());
     for s in &path.steps {
@@ -333,20 +265,21 @@ mod tests {
     fn label_frames_map_offsets_as_vectors_and_tilts_as_rotation_vectors() {
         let mut press = Deformation::of(&SensorParams::default(), 0.5);
         press.depth_offset_mm = 0.5;
-        let (start, target) = LabelFrame::IDENTITY.poses(&sample(), &press);
+        let (start, target) = RigFrame::IDENTITY.poses(&sample().pose, &sample().shear, &press.press());
         assert_eq!((start.x_mm, start.y_mm, start.yaw_deg, target.depth_mm), (3.0, 1.0, 5.0, 2.5));
         assert_eq!((target.rx_deg, target.ry_deg), (10.0, -4.0));
         let at_zero = Deformation::of(&SensorParams::default(), 0.5);
         // A quarter turn: x -> y, y -> -x, for offsets and tilts alike.
-        let (s, t) = LabelFrame::new(90.0, false).poses(&sample(), &at_zero);
+        let (s, t) = RigFrame::new(90.0, false).poses(&sample().pose, &sample().shear, &at_zero.press());
         assert!((s.x_mm + 1.0).abs() < 1e-12 && (s.y_mm - 3.0).abs() < 1e-12);
         assert!((t.rx_deg - 4.0).abs() < 1e-12 && (t.ry_deg - 10.0).abs() < 1e-12 && s.yaw_deg == 5.0);
         // A mirror y -> -y flips the offset's y, and the tilt about x and the twist (axial).
-        let (s, t) = LabelFrame::new(0.0, true).poses(&sample(), &at_zero);
+        let (s, t) = RigFrame::new(0.0, true).poses(&sample().pose, &sample().shear, &at_zero.press());
         assert_eq!((s.x_mm, s.y_mm, s.yaw_deg), (3.0, -1.0, -5.0));
         assert_eq!((t.rx_deg, t.ry_deg), (-10.0, -4.0));
         // Reversed tilts turn the other way; offsets and twist are unchanged.
-        let (s, t) = LabelFrame::new(0.0, true).with_tilts_reversed(true).poses(&sample(), &at_zero);
+        let (s, t) =
+            RigFrame::new(0.0, true).with_tilts_reversed(true).poses(&sample().pose, &sample().shear, &at_zero.press());
         assert_eq!((s.x_mm, s.y_mm, s.yaw_deg), (3.0, -1.0, -5.0));
         assert_eq!((t.rx_deg, t.ry_deg), (10.0, 4.0));
     }
@@ -369,9 +302,9 @@ mod tests {
         let mut press = Deformation::of(&SensorParams::default(), 0.5);
         press.pivot_mm = 20.0;
         let s = LabSample { image: "x.png".into(), pose: [0.0, 0.0, 2.0, 60.0, 0.0, 0.0], shear: [0.0; 6] };
-        let (_, t) = LabelFrame::IDENTITY.poses(&s, &press);
+        let (_, t) = RigFrame::IDENTITY.poses(&s.pose, &s.shear, &press.press());
         assert!((t.depth_mm - (2.0 - 10.0)).abs() < 1e-9, "{t:?}");
-        let (_, t) = LabelFrame::IDENTITY.poses(&LabSample { pose: [0.0, 0.0, 2.0, 0.0, 0.0, 0.0], ..s }, &press);
+        let (_, t) = RigFrame::IDENTITY.poses(&[0.0, 0.0, 2.0, 0.0, 0.0, 0.0], &s.shear, &press.press());
         assert!((t.depth_mm - 2.0).abs() < 1e-12);
     }
 
@@ -384,12 +317,12 @@ mod tests {
         // Commanded 3 mm + 1 mm offset = 4 mm: loses 0.1 * 4^1.5 = 0.8 mm; the tilt keeps
         // 1 - 0.05 * 4 = 80%. The pivot sits at the apex, so the tilt lifts nothing.
         let s = LabSample { image: "x.png".into(), pose: [0.0, 0.0, 3.0, 10.0, -5.0, 0.0], shear: [0.0; 6] };
-        let (_, t) = LabelFrame::IDENTITY.poses(&s, &press);
+        let (_, t) = RigFrame::IDENTITY.poses(&s.pose, &s.shear, &press.press());
         assert!((t.depth_mm - 3.2).abs() < 1e-12, "{t:?}");
         assert!((t.rx_deg - 8.0).abs() < 1e-12 && (t.ry_deg + 4.0).abs() < 1e-12, "{t:?}");
         // Above the surface nothing is loaded: no yield, the full tilt.
         let s = LabSample { pose: [0.0, 0.0, -2.0, 10.0, -5.0, 0.0], ..s };
-        let (_, t) = LabelFrame::IDENTITY.poses(&s, &press);
+        let (_, t) = RigFrame::IDENTITY.poses(&s.pose, &s.shear, &press.press());
         assert!((t.depth_mm + 1.0).abs() < 1e-12 && t.rx_deg == 10.0, "{t:?}");
     }
 

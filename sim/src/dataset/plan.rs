@@ -293,17 +293,20 @@ impl Plan {
     }
 
     /// The sensor poses (scene frame) of a sample: touch-down and target (equal for a tap),
-    /// pressed by the variation's depth offset beyond the label.
+    /// pressed by the variation's depth offset beyond the label, where the recipe's `[rig]`
+    /// takes the labels ([`crate::rig::RigFrame::poses`]; the identity without one).
     /// The touch-down offset is in the pose's label frame too.
     pub fn sensor_poses(&self, s: &Sample) -> (SensorPose, SensorPose) {
         let f = &self.poses[s.pose_id].frame;
-        let [x, y, z, rx, ry, rz] = s.pose;
-        let z = z + s.variation.depth_offset_mm;
-        let [tx, ty] = f.point(x, y);
-        let target =
-            SensorPose { x_mm: tx, y_mm: ty, depth_mm: z, yaw_deg: f.yaw_zero_deg + rz, rx_deg: rx, ry_deg: ry };
-        let [sx, sy] = f.vector(s.shear[0], s.shear[1]);
-        let start = SensorPose { x_mm: tx + sx, y_mm: ty + sy, yaw_deg: target.yaw_deg + s.shear[5], ..target };
+        let mut pose = s.pose;
+        pose[2] += s.variation.depth_offset_mm;
+        let rig = &self.recipe.rig;
+        let (start, target) = rig.frame().poses(&pose, &s.shear, &rig.press());
+        let [tx, ty] = f.point(target.x_mm, target.y_mm);
+        let [sx, sy] = f.vector(start.x_mm - target.x_mm, start.y_mm - target.y_mm);
+        let twist = start.yaw_deg - target.yaw_deg;
+        let target = SensorPose { x_mm: tx, y_mm: ty, yaw_deg: f.yaw_zero_deg + target.yaw_deg, ..target };
+        let start = SensorPose { x_mm: tx + sx, y_mm: ty + sy, yaw_deg: target.yaw_deg + twist, ..target };
         (start, target)
     }
 

@@ -5,7 +5,9 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, SimError};
+use crate::rig::{Press, RigFrame};
 use crate::sensor::SkinModel;
+use crate::stimulus::catalogue::MAX_FRICTION;
 
 /// A dataset recipe (`scenarios/datasets/*.toml`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -39,6 +41,9 @@ pub struct Recipe {
     /// Domain randomisation: per-sample draws of sensor and image parameters (off by
     /// default).
     pub randomise: RandomiseSpec,
+    /// The lab rig the labels are written for (default: none, the labels are the sensor
+    /// poses).
+    pub rig: RigSpec,
 }
 
 /// A stimulus of the recipe.
@@ -51,6 +56,10 @@ pub struct ShapeSpec {
     /// (a point on the edge), or the object's origin when it has none.
     #[serde(default)]
     pub contact_mm: Option<[f64; 2]>,
+    /// Coulomb friction between skin and stimulus, overriding the catalogue's (as fitted by
+    /// `tacsim calibrate` for a lab's surface).
+    #[serde(default)]
+    pub friction: Option<f64>,
 }
 
 /// The frame the pose labels (and the slides' touch-down offsets) are given in.
@@ -162,6 +171,43 @@ impl RandomiseSpec {
     }
 }
 
+/// The lab rig a recipe's labels are written for, as `tacsim calibrate` fits it (its
+/// report's label frame and press; [`crate::rig`]): each sample's labels are drawn in the
+/// lab's frame and the sensor goes where that rig would have taken it (offsets and tilts
+/// turned into the sensor's frame, the depth zero shifted, depth and tilt lost to the rig's
+/// yield, the apex lifted by a tilt about the pivot). Modelled for flat surfaces. The default
+/// is no rig: the labels are the sensor poses.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RigSpec {
+    /// Rotation of the labels' lateral axes into the sensor's (deg).
+    pub rotation_deg: f64,
+    /// Whether the labels' `y` is mirrored first.
+    pub mirrored: bool,
+    /// Whether the labels' tilts turn against the rotation-vector convention.
+    pub tilts_reversed: bool,
+    /// Added to the labelled depth (mm).
+    pub depth_offset_mm: f64,
+    /// Tilt pivot above the dome apex (mm).
+    pub pivot_mm: f64,
+    /// Depth lost under load: `c^1.5` times this, for a commanded indentation `c` (mm^-0.5).
+    pub depth_compliance: f64,
+    /// Tilt kept under load: `1 - k c` (1/mm).
+    pub tilt_relaxation_per_mm: f64,
+}
+
+impl RigSpec {
+    /// The rig's label frame.
+    pub fn frame(&self) -> RigFrame {
+        RigFrame::new(self.rotation_deg, self.mirrored).with_tilts_reversed(self.tilts_reversed)
+    }
+
+    /// The rig's press.
+    pub fn press(&self) -> Press {
+        Press::new(self.depth_offset_mm, self.pivot_mm, self.depth_compliance, self.tilt_relaxation_per_mm)
+    }
+}
+
 /// Slides: touch down at `pose + offset` (and twist), slide to the pose, capture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -206,13 +252,14 @@ impl Default for Recipe {
             sensor: None,
             shapes: ["disk", "clover", "teardrop"]
                 .into_iter()
-                .map(|n| ShapeSpec { name: n.into(), contact_mm: None })
+                .map(|n| ShapeSpec { name: n.into(), contact_mm: None, friction: None })
                 .collect(),
             poses: PoseSpec::default(),
             taps: TapSpec::default(),
             slides: SlideSpec::default(),
             split: SplitSpec::default(),
             randomise: RandomiseSpec::default(),
+            rig: RigSpec::default(),
         }
     }
 }
@@ -294,6 +341,11 @@ impl Recipe {
             {
                 return bad(&format!("shapes[{i}].contact_mm"), format!("must be finite, got {c:?}"));
             }
+            if let Some(f) = s.friction
+                && !(f.is_finite() && (0.0..=MAX_FRICTION).contains(&f))
+            {
+                return bad(&format!("shapes[{i}].friction"), format!("must be in [0, {MAX_FRICTION}], got {f}"));
+            }
         }
         let p = &self.poses;
         if p.per_shape == 0 {
@@ -372,6 +424,13 @@ impl Recipe {
                 ),
             );
         }
+        let r = &self.rig;
+        let one = |field: &str, v: f64, lo: f64, hi: f64| range(field, [v, v], lo, hi);
+        one("rig.rotation_deg", r.rotation_deg, -360.0, 360.0)?;
+        one("rig.depth_offset_mm", r.depth_offset_mm, -5.0, 5.0)?;
+        one("rig.pivot_mm", r.pivot_mm, 0.0, 200.0)?;
+        one("rig.depth_compliance", r.depth_compliance, 0.0, 1.0)?;
+        one("rig.tilt_relaxation_per_mm", r.tilt_relaxation_per_mm, 0.0, 0.2)?;
         let sp = &self.split;
         for (field, v) in [("split.train", sp.train), ("split.val", sp.val), ("split.test", sp.test)] {
             if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
@@ -429,6 +488,12 @@ mod tests {
             ("[randomise]\nspecks = [5, 2]\n", "randomise.specks"),
             ("[randomise]\ndepth_offset_mm = [-2.0, 0.0]\n", "randomise.depth_offset_mm"),
             ("[randomise]\nfriction = [0.2, 0.8]\n", "friction"),
+            ("[rig]\ndepth_compliance = -0.1\n", "rig.depth_compliance"),
+            ("[rig]\npivot_mm = nan\n", "rig.pivot_mm"),
+            ("[rig]\nrotation_deg = 1e300\n", "rig.rotation_deg"),
+            ("[rig]\ntilt_relaxation_per_mm = 0.5\n", "rig.tilt_relaxation_per_mm"),
+            ("[rig]\nscale = 2.0\n", "scale"),
+            ("[[shapes]]\nname = \"disk\"\nfriction = 3.0\n", "shapes[0].friction"),
         ] {
             let e = Recipe::from_toml_str(text, "r.toml").expect_err(text).to_string();
             assert!(e.contains("r.toml") && e.contains(field), "{text}: {e}");

@@ -1,0 +1,117 @@
+//! A lab's rig: how the poses its recordings are labelled with became the sensor poses the
+//! robot reached. `tacsim calibrate` fits it from a lab folder ([`crate::calibrate`]); a
+//! recipe's `[rig]` replays it so that simulated images carry the lab's labels
+//! ([`crate::dataset::recipe::RigSpec`]).
+//!
+//! The labels live in the robot's frame; a [`RigFrame`] maps their lateral axes to the
+//! sensor's. Tilts are rotation vectors: under an orthogonal map `M` their lateral part maps
+//! by `det(M) M` and the twist by `det(M)`, times the frame's tilt sign: `-1` where the
+//! labels' tilts turn the other way (the surface recordings do: a tilt moves the contact, and
+//! with it the deformed pins, across the image opposite to the rotation-vector convention in
+//! the frame their slides give). The [`Press`] says how the commanded depth and tilt were
+//! executed under load.
+
+use serde::{Deserialize, Serialize};
+
+use crate::contact::pose::SensorPose;
+
+/// How the rig pressed: depth zero, tilt pivot and yield under load.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Press {
+    /// Added to the labelled depth (mm): where the robot's zero sits against first touch.
+    pub depth_offset_mm: f64,
+    /// Height (mm) above the dome apex, on the sensor's axis, of the point the robot tilts
+    /// the sensor about (0: the apex).
+    pub pivot_mm: f64,
+    /// The rig's yield under load (mm^-0.5): a commanded indentation `c` (mm) loses
+    /// `depth_compliance c^1.5`.
+    pub depth_compliance: f64,
+    /// The tilt's relaxation under load (1/mm): a tilt `t` becomes `t (1 - k c)` at a
+    /// commanded indentation `c` (mm).
+    pub tilt_relaxation_per_mm: f64,
+}
+
+impl Press {
+    /// A press with these parameters (fields in order).
+    pub const fn new(depth_offset_mm: f64, pivot_mm: f64, depth_compliance: f64, tilt_relaxation_per_mm: f64) -> Self {
+        Self { depth_offset_mm, pivot_mm, depth_compliance, tilt_relaxation_per_mm }
+    }
+}
+
+/// An orthogonal map from the labels' lateral axes to the sensor's (row-major).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RigFrame {
+    /// `sensor = m * label` for lateral vectors.
+    pub m: [[f64; 2]; 2],
+    /// `1` where the labels' tilts are rotation vectors in that frame, `-1` where they turn
+    /// the other way.
+    pub tilt_sign: f64,
+}
+
+impl RigFrame {
+    /// The identity.
+    pub const IDENTITY: RigFrame = RigFrame { m: [[1.0, 0.0], [0.0, 1.0]], tilt_sign: 1.0 };
+
+    /// Rotation by `deg`, mirrored (`y -> -y` first) when `mirrored`; tilts as rotation
+    /// vectors.
+    pub fn new(deg: f64, mirrored: bool) -> Self {
+        let (s, c) = deg.to_radians().sin_cos();
+        let f = if mirrored { -1.0 } else { 1.0 };
+        RigFrame { m: [[c, -s * f], [s, c * f]], tilt_sign: 1.0 }
+    }
+
+    /// This frame with the tilts reversed when `reversed`.
+    pub fn with_tilts_reversed(self, reversed: bool) -> Self {
+        Self { tilt_sign: if reversed { -1.0 } else { 1.0 }, ..self }
+    }
+
+    fn det(&self) -> f64 {
+        self.m[0][0] * self.m[1][1] - self.m[0][1] * self.m[1][0]
+    }
+
+    fn apply(&self, v: [f64; 2]) -> [f64; 2] {
+        [self.m[0][0] * v[0] + self.m[0][1] * v[1], self.m[1][0] * v[0] + self.m[1][1] * v[1]]
+    }
+
+    /// Touch-down and target sensor poses (mm, deg) of a recording labelled `pose` and `shear`
+    /// (`[x, y, z, Rx, Ry, Rz]`, the labels' frame) pressed as `press` says; lateral positions
+    /// relative to the labels' origin, depth below a flat top face.
+    ///
+    /// The robot tilts the sensor about a pivot `h = press.pivot_mm` above the apex on the
+    /// sensor's axis, which stays where it is at zero tilt; so a tilt `(rx, ry)` raises the
+    /// apex by `h (1 - cos rx cos ry)` (mm) and the flat surface's indentation (the dome's
+    /// lowest point, radius `R`) is `z + (R - h)(1 - cos rx cos ry)`. The pivot's lateral motion
+    /// does not matter on a flat surface (on an edge it would: the rig is modelled for flat
+    /// surfaces).
+    ///
+    /// The rig yields under the contact load (the robot's joints, the sensor's mount and
+    /// body): of a commanded indentation `c = z + depth offset` (mm) the sensor loses
+    /// `press.depth_compliance c^1.5` (the load of a sphere pressed into a half-space grows as
+    /// `c^1.5`), and its tilt relaxes to `t (1 - press.tilt_relaxation_per_mm c)`, the
+    /// off-axis load turning it back towards upright.
+    pub fn poses(&self, pose: &[f64; 6], shear: &[f64; 6], press: &Press) -> (SensorPose, SensorPose) {
+        let d = self.det();
+        let commanded = pose[2] + press.depth_offset_mm;
+        let loaded = commanded.max(0.0);
+        let relaxed = (1.0 - press.tilt_relaxation_per_mm * loaded).max(0.0);
+        let tilt = self.apply([pose[3], pose[4]]).map(|v| self.tilt_sign * relaxed * v);
+        let offset = self.apply([shear[0], shear[1]]);
+        let lift = press.pivot_mm * (1.0 - tilt[0].to_radians().cos() * tilt[1].to_radians().cos());
+        let at = self.apply([pose[0], pose[1]]);
+        let target = SensorPose {
+            x_mm: at[0],
+            y_mm: at[1],
+            depth_mm: commanded - press.depth_compliance * loaded.powf(1.5) - lift,
+            yaw_deg: d * pose[5],
+            rx_deg: d * tilt[0],
+            ry_deg: d * tilt[1],
+        };
+        let start = SensorPose {
+            x_mm: at[0] + offset[0],
+            y_mm: at[1] + offset[1],
+            yaw_deg: target.yaw_deg + d * shear[5],
+            ..target
+        };
+        (start, target)
+    }
+}
