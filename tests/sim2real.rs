@@ -194,7 +194,7 @@ fn sim2real_scores_slide_offsets_on_slid_recordings() {
     assert_eq!(report["sim_labels"], serde_json::json!(["pose_z", "shear_x", "shear_y"]));
     // The simulated training images are the slides of the training poses (2 per pose).
     let sim_train = report["sim_train"].as_u64().expect("n");
-    assert!(sim_train % 2 == 0 && (30..=60).contains(&sim_train), "{sim_train}");
+    assert!(sim_train.is_multiple_of(2) && (30..=60).contains(&sim_train), "{sim_train}");
     // Each lab label is read from a distinct simulated label.
     let map: Vec<&str> = report["map"].as_array().expect("map").iter().map(|l| l.as_str().expect("line")).collect();
     let sims: std::collections::BTreeSet<&str> = map

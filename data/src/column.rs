@@ -128,6 +128,6 @@ mod tests {
         assert_eq!(Column::PoseRz.of(&row), -20.0);
         assert_eq!(Column::ShearX.of(&row), 1.5);
         assert_eq!(Column::ShearRz.of(&row), 2.0);
-        assert!("pose_rz".parse::<Column>().unwrap_err().contains("pose_Rz"));
+        assert!("pose_rz".parse::<Column>().expect_err("case matters").contains("pose_Rz"));
     }
 }
