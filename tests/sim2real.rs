@@ -234,4 +234,10 @@ fn the_surface_3d_recipe_carries_the_calibrated_rig() {
         assert!((got - want).abs() <= tol, "recipe {got}, calibration {want}");
     }
     assert_eq!(recipe.sensor.as_deref(), Some("tactip-331-calibrated"));
+    // The report's `[rig]` block is a recipe fragment giving the same rig and friction.
+    let md = std::fs::read_to_string(root.join("docs/calibration/report.md")).expect("report.md");
+    let block = md.split("```toml\n").nth(1).and_then(|b| b.split("```").next()).expect("a toml block in the report");
+    let from_report = Recipe::from_toml_str(block, "report.md").expect("the block is a valid recipe fragment");
+    assert_eq!(from_report.rig, recipe.rig);
+    assert_eq!(from_report.shapes[0].friction, recipe.shapes[0].friction);
 }

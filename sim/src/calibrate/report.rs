@@ -342,7 +342,7 @@ pub fn markdown(r: &Report) -> String {
         s += &format!("| {:?} | {:.3} | {} |\n", c.deformation.model, c.relative_error, c.evaluations);
     }
     s += &format!(
-        "\nA dataset recipe replays this rig (labels in the lab's frame, the sensor where the rig took it) with:\n\n         ```toml\n[[shapes]]\nname = \"disk\"\nfriction = {:.3}\n\n[rig]\nrotation_deg = {:.1}\nmirrored = {}\ntilts_reversed = {}\n         depth_offset_mm = {:.3}\npivot_mm = {:.2}\ndepth_compliance = {:.4}\ntilt_relaxation_per_mm = {:.4}\n```\n",
+        "\nA dataset recipe replays this rig (labels in the lab's frame, the sensor where the rig took it) with:\n\n```toml\n[[shapes]]\nname = \"disk\"\nfriction = {:.3}\n\n[rig]\nrotation_deg = {:.1}\nmirrored = {}\ntilts_reversed = {}\ndepth_offset_mm = {:.3}\npivot_mm = {:.2}\ndepth_compliance = {:.4}\ntilt_relaxation_per_mm = {:.4}\n```\n",
         d.friction,
         r.frame.rotation_deg,
         r.frame.mirrored,
