@@ -30,9 +30,10 @@ r32|s/^outer_radius_mm = .*/outer_radius_mm = 32.0/|half-space|0.25, 1.7
 r40|s/^outer_radius_mm = .*/outer_radius_mm = 40.0/|half-space|0.35, 2.2
 "
 
-recipe() { # name sensor skin depth_range per_shape out
+recipe() { # name sensor skin depth_range(indentation, mm: the recipe's [rig] dropped) per_shape out
     sed -e "0,/^name = .*/s//name = \"$1\"/" -e "s|^sensor = .*|sensor = \"$2\"\nskin = \"$3\"|" \
         -e "s/^depth_mm = .*/depth_mm = [$4]/" -e "s/^per_shape = .*/per_shape = $5/" \
+        -e "/^\[rig\]/d" -e "/^depth_offset_mm/d" \
         scenarios/datasets/edge-2d.toml > "$6"
 }
 
