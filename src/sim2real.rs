@@ -130,6 +130,12 @@ pub struct Sim2RealReport {
 pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let started = std::time::Instant::now();
     let file: PoseConfig = crate::learn::load_config(o.config.as_deref())?;
+    if file.labels != PoseConfig::default().labels {
+        bail!(
+            "{}: field `labels`: sim2real picks each network's labels itself (every label that varies in its images); remove the field",
+            o.config.as_deref().map_or("--config".into(), |p| p.display().to_string())
+        );
+    }
     let cfg = PoseConfig { size: o.size, epochs: o.epochs, seed: o.seed, ..file };
     cfg.validate()?;
     // Bad input stops here, before any work: the recipe, its sensor, the outputs.

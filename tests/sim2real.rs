@@ -114,6 +114,12 @@ fn a_recipes_sensor_names_a_preset_or_a_file_and_bad_ones_are_clear_errors() {
     assert!(!dir.join("s2r/sim").exists(), "nothing generated");
     let e = err(&["sim2real", "--real", s(&dir.join("none")), "--out", s(&dir.join("s2r")), "-q"]);
     assert!(e.contains("not a lab folder") && e.contains("targets.csv"), "{e}");
+    // A pose network config naming labels: sim2real picks them itself, so it is refused.
+    let config = dir.join("pose.toml");
+    std::fs::write(&config, "labels = [\"pose_z\"]\n").expect("config");
+    let e =
+        err(&["sim2real", "--real", s(&dir.join("none")), "--config", s(&config), "--out", s(&dir.join("s2r")), "-q"]);
+    assert!(e.contains("pose.toml") && e.contains("`labels`"), "{e}");
     assert!(!dir.join("s2r/sim").exists(), "nothing generated");
     // A lab folder where no label varies: refused with the reason, before any work.
     let lab = dir.join("constant");
