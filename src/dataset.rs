@@ -93,12 +93,8 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
         .iter()
         .zip(&plan.recipe.shapes)
         .map(|((name, _), spec)| -> Result<Scene> {
-            let mut stimulus = catalogue.get(name)?;
-            if let Some(f) = spec.friction {
-                std::sync::Arc::make_mut(&mut stimulus).entry.friction = f;
-            }
             let mut scene = Scene::new();
-            scene.add(stimulus, ObjectPose::default())?;
+            scene.add(catalogue.get(name)?.with_friction(spec.friction), ObjectPose::default())?;
             Ok(scene)
         })
         .collect::<Result<Vec<_>>>()?;

@@ -174,7 +174,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let sim_cfg = PoseConfig { labels: sim_labels.clone(), ..cfg.clone() };
     let (sim_run, real_run) = train_both(o, [&sim_cfg, &real_cfg], &sim, &real)?;
     let (labels, map, nearest, predictions) =
-        score(o, &sim, &real, &real_labels, &fitting, &held_out, &sim_run, &real_run)?;
+        score(o, [&sim, &real], &real_labels, [&fitting, &held_out, &sim_rows], [&sim_run, &real_run])?;
     tacsim_model::checkpoint::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
     write_grid(&report_dir.join("grid.png"), &sim, &real, &held_out, &nearest)?;
 
@@ -241,16 +241,14 @@ type Scores = (Vec<LabelScore>, LabelMap, Vec<usize>, String);
 
 /// Step 3: the label map on the fitting part, both networks on the held-out part; with, for
 /// each held-out image, the simulated training image nearest its label (for the grid).
-#[allow(clippy::too_many_arguments)]
+/// `rows`: the lab's fitting and held-out rows and the simulated training rows; `runs`: the
+/// simulator-trained and the real-trained network.
 fn score(
     o: &Sim2RealOptions,
-    sim: &Corpus,
-    real: &Corpus,
+    [sim, real]: [&Corpus; 2],
     real_labels: &[Column],
-    fitting: &[usize],
-    held_out: &[usize],
-    sim_run: &Path,
-    real_run: &Path,
+    [fitting, held_out, sim_rows]: [&[usize]; 3],
+    [sim_run, real_run]: [&Path; 2],
 ) -> Result<Scores> {
     let device = o.backend.device();
     let images = |rows: &[usize]| corpus_images(real, rows);
@@ -306,7 +304,6 @@ fn score(
             }
         })
         .collect();
-    let sim_rows = sim.pose_rows(Split::Train, real_labels);
     let nearest = truth
         .iter()
         .map(|t| {

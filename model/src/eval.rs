@@ -316,17 +316,7 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
                     ));
                 }
                 let (net, _, scale) = infer::load_posenet(&dir, &device)?;
-                let planar = [Column::PoseX, Column::PoseY, Column::PoseRz];
-                if !planar.iter().all(|&c| scale.reads(c)) {
-                    return Err(ModelError::config(
-                        "labels",
-                        format!(
-                            "{} reads {}; the paper's scores need pose_x, pose_y and pose_Rz (train it with the default labels)",
-                            dir.display(),
-                            scale.columns().iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
-                        ),
-                    ));
-                }
+                scale.require(&[Column::PoseX, Column::PoseY, Column::PoseRz], &dir, "the paper's scores")?;
                 posenet = Some((net, scale));
             }
             Run::Unshear(name, cfg, dir) => unshear.push((name, cfg, dir)),

@@ -61,6 +61,8 @@ pub fn load_unshear(dir: &Path, device: &Device) -> Result<(Unshear, UnshearConf
 pub struct PoseReader {
     posenet: PoseNet,
     scale: PoseScale,
+    /// The pose network's run directory (for messages).
+    posenet_dir: std::path::PathBuf,
     unshear: Option<Unshear>,
     side: usize,
     device: Device,
@@ -91,7 +93,7 @@ impl PoseReader {
             }
             None => None,
         };
-        Ok(Self { posenet: net, scale, unshear, side: cfg.size, device })
+        Ok(Self { posenet: net, scale, posenet_dir: posenet.to_owned(), unshear, side: cfg.size, device })
     }
 
     /// The networks' image side (px).
@@ -99,9 +101,10 @@ impl PoseReader {
         self.side
     }
 
-    /// The labels the pose network reads.
-    pub fn labels(&self) -> Vec<crate::posenet::Column> {
-        self.scale.columns()
+    /// An error unless the pose network reads every label of `needed` (what `use` needs
+    /// them for); see [`PoseScale::require`].
+    pub fn require(&self, needed: &[crate::posenet::Column], r#use: &str) -> Result<()> {
+        self.scale.require(needed, &self.posenet_dir, r#use)
     }
 
     /// The pose in the frame of the pose network's training labels.

@@ -175,6 +175,24 @@ impl PoseScale {
         self.labels.iter().any(|l| l.column == column)
     }
 
+    /// An error naming `run` unless the network reads every label of `needed` (what `use`
+    /// needs them for).
+    pub fn require(&self, needed: &[Column], run: &std::path::Path, r#use: &str) -> crate::error::Result<()> {
+        if needed.iter().all(|&c| self.reads(c)) {
+            return Ok(());
+        }
+        let names = |cs: &[Column]| cs.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ");
+        Err(crate::error::ModelError::config(
+            "labels",
+            format!(
+                "{} reads {}; {use} needs {} (train it with the default labels)",
+                run.display(),
+                names(&self.columns()),
+                names(needed)
+            ),
+        ))
+    }
+
     /// The network's output count.
     pub fn width(&self) -> usize {
         self.labels.iter().map(LabelRange::width).sum()
@@ -295,6 +313,14 @@ mod tests {
             assert!((q.get(c) - truth.get(c)).abs() < 1e-4, "{c}: {} for {}", q.get(c), truth.get(c));
         }
         assert_eq!(q.x_mm(), 0.0);
+        // A reader of depth, tilt and slide offsets is refused where x and yaw are needed.
+        let e = scale.require(&[Column::PoseX, Column::PoseRz], std::path::Path::new("runs/s"), "edge perception");
+        let e = e.expect_err("no x, no yaw").to_string();
+        assert!(
+            e.contains("runs/s") && e.contains("pose_z") && e.contains("edge perception needs pose_x, pose_Rz"),
+            "{e}"
+        );
+        assert!(scale.require(&labels[..2], std::path::Path::new("runs/s"), "x").is_ok());
         let w = scale.output_weights(|c| if c == Column::PoseZ { 4.0 } else { 1.0 });
         assert_eq!(w.len(), 9);
         assert!((w.iter().sum::<f32>() - 9.0).abs() < 1e-4 && w[0] > w[1], "{w:?}");

@@ -364,15 +364,15 @@ pub fn train_posenet(
 ) -> Result<(PoseNet, TrainState)> {
     cfg.validate()?;
     let device = seeded_device(corpus, cfg.size, backend, cfg.seed)?;
-    let taps = corpus.pose_rows(Split::Train, &cfg.labels);
-    if taps.is_empty() {
-        return Err(crate::error::ModelError::Insufficient(format!(
+    let rows = corpus.pose_rows(Split::Train, &cfg.labels);
+    if rows.is_empty() {
+        return Err(ModelError::Insufficient(format!(
             "{} has no training images for the labels {}",
             corpus.dataset.dir.display(),
             cfg.labels.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
         )));
     }
-    let scale = corpus.pose_scale(&cfg.labels, &taps);
+    let scale = corpus.pose_scale(&cfg.labels, &rows);
     let model = canonical_ids(PoseNet::new(cfg.net_size()?, cfg.hidden, scale.width(), &device));
     let settings = LoopSettings {
         batch: cfg.batch,
@@ -387,14 +387,14 @@ pub fn train_posenet(
         progress.message("the run had already finished");
         return Ok((model, state));
     }
-    if corpus.dataset.rows[taps[0]].kind == Kind::Slide {
+    if corpus.dataset.rows[rows[0]].kind == Kind::Slide {
         progress.message("training the pose network on the slides (slide offsets read, or no tap images)");
     }
     let half = cfg.epochs / 2;
     let phases = vec![PhasePlan {
         name: "posenet",
         epochs: cfg.epochs,
-        items: Box::new(|_| taps.clone()),
+        items: Box::new(|_| rows.clone()),
         lr: Box::new(move |e| if e >= half && half > 0 { cfg.lr * cfg.lr_step_factor } else { cfg.lr }),
     }];
     let max_shift = cfg.max_shift_px();

@@ -36,15 +36,9 @@ impl Learned {
                 unshear.map(|u| format!(" and {}", u.display())).unwrap_or_default()
             )
         })?;
-        let read = reader.labels();
-        let needed = [tacsim_data::Column::PoseX, tacsim_data::Column::PoseRz];
-        if !needed.iter().all(|c| read.contains(c)) {
-            anyhow::bail!(
-                "field `models`: {} reads {}, perception needs pose_x and pose_Rz (train it with the default labels)",
-                models.posenet.display(),
-                read.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
-            );
-        }
+        reader
+            .require(&[tacsim_data::Column::PoseX, tacsim_data::Column::PoseRz], "edge perception")
+            .context("field `models`")?;
         let reference = renderer.render_undeformed();
         Ok(Self { reference, reader })
     }

@@ -2,7 +2,6 @@
 //! trajectory closes on its start or the step limit, with the contact engine carrying history
 //! along every sub-step; and the metrics of the run.
 
-use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -137,13 +136,10 @@ fn arc_position(outline: &[[f64; 2]], cumulative: &[f64], p: [f64; 2]) -> f64 {
 pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) -> Result<RunReport> {
     let wall = Instant::now();
     let stim = catalogue.get(&scenario.shape).with_context(|| format!("scenario {}: field `shape`", scenario.name))?;
-    let mut stim = (*stim).clone();
-    if let Some(f) = scenario.friction {
-        stim.entry.friction = f;
-    }
+    let stim = stim.with_friction(scenario.friction);
     let contact_mm = stim.entry.contact_mm;
     let mut scene = Scene::new();
-    let object = scene.add(Arc::new(stim), ObjectPose::default())?;
+    let object = scene.add(stim, ObjectPose::default())?;
     let outline = scene.contour_world(object).into_iter().max_by_key(|l| l.len()).unwrap_or_default();
     let mut cumulative = vec![0.0; outline.len() + 1];
     for k in 0..outline.len() {

@@ -64,6 +64,19 @@ pub struct Stimulus {
 }
 
 impl Stimulus {
+    /// This stimulus with the skin-stimulus friction `friction` where one is given (a recipe's
+    /// or a scenario's override), else itself.
+    pub fn with_friction(self: &Arc<Self>, friction: Option<f64>) -> Arc<Self> {
+        match friction {
+            None => Arc::clone(self),
+            Some(f) => {
+                let mut s = (**self).clone();
+                s.entry.friction = f;
+                Arc::new(s)
+            }
+        }
+    }
+
     /// Name of the stimulus.
     pub fn name(&self) -> &str {
         &self.entry.name
