@@ -146,7 +146,8 @@ fn the_pins_voronoi_patch_matches_the_contact_engines_patch() {
     let mut shares = Vec::new();
     for (x, yaw) in [(50.0, 90.0), (49.0, 90.0), (51.0, 30.0), (50.5, 0.0), (49.5, -45.0)] {
         let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
-        let mut g = tacsim::explore::perception::Geometric::new(&sensor, depth, 256).expect("perception");
+        let press = tacsim::explore::run::reference_press(&model, depth, 0.5).expect("reference press");
+        let mut g = tacsim::explore::perception::Geometric::new(&sensor, 256, &press).expect("perception");
         sim.step(SensorPose::new(x, 0.0, depth, yaw)).expect("step");
         g.estimate(&sim.pins());
         let centres = grid.centres();
@@ -283,7 +284,8 @@ fn a_dome_wholly_on_the_material_reads_no_free_skin() {
     let centres = grid.centres();
     for (x, yaw) in [(40.0, 90.0), (30.0, 0.0), (44.0, 45.0)] {
         let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
-        let mut g = tacsim::explore::perception::Geometric::new(&sensor, depth, 256).expect("perception");
+        let press = tacsim::explore::run::reference_press(&model, depth, 0.5).expect("reference press");
+        let mut g = tacsim::explore::perception::Geometric::new(&sensor, 256, &press).expect("perception");
         sim.step(SensorPose::new(x, 0.0, depth, yaw)).expect("step");
         g.estimate(&sim.pins());
         let touching = g.touching(&centres);

@@ -69,12 +69,25 @@ impl Corruption {
     }
 }
 
-/// Model-free edge estimate from the sensor's image: detect the pins, track them against the
-/// undeformed image (nearest neighbours), take the pins whose neighbourhood dilated by more
-/// than `CONTACT_FRACTION` of the largest dilation as the contact patch, and read the edge off the
-/// patch: the direction from the apex to the patch's centroid is the inward edge normal, and
-/// the patch's share of the pins within the contact radius `a = sqrt(R d)` (a flat face
-/// pressed `d` deep) gives the offset through the area of a disc segment.
+/// Model-free edge estimate from the sensor's image, against the sensor's own flat press.
+///
+/// At start-up the contact engine presses the sensor onto a flat face at the scenario's depth
+/// (the reference press, [`super::run::reference_press`]); its image gives each pin's
+/// full-contact stretch `D_i` (the template). Each image is then read in three stages:
+/// [`Geometric::track`] finds the pins (detection, then the tracker of `tacsim_sim::tracking`
+/// from the undeformed image, which follows presses and slides that move pins by most of a
+/// spacing); [`Geometric::stretch`] takes each pin's local stretch `m_i` (mean distance to its
+/// six undeformed neighbours over the undeformed distance, minus one: pins pressed towards the
+/// camera spread apart); [`fit_edge`] finds the straight edge, inward normal `n` and offset
+/// `h` (mm) with the material where `n . r > h` (`r` a pin's rest position), whose template
+/// best explains the stretches:
+///
+/// `min over (n, h) of sum_i (m_i - D_i s((n . r_i - h) / w))^2`, `s` the logistic step and
+/// `w` = [`EDGE_WIDTH_MM`].
+///
+/// The template carries what hand-chosen thresholds could not: how far this sensor's contact
+/// reaches at this depth and how much each pin stretches in it (a compressible skin with long
+/// pins spreads its contact pins far more, over a smaller patch, than the camera-only fit).
 #[derive(Clone, Debug)]
 pub struct Geometric {
     renderer: tacsim_sim::PinRenderer,
@@ -82,12 +95,17 @@ pub struct Geometric {
     /// Rest position (contact-plane mm, sensor frame) of each reference pin.
     rest_mm: Vec<Option<[f64; 2]>>,
     spacing_px: f64,
-    radius_mm: f64,
     /// The six nearest reference pins of each reference pin.
     neighbours: Vec<Vec<usize>>,
-    /// Where each reference pin was last seen (px): pins are tracked frame to frame, so a
-    /// slide's drag, which builds up over many frames, never has to be matched in one jump.
+    /// Where each reference pin was last seen (px); `None` where the tracker lost it.
     last: Vec<Option<[f64; 2]>>,
+    /// The tracker's global shift of the last image (px), its start for the next one.
+    shift: [f64; 2],
+    /// The reference press: (reference pin, rest position in mm, full-contact stretch) of the
+    /// pins that stretched by more than `NO_CONTACT` in it.
+    template: Vec<(usize, [f64; 2], f64)>,
+    /// Largest rest distance of a template pin from the apex (mm): the contact's reach.
+    reach_mm: f64,
     /// The undeformed Voronoi tessellation, for the contact patch.
     geometry: super::contact_geometry::ContactGeometry,
     /// The edge of the latest estimate: inward normal (contact-plane, sensor frame) and the
@@ -95,8 +113,10 @@ pub struct Geometric {
     edge: Option<([f64; 2], f64)>,
 }
 
-/// Share of the largest local dilation above which a pin counts as in contact.
-const CONTACT_FRACTION: f64 = 0.3;
+/// Width of the edge's soft step in the template fit (mm): about a third of the pin pitch.
+/// The skin bends over an edge, so the pins next to it stretch part way; on the disk and the
+/// clover with the calibrated sensor, 0.3-0.8 mm read the offset within 0.24-0.38 mm.
+pub const EDGE_WIDTH_MM: f64 = 0.5;
 
 /// The contact patch read off the pins' Voronoi cells: the skin touches where the cells grew
 /// (`A / A0 - 1`) by more than this share of the largest growth in the image...
@@ -107,25 +127,105 @@ const TOUCH_SHARE: f64 = 0.65;
 /// faint rim of the contact for free skin, which emptied the interior (IoU below 0.2).
 const FREE_SHARE: f64 = 0.12;
 
+/// The straight edge whose template best explains the stretches (the sum of squares of
+/// [`Geometric`]): `template` holds (rest position mm, full-contact stretch, this image's
+/// stretch) per pin. Returns the inward normal and the offset `h` (mm): a coarse search over
+/// normals every 3 deg and offsets every 0.1 mm within `reach_mm + 1`, refined to 0.25 deg and
+/// 0.01 mm.
+pub fn fit_edge(template: &[([f64; 2], f64, f64)], reach_mm: f64) -> ([f64; 2], f64) {
+    let cost = |deg: f64, h: f64| {
+        let (c, s) = (deg.to_radians().cos(), deg.to_radians().sin());
+        template
+            .iter()
+            .map(|(r, d, m)| {
+                let u = (c * r[0] + s * r[1] - h) / EDGE_WIDTH_MM;
+                (m - d / (1.0 + (-u).exp())).powi(2)
+            })
+            .sum::<f64>()
+    };
+    let span = reach_mm + 1.0;
+    let mut best = (f64::INFINITY, 0.0, span);
+    let steps = (2.0 * span / 0.1).ceil() as usize;
+    for a in 0..120 {
+        for k in 0..=steps {
+            let (deg, h) = (3.0 * a as f64, -span + 0.1 * k as f64);
+            let c = cost(deg, h);
+            if c < best.0 {
+                best = (c, deg, h);
+            }
+        }
+    }
+    let (_, deg0, h0) = best;
+    for a in -12..=12 {
+        for k in -10..=10 {
+            let (deg, h) = (deg0 + 0.25 * f64::from(a), h0 + 0.01 * f64::from(k));
+            let c = cost(deg, h);
+            if c < best.0 {
+                best = (c, deg, h);
+            }
+        }
+    }
+    let (_, deg, h) = best;
+    ([deg.to_radians().cos(), deg.to_radians().sin()], h)
+}
+
 impl Geometric {
-    /// Perception for `sensor` pressed `depth_mm` deep, rendering at `size` px.
-    pub fn new(sensor: &tacsim_sim::SensorParams, depth_mm: f64, size: u32) -> anyhow::Result<Self> {
+    /// Perception for `sensor` rendering at `size` px, with the pins of its reference press
+    /// `press` (a flat face at the scenario's depth, [`super::run::reference_press`]).
+    pub fn new(
+        sensor: &tacsim_sim::SensorParams,
+        size: u32,
+        press: &[tacsim_sim::pins::PinPose],
+    ) -> anyhow::Result<Self> {
         use tacsim_sim::pins::PinLayout;
         let renderer = tacsim_sim::PinRenderer::new(sensor, size)?;
         let layout = PinLayout::new(sensor);
         let reference_px = tacsim_sim::calibrate::observe::pin_centres(&renderer.render(&layout.poses()));
         let spacing_px = 17.5 * size as f64 / 420.0;
         // Rest positions: the layout pin whose projected tip is nearest each detected pin.
-        let rest_mm =
+        let rest_mm: Vec<Option<[f64; 2]>> =
             tacsim_sim::calibrate::model::match_reference(&renderer, &layout.poses(), &reference_px, spacing_px)
                 .into_iter()
                 .map(|m| m.map(|i| [layout.pins[i].base.x, layout.pins[i].base.y]))
                 .collect();
-        let radius_mm = (sensor.dome.outer_radius_mm * depth_mm).sqrt();
         let neighbours = tacsim_sim::tracking::nearest_neighbours(&reference_px, 6);
         let last = reference_px.iter().map(|p| Some(*p)).collect();
         let geometry = super::contact_geometry::ContactGeometry::new(&reference_px, spacing_px);
-        Ok(Self { renderer, reference_px, rest_mm, spacing_px, radius_mm, neighbours, last, geometry, edge: None })
+        let mut g = Self {
+            renderer,
+            reference_px,
+            rest_mm,
+            spacing_px,
+            neighbours,
+            last,
+            shift: [0.0; 2],
+            template: Vec::new(),
+            reach_mm: 0.0,
+            geometry,
+            edge: None,
+        };
+        let img = g.render(press);
+        let tracked = g.track(&img, [0.0; 2]).0;
+        g.template = g
+            .stretch(&tracked)
+            .iter()
+            .zip(&g.rest_mm)
+            .enumerate()
+            .filter_map(|(i, (m, r))| Some((i, (*r)?, (*m)?)).filter(|t| t.2 > super::contact_geometry::NO_CONTACT))
+            .collect();
+        g.reach_mm = g.template.iter().fold(0.0f64, |m, (_, r, _)| m.max(r[0].hypot(r[1])));
+        if g.template.len() < 3 {
+            anyhow::bail!(
+                "the reference press stretched {} pins (at least 3 needed): press deeper (field `depth_mm`)",
+                g.template.len()
+            );
+        }
+        Ok(g)
+    }
+
+    /// How far the contact reaches from the apex in the reference press (mm).
+    pub fn reach_mm(&self) -> f64 {
+        self.reach_mm
     }
 
     /// The contact patch of the image of the latest estimate: whether the skin touches at
@@ -163,31 +263,28 @@ impl Geometric {
         self.estimate_image(&img)
     }
 
-    /// [`Geometric::estimate`] from the current pins' image ([`Geometric::render`]).
-    pub fn estimate_image(&mut self, img: &image::GrayImage) -> Option<EdgeEstimate> {
-        self.estimate_with(img, CONTACT_FRACTION)
+    /// Where each reference pin is in `img` (px; `None` where lost) and the tracker's global
+    /// shift, tracking from the undeformed pins with the shift `start` as the first guess.
+    fn track(&self, img: &image::GrayImage, start: [f64; 2]) -> (Vec<Option<[f64; 2]>>, [f64; 2]) {
+        use tacsim_sim::tracking::{Warp, track};
+        let detected = tacsim_sim::calibrate::observe::pin_centres(img);
+        let t = track(&self.reference_px, &detected, self.spacing_px, &Warp::shift(start));
+        let at = t.displacement.iter().zip(&self.reference_px).map(|(d, r)| d.map(|d| [r[0] + d[0], r[1] + d[1]]));
+        (at.collect(), t.global_shift)
     }
 
-    /// [`Geometric::estimate_image`] with another contact threshold (share of the largest
-    /// motion).
-    pub fn estimate_with(&mut self, img: &image::GrayImage, fraction: f64) -> Option<EdgeEstimate> {
-        let detected = tacsim_sim::calibrate::observe::pin_centres(img);
-        // Track from where each pin was last seen (its reference position when lost).
-        let from: Vec<[f64; 2]> = self.last.iter().zip(&self.reference_px).map(|(l, r)| l.unwrap_or(*r)).collect();
-        let step = tacsim_sim::tracking::track_nearest(&from, &detected, self.spacing_px);
-        self.last = from.iter().zip(&step).map(|(f, d)| d.map(|d| [f[0] + d[0], f[1] + d[1]])).collect();
-        // Local dilation: how much each pin's neighbourhood grew in the image (pins pressed
-        // towards the camera spread apart). A sideways drag (sliding shear) moves a
-        // neighbourhood without growing it, so the signal ignores the shear.
-        let mags: Vec<Option<f64>> = self
-            .neighbours
+    /// Each reference pin's local stretch in the tracked positions `at`: the mean distance to
+    /// its tracked undeformed neighbours (at least 3) over their undeformed distance, minus
+    /// one, at least 0. A sideways drag moves a neighbourhood without stretching it.
+    fn stretch(&self, at: &[Option<[f64; 2]>]) -> Vec<Option<f64>> {
+        self.neighbours
             .iter()
             .enumerate()
             .map(|(i, nb)| {
-                let pi = self.last[i]?;
+                let pi = at[i]?;
                 let (mut sum, mut n) = (0.0, 0);
                 for &j in nb {
-                    if let Some(pj) = self.last[j] {
+                    if let Some(pj) = at[j] {
                         let rest = (self.reference_px[j][0] - self.reference_px[i][0])
                             .hypot(self.reference_px[j][1] - self.reference_px[i][1]);
                         sum += (pj[0] - pi[0]).hypot(pj[1] - pi[1]) / rest;
@@ -196,69 +293,31 @@ impl Geometric {
                 }
                 (n >= 3).then(|| (sum / n as f64 - 1.0).max(0.0))
             })
-            .collect();
-        let max = mags.iter().flatten().fold(0.0f64, |m, v| m.max(*v));
+            .collect()
+    }
+
+    /// [`Geometric::estimate`] from the current pins' image ([`Geometric::render`]).
+    pub fn estimate_image(&mut self, img: &image::GrayImage) -> Option<EdgeEstimate> {
+        let (at, shift) = self.track(img, self.shift);
+        (self.last, self.shift) = (at, shift);
         self.edge = None;
-        if max <= 0.0 {
+        let m = self.stretch(&self.last);
+        // Template pins the tracker lost say nothing (they are skipped, not guessed).
+        let pins: Vec<([f64; 2], f64, f64)> =
+            self.template.iter().filter_map(|(i, r, d)| m[*i].map(|m| (*r, *d, m))).collect();
+        if !pins.iter().any(|p| p.2 > super::contact_geometry::NO_CONTACT) {
             return None;
         }
-        // The pins in contact and those not, within the contact disc.
-        let (mut inn, mut out): (Vec<[f64; 2]>, Vec<[f64; 2]>) = (Vec::new(), Vec::new());
-        for (m, r) in mags.iter().zip(&self.rest_mm) {
-            let Some(r) = r else { continue };
-            if r[0].hypot(r[1]) > self.radius_mm {
-                continue;
-            }
-            // An untracked pin inside the disc moved too far to match: contact.
-            if m.is_none_or(|m| m > fraction * max) { inn.push(*r) } else { out.push(*r) }
-        }
-        let (contact, within) = (inn.len(), inn.len() + out.len());
-        if contact == 0 || within == 0 {
-            return None;
-        }
-        let mean = |v: &[[f64; 2]]| {
-            let n = v.len().max(1) as f64;
-            [v.iter().map(|p| p[0]).sum::<f64>() / n, v.iter().map(|p| p[1]).sum::<f64>() / n]
+        let (n, h) = fit_edge(&pins, self.reach_mm);
+        self.edge = Some((n, h));
+        // With every template pin on the material the normal is undetermined: no turn.
+        let angle_deg = if h <= -self.reach_mm {
+            0.0
+        } else {
+            // Inward normal (towards the material), sensor frame; the sensor frame's y is
+            // world -y at zero yaw, so angles in the contact plane are measured with y flipped.
+            wrap_deg((-n[1]).atan2(n[0]).to_degrees() - 90.0)
         };
-        let (ci, co) = (mean(&inn), mean(&out));
-        // The edge runs along the long axis of the smaller part (a disc segment is long along
-        // its chord); the inward normal points from the free pins to the touching ones.
-        let part = if inn.len() <= out.len() { &inn } else { &out };
-        let c = mean(part);
-        let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
-        for p in part {
-            let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
-            sxx += dx * dx;
-            syy += dy * dy;
-            sxy += dx * dy;
-        }
-        let along = 0.5 * (2.0 * sxy).atan2(sxx - syy);
-        let mut n = [-along.sin(), along.cos()];
-        if part.len() < 3 || (n[0] * (ci[0] - co[0]) + n[1] * (ci[1] - co[1])).abs() < 1e-12 {
-            n = [ci[0] - co[0], ci[1] - co[1]];
-        } else if n[0] * (ci[0] - co[0]) + n[1] * (ci[1] - co[1]) < 0.0 {
-            n = [-n[0], -n[1]];
-        }
-        let (cx, cy) = (n[0], n[1]);
-        // Inward normal (towards the material), sensor frame; the sensor frame's y is world -y
-        // at zero yaw, so angles in the sensor's contact plane are measured with y flipped.
-        let normal_deg = (-cy).atan2(cx).to_degrees();
-        let tangent_deg = normal_deg - 90.0;
-        // Offset from the covered share of the disc: segment area fraction f(h) for a line at
-        // distance h from the centre (material beyond it), solved by bisection.
-        let share = (contact as f64 / within as f64).clamp(0.0, 1.0);
-        let a = self.radius_mm;
-        let f = |h: f64| {
-            let h = h.clamp(-a, a);
-            (a * a * (h / a).acos() - h * (a * a - h * h).sqrt()) / (std::f64::consts::PI * a * a)
-        };
-        let (mut lo, mut hi) = (-a, a);
-        for _ in 0..50 {
-            let mid = 0.5 * (lo + hi);
-            if f(mid) > share { lo = mid } else { hi = mid }
-        }
-        let h = 0.5 * (lo + hi);
-        self.edge = Some(([cx, cy], h));
-        Some(EdgeEstimate { offset_mm: h, angle_deg: wrap_deg(tangent_deg) })
+        Some(EdgeEstimate { offset_mm: h, angle_deg })
     }
 }

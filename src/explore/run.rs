@@ -132,12 +132,23 @@ fn arc_position(outline: &[[f64; 2]], cumulative: &[f64], p: [f64; 2]) -> f64 {
     best.1
 }
 
+/// The pins of the sensor of `model` pressed `depth_mm` straight onto a flat face (the top of
+/// the built-in `disk`, at its centre, with friction `friction`): image-based perception's
+/// template ([`Geometric`]).
+pub fn reference_press(model: &ContactModel, depth_mm: f64, friction: f64) -> Result<Vec<tacsim_sim::pins::PinPose>> {
+    let disk = crate::embedded::catalogue().context("loading the built-in shapes")?.get("disk")?;
+    let scene = tacsim_sim::calibrate::model::flat_scene(&disk, friction)?;
+    let mut sim = Simulation::with_grid(model, &scene, Some(contact_disk_grid(model, depth_mm)));
+    sim.step(SensorPose::new(0.0, 0.0, depth_mm, 0.0))?;
+    Ok(sim.pins())
+}
+
 /// Runs `scenario` with `sensor` on the stimuli of `catalogue`.
 pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) -> Result<RunReport> {
     let wall = Instant::now();
     let stim = catalogue.get(&scenario.shape).with_context(|| format!("scenario {}: field `shape`", scenario.name))?;
     let stim = stim.with_friction(scenario.friction);
-    let contact_mm = stim.entry.contact_mm;
+    let (contact_mm, friction) = (stim.entry.contact_mm, stim.entry.friction);
     let mut scene = Scene::new();
     let object = scene.add(stim, ObjectPose::default())?;
     let outline = scene.contour_world(object).into_iter().max_by_key(|l| l.len()).unwrap_or_default();
@@ -178,7 +189,13 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     // it also gives the estimate.
     let mut pins = match scenario.perception {
         PerceptionKind::Oracle => None,
-        _ => Some(Geometric::new(sensor, scenario.depth_mm, scenario.image_size)?),
+        _ => {
+            let press = reference_press(&model, scenario.depth_mm, friction)?;
+            Some(
+                Geometric::new(sensor, scenario.image_size, &press)
+                    .with_context(|| format!("scenario {}", scenario.name))?,
+            )
+        }
     };
     let learned = match scenario.perception {
         PerceptionKind::Learned | PerceptionKind::LearnedRaw => {
