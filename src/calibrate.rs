@@ -36,6 +36,8 @@ pub struct CalibrateOptions {
     pub reference: Option<String>,
     /// Fit the camera, ring layout and framing only (no deformation fit).
     pub camera_only: bool,
+    /// Fit the rig only, the sensor held as given ([`FitOptions::rig_only`]).
+    pub rig_only: bool,
     /// A short fit (one model, few evaluations): for tests and a first look.
     pub quick: bool,
     /// No progress spinner.
@@ -88,10 +90,11 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
             search_evaluations: 10,
             polish_evaluations: 0,
             models: vec![SkinModel::HalfSpace],
+            rig_only: o.rig_only,
             ..FitOptions::default()
         }
     } else {
-        FitOptions::default()
+        FitOptions { rig_only: o.rig_only, ..FitOptions::default() }
     };
     let problem = Problem {
         folder: &folder,
@@ -125,14 +128,15 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     write_atomic(&report_dir.join("grid.png"), &png)?;
     write_atomic(&report_dir.join("report.json"), &serde_json::to_vec_pretty(&report)?)?;
     write_atomic(&report_dir.join("report.md"), markdown(&report).as_bytes())?;
-    let mut sensor = calib.sensor.clone();
+    // The rig alone leaves the sensor as it was given.
+    let mut sensor = if o.rig_only { base.clone() } else { calib.sensor.clone() };
     // Recalibrating a calibrated sensor (the default) keeps its name.
     sensor.name =
         if base.name.ends_with("-calibrated") { base.name.clone() } else { format!("{}-calibrated", base.name) };
     let header = format!(
         "# {} calibrated against {} by `{command}`.\n# Held-out mean relative error {:.3}; report: {}.\n\
          # The recordings' press (not part of the sensor): depth offset {:.3} mm, friction {:.3}, tilt pivot \
-         {:.2} mm above the apex,\n# depth compliance {:.4} mm^-0.5, tilt relaxation {:.4} per mm.\n\n",
+         {:.2} mm above the apex and ({:.3}, {:.3}) mm off its axis,\n# depth compliance {:.4} mm^-0.5, tilt relaxation {:.4} per mm.\n\n",
         base.name,
         o.real.display(),
         report.held_out_means.relative_error,
@@ -140,6 +144,8 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         calib.deformation.depth_offset_mm,
         calib.deformation.friction,
         calib.deformation.pivot_mm,
+        calib.deformation.pivot_offset_mm[0],
+        calib.deformation.pivot_offset_mm[1],
         calib.deformation.depth_compliance,
         calib.deformation.tilt_relaxation_per_mm,
     );

@@ -214,6 +214,11 @@ enum Command {
         /// flat surface.
         #[arg(long, conflicts_with = "quick")]
         camera_only: bool,
+        /// Fit the rig alone (depth offset, friction, the tilt pivot's height and its offset
+        /// off the axis, yield, tilt relaxation), the sensor held as given: for a preset
+        /// already calibrated. The preset written is the sensor unchanged.
+        #[arg(long, conflicts_with = "camera_only")]
+        rig_only: bool,
         /// A short fit (one model, few evaluations) for a first look.
         #[arg(long)]
         quick: bool,
@@ -327,7 +332,7 @@ fn main() -> Result<()> {
         Command::Eval { data, out, max_pairs, backend, lab, runs } => {
             print!("{}", tacsim::learn::evaluate(&data, &runs, &out, max_pairs, backend, lab)?);
         }
-        Command::Calibrate { real, sensor, output, report, reference, camera_only, quick, quiet } => {
+        Command::Calibrate { real, sensor, output, report, reference, camera_only, rig_only, quick, quiet } => {
             let o = tacsim::calibrate::CalibrateOptions {
                 real,
                 sensor,
@@ -335,6 +340,7 @@ fn main() -> Result<()> {
                 report,
                 reference,
                 camera_only,
+                rig_only,
                 quick,
                 quiet,
             };

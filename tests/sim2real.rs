@@ -222,9 +222,10 @@ fn the_surface_3d_recipe_carries_the_calibrated_rig() {
         "surface-3d.toml",
     )
     .expect("valid recipe");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(root.join("docs/calibration/report.json")).expect("report.json"))
-            .expect("json");
+    let report: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(root.join("docs/calibration-rig/report.json")).expect("report.json"),
+    )
+    .expect("json");
     let (d, f) = (&report["deformation"], &report["frame"]);
     let num = |v: &serde_json::Value| v.as_f64().expect("number");
     let r = &recipe.rig;
@@ -235,13 +236,15 @@ fn the_surface_3d_recipe_carries_the_calibrated_rig() {
         (r.pivot_mm, num(&d["pivot_mm"]), 1e-2),
         (r.depth_compliance, num(&d["depth_compliance"]), 1e-4),
         (r.tilt_relaxation_per_mm, num(&d["tilt_relaxation_per_mm"]), 1e-4),
+        (r.pivot_offset_mm[0], num(&d["pivot_offset_mm"][0]), 1e-3),
+        (r.pivot_offset_mm[1], num(&d["pivot_offset_mm"][1]), 1e-3),
         (recipe.shapes[0].friction.expect("friction"), num(&d["friction"]), 1e-3),
     ] {
         assert!((got - want).abs() <= tol, "recipe {got}, calibration {want}");
     }
     assert_eq!(recipe.sensor.as_deref(), Some("tactip-331-calibrated"));
     // The report's `[rig]` block is a recipe fragment giving the same rig and friction.
-    let md = std::fs::read_to_string(root.join("docs/calibration/report.md")).expect("report.md");
+    let md = std::fs::read_to_string(root.join("docs/calibration-rig/report.md")).expect("report.md");
     let block = md.split("```toml\n").nth(1).and_then(|b| b.split("```").next()).expect("a toml block in the report");
     let from_report = Recipe::from_toml_str(block, "report.md").expect("the block is a valid recipe fragment");
     assert_eq!(from_report.rig, recipe.rig);

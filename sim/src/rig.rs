@@ -29,12 +29,22 @@ pub struct Press {
     /// The tilt's relaxation under load (1/mm): a tilt `t` becomes `t (1 - k c)` at a
     /// commanded indentation `c` (mm).
     pub tilt_relaxation_per_mm: f64,
+    /// Where the pivot sits off the sensor's axis (mm, sensor frame `x`, `y`): a tool point
+    /// a little off the dome's axis makes a tilt raise or lower the apex in proportion to the
+    /// tilt, one way for one direction and the other way for the opposite one.
+    #[serde(default)]
+    pub pivot_offset_mm: [f64; 2],
 }
 
 impl Press {
-    /// A press with these parameters (fields in order).
+    /// A press with these parameters (fields in order), the pivot on the sensor's axis.
     pub const fn new(depth_offset_mm: f64, pivot_mm: f64, depth_compliance: f64, tilt_relaxation_per_mm: f64) -> Self {
-        Self { depth_offset_mm, pivot_mm, depth_compliance, tilt_relaxation_per_mm }
+        Self { depth_offset_mm, pivot_mm, depth_compliance, tilt_relaxation_per_mm, pivot_offset_mm: [0.0; 2] }
+    }
+
+    /// This press with the pivot `offset_mm` off the sensor's axis (sensor frame, mm).
+    pub const fn with_pivot_offset(self, offset_mm: [f64; 2]) -> Self {
+        Self { pivot_offset_mm: offset_mm, ..self }
     }
 }
 
@@ -80,9 +90,11 @@ impl RigFrame {
     /// The robot tilts the sensor about a pivot `h = press.pivot_mm` above the apex on the
     /// sensor's axis, which stays where it is at zero tilt; so a tilt `(rx, ry)` raises the
     /// apex by `h (1 - cos rx cos ry)` (mm) and the flat surface's indentation (the dome's
-    /// lowest point, radius `R`) is `z + (R - h)(1 - cos rx cos ry)`. The pivot's lateral motion
-    /// does not matter on a flat surface (on an edge it would: the rig is modelled for flat
-    /// surfaces).
+    /// lowest point, radius `R`) is `z + (R - h)(1 - cos rx cos ry)`. A pivot off the axis by
+    /// `(p_x, p_y)` (sensor frame, `press.pivot_offset_mm`) raises the apex by a further
+    /// `p_x sin ry - p_y sin rx` (the vertical part of the apex's turn about the pivot). The
+    /// pivot's lateral motion does not matter on a flat surface (on an edge it would: the rig
+    /// is modelled for flat surfaces).
     ///
     /// The rig yields under the contact load (the robot's joints, the sensor's mount and
     /// body): of a commanded indentation `c = z + depth offset` (mm) the sensor loses
@@ -96,7 +108,9 @@ impl RigFrame {
         let relaxed = (1.0 - press.tilt_relaxation_per_mm * loaded).max(0.0);
         let tilt = self.apply([pose[3], pose[4]]).map(|v| self.tilt_sign * relaxed * v);
         let offset = self.apply([shear[0], shear[1]]);
-        let lift = press.pivot_mm * (1.0 - tilt[0].to_radians().cos() * tilt[1].to_radians().cos());
+        let (rx, ry) = ((d * tilt[0]).to_radians(), (d * tilt[1]).to_radians());
+        let [px, py] = press.pivot_offset_mm;
+        let lift = press.pivot_mm * (1.0 - rx.cos() * ry.cos()) + px * ry.sin() - py * rx.sin();
         let at = self.apply([pose[0], pose[1]]);
         let target = SensorPose {
             x_mm: at[0],

@@ -73,20 +73,21 @@ impl Corruption {
 ///
 /// At start-up the contact engine presses the sensor onto a flat face at the scenario's depth
 /// (the reference press, [`super::run::reference_press`]); its image gives each pin's
-/// full-contact stretch `D_i` (the template). Each image is then read in three stages:
+/// full-contact spread `D_i` (the template). Each image is then read in three stages:
 /// [`Geometric::track`] finds the pins (detection, then the tracker of `tacsim_sim::tracking`
 /// from the undeformed image, which follows presses and slides that move pins by most of a
-/// spacing); [`Geometric::stretch`] takes each pin's local stretch `m_i` (mean distance to its
-/// six undeformed neighbours over the undeformed distance, minus one: pins pressed towards the
-/// camera spread apart); [`fit_edge`] finds the straight edge, inward normal `n` and offset
+/// spacing); [`Geometric::spread`] takes each pin's local spread `m_i` (`det F - 1`, `F` the
+/// least-squares linear map of its six undeformed neighbours' offsets onto their tracked ones:
+/// pins pressed towards the camera spread apart, while a shear, as along the side of a dragged
+/// contact, keeps the area); [`fit_edge`] finds the straight edge, inward normal `n` and offset
 /// `h` (mm) with the material where `n . r > h` (`r` a pin's rest position), whose template
-/// best explains the stretches:
+/// best explains the spreads:
 ///
 /// `min over (n, h) of sum_i (m_i - D_i s((n . r_i - h) / w))^2`, `s` the logistic step and
 /// `w` = [`EDGE_WIDTH_MM`].
 ///
 /// The template carries what hand-chosen thresholds could not: how far this sensor's contact
-/// reaches at this depth and how much each pin stretches in it (a compressible skin with long
+/// reaches at this depth and how much each pin spreads in it (a compressible skin with long
 /// pins spreads its contact pins far more, over a smaller patch, than the camera-only fit).
 #[derive(Clone, Debug)]
 pub struct Geometric {
@@ -101,20 +102,22 @@ pub struct Geometric {
     last: Vec<Option<[f64; 2]>>,
     /// The tracker's global shift of the last image (px), its start for the next one.
     shift: [f64; 2],
-    /// The reference press: (reference pin, rest position in mm, full-contact stretch) of the
-    /// pins that stretched by more than `NO_CONTACT` in it.
+    /// The reference press: (reference pin, rest position in mm, full-contact spread) of the
+    /// pins that spread by more than `NO_CONTACT` in it.
     template: Vec<(usize, [f64; 2], f64)>,
     /// Largest rest distance of a template pin from the apex (mm): the contact's reach.
     reach_mm: f64,
     /// The undeformed Voronoi tessellation, for the contact patch.
     geometry: super::contact_geometry::ContactGeometry,
     /// The edge of the latest estimate: inward normal (contact-plane, sensor frame) and the
-    /// edge's distance from the apex along it (mm).
+    /// edge's distance from the apex along it (mm), tared.
     edge: Option<([f64; 2], f64)>,
+    /// The tare ([`Geometric::tare`]): subtracted from every offset (mm) and angle (deg) read.
+    zero: (f64, f64),
 }
 
 /// Width of the edge's soft step in the template fit (mm): about a third of the pin pitch.
-/// The skin bends over an edge, so the pins next to it stretch part way; on the disk and the
+/// The skin bends over an edge, so the pins next to it spread part way; on the disk and the
 /// clover with the calibrated sensor, 0.3-0.8 mm read the offset within 0.24-0.38 mm.
 pub const EDGE_WIDTH_MM: f64 = 0.5;
 
@@ -127,9 +130,9 @@ const TOUCH_SHARE: f64 = 0.65;
 /// faint rim of the contact for free skin, which emptied the interior (IoU below 0.2).
 const FREE_SHARE: f64 = 0.12;
 
-/// The straight edge whose template best explains the stretches (the sum of squares of
-/// [`Geometric`]): `template` holds (rest position mm, full-contact stretch, this image's
-/// stretch) per pin. Returns the inward normal and the offset `h` (mm): a coarse search over
+/// The straight edge whose template best explains the spreads (the sum of squares of
+/// [`Geometric`]): `template` holds (rest position mm, full-contact spread, this image's
+/// spread) per pin. Returns the inward normal and the offset `h` (mm): a coarse search over
 /// normals every 3 deg and offsets every 0.1 mm within `reach_mm + 1`, refined to 0.25 deg and
 /// 0.01 mm.
 pub fn fit_edge(template: &[([f64; 2], f64, f64)], reach_mm: f64) -> ([f64; 2], f64) {
@@ -203,11 +206,12 @@ impl Geometric {
             reach_mm: 0.0,
             geometry,
             edge: None,
+            zero: (0.0, 0.0),
         };
         let img = g.render(press);
         let tracked = g.track(&img, [0.0; 2]).0;
         g.template = g
-            .stretch(&tracked)
+            .spread(&tracked)
             .iter()
             .zip(&g.rest_mm)
             .enumerate()
@@ -216,7 +220,7 @@ impl Geometric {
         g.reach_mm = g.template.iter().fold(0.0f64, |m, (_, r, _)| m.max(r[0].hypot(r[1])));
         if g.template.len() < 3 {
             anyhow::bail!(
-                "the reference press stretched {} pins (at least 3 needed): press deeper (field `depth_mm`)",
+                "the reference press spread {} pins (at least 3 needed): press deeper (field `depth_mm`)",
                 g.template.len()
             );
         }
@@ -235,6 +239,9 @@ impl Geometric {
     /// undecided too: with the dome wholly on the material the indentation fades towards the
     /// rim of the contact as it does towards an edge, and reading that rim as "no material"
     /// punched holes into the footprint (the foil's IoU was 0.894 with it, 0.912 without).
+    /// Points on the free side of the estimated (tared) edge, beyond its soft width and within
+    /// the reference press's reach, are free skin whatever their cells say: the skin bent over
+    /// the edge grows cells there.
     pub fn touching(&self, points: &[[f64; 2]]) -> Vec<Option<bool>> {
         let mut t = super::contact_geometry::touching(
             &self.geometry.indentation(&self.last, &self.rest_mm),
@@ -244,8 +251,11 @@ impl Geometric {
         );
         if let Some((n, h)) = self.edge {
             for (t, q) in t.iter_mut().zip(points) {
-                if *t == Some(false) && n[0] * q[0] + n[1] * q[1] > h {
+                let s = n[0] * q[0] + n[1] * q[1] - h;
+                if *t == Some(false) && s > 0.0 {
                     *t = None;
+                } else if s < -EDGE_WIDTH_MM && q[0].hypot(q[1]) <= self.reach_mm {
+                    *t = Some(false);
                 }
             }
         }
@@ -273,25 +283,38 @@ impl Geometric {
         (at.collect(), t.global_shift)
     }
 
-    /// Each reference pin's local stretch in the tracked positions `at`: the mean distance to
-    /// its tracked undeformed neighbours (at least 3) over their undeformed distance, minus
-    /// one, at least 0. A sideways drag moves a neighbourhood without stretching it.
-    fn stretch(&self, at: &[Option<[f64; 2]>]) -> Vec<Option<f64>> {
+    /// Each reference pin's local spread in the tracked positions `at`: `det F - 1` (at least
+    /// 0), `F` the least-squares linear map of the offsets to its tracked undeformed
+    /// neighbours (at least 3) from their undeformed ones (px). A drag moves a neighbourhood
+    /// without spreading it, and a shear keeps its area.
+    fn spread(&self, at: &[Option<[f64; 2]>]) -> Vec<Option<f64>> {
         self.neighbours
             .iter()
             .enumerate()
             .map(|(i, nb)| {
                 let pi = at[i]?;
-                let (mut sum, mut n) = (0.0, 0);
+                let r = self.reference_px[i];
+                // Least-squares local map F: current offsets = F reference offsets.
+                let (mut xx, mut yx, mut n) = ([[0.0f64; 2]; 2], [[0.0f64; 2]; 2], 0);
                 for &j in nb {
                     if let Some(pj) = at[j] {
-                        let rest = (self.reference_px[j][0] - self.reference_px[i][0])
-                            .hypot(self.reference_px[j][1] - self.reference_px[i][1]);
-                        sum += (pj[0] - pi[0]).hypot(pj[1] - pi[1]) / rest;
+                        let x = [self.reference_px[j][0] - r[0], self.reference_px[j][1] - r[1]];
+                        let y = [pj[0] - pi[0], pj[1] - pi[1]];
+                        for a in 0..2 {
+                            for b in 0..2 {
+                                xx[a][b] += x[a] * x[b];
+                                yx[a][b] += y[a] * x[b];
+                            }
+                        }
                         n += 1;
                     }
                 }
-                (n >= 3).then(|| (sum / n as f64 - 1.0).max(0.0))
+                if n < 3 {
+                    return None;
+                }
+                let det_xx = xx[0][0] * xx[1][1] - xx[0][1] * xx[1][0];
+                let det_yx = yx[0][0] * yx[1][1] - yx[0][1] * yx[1][0];
+                (det_xx > 0.0).then(|| (det_yx / det_xx - 1.0).max(0.0))
             })
             .collect()
     }
@@ -301,7 +324,7 @@ impl Geometric {
         let (at, shift) = self.track(img, self.shift);
         (self.last, self.shift) = (at, shift);
         self.edge = None;
-        let m = self.stretch(&self.last);
+        let m = self.spread(&self.last);
         // Template pins the tracker lost say nothing (they are skipped, not guessed).
         let pins: Vec<([f64; 2], f64, f64)> =
             self.template.iter().filter_map(|(i, r, d)| m[*i].map(|m| (*r, *d, m))).collect();
@@ -309,15 +332,73 @@ impl Geometric {
             return None;
         }
         let (n, h) = fit_edge(&pins, self.reach_mm);
-        self.edge = Some((n, h));
         // With every template pin on the material the normal is undetermined: no turn.
-        let angle_deg = if h <= -self.reach_mm {
-            0.0
+        let raw_deg = if h <= -self.reach_mm {
+            self.zero.1
         } else {
             // Inward normal (towards the material), sensor frame; the sensor frame's y is
             // world -y at zero yaw, so angles in the contact plane are measured with y flipped.
-            wrap_deg((-n[1]).atan2(n[0]).to_degrees() - 90.0)
+            (-n[1]).atan2(n[0]).to_degrees() - 90.0
         };
-        Some(EdgeEstimate { offset_mm: h, angle_deg })
+        let e = EdgeEstimate { offset_mm: h - self.zero.0, angle_deg: wrap_deg(raw_deg - self.zero.1) };
+        let normal = (e.angle_deg + 90.0).to_radians();
+        self.edge = Some(([normal.cos(), -normal.sin()], e.offset_mm));
+        Some(e)
+    }
+
+    /// Takes the estimate from `pins`, whose true pose relative to the edge is `known` (the
+    /// robot's start: on the edge, aligned with it), as the zero of every later estimate, as a
+    /// robot would at a known start: the straight edge of the fit sits a little off where an
+    /// edge's contact ends (the skin bends over it). Returns the tare (offset mm, angle deg);
+    /// none where the pins show no contact.
+    pub fn tare(&mut self, pins: &[tacsim_sim::pins::PinPose], known: EdgeEstimate) -> (f64, f64) {
+        self.zero = (0.0, 0.0);
+        if let Some(e) = self.estimate(pins) {
+            self.zero = (e.offset_mm - known.offset_mm, wrap_deg(e.angle_deg - known.angle_deg));
+        }
+        self.zero
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Pins of a hexagonal lattice (pitch 1.5 mm) within `r` mm, with a Hertz-like full-contact
+    /// spread `1 - (r / a)^2` inside `a` = 4.5 mm.
+    fn template() -> Vec<([f64; 2], f64)> {
+        let mut out = Vec::new();
+        for j in -4..=4 {
+            for i in -4..=4 {
+                let p = [1.5 * (f64::from(i) + 0.5 * f64::from(j)), 1.5 * f64::from(j) * 3f64.sqrt() / 2.0];
+                let d = 1.0 - (p[0] * p[0] + p[1] * p[1]) / 4.5f64.powi(2);
+                if d > 0.02 {
+                    out.push((p, 0.3 * d));
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn fit_edge_finds_a_straight_edge_cut_through_the_template() {
+        // The image of a press cut by an edge with inward normal at `deg` and offset `h`:
+        // pins beyond the edge spread by their template share, the others not at all. The fit
+        // must find the edge to within the lattice's resolution: the soft step leaves the edge
+        // anywhere between the last pin in and the first pin out, about half a pitch apart
+        // across the edge.
+        let t = template();
+        let reach = t.iter().fold(0.0f64, |m, (p, _)| m.max(p[0].hypot(p[1])));
+        for (deg, h) in [(90.0f64, 0.0f64), (30.0, -1.0), (200.0, 0.7), (-60.0, 1.5)] {
+            let n = [deg.to_radians().cos(), deg.to_radians().sin()];
+            let pins: Vec<([f64; 2], f64, f64)> =
+                t.iter().map(|(p, d)| (*p, *d, if n[0] * p[0] + n[1] * p[1] > h { *d } else { 0.0 })).collect();
+            let (m, hm) = fit_edge(&pins, reach);
+            let angle = wrap_deg(m[1].atan2(m[0]).to_degrees() - deg).abs();
+            assert!(angle <= 12.0 && (hm - h).abs() <= 0.6, "{deg} deg, {h} mm: found {angle} deg off, {hm} mm");
+        }
+        // A press wholly on the material reads as the edge beyond the contact's reach.
+        let full: Vec<([f64; 2], f64, f64)> = t.iter().map(|(p, d)| (*p, *d, *d)).collect();
+        assert!(fit_edge(&full, reach).1 <= -reach, "{:?}", fit_edge(&full, reach));
     }
 }

@@ -209,7 +209,19 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     // Without contact the image-based estimates say "the edge is a contact radius inward".
     let searching =
         EdgeEstimate { offset_mm: (sensor.dome.outer_radius_mm * scenario.depth_mm).sqrt(), angle_deg: 0.0 };
-    sim.step(pose0)?;
+    // Touch down one step back along the edge and slide onto the start, so that the start's
+    // image (the tare of image-based perception) carries the drag of sliding like every
+    // later one.
+    let yaw = pose0.yaw_deg.to_radians();
+    let back = SensorPose {
+        x_mm: pose0.x_mm - scenario.step_mm * yaw.cos(),
+        y_mm: pose0.y_mm - scenario.step_mm * yaw.sin(),
+        ..pose0
+    };
+    sim.step(back)?;
+    for p in Robot::new(back, scenario.substep_mm).move_to(pose0) {
+        sim.step(p)?;
+    }
     let centres = grid.centres();
     // Each visited pose adds its contact patch: the contact engine's to `fusion`, and, with
     // image-based perception, the one read off the image's pins to `fusion_pins`.
@@ -226,10 +238,9 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     };
     // The robot starts on the edge, aligned with it: image-based perception takes its first
     // estimate there as its zero (a tare), as a robot would at a known start.
-    let tare = match &mut pins {
-        Some(g) => g.estimate(&sim.pins()).map_or((0.0, 0.0), |e| (e.offset_mm - r, e.angle_deg)),
-        None => (0.0, 0.0),
-    };
+    if let Some(g) = &mut pins {
+        g.tare(&sim.pins(), EdgeEstimate { offset_mm: r, angle_deg: 0.0 });
+    }
     let mut substeps = 1;
     let mut trajectory = vec![[pose0.x_mm, pose0.y_mm, pose0.yaw_deg]];
     let (mut deviations, mut yaw_errors) = (Vec::new(), Vec::new());
@@ -241,10 +252,7 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     while steps < scenario.max_steps {
         // One image per step, for the pins' patch and whichever perception reads it.
         let img = pins.as_ref().map(|g| g.render(&sim.pins()));
-        let from_pins = pins.as_mut().zip(img.as_ref()).and_then(|(g, img)| {
-            g.estimate_image(img)
-                .map(|e| EdgeEstimate { offset_mm: e.offset_mm - tare.0, angle_deg: wrap_deg(e.angle_deg - tare.1) })
-        });
+        let from_pins = pins.as_mut().zip(img.as_ref()).and_then(|(g, img)| g.estimate_image(img));
         let read = match (&learned, &img) {
             (Some(l), Some(img)) => l.estimate(img)?,
             _ => from_pins,

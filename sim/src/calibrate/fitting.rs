@@ -57,6 +57,10 @@ pub struct FitOptions {
     pub polish_evaluations: usize,
     /// Candidate elastic models.
     pub models: Vec<SkinModel>,
+    /// Fit the rig alone (depth offset, friction, the pivot's height and its offset off the
+    /// axis, depth compliance, tilt relaxation), the sensor held as given: its own elastic
+    /// model, pins, camera and skin.
+    pub rig_only: bool,
 }
 
 impl Default for FitOptions {
@@ -67,6 +71,7 @@ impl Default for FitOptions {
             search_evaluations: 160,
             polish_evaluations: 80,
             models: vec![SkinModel::HalfSpace, SkinModel::Layer, SkinModel::SkinOnGel],
+            rig_only: false,
         }
     }
 }
@@ -162,7 +167,21 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
 
 /// The parameters a model fits, in the search's coordinates (friction and the gel ratio on a
 /// log scale), with the search's first steps.
-fn encode(d: &Deformation) -> (Vec<f64>, Vec<f64>) {
+/// With `rig_only`, the rig's parameters alone: depth offset, friction, pivot height, the
+/// pivot's offset `x`, `y`, depth compliance and tilt relaxation.
+fn encode(d: &Deformation, rig_only: bool) -> (Vec<f64>, Vec<f64>) {
+    if rig_only {
+        let p = vec![
+            d.depth_offset_mm,
+            d.friction.ln(),
+            d.pivot_mm,
+            d.pivot_offset_mm[0],
+            d.pivot_offset_mm[1],
+            d.depth_compliance,
+            d.tilt_relaxation_per_mm,
+        ];
+        return (p, vec![0.4, 0.5, 5.0, 1.0, 1.0, 0.05, 0.04]);
+    }
     let mut p = vec![
         d.depth_offset_mm,
         d.friction.ln(),
@@ -186,11 +205,38 @@ fn encode(d: &Deformation) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// Inverse of [`encode`] on `start`; `None` outside the physical bounds: depth offset
-/// -2..1.5 mm, friction 0.02..2, pivot 0..40 mm, pin length 0.5..3 mm, camera 4..80 mm,
-/// skin Poisson's ratio 0.3..0.5, depth compliance 0..0.3 mm^-0.5, tilt relaxation
-/// 0..0.15 per mm, base depth 3..25 mm, gel ratio 0.003..1.
-fn decode(start: &Deformation, p: &[f64]) -> Option<Deformation> {
+/// -2..1.5 mm, friction 0.02..2, pivot 0..40 mm, its offset within 10 mm of the axis, pin
+/// length 0.5..3 mm, camera 4..80 mm, skin Poisson's ratio 0.3..0.5, depth compliance
+/// 0..0.3 mm^-0.5, tilt relaxation 0..0.15 per mm, base depth 3..25 mm, gel ratio 0.003..1.
+fn decode(start: &Deformation, p: &[f64], rig_only: bool) -> Option<Deformation> {
     let mut d = start.clone();
+    if rig_only {
+        d.depth_offset_mm = p[0];
+        d.friction = p[1].exp();
+        d.pivot_mm = p[2];
+        d.pivot_offset_mm = [p[3], p[4]];
+        d.depth_compliance = p[5];
+        d.tilt_relaxation_per_mm = p[6];
+    } else {
+        decode_full(&mut d, p);
+    }
+    let within = |v: f64, lo: f64, hi: f64| v.is_finite() && (lo..=hi).contains(&v);
+    (within(d.depth_offset_mm, -2.0, 1.5)
+        && within(d.friction, 0.02, 2.0)
+        && within(d.pivot_mm, 0.0, 40.0)
+        && within(d.pivot_offset_mm[0].hypot(d.pivot_offset_mm[1]), 0.0, 10.0)
+        && within(d.pin_length_mm, 0.5, 3.0)
+        && within(d.camera_distance_mm, 4.0, 80.0)
+        && within(d.poisson, 0.3, 0.5)
+        && within(d.depth_compliance, 0.0, 0.3)
+        && within(d.tilt_relaxation_per_mm, 0.0, 0.15)
+        && within(d.base_depth_mm, 3.0, 25.0)
+        && within(d.gel_ratio, 0.003, 1.0))
+    .then_some(d)
+}
+
+/// The full fit's parameters `p` ([`encode`]) into `d`.
+fn decode_full(d: &mut Deformation, p: &[f64]) {
     d.depth_offset_mm = p[0];
     d.friction = p[1].exp();
     d.pivot_mm = p[2];
@@ -207,18 +253,6 @@ fn decode(start: &Deformation, p: &[f64]) -> Option<Deformation> {
     if d.model == SkinModel::SkinOnGel {
         d.gel_ratio = p[i].exp();
     }
-    let within = |v: f64, lo: f64, hi: f64| v.is_finite() && (lo..=hi).contains(&v);
-    (within(d.depth_offset_mm, -2.0, 1.5)
-        && within(d.friction, 0.02, 2.0)
-        && within(d.pivot_mm, 0.0, 40.0)
-        && within(d.pin_length_mm, 0.5, 3.0)
-        && within(d.camera_distance_mm, 4.0, 80.0)
-        && within(d.poisson, 0.3, 0.5)
-        && within(d.depth_compliance, 0.0, 0.3)
-        && within(d.tilt_relaxation_per_mm, 0.0, 0.15)
-        && within(d.base_depth_mm, 3.0, 25.0)
-        && within(d.gel_ratio, 0.003, 1.0))
-    .then_some(d)
 }
 
 /// Minimises the mean relative error over `which` from `start`, at most `evaluations` times.
@@ -228,12 +262,13 @@ fn minimise(
     frame: &RigFrame,
     which: &[usize],
     evaluations: usize,
+    rig_only: bool,
     progress: &dyn Fn(&str),
 ) -> Candidate {
-    let (p0, step) = encode(start);
+    let (p0, step) = encode(start, rig_only);
     let mut best = f64::INFINITY;
     let min = nelder_mead(&p0, &step, 1e-3, evaluations, |p| {
-        let Some(d) = decode(start, p) else { return f64::INFINITY };
+        let Some(d) = decode(start, p, rig_only) else { return f64::INFINITY };
         let v = problem.relative_error(&d, frame, which).unwrap_or(f64::INFINITY);
         if v < best {
             best = v;
@@ -241,7 +276,7 @@ fn minimise(
         }
         v
     });
-    let deformation = decode(start, &min.params).unwrap_or_else(|| start.clone());
+    let deformation = decode(start, &min.params, rig_only).unwrap_or_else(|| start.clone());
     Candidate { deformation, relative_error: min.value, evaluations: min.evaluations }
 }
 
@@ -266,7 +301,12 @@ pub fn calibrate(problem: &Problem, split: &Split, opts: &FitOptions, progress: 
         return Err(SimError::invalid("calibration", "models", "name at least one candidate elastic model"));
     }
     let search: Vec<usize> = split.train.iter().copied().step_by(opts.search_stride.max(1)).collect();
-    let first = start(problem.base, opts.models[0]);
+    // The rig alone: the sensor's own model and parameters, the robot tilting about the dome
+    // centre to start with.
+    let rig = Deformation { pivot_mm: problem.base.dome.outer_radius_mm, ..Deformation::of(problem.base, 0.3) };
+    let models = if opts.rig_only { vec![problem.base.skin.model] } else { opts.models.clone() };
+    let start_of = |model| if opts.rig_only { rig.clone() } else { start(problem.base, model) };
+    let first = start_of(models[0]);
     let frame = problem.frame(&first, &split.train)?;
     progress(&format!(
         "label frame: rotation {:.0} deg{}{}, shift residual {:.2} px",
@@ -276,15 +316,30 @@ pub fn calibrate(problem: &Problem, split: &Split, opts: &FitOptions, progress: 
         frame.rms_px
     ));
     let mut candidates = Vec::new();
-    for &model in &opts.models {
-        let c =
-            minimise(problem, &start(problem.base, model), &frame.frame, &search, opts.search_evaluations, progress);
+    for &model in &models {
+        let c = minimise(
+            problem,
+            &start_of(model),
+            &frame.frame,
+            &search,
+            opts.search_evaluations,
+            opts.rig_only,
+            progress,
+        );
         progress(&format!("{model:?}: relative error {:.3} after {} evaluations", c.relative_error, c.evaluations));
         candidates.push(c);
     }
     let best = candidates.iter().min_by(|a, b| a.relative_error.total_cmp(&b.relative_error)).expect("one model");
     let frame = problem.frame(&best.deformation, &split.train)?;
-    let polished = minimise(problem, &best.deformation, &frame.frame, &split.train, opts.polish_evaluations, progress);
+    let polished = minimise(
+        problem,
+        &best.deformation,
+        &frame.frame,
+        &split.train,
+        opts.polish_evaluations,
+        opts.rig_only,
+        progress,
+    );
     let sensor = polished.deformation.sensor(&problem.camera_at(polished.deformation.camera_distance_mm)?)?;
     Ok(Calibration {
         sensor,
@@ -304,13 +359,23 @@ mod tests {
         let base = SensorParams::default();
         for model in [SkinModel::HalfSpace, SkinModel::Layer, SkinModel::SkinOnGel] {
             let d = start(&base, model);
-            let (p, step) = encode(&d);
+            let (p, step) = encode(&d, false);
             assert_eq!(p.len(), step.len());
-            let back = decode(&d, &p).expect("in bounds");
+            let back = decode(&d, &p, false).expect("in bounds");
             assert!((back.friction - d.friction).abs() < 1e-12 && back.pivot_mm == d.pivot_mm, "{back:?}");
             let mut bad = p.clone();
             bad[3] = 3.5;
-            assert!(decode(&d, &bad).is_none(), "a 3.5 mm pin leaves no skin");
+            assert!(decode(&d, &bad, false).is_none(), "a 3.5 mm pin leaves no skin");
         }
+        // The rig alone: its parameters round-trip, the sensor's stay, and the pivot stays
+        // within 10 mm of the axis.
+        let mut d = start(&base, SkinModel::HalfSpace);
+        d.pivot_offset_mm = [0.5, -1.25];
+        let (p, step) = encode(&d, true);
+        assert_eq!((p.len(), step.len()), (7, 7));
+        assert_eq!(decode(&d, &p, true), Some(d.clone()));
+        let mut far = p.clone();
+        far[3] = 11.0;
+        assert!(decode(&d, &far, true).is_none(), "a pivot 11 mm off the axis");
     }
 }

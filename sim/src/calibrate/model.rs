@@ -49,6 +49,10 @@ pub struct Deformation {
     /// commanded indentation `c` (mm) ([`RigFrame::poses`]).
     #[serde(default)]
     pub tilt_relaxation_per_mm: f64,
+    /// Where the tilt pivot sits off the sensor's axis (mm, sensor frame `x`, `y`;
+    /// [`RigFrame::poses`]); fitted by `--rig-only` calibration, 0 in the full fit.
+    #[serde(default)]
+    pub pivot_offset_mm: [f64; 2],
     /// Camera distance behind the dome centre (mm) the camera is refitted at
     /// ([`crate::calibration::fit_camera_at`]): the undeformed image hardly tells it, the
     /// perspective of pins pressed towards the camera does.
@@ -72,6 +76,7 @@ impl Deformation {
             pivot_mm: 0.0,
             depth_compliance: 0.0,
             tilt_relaxation_per_mm: 0.0,
+            pivot_offset_mm: [0.0; 2],
             camera_distance_mm: sensor.camera.distance_mm,
             poisson: k.poisson,
         }
@@ -80,6 +85,7 @@ impl Deformation {
     /// The rig's press of these parameters.
     pub fn press(&self) -> Press {
         Press::new(self.depth_offset_mm, self.pivot_mm, self.depth_compliance, self.tilt_relaxation_per_mm)
+            .with_pivot_offset(self.pivot_offset_mm)
     }
 
     /// `base` with these parameters (validated).

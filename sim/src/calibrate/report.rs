@@ -315,6 +315,7 @@ pub fn markdown(r: &Report) -> String {
          | parameter | value |\n|---|---|\n\
          | elastic model | {:?} |\n| depth offset (added to the labelled depth) | {:.3} mm |\n\
          | friction | {:.3} |\n| tilt pivot above the apex | {:.2} mm |\n\
+         | tilt pivot off the axis (sensor x, y) | {:.3}, {:.3} mm |\n\
          | depth compliance of the rig (indentation lost: c d^1.5) | {:.4} mm^-0.5 |\n\
          | tilt relaxation under load (tilt kept: 1 - k d) | {:.4} per mm |\n| pin length | {:.3} mm |\n\
          | camera distance behind the dome centre | {:.2} mm |\n| skin Poisson's ratio | {:.3} |\n| base depth (layered models) | {:.2} mm |\n\
@@ -325,6 +326,8 @@ pub fn markdown(r: &Report) -> String {
         d.depth_offset_mm,
         d.friction,
         d.pivot_mm,
+        d.pivot_offset_mm[0],
+        d.pivot_offset_mm[1],
         d.depth_compliance,
         d.tilt_relaxation_per_mm,
         d.pin_length_mm,
@@ -342,7 +345,7 @@ pub fn markdown(r: &Report) -> String {
         s += &format!("| {:?} | {:.3} | {} |\n", c.deformation.model, c.relative_error, c.evaluations);
     }
     s += &format!(
-        "\nA dataset recipe replays this rig (labels in the lab's frame, the sensor where the rig took it) with:\n\n```toml\n[[shapes]]\nname = \"disk\"\nfriction = {:.3}\n\n[rig]\nrotation_deg = {:.1}\nmirrored = {}\ntilts_reversed = {}\ndepth_offset_mm = {:.3}\npivot_mm = {:.2}\ndepth_compliance = {:.4}\ntilt_relaxation_per_mm = {:.4}\n```\n",
+        "\nA dataset recipe replays this rig (labels in the lab's frame, the sensor where the rig took it) with:\n\n```toml\n[[shapes]]\nname = \"disk\"\nfriction = {:.3}\n\n[rig]\nrotation_deg = {:.1}\nmirrored = {}\ntilts_reversed = {}\ndepth_offset_mm = {:.3}\npivot_mm = {:.2}\ndepth_compliance = {:.4}\ntilt_relaxation_per_mm = {:.4}\npivot_offset_mm = [{:.3}, {:.3}]\n```\n",
         d.friction,
         r.frame.rotation_deg,
         r.frame.mirrored,
@@ -351,6 +354,8 @@ pub fn markdown(r: &Report) -> String {
         d.pivot_mm,
         d.depth_compliance,
         d.tilt_relaxation_per_mm,
+        d.pivot_offset_mm[0],
+        d.pivot_offset_mm[1],
     );
     s += &format!(
         "\n## Images\n\n![held-out recordings: real, simulated, difference (red: real only, cyan: \

@@ -194,6 +194,9 @@ pub struct RigSpec {
     pub depth_compliance: f64,
     /// Tilt kept under load: `1 - k c` (1/mm).
     pub tilt_relaxation_per_mm: f64,
+    /// The pivot's offset off the sensor's axis (mm, sensor frame `x`, `y`): a tilt then
+    /// raises the apex in proportion to it.
+    pub pivot_offset_mm: [f64; 2],
 }
 
 impl RigSpec {
@@ -205,6 +208,7 @@ impl RigSpec {
     /// The rig's press.
     pub fn press(&self) -> Press {
         Press::new(self.depth_offset_mm, self.pivot_mm, self.depth_compliance, self.tilt_relaxation_per_mm)
+            .with_pivot_offset(self.pivot_offset_mm)
     }
 }
 
@@ -431,6 +435,8 @@ impl Recipe {
         one("rig.pivot_mm", r.pivot_mm, 0.0, 200.0)?;
         one("rig.depth_compliance", r.depth_compliance, 0.0, 1.0)?;
         one("rig.tilt_relaxation_per_mm", r.tilt_relaxation_per_mm, 0.0, 0.2)?;
+        one("rig.pivot_offset_mm[0]", r.pivot_offset_mm[0], -10.0, 10.0)?;
+        one("rig.pivot_offset_mm[1]", r.pivot_offset_mm[1], -10.0, 10.0)?;
         let sp = &self.split;
         for (field, v) in [("split.train", sp.train), ("split.val", sp.val), ("split.test", sp.test)] {
             if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
@@ -493,6 +499,7 @@ mod tests {
             ("[rig]\nrotation_deg = 1e300\n", "rig.rotation_deg"),
             ("[rig]\ntilt_relaxation_per_mm = 0.5\n", "rig.tilt_relaxation_per_mm"),
             ("[rig]\nscale = 2.0\n", "scale"),
+            ("[rig]\npivot_offset_mm = [0.0, -12.0]\n", "rig.pivot_offset_mm[1]"),
             ("[[shapes]]\nname = \"disk\"\nfriction = 3.0\n", "shapes[0].friction"),
         ] {
             let e = Recipe::from_toml_str(text, "r.toml").expect_err(text).to_string();
