@@ -47,6 +47,24 @@ fn a_tiny_lab_folder_calibrates_into_a_preset_and_a_held_out_report() {
     let grid = image::open(report_dir.join("grid.png")).expect("grid.png");
     assert_eq!(grid.width(), 3 * 210);
     assert_eq!(grid.height(), 210 * rows.len().min(12) as u32);
+
+    // The rig alone on the same folder, the preset just written held: the preset it writes is
+    // that sensor unchanged, and its report carries the pivot's offset off the axis.
+    let rig = dir.join("rig/preset.toml");
+    let o =
+        tacsim(&["calibrate", "--real", s(&lab), "--sensor", s(&preset), "--rig-only", "-o", s(&rig), "--quick", "-q"]);
+    assert!(o.status.success(), "calibrate --rig-only failed: {}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(SensorParams::load(&rig).expect("the rig run's preset"), sensor, "--rig-only keeps the sensor");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("rig/preset-report/report.json")).expect("report.json"))
+            .expect("json");
+    let d = &report["deformation"];
+    assert_eq!(d["pin_length_mm"].as_f64(), Some(sensor.pins.length_mm), "{d}");
+    assert!(d["pivot_offset_mm"].as_array().is_some_and(|a| a.len() == 2), "{d}");
+    let md = std::fs::read_to_string(dir.join("rig/preset-report/report.md")).expect("report.md");
+    assert!(md.contains("pivot_offset_mm = ["), "the [rig] block carries the offset");
+    let e = err(&["calibrate", "--real", s(&lab), "-o", s(&rig), "--rig-only", "--camera-only"]);
+    assert!(e.contains("--rig-only") && e.contains("--camera-only"), "{e}");
 }
 
 #[test]
