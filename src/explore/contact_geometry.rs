@@ -120,26 +120,15 @@ impl ContactGeometry {
     /// tracked positions `current_px` (same order as the reference; `None` where a pin was
     /// lost), placed at their rest positions `rest_mm` (same order).
     pub fn indentation(&self, current_px: &[Option<[f64; 2]>], rest_mm: &[Option<[f64; 2]>]) -> Vec<PinIndentation> {
-        self.dilation(current_px)
-            .iter()
-            .zip(rest_mm)
-            .filter_map(|(d, r)| Some(PinIndentation { rest_mm: (*r)?, dilation: (*d)? }))
-            .collect()
-    }
-
-    /// Each pin's cell growth `A / A0 - 1` (at least 0) at the tracked positions `current_px`
-    /// (same order as the reference); `None` where a pin or its cell is missing. A shear
-    /// (neighbours sliding past each other, as along the side of a dragged contact) keeps
-    /// the area: only pressing grows it.
-    pub fn dilation(&self, current_px: &[Option<[f64; 2]>]) -> Vec<Option<f64>> {
         // A dilated cell may reach further than an undeformed one.
         let areas = cell_areas(current_px, 2.0 * self.reach_px);
         areas
             .iter()
             .zip(&self.reference_area)
-            .map(|(a, a0)| {
-                let (a, a0) = ((*a)?, (*a0)?);
-                (a0 > 0.0).then(|| (a / a0 - 1.0).max(0.0))
+            .zip(rest_mm)
+            .filter_map(|((a, a0), r)| {
+                let (a, a0, r) = ((*a)?, (*a0)?, (*r)?);
+                (a0 > 0.0).then(|| PinIndentation { rest_mm: r, dilation: (a / a0 - 1.0).max(0.0) })
             })
             .collect()
     }
@@ -159,13 +148,6 @@ pub fn touching(pins: &[PinIndentation], free: f64, touch: f64, points: &[[f64; 
     if max <= NO_CONTACT {
         return vec![Some(false); points.len()];
     }
-    classify(pins, free * max, touch * max, points)
-}
-
-/// The surface of `pins` (natural-neighbour interpolation of their `dilation`) read against
-/// absolute thresholds: `Some(true)` above `touch`, `Some(false)` below `free`, `None`
-/// between and outside the pins.
-pub fn classify(pins: &[PinIndentation], free: f64, touch: f64, points: &[[f64; 2]]) -> Vec<Option<bool>> {
     let samples: Vec<Sample> =
         pins.iter().map(|p| Sample { p: Point2::new(p.rest_mm[0], p.rest_mm[1]), value: p.dilation }).collect();
     let Ok(tri) = DelaunayTriangulation::<Sample>::bulk_load_stable(samples) else {
@@ -176,9 +158,9 @@ pub fn classify(pins: &[PinIndentation], free: f64, touch: f64, points: &[[f64; 
         .iter()
         .map(|q| {
             let v = nn.interpolate(|v| v.data().value, Point2::new(q[0], q[1]))?;
-            if v > touch {
+            if v > touch * max {
                 Some(true)
-            } else if v < free {
+            } else if v < free * max {
                 Some(false)
             } else {
                 None

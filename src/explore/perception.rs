@@ -235,11 +235,6 @@ impl Geometric {
         Ok(g)
     }
 
-    /// How far the contact reaches from the apex in the reference press (mm).
-    pub fn reach_mm(&self) -> f64 {
-        self.reach_mm
-    }
-
     /// The contact patch of the image of the latest estimate: whether the skin touches at
     /// each of `points` (contact-plane mm, sensor frame), from the tracked pins' Voronoi
     /// cells ([`super::contact_geometry`], thresholds `TOUCH_SHARE` and `FREE_SHARE`);

@@ -219,8 +219,9 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
         ..pose0
     };
     sim.step(back)?;
-    for p in Robot::new(back, scenario.substep_mm).move_to(pose0) {
-        sim.step(p)?;
+    let onto_start = Robot::new(back, scenario.substep_mm).move_to(pose0);
+    for p in &onto_start {
+        sim.step(*p)?;
     }
     let centres = grid.centres();
     // Each visited pose adds its contact patch: the contact engine's to `fusion`, and, with
@@ -241,7 +242,7 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
     if let Some(g) = &mut pins {
         g.tare(&sim.pins(), EdgeEstimate { offset_mm: r, angle_deg: 0.0 });
     }
-    let mut substeps = 1;
+    let mut substeps = 1 + onto_start.len();
     let mut trajectory = vec![[pose0.x_mm, pose0.y_mm, pose0.yaw_deg]];
     let (mut deviations, mut yaw_errors) = (Vec::new(), Vec::new());
     let s0 = arc_position(&outline, &cumulative, [pose0.x_mm, pose0.y_mm]);
