@@ -20,27 +20,54 @@ use tacsim_sim::calibration::ring_table;
 use tacsim_sim::sensor::{SensorParams, SkinModel};
 
 /// What `tacsim calibrate` was asked.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, clap::Args)]
 pub struct CalibrateOptions {
     /// The lab folder.
+    #[arg(long)]
     pub real: PathBuf,
-    /// The sensor to start from (default: the built-in TacTip, itself calibrated on the lab's
-    /// recordings; `sim/presets/tactip-331-camera.toml` is the uncalibrated start it came from).
+    /// Sensor TOML or built-in preset to start from (default: the built-in TacTip, itself
+    /// calibrated on the lab's recordings; `sim/presets/tactip-331-camera.toml` is the
+    /// uncalibrated start it came from).
+    #[arg(long)]
     pub sensor: Option<PathBuf>,
-    /// Where the preset goes.
+    /// The preset TOML to write.
+    #[arg(short, long)]
     pub output: PathBuf,
-    /// Where the report goes (default: beside the preset, `<stem>-report/`).
+    /// Report directory (default: `<preset stem>-report/` beside the preset).
+    #[arg(long)]
     pub report: Option<PathBuf>,
-    /// The undeformed reference image under `images/` (default: `image_0.png` where it
-    /// exists, else the consensus of the shallowest recordings).
+    /// The undeformed reference image under images/ (default: image_0.png where it exists,
+    /// else the pixel-wise majority of the shallowest 5% of the recordings, at least 30; 20 of
+    /// the surface recordings left a layout the ring grouping could not read).
+    #[arg(long)]
     pub reference: Option<String>,
-    /// Fit the camera, ring layout and framing only (no deformation fit).
+    /// Fit the camera, ring layout and image framing (rim, mask) to the reference only: a
+    /// preset at the recordings' image size, for a TacTip whose recordings are not of a flat
+    /// surface.
+    #[arg(long, conflicts_with = "quick")]
     pub camera_only: bool,
-    /// Fit the rig only, the sensor held as given ([`FitOptions::rig_only`]).
+    /// Fit the rig alone (depth offset, friction, the tilt pivot's height and its offset off
+    /// the axis, yield, tilt relaxation), the sensor held as given ([`FitOptions::rig_only`]):
+    /// for a preset already calibrated. The preset written is the sensor unchanged.
+    #[arg(long, conflicts_with = "camera_only")]
     pub rig_only: bool,
-    /// A short fit (one model, few evaluations): for tests and a first look.
+    /// The recordings are taps on this stimulus's edge (a catalogue shape, e.g. square) at
+    /// labelled lateral offset, depth and yaw: fits the label map and compares the edge's
+    /// rounding (0, 1, 2, 4 mm) and the pins' skin patch (0.75, 1.5, 2.5 mm) on the held-out
+    /// per-pin error, the rest of the sensor held as given ([`crate::edge_fit`]). The preset
+    /// written is the sensor with the best candidate's skin patch.
+    #[arg(long, conflicts_with_all = ["camera_only", "rig_only"])]
+    pub edge: Option<String>,
+    /// With --edge: the point on the shape's edge the taps' lateral offsets are measured from
+    /// (x,y mm, object frame; default: the catalogue's contact point). The square's straight
+    /// side: 45,0.
+    #[arg(long, requires = "edge", value_parser = crate::commands::parse_offset, allow_hyphen_values = true)]
+    pub edge_contact: Option<[f64; 2]>,
+    /// A short fit (one model, few evaluations) for a first look.
+    #[arg(long)]
     pub quick: bool,
     /// No progress spinner.
+    #[arg(long, short)]
     pub quiet: bool,
 }
 
@@ -63,6 +90,8 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         crate::commands::ensure_writable(dir)?;
     }
     let reference = Reference::of(&folder, o.reference.as_deref())?;
+    // The edge's stimulus and contact point are checked before any tracking.
+    let edge = o.edge.as_deref().map(|shape| crate::edge_fit::edge_stimulus(shape, o.edge_contact)).transpose()?;
     if o.camera_only {
         return camera_only(o, &reference, &base, &report_dir, command);
     }
@@ -73,6 +102,26 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     spinner.set_message(format!("tracking the pins of {} recordings", folder.samples.len()));
     let obs = Observations::track(&folder, &reference)?;
     let split = Split::of(&obs);
+    if let Some((stimulus, contact)) = edge {
+        let step = |m: &str| {
+            if !o.quiet {
+                eprintln!("[{:>6.1} s] {m}", started.elapsed().as_secs_f64());
+            }
+        };
+        spinner.finish_and_clear();
+        let summary = crate::edge_fit::edge_fit(&crate::edge_fit::EdgeFitJob {
+            options: o,
+            stimulus,
+            contact,
+            obs: &obs,
+            split: &split,
+            base: &base,
+            report_dir: &report_dir,
+            command,
+            progress: &step,
+        })?;
+        return Ok(summary);
+    }
     if split.train.len() < 8 || split.held_out.is_empty() {
         bail!(
             "{}: {} recordings besides the reference give {} to fit and {} to hold out; record at least 10",

@@ -94,7 +94,10 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
         .zip(&plan.recipe.shapes)
         .map(|((name, _), spec)| -> Result<Scene> {
             let mut scene = Scene::new();
-            scene.add(catalogue.get(name)?.with_friction(spec.friction), ObjectPose::default())?;
+            scene.add(
+                catalogue.get(name)?.with_friction(spec.friction).with_edge_radius(spec.edge_radius_mm),
+                ObjectPose::default(),
+            )?;
             Ok(scene)
         })
         .collect::<Result<Vec<_>>>()?;

@@ -11,6 +11,7 @@ pub mod bench;
 pub mod calibrate;
 pub mod commands;
 pub mod dataset;
+pub mod edge_fit;
 pub mod embedded;
 pub mod explore;
 pub mod learn;

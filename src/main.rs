@@ -187,45 +187,12 @@ enum Command {
         #[arg(required = true)]
         runs: Vec<PathBuf>,
     },
-    /// Fit the simulator to a lab's recordings of a flat surface (`targets.csv` + `images/`,
-    /// as in the lab's `surface_3d` folders): the label frame, the elastic model and its
-    /// parameters on 80% of the recordings; writes a sensor preset and a report on the
-    /// held-out 20% (report.md, report.json, grid.png).
-    Calibrate {
-        /// The lab folder.
-        #[arg(long)]
-        real: PathBuf,
-        /// Sensor TOML or built-in preset to start from (default: the built-in TacTip).
-        #[arg(long)]
-        sensor: Option<PathBuf>,
-        /// The preset TOML to write.
-        #[arg(short, long)]
-        output: PathBuf,
-        /// Report directory (default: `<preset stem>-report/` beside the preset).
-        #[arg(long)]
-        report: Option<PathBuf>,
-        /// The undeformed reference image under images/ (default: image_0.png where it exists,
-        /// else the pixel-wise majority of the shallowest 5% of the recordings, at least 30; 20 of the
-        /// surface recordings left a layout the ring grouping could not read).
-        #[arg(long)]
-        reference: Option<String>,
-        /// Fit the camera, ring layout and image framing (rim, mask) to the reference only:
-        /// a preset at the recordings' image size, for a TacTip whose recordings are not of a
-        /// flat surface.
-        #[arg(long, conflicts_with = "quick")]
-        camera_only: bool,
-        /// Fit the rig alone (depth offset, friction, the tilt pivot's height and its offset
-        /// off the axis, yield, tilt relaxation), the sensor held as given: for a preset
-        /// already calibrated. The preset written is the sensor unchanged.
-        #[arg(long, conflicts_with = "camera_only")]
-        rig_only: bool,
-        /// A short fit (one model, few evaluations) for a first look.
-        #[arg(long)]
-        quick: bool,
-        /// No progress spinner.
-        #[arg(long, short)]
-        quiet: bool,
-    },
+    /// Fit the simulator to a lab's recordings (`targets.csv` + `images/`): of a flat surface
+    /// (as in the lab's `surface_3d` folders) the label frame, the elastic model and its
+    /// parameters on 80% of the recordings; of taps on an edge (--edge) the label map and the
+    /// edge's and skin's candidates. Writes a sensor preset and a report on the held-out 20%
+    /// (report.md, report.json, grid.png).
+    Calibrate(tacsim::calibrate::CalibrateOptions),
     /// Sim-to-real benchmark on a lab's recordings: generates the recipe's simulated set,
     /// trains the pose network on it only and, beside it, on the lab folder's fitting part
     /// (80%); fits the label map on the fitting part; reports both on the held-out 20%
@@ -332,18 +299,7 @@ fn main() -> Result<()> {
         Command::Eval { data, out, max_pairs, backend, lab, runs } => {
             print!("{}", tacsim::learn::evaluate(&data, &runs, &out, max_pairs, backend, lab)?);
         }
-        Command::Calibrate { real, sensor, output, report, reference, camera_only, rig_only, quick, quiet } => {
-            let o = tacsim::calibrate::CalibrateOptions {
-                real,
-                sensor,
-                output,
-                report,
-                reference,
-                camera_only,
-                rig_only,
-                quick,
-                quiet,
-            };
+        Command::Calibrate(o) => {
             print!("{}", tacsim::calibrate::calibrate(&o, &command_line())?);
         }
         Command::Sim2real(o) => {

@@ -246,3 +246,75 @@ fn the_edge2d_preset_is_what_camera_only_makes_of_the_edge_recordings() {
         .expect("RMS in the summary");
     assert!(rms < 0.5, "{summary}");
 }
+
+/// `--edge`: taps simulated on the square's rounded edge with a known label map (lateral
+/// reversed and measured from 1 mm off the edge, yaw reversed and turned, depth zero 2.9 mm
+/// above first touch; the lab's older column names, an undeformed `image_0.png`) give that
+/// map back, and the rounding they were made with fits the held-out taps best.
+#[test]
+fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with() {
+    use tacsim_sim::calibrate::edge::{edge_scene, sensor_pose};
+    use tacsim_sim::contact::engine::{ContactModel, Simulation};
+    use tacsim_sim::stimulus::Catalogue;
+
+    let mut sensor = SensorParams::preset("tactip-331-edge2d").expect("preset");
+    sensor.skin.cells_across = 17;
+    let shapes = Path::new(env!("CARGO_MANIFEST_DIR")).join("shapes");
+    let square = Catalogue::load_dir(&shapes).expect("catalogue").get("square").expect("square");
+    let (scene, frame) = edge_scene(square.with_edge_radius(Some(2.0)), [45.0, 0.0]).expect("edge");
+    let model = ContactModel::new(&sensor);
+    let renderer = PinRenderer::new(&sensor, 320).expect("renderable");
+    let dir = temp_dir("calibrate", "edge");
+    let lab = dir.join("lab");
+    std::fs::create_dir_all(lab.join("images")).expect("lab dir");
+    renderer.render_undeformed().save(lab.join("images/image_0.png")).expect("save");
+    let mut csv = String::from(
+        "sensor_image,pose_1,pose_2,pose_3,pose_4,pose_5,pose_6,move_1,move_2,move_3,move_4,move_5,move_6\n",
+    );
+    for i in 1..=40 {
+        // Edge frame: x across the edge (mm), indentation (mm), yaw (deg), spread by coprime steps.
+        let x = -3.0 + 0.25 * ((i * 7) % 24) as f64;
+        let depth = 0.6 + 0.1 * ((i * 3) % 15) as f64;
+        let yaw = -40.0 + 10.0 * ((i * 5) % 9) as f64;
+        let pose = sensor_pose(&frame, (x, depth, yaw));
+        let mut sim = Simulation::new(&model, &scene, &[pose]);
+        sim.step(pose).expect("tap");
+        renderer.render(&sim.pins()).save(lab.join(format!("images/image_{i}.png"))).expect("save");
+        csv.push_str(&format!("image_{i}.png,0,{},{},0,0,{},0,0,0,0,0,0\n", 1.0 - x, depth + 2.9, -(yaw + 178.8)));
+    }
+    std::fs::write(lab.join("targets.csv"), csv).expect("csv");
+    let preset = dir.join("out/edge.toml");
+    let o = tacsim(&[
+        "calibrate",
+        "--real",
+        s(&lab),
+        "--sensor",
+        "tactip-331-edge2d",
+        "--edge",
+        "square",
+        "--edge-contact",
+        "45,0",
+        "-o",
+        s(&preset),
+        "-q",
+    ]);
+    assert!(o.status.success(), "calibrate --edge failed: {}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out/edge-report/report.json")).expect("report.json"))
+            .expect("json");
+    let best = &report["candidates"][report["best"].as_u64().expect("best") as usize];
+    let l = &best["labels"];
+    let f = |v: &serde_json::Value| v.as_f64().expect("number");
+    assert_eq!((f(&l["lateral_sign"]), f(&l["yaw_sign"]), l["lateral"].as_u64()), (-1.0, -1.0, Some(1)), "{best}");
+    assert!((f(&l["lateral_offset_mm"]) - 1.0).abs() < 0.3, "{best}");
+    assert!((f(&l["yaw_offset_deg"]) + 178.8).abs() < 6.0, "{best}");
+    assert!((f(&l["depth_offset_mm"]) + 2.9).abs() < 0.15, "{best}");
+    assert_eq!(f(&best["edge_radius_mm"]), 2.0, "{report}");
+    // What is left is the 320 px images' quantisation (pins tracked as pixel blobs).
+    assert!(f(&best["held_out_error"]) < 0.12, "{best}");
+    assert_eq!(SensorParams::load(&preset).expect("preset").name, "tactip-331-edge2d", "the sensor is held");
+    let md = std::fs::read_to_string(dir.join("out/edge-report/report.md")).expect("report.md");
+    assert!(md.contains(&format!("| 2 | {} (best) |", sensor.pins.patch_radius_mm)), "{md}");
+    let e = err(&["calibrate", "--real", s(&lab), "--edge", "square", "--edge-contact", "30,0", "-o", s(&preset)]);
+    assert!(e.contains("--edge-contact 30,0") && e.contains("from the edge"), "{e}");
+}

@@ -40,6 +40,8 @@ pub struct PinLayout {
     pub pins: Vec<Pin>,
     /// Radius of the spherical pin tips (mm).
     pub tip_radius_mm: f64,
+    /// Radius of the skin patch each pin moves and turns with (mm; `pins.patch_radius_mm`).
+    pub patch_radius_mm: f64,
 }
 
 impl PinLayout {
@@ -64,7 +66,7 @@ impl PinLayout {
                 push(ring, j, theta, phase + std::f64::consts::TAU * j as f64 / n as f64);
             }
         }
-        Self { pins, tip_radius_mm: sensor.pins.tip_radius_mm }
+        Self { pins, tip_radius_mm: sensor.pins.tip_radius_mm, patch_radius_mm: sensor.pins.patch_radius_mm }
     }
 
     /// Undeformed pin poses, in pin order.

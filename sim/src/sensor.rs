@@ -153,6 +153,9 @@ impl Default for SkinParams {
     }
 }
 
+/// Largest skin patch a pin turns with (mm).
+pub const MAX_PATCH_RADIUS_MM: f64 = 5.0;
+
 /// The hemispherical skin.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -181,6 +184,18 @@ pub struct PinParams {
     pub ring_polar_deg: Option<Vec<f64>>,
     /// Azimuth of the first pin of every ring (deg), measured from `+x` towards `+y`.
     pub phase_deg: f64,
+    /// Radius (mm, 0 to 5) of the skin patch each pin moves and turns with: the base's
+    /// displacement and the skin's rotation are averaged over the base and six points on a
+    /// circle of this radius about it (0: the base point alone). A stiff skin bends over a
+    /// length of this order where a sharp edge ends the contact, instead of kinking as the
+    /// half-space beneath does; the lever then turns the pins gently rather than splitting them
+    /// apart along the edge. Fitted on edge taps (`tacsim calibrate --edge`).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub patch_radius_mm: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// Pinhole camera with optional radial distortion, on the dome axis looking along `+z`.
@@ -235,6 +250,7 @@ impl Default for PinParams {
             ring_pitch_deg: 4.536447148352858,
             ring_polar_deg: None,
             phase_deg: -0.3577987694874839,
+            patch_radius_mm: 0.0,
         }
     }
 }
@@ -417,8 +433,15 @@ impl SensorParams {
             ("pins.tip_radius_mm", p.tip_radius_mm),
             ("pins.ring_pitch_deg", p.ring_pitch_deg),
             ("pins.phase_deg", p.phase_deg),
+            ("pins.patch_radius_mm", p.patch_radius_mm),
         ] {
             finite(field, v)?;
+        }
+        if !(0.0..=MAX_PATCH_RADIUS_MM).contains(&p.patch_radius_mm) {
+            return bad(
+                "pins.patch_radius_mm",
+                format!("must be in [0, {MAX_PATCH_RADIUS_MM}] mm, got {}", p.patch_radius_mm),
+            );
         }
         if p.rings > MAX_RINGS {
             return bad("pins.rings", format!("must be at most {MAX_RINGS}, got {}", p.rings));

@@ -242,3 +242,39 @@ fn a_tilted_press_pushes_the_skin_along_the_surface_normal() {
         assert!((along / -apex.z - 1.0).abs() < 0.05, "{along} vs {}", -apex.z);
     }
 }
+
+/// The rounded edge (`edge_radius_mm`) lowers the top face within the radius of the edge by
+/// the quarter circle `r - sqrt(r^2 - (r - s)^2)` (`s` in from the edge) and leaves the rest of
+/// the gap as the sharp edge's: vertical rays, so the gap grows by exactly that drop.
+#[test]
+fn a_rounded_edge_lowers_the_top_face_by_the_quarter_circle() {
+    use tacsim_sim::contact::engine::initial_gap;
+    use tacsim_sim::contact::frame::ContactFrame;
+    use tacsim_sim::contact::grid::Grid;
+
+    let cat = Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue");
+    let square = cat.get("square").expect("square");
+    let model = ContactModel::new(&SensorParams::default());
+    // The square's right side is the line x = 45 mm, material at x < 45; the sensor over it.
+    let pose = SensorPose::new(45.0, 0.0, 1.0, 0.0);
+    // Cell centres at x = -3.875..4.125 mm (none on the edge line), y = -1..1 mm.
+    let grid = Grid { nx: 33, ny: 9, cell_mm: 0.25, centre_mm: [0.125, 0.0] };
+    let gaps = |radius: Option<f64>| -> Vec<f64> {
+        let mut scene = Scene::new();
+        scene.add(square.with_edge_radius(radius), ObjectPose::default()).expect("add");
+        initial_gap(&model, &scene, &pose, &ContactFrame::SENSOR, &grid).into_iter().map(|g| g.0).collect()
+    };
+    let (sharp, rounded) = (gaps(None), gaps(Some(2.0)));
+    let mut checked = 0;
+    for (k, c) in grid.centres().iter().enumerate() {
+        let s = -c[0]; // in from the edge (mm)
+        if s <= 0.0 {
+            assert!(sharp[k].is_infinite() && rounded[k].is_infinite(), "off the material at {c:?}");
+            continue;
+        }
+        let drop = if s < 2.0 { 2.0 - (4.0 - (2.0 - s) * (2.0 - s)).sqrt() } else { 0.0 };
+        assert!((rounded[k] - sharp[k] - drop).abs() < 1e-4, "at {c:?}: {} vs {} + {drop}", rounded[k], sharp[k]);
+        checked += 1;
+    }
+    assert!(checked > 100, "{checked} cells over the material");
+}

@@ -8,10 +8,12 @@ use super::model::{
     simulate_pins, tip_pixels,
 };
 use super::observe::Observations;
-use crate::contact::engine::ContactModel;
+use crate::contact::engine::{ContactModel, Simulation};
+use crate::contact::pose::SensorPose;
 use crate::error::Result;
 use crate::pins::PinPose;
 use crate::render::PinRenderer;
+use crate::scene::Scene;
 use crate::sensor::SensorParams;
 use crate::stimulus::Stimulus;
 
@@ -32,7 +34,7 @@ pub struct Simulator {
     pub sensor: SensorParams,
     model: ContactModel,
     renderer: PinRenderer,
-    scene: crate::scene::Scene,
+    scene: Scene,
     reference_to_sim: Vec<Option<usize>>,
     deformation: Deformation,
 }
@@ -47,6 +49,18 @@ impl Simulator {
         obs: &Observations,
         surface: &Stimulus,
     ) -> Result<Self> {
+        Self::on_scene(base, deformation, cells, obs, flat_scene(surface, deformation.friction)?)
+    }
+
+    /// The simulator of `deformation` on `base` for the reference pins of `obs`, pressing into
+    /// `scene` (a stimulus other than the flat surface: [`super::edge`]).
+    pub fn on_scene(
+        base: &SensorParams,
+        deformation: &Deformation,
+        cells: usize,
+        obs: &Observations,
+        scene: Scene,
+    ) -> Result<Self> {
         let mut sensor = deformation.sensor(base)?;
         sensor.skin.cells_across = cells;
         sensor.validate("calibration")?;
@@ -54,8 +68,14 @@ impl Simulator {
         let renderer = PinRenderer::new(&sensor, obs.size)?;
         let radius = MATCH_PX420 * obs.size as f64 / 420.0;
         let reference_to_sim = match_reference(&renderer, &model.layout.poses(), &obs.reference, radius);
-        let scene = flat_scene(surface, deformation.friction)?;
         Ok(Self { sensor, model, renderer, scene, reference_to_sim, deformation: deformation.clone() })
+    }
+
+    /// Simulated pins of a vertical tap at `pose` (scene frame) from above.
+    pub fn tap(&self, pose: SensorPose) -> Result<Vec<PinPose>> {
+        let mut sim = Simulation::new(&self.model, &self.scene, &[pose]);
+        sim.step(pose)?;
+        Ok(sim.pins())
     }
 
     /// For each real reference pin, its simulated sensor pin.

@@ -8,6 +8,7 @@
 //! [`camera`] fits a sensor's camera, ring layout and framing to that reference alone.
 
 pub mod camera;
+pub mod edge;
 pub mod evaluate;
 pub mod fitting;
 pub mod frame;

@@ -249,11 +249,27 @@ pub fn initial_gap(
     let hits = scene.cast_rays(&origins, [dir.x, dir.y, dir.z], back + 2.0 * radius);
     hits.iter()
         .zip(&on_dome)
-        .map(|(hit, &inside)| match (hit, inside) {
-            (Some((toi, id)), true) => (toi - back, scene.objects()[*id].stimulus.entry.friction),
+        .zip(&origins)
+        .map(|((hit, &inside), o)| match (hit, inside) {
+            (Some((toi, id)), true) => {
+                let stimulus = &scene.objects()[*id].stimulus;
+                (toi - back + rounding_mm(scene, *id, o, dir, *toi), stimulus.entry.friction)
+            }
             _ => (f64::INFINITY, 0.0),
         })
         .collect()
+}
+
+/// How much further (mm, along the ray `dir` from `origin`) the rounded edge of object `id`
+/// lies than the sharp top face the ray hit at `toi` (mm): the drop below the top face at
+/// the hit point over the ray's downward slope (exact for rays straight down).
+fn rounding_mm(scene: &Scene, id: usize, origin: &[f64; 3], dir: Vector3<f64>, toi: f64) -> f64 {
+    let stimulus = &scene.objects()[id].stimulus;
+    if stimulus.entry.edge_radius_mm <= 0.0 || dir.z >= -1e-6 {
+        return 0.0;
+    }
+    let (x, y) = (origin[0] + toi * dir.x, origin[1] + toi * dir.y);
+    stimulus.drop_below_top_mm(scene.edge(id, x, y).signed_distance_mm) / -dir.z
 }
 
 /// A sensor moving over a scene with contact history.

@@ -10,7 +10,10 @@
 //! the apex of the contact frame, [`super::frame`], in which the layout is given): on a half-space a base at sensor point `X` sits at lateral `(X.x, X.y)` and depth
 //! `R - X.z`; on layers ([`super::layered`]) every base sits at the skin's inner surface (the
 //! top layer's bottom) under `(X.x, X.y)`: the dome unrolled onto the contact plane, so that
-//! the pins stay in the skin that carries them.
+//! the pins stay in the skin that carries them. With a skin patch (`pins.patch_radius_mm`
+//! `a > 0`) `u(base)` and `omega` are the means over the base and six points on the circle of
+//! radius `a` about it, in the contact plane at the base's depth: a stiff skin's bending
+//! spreads the turn over that length.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -216,16 +219,41 @@ pub fn displaced_pins(
         .par_iter()
         .map(|pin| {
             let base = pin.base.coords;
-            let at =
-                [base, base + Vector3::x() * STEP_MM, base + Vector3::y() * STEP_MM, base + Vector3::z() * STEP_MM];
-            let depth = at.map(|p| kernel.depth(dome_radius_mm, &base, &p));
-            let [u, ux, uy, uz] = forces.displacements(kernel, &at, &depth, exact);
-            // Gradient by forward differences: column k = d u / d x_k.
-            let (gx, gy, gz) = ((ux - u) / STEP_MM, (uy - u) / STEP_MM, (uz - u) / STEP_MM);
-            let omega = 0.5 * Vector3::new(gy.z - gz.y, gz.x - gx.z, gx.y - gy.x);
+            let (u, omega) = if layout.patch_radius_mm > 0.0 {
+                // The mean over the base and six points on the patch's circle (in the contact
+                // plane's x, y, at the base's depth).
+                let mut sum = skin_motion(kernel, dome_radius_mm, forces, exact, &base, base);
+                for k in 0..6 {
+                    let (s, c) = (std::f64::consts::FRAC_PI_3 * k as f64).sin_cos();
+                    let at = base + Vector3::new(c, s, 0.0) * layout.patch_radius_mm;
+                    let m = skin_motion(kernel, dome_radius_mm, forces, exact, &base, at);
+                    sum = (sum.0 + m.0, sum.1 + m.1);
+                }
+                (sum.0 / 7.0, sum.1 / 7.0)
+            } else {
+                skin_motion(kernel, dome_radius_mm, forces, exact, &base, base)
+            };
             let lever = pin.tip.coords - base;
             let axis = (pin.normal + omega.cross(&pin.normal)).normalize();
             PinPose { tip: (pin.tip.coords + u + omega.cross(&lever)).into(), axis }
         })
         .collect()
+}
+
+/// Displacement (mm) and rotation `omega = curl(u) / 2` (rad) of the skin at `at`, near the pin
+/// base `base` (whose depth rule applies).
+fn skin_motion(
+    kernel: &PinKernel<'_>,
+    dome_radius_mm: f64,
+    forces: &CellForces,
+    exact: bool,
+    base: &Vector3<f64>,
+    at: Vector3<f64>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    let points = [at, at + Vector3::x() * STEP_MM, at + Vector3::y() * STEP_MM, at + Vector3::z() * STEP_MM];
+    let depth = points.map(|p| kernel.depth(dome_radius_mm, base, &p));
+    let [u, ux, uy, uz] = forces.displacements(kernel, &points, &depth, exact);
+    // Gradient by forward differences: column k = d u / d x_k.
+    let (gx, gy, gz) = ((ux - u) / STEP_MM, (uy - u) / STEP_MM, (uz - u) / STEP_MM);
+    (u, 0.5 * Vector3::new(gy.z - gz.y, gz.x - gx.z, gx.y - gy.x))
 }

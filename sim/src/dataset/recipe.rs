@@ -60,6 +60,10 @@ pub struct ShapeSpec {
     /// `tacsim calibrate` for a lab's surface).
     #[serde(default)]
     pub friction: Option<f64>,
+    /// Rounding radius (mm) of the top face's edge, overriding the catalogue's (0: sharp;
+    /// [`crate::stimulus::Stimulus::with_edge_radius`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub edge_radius_mm: Option<f64>,
 }
 
 /// The frame the pose labels (and the slides' touch-down offsets) are given in.
@@ -256,7 +260,7 @@ impl Default for Recipe {
             sensor: None,
             shapes: ["disk", "clover", "teardrop"]
                 .into_iter()
-                .map(|n| ShapeSpec { name: n.into(), contact_mm: None, friction: None })
+                .map(|n| ShapeSpec { name: n.into(), contact_mm: None, friction: None, edge_radius_mm: None })
                 .collect(),
             poses: PoseSpec::default(),
             taps: TapSpec::default(),
@@ -349,6 +353,9 @@ impl Recipe {
                 && !(f.is_finite() && (0.0..=MAX_FRICTION).contains(&f))
             {
                 return bad(&format!("shapes[{i}].friction"), format!("must be in [0, {MAX_FRICTION}], got {f}"));
+            }
+            if let Some(r) = s.edge_radius_mm {
+                crate::stimulus::catalogue::check_edge_radius(r, src, &format!("shapes[{i}].edge_radius_mm"))?;
             }
         }
         let p = &self.poses;
@@ -501,6 +508,8 @@ mod tests {
             ("[rig]\nscale = 2.0\n", "scale"),
             ("[rig]\npivot_offset_mm = [0.0, -12.0]\n", "rig.pivot_offset_mm[1]"),
             ("[[shapes]]\nname = \"disk\"\nfriction = 3.0\n", "shapes[0].friction"),
+            ("[[shapes]]\nname = \"square\"\nedge_radius_mm = 11.0\n", "shapes[0].edge_radius_mm"),
+            ("[[shapes]]\nname = \"square\"\nedge_radius_mm = -0.5\n", "shapes[0].edge_radius_mm"),
         ] {
             let e = Recipe::from_toml_str(text, "r.toml").expect_err(text).to_string();
             assert!(e.contains("r.toml") && e.contains(field), "{text}: {e}");

@@ -40,6 +40,7 @@ fn spec(
             friction,
             description: description.to_owned(),
             contact_mm,
+            edge_radius_mm: 0.0,
         },
         outline,
         height_mm,

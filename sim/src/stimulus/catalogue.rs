@@ -22,6 +22,8 @@ use crate::stimulus::mesh::Mesh;
 
 /// Largest friction coefficient accepted.
 pub const MAX_FRICTION: f64 = 2.0;
+/// Largest edge rounding accepted (mm).
+pub const MAX_EDGE_RADIUS_MM: f64 = 10.0;
 /// How far (mm) a declared contact location may lie from the shape's edge.
 pub const CONTACT_TOLERANCE_MM: f64 = 0.5;
 
@@ -43,6 +45,15 @@ pub struct ShapeEntry {
     /// Contact location on the edge used for data collection (mm, object frame).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_mm: Option<[f64; 2]>,
+    /// Radius (mm) of the rounding of the top face's edge (a quarter circle from the top face
+    /// down the wall; 0: sharp). The contact engine sees it ([`Stimulus::drop_below_top_mm`]);
+    /// the mesh, the ray casts of the renderer and the contour keep the sharp edge.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub edge_radius_mm: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 #[derive(Debug, Default, Serialize, Deserialize)]
@@ -77,6 +88,33 @@ impl Stimulus {
         }
     }
 
+    /// This stimulus with its top face's edge rounded to `radius_mm` where one is given (a
+    /// recipe's override), else itself. The radius must lie in `[0, MAX_EDGE_RADIUS_MM]`.
+    pub fn with_edge_radius(self: &Arc<Self>, radius_mm: Option<f64>) -> Arc<Self> {
+        match radius_mm {
+            None => Arc::clone(self),
+            Some(r) => {
+                let mut s = (**self).clone();
+                s.entry.edge_radius_mm = r;
+                Arc::new(s)
+            }
+        }
+    }
+
+    /// How far (mm) the rounded edge lies below the top face at a top-face point whose
+    /// signed distance to the contour is `signed_distance_mm` (negative over the material):
+    /// `r - sqrt(r^2 - (r - s)^2)` at `s = -signed_distance_mm < r` inside the edge's radius
+    /// `r`, 0 farther in.
+    pub fn drop_below_top_mm(&self, signed_distance_mm: f64) -> f64 {
+        let r = self.entry.edge_radius_mm;
+        let s = -signed_distance_mm;
+        if r <= 0.0 || s >= r {
+            return 0.0;
+        }
+        let u = (r - s).min(r);
+        r - (r * r - u * u).max(0.0).sqrt()
+    }
+
     /// Name of the stimulus.
     pub fn name(&self) -> &str {
         &self.entry.name
@@ -86,6 +124,19 @@ impl Stimulus {
     pub fn extent_mm(&self) -> [f64; 3] {
         let (lo, hi) = self.mesh.bounds();
         [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]]
+    }
+}
+
+/// Checks an edge rounding radius (mm) read from `source_name`'s `field`.
+pub fn check_edge_radius(radius_mm: f64, source_name: &str, field: &str) -> Result<()> {
+    if radius_mm.is_finite() && (0.0..=MAX_EDGE_RADIUS_MM).contains(&radius_mm) {
+        Ok(())
+    } else {
+        Err(SimError::invalid(
+            source_name,
+            field,
+            format!("must be a finite number in [0, {MAX_EDGE_RADIUS_MM}] mm, got {radius_mm}"),
+        ))
     }
 }
 
@@ -121,6 +172,7 @@ impl Catalogue {
                     format!("must be a finite number in [0, {MAX_FRICTION}], got {}", entry.friction),
                 ));
             }
+            check_edge_radius(entry.edge_radius_mm, source_name, &field("edge_radius_mm"))?;
             let (text, obj_name) = read_obj(&entry.file)?;
             let mesh = Mesh::from_obj_str(&text, &obj_name)?;
             let contour = Contour::from_mesh(&mesh, &obj_name)?;

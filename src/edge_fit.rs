@@ -1,0 +1,241 @@
+//! `tacsim calibrate --edge SHAPE`: a lab's taps on a straight edge (labelled lateral offset,
+//! depth and yaw) against the same taps simulated on a catalogue stimulus's edge. Fits the
+//! label map (which side of the edge is positive, where yaw 0 points, where depth 0 is) on the
+//! fitting 80% and compares candidate roundings of the edge and skin patches of the pins on the
+//! held-out 20%'s per-pin error ([`tacsim_sim::calibrate::edge`]). The rest of the sensor is
+//! held as given: its camera and framing come from `--camera-only`, its deformation from the
+//! surface fit.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use serde::Serialize;
+use tacsim_sim::atomic::write_atomic;
+use tacsim_sim::calibrate::edge::{EdgeLabels, edge_scene, fit_labels, pooled_error, start_labels, tap_errors};
+use tacsim_sim::calibrate::evaluate::Simulator;
+use tacsim_sim::calibrate::fitting::Split;
+use tacsim_sim::calibrate::model::Deformation;
+use tacsim_sim::calibrate::observe::Observations;
+use tacsim_sim::sensor::SensorParams;
+use tacsim_sim::stimulus::Stimulus;
+use tacsim_sim::stimulus::catalogue::CONTACT_TOLERANCE_MM;
+
+use crate::calibrate::CalibrateOptions;
+
+/// The candidates: rounding of the edge (mm, the stimulus) and the pins' skin patch (mm, the
+/// sensor: `pins.patch_radius_mm`), one changed at a time from the sensor as given.
+pub const CANDIDATES: [(f64, Option<f64>); 7] =
+    [(0.0, None), (1.0, None), (2.0, None), (4.0, None), (0.0, Some(0.75)), (0.0, Some(1.5)), (0.0, Some(2.5))];
+/// Contact grid cells across (the `edge-2d` recipe's).
+const CELLS: usize = 17;
+/// The label map is fitted on one fitting tap in this many (the search runs the taps about
+/// 80 times per candidate).
+const FIT_STRIDE: usize = 3;
+
+/// One edge fit's inputs.
+pub struct EdgeFitJob<'a> {
+    /// The calibrate command's options.
+    pub options: &'a CalibrateOptions,
+    /// The stimulus the taps are on.
+    pub stimulus: Arc<Stimulus>,
+    /// The edge point the lateral offsets are measured from (object frame, mm).
+    pub contact: [f64; 2],
+    /// The tracked taps.
+    pub obs: &'a Observations,
+    /// Fitting and held-out taps.
+    pub split: &'a Split,
+    /// The sensor (held).
+    pub base: &'a SensorParams,
+    /// Where the report goes.
+    pub report_dir: &'a Path,
+    /// The command line, for the report.
+    pub command: &'a str,
+    /// Progress messages.
+    pub progress: &'a dyn Fn(&str),
+}
+
+/// One candidate's result.
+#[derive(Clone, Debug, Serialize)]
+pub struct EdgeCandidate {
+    /// Rounding of the edge (mm).
+    pub edge_radius_mm: f64,
+    /// The pins' skin patch (mm).
+    pub patch_radius_mm: f64,
+    /// The label map fitted on the fitting taps.
+    pub labels: EdgeLabels,
+    /// Pooled relative per-pin error on the taps the map was fitted on.
+    pub fit_error: f64,
+    /// Pooled relative per-pin error on the held-out taps.
+    pub held_out_error: f64,
+    /// Held-out error by depth label quarter (shallowest first).
+    pub held_out_by_depth: Vec<f64>,
+}
+
+/// The report of an edge fit (`report.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct EdgeReport {
+    /// The command that made it.
+    pub command: String,
+    /// The lab folder.
+    pub real: String,
+    /// The stimulus.
+    pub shape: String,
+    /// Taps fitted on and held out.
+    pub fitted: usize,
+    /// Held-out taps.
+    pub held_out: usize,
+    /// The candidates, in [`CANDIDATES`] order (those the sensor as given already is once).
+    pub candidates: Vec<EdgeCandidate>,
+    /// Index of the candidate with the lowest held-out error.
+    pub best: usize,
+}
+
+/// The catalogue stimulus `shape` and the edge point `contact` (object frame, mm; default:
+/// the catalogue's contact point), checked: the point must lie on the edge.
+pub fn edge_stimulus(shape: &str, contact: Option<[f64; 2]>) -> Result<(Arc<Stimulus>, [f64; 2])> {
+    let catalogue = crate::commands::load_catalogue(None)?;
+    let stimulus = catalogue.get(shape)?;
+    let Some(c) = contact.or(stimulus.entry.contact_mm) else {
+        bail!(
+            "shape `{shape}` has no contact point in the catalogue: give one on its edge with --edge-contact X,Y (mm)"
+        );
+    };
+    if stimulus.contour.loops.is_empty() {
+        bail!("shape `{shape}` has no top-face contour, so no edge to tap");
+    }
+    let d = stimulus.contour.signed_distance(c);
+    if !(c.iter().all(|v| v.is_finite()) && d.abs() <= CONTACT_TOLERANCE_MM) {
+        bail!(
+            "--edge-contact {},{} is {d:.2} mm from the edge of `{shape}`: it must lie within {CONTACT_TOLERANCE_MM} mm of it",
+            c[0],
+            c[1]
+        );
+    }
+    Ok((stimulus, c))
+}
+
+/// Runs the edge fit; returns the summary to print.
+pub fn edge_fit(job: &EdgeFitJob) -> Result<String> {
+    let o = job.options;
+    let (stimulus, contact) = (&job.stimulus, job.contact);
+    if job.split.train.len() < 3 * FIT_STRIDE || job.split.held_out.len() < 4 {
+        bail!(
+            "{}: {} fitting and {} held-out taps: record at least 20 taps",
+            o.real.display(),
+            job.split.train.len(),
+            job.split.held_out.len()
+        );
+    }
+    let fit_taps: Vec<usize> = job.split.train.iter().copied().step_by(FIT_STRIDE).collect();
+    let mut by_depth = job.split.held_out.clone();
+    by_depth.sort_by(|&a, &b| job.obs.samples[a].sample.pose[2].total_cmp(&job.obs.samples[b].sample.pose[2]));
+    let mut candidates = Vec::new();
+    for (r, patch) in CANDIDATES {
+        let mut sensor = job.base.clone();
+        if let Some(a) = patch {
+            sensor.pins.patch_radius_mm = a;
+        }
+        let a = sensor.pins.patch_radius_mm;
+        // A candidate the sensor as given already is (its own patch) runs once.
+        if candidates.iter().any(|c: &EdgeCandidate| c.edge_radius_mm == r && c.patch_radius_mm == a) {
+            continue;
+        }
+        (job.progress)(&format!(
+            "edge rounding {r} mm, skin patch {a} mm: fitting the label map on {} taps",
+            fit_taps.len()
+        ));
+        let (scene, frame) = edge_scene(stimulus.with_edge_radius(Some(r)), contact)?;
+        let deformation = Deformation::of(&sensor, stimulus.entry.friction);
+        let sim = Simulator::on_scene(&sensor, &deformation, CELLS, job.obs, scene)?;
+        let (labels, fit_error) = fit_labels(&sim, &frame, job.obs, &fit_taps, start_labels(job.obs, &job.split.train))
+            .with_context(|| format!("fitting the label map with the edge rounded to {r} mm, skin patch {a} mm"))?;
+        let held = tap_errors(&sim, &frame, &labels, job.obs, &by_depth)?;
+        let quarter = held.len().div_ceil(4);
+        let held_out_by_depth = held.chunks(quarter).map(pooled_error).collect();
+        candidates.push(EdgeCandidate {
+            edge_radius_mm: r,
+            patch_radius_mm: a,
+            labels,
+            fit_error,
+            held_out_error: pooled_error(&held),
+            held_out_by_depth,
+        });
+    }
+    let best = (0..candidates.len())
+        .min_by(|&a, &b| candidates[a].held_out_error.total_cmp(&candidates[b].held_out_error))
+        .unwrap_or(0);
+    let report = EdgeReport {
+        command: job.command.to_owned(),
+        real: o.real.display().to_string(),
+        shape: stimulus.name().to_owned(),
+        fitted: fit_taps.len(),
+        held_out: job.split.held_out.len(),
+        candidates,
+        best,
+    };
+    write_atomic(&job.report_dir.join("report.json"), &serde_json::to_vec_pretty(&report)?)?;
+    write_atomic(&job.report_dir.join("report.md"), markdown(&report).as_bytes())?;
+    let b = &report.candidates[best];
+    let mut sensor = job.base.clone();
+    sensor.pins.patch_radius_mm = b.patch_radius_mm;
+    let header = format!(
+        "# {} with the skin patch of edge taps of {} on `{}` fitted by `{}`.\n# Best: edge rounding {} mm, skin \
+         patch {} mm (held-out per-pin error {:.3}); report: {}.\n\n",
+        job.base.name,
+        o.real.display(),
+        stimulus.name(),
+        job.command,
+        b.edge_radius_mm,
+        b.patch_radius_mm,
+        b.held_out_error,
+        job.report_dir.display()
+    );
+    write_atomic(&o.output, format!("{header}{}", sensor.to_toml()).as_bytes())?;
+    Ok(format!(
+        "{} taps fitted, {} held out; best: edge rounding {} mm, skin patch {} mm: held-out per-pin error {:.3}\n\
+         wrote {} and {}\n",
+        report.fitted,
+        report.held_out,
+        b.edge_radius_mm,
+        b.patch_radius_mm,
+        b.held_out_error,
+        o.output.display(),
+        job.report_dir.join("report.md").display()
+    ))
+}
+
+/// `report.md` of an edge fit.
+pub fn markdown(r: &EdgeReport) -> String {
+    let mut md = format!(
+        "# Edge taps against the simulator\n\nMade by `{}` from `{}`: taps on the edge of `{}`, the label map fitted \
+         on {} of the fitting taps, the error on the {} held-out taps (pooled mean per-pin displacement error over \
+         mean real displacement, the surface fit's measure).\n\n\
+         | edge rounding (mm) | skin patch (mm) | fitted on | held out | held out by depth quarter (shallow to deep) | lateral: sign, \
+         edge at (mm) | yaw: sign, offset (deg) | depth offset (mm) |\n|---|---|---|---|---|---|---|---|\n",
+        r.command, r.real, r.shape, r.fitted, r.held_out
+    );
+    for (i, c) in r.candidates.iter().enumerate() {
+        let l = &c.labels;
+        let quarters: Vec<String> = c.held_out_by_depth.iter().map(|e| format!("{e:.3}")).collect();
+        md += &format!(
+            "| {} | {}{} | {:.3} | {:.3} | {} | {:+}, {:.2} | {:+}, {:.1} | {:.2} |\n",
+            c.edge_radius_mm,
+            c.patch_radius_mm,
+            if i == r.best { " (best)" } else { "" },
+            c.fit_error,
+            c.held_out_error,
+            quarters.join(" / "),
+            l.lateral_sign,
+            l.lateral_offset_mm,
+            l.yaw_sign,
+            l.yaw_offset_deg,
+            l.depth_offset_mm
+        );
+    }
+    md += "\nEdge frame: x across the edge, positive off the material, `x = sign (lateral - edge)`; yaw from the \
+           edge's tangent, `yaw = sign yaw_label + offset`; indentation `= depth label + depth offset`. A \
+           recipe takes the rounding as `[[shapes]] edge_radius_mm`; the preset written is the sensor with the best \
+           candidate's skin patch (`pins.patch_radius_mm`).\n";
+    md
+}
