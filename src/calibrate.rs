@@ -53,7 +53,7 @@ pub struct CalibrateOptions {
     pub rig_only: bool,
     /// The recordings are taps on this stimulus's edge (a catalogue shape, e.g. square) at
     /// labelled lateral offset, depth and yaw: fits the label map and compares the edge's
-    /// rounding (0, 1, 2, 4 mm) and the pins' skin patch (0.75, 1.5, 2.5 mm) on the held-out
+    /// rounding (0, 1, 2, 4 mm) and the pins' skin patch (0, 0.75, 1.5, 2.5 mm) on the held-out
     /// per-pin error, the rest of the sensor held as given ([`crate::edge_fit`]). The preset
     /// written is the sensor with the best candidate's skin patch.
     #[arg(long, conflicts_with_all = ["camera_only", "rig_only"])]

@@ -25,8 +25,16 @@ use crate::calibrate::CalibrateOptions;
 
 /// The candidates: rounding of the edge (mm, the stimulus) and the pins' skin patch (mm, the
 /// sensor: `pins.patch_radius_mm`), one changed at a time from the sensor as given.
-pub const CANDIDATES: [(f64, Option<f64>); 7] =
-    [(0.0, None), (1.0, None), (2.0, None), (4.0, None), (0.0, Some(0.75)), (0.0, Some(1.5)), (0.0, Some(2.5))];
+pub const CANDIDATES: [(f64, Option<f64>); 8] = [
+    (0.0, None),
+    (1.0, None),
+    (2.0, None),
+    (4.0, None),
+    (0.0, Some(0.0)),
+    (0.0, Some(0.75)),
+    (0.0, Some(1.5)),
+    (0.0, Some(2.5)),
+];
 /// Contact grid cells across (the `edge-2d` recipe's).
 const CELLS: usize = 17;
 /// The label map is fitted on one fitting tap in this many (the search runs the taps about

@@ -650,6 +650,9 @@ mod tests {
             ("[framing]\nrim_radius = 0.4\nrim_width = -0.01\n", "framing.rim_width"),
             ("[framing]\nrim_radius = 0.4\n", "framing.rim_width"),
             ("[framing]\nrim_width = 0.02\n", "framing.rim_radius"),
+            ("[pins]\npatch_radius_mm = 6.0\n", "pins.patch_radius_mm"),
+            ("[pins]\npatch_radius_mm = -1.0\n", "pins.patch_radius_mm"),
+            ("[pins]\npatch_radius_mm = inf\n", "pins.patch_radius_mm"),
         ] {
             let e = SensorParams::from_toml_str(text, "s.toml").expect_err(text).to_string();
             assert!(e.contains("s.toml") && e.contains(field), "{text}: {e}");

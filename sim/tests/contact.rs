@@ -278,3 +278,49 @@ fn a_rounded_edge_lowers_the_top_face_by_the_quarter_circle() {
     }
     assert!(checked > 100, "{checked} cells over the material");
 }
+
+/// The largest growth (mm) of the lateral distance between neighbouring pin tips (within 1.3
+/// times the nearest spacing) from `rest` to `moved`.
+fn largest_split(rest: &[tacsim_sim::pins::PinPose], moved: &[tacsim_sim::pins::PinPose]) -> f64 {
+    let d = |a: &tacsim_sim::pins::PinPose, b: &tacsim_sim::pins::PinPose| (a.tip.x - b.tip.x).hypot(a.tip.y - b.tip.y);
+    let spacing = (1..rest.len()).map(|j| d(&rest[0], &rest[j])).fold(f64::INFINITY, f64::min);
+    let mut worst = 0.0_f64;
+    for i in 0..rest.len() {
+        for j in i + 1..rest.len() {
+            if d(&rest[i], &rest[j]) < 1.3 * spacing {
+                worst = worst.max(d(&moved[i], &moved[j]) - d(&rest[i], &rest[j]));
+            }
+        }
+    }
+    worst
+}
+
+/// A tap across the square's sharp edge splits the pins along it apart (the half-space kinks
+/// where the contact ends, the 2.84 mm levers turn with the kink); with a skin patch the pins
+/// move and turn with the mean over 1.5 mm, and the split closes by more than 30% (0.69 to
+/// 0.40 mm at 1.5 mm deep), while a tap in the middle of the face (no edge under the pins)
+/// moves them within 15% of before (1.44 and 1.40 mm).
+#[test]
+fn a_skin_patch_closes_the_split_of_the_pins_along_a_sharp_edge() {
+    let scene = scene_with("square");
+    let tap = |patch: f64, x: f64| {
+        let mut sensor = SensorParams::default();
+        sensor.pins.patch_radius_mm = patch;
+        let model = ContactModel::new(&sensor);
+        let pose = SensorPose::new(x, 0.0, 1.5, 0.0);
+        let pins = trajectory::run(&model, &scene, &Path::tap(pose), None).expect("tap")[0].pins.clone();
+        (model.layout.poses(), pins)
+    };
+    let (rest, sharp) = tap(0.0, 44.0);
+    let (_, patched) = tap(1.5, 44.0);
+    let (split, closed) = (largest_split(&rest, &sharp), largest_split(&rest, &patched));
+    println!("largest split along the edge: {split:.3} mm without a patch, {closed:.3} mm with 1.5 mm");
+    assert!(closed < 0.7 * split, "{closed} vs {split}");
+    let (_, flat) = tap(0.0, 0.0);
+    let (_, flat_patched) = tap(1.5, 0.0);
+    let moved =
+        |p: &[tacsim_sim::pins::PinPose]| p.iter().zip(&rest).map(|(a, b)| (a.tip - b.tip).norm()).fold(0.0, f64::max);
+    let (m0, m1) = (moved(&flat), moved(&flat_patched));
+    println!("largest pin motion in the middle of the face: {m0:.3} mm, {m1:.3} mm with the patch");
+    assert!((m1 - m0).abs() < 0.15 * m0, "{m1} vs {m0}");
+}
