@@ -89,7 +89,7 @@ pub struct EdgeReport {
     pub real: String,
     /// The stimulus.
     pub shape: String,
-    /// Taps fitted on and held out.
+    /// Taps the label map was fitted on (one fitting tap in [`FIT_STRIDE`]).
     pub fitted: usize,
     /// Held-out taps.
     pub held_out: usize,

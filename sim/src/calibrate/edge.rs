@@ -4,7 +4,7 @@
 //!
 //! The edge frame ([`LabelFrame::edge`]) has `x` across the edge (positive off the
 //! material), yaw from the edge tangent. A lab labels lateral offset, depth and yaw in its
-//! own frame: [`EdgeLabels`] maps them, `x = s_l g (lateral - l_0)`, `yaw = s_y yaw_lab + y_0`,
+//! own frame: [`EdgeLabels`] maps them, `x = s_l (lateral - l_0)`, `yaw = s_y yaw_lab + y_0`,
 //! indentation `= depth_lab + d_0` (mm, deg).
 
 use std::sync::Arc;
@@ -31,9 +31,6 @@ pub struct EdgeLabels {
     pub lateral_sign: f64,
     /// The lateral label at the edge (mm).
     pub lateral_offset_mm: f64,
-    /// Edge-frame millimetres per millimetre of lateral label (1 where the lab's sensor and
-    /// the simulated one are the same size).
-    pub lateral_gain: f64,
     /// `+1` or `-1`: the yaw label's sense against the edge frame's.
     pub yaw_sign: f64,
     /// The edge frame's yaw at yaw label 0 (deg).
@@ -47,7 +44,7 @@ impl EdgeLabels {
     pub fn edge_pose(&self, sample: &LabSample) -> (f64, f64, f64) {
         let p = &sample.pose;
         (
-            self.lateral_sign * self.lateral_gain * (p[self.lateral] - self.lateral_offset_mm),
+            self.lateral_sign * (p[self.lateral] - self.lateral_offset_mm),
             p[2] + self.depth_offset_mm,
             self.yaw_sign * p[5] + self.yaw_offset_deg,
         )
@@ -113,14 +110,13 @@ pub fn start_labels(obs: &Observations, which: &[usize]) -> EdgeLabels {
         lateral,
         lateral_sign: 1.0,
         lateral_offset_mm: 0.5 * (lo + hi),
-        lateral_gain: 1.0,
         yaw_sign: 1.0,
         yaw_offset_deg: 0.0,
         depth_offset_mm: -range(2).0,
     }
 }
 
-/// Fits the label map on the taps `which` (signs, offsets; the gain held at 1): for each of
+/// Fits the label map on the taps `which` (signs and offsets): for each of
 /// the four sign choices, the yaw offset searched every 30 deg and then a coordinate search
 /// (lateral offset from 1 mm, yaw from 10 deg, depth from 0.4 mm steps, halved three times);
 /// the best of the four. Returns the map and its pooled error.
