@@ -6,7 +6,7 @@ use tacsim_sim::detect::detect_blobs;
 use tacsim_sim::png_io::read_png;
 
 mod common;
-use common::{tacsim, temp_dir};
+use common::{err, s, tacsim, temp_dir};
 
 fn render_and_count(dir: &Path, file: &str, extra: &[&str]) -> (u32, usize) {
     let out = dir.join(file);
@@ -265,4 +265,31 @@ fn bench_json_reports_rates_breakdown_skips_and_curve() {
     let bad = tacsim(&["bench", "--cells", "10", "--plot", plot.to_str().expect("utf-8")]);
     assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("skin.cells_across"));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `render --slide-from 2,0 --step 1e-5` ran for minutes (200,000 contact solves) and
+/// `--step 1e-300` aborted on "capacity overflow": a path's length is checked before any work.
+#[test]
+fn render_with_a_step_too_small_for_the_slide_was_a_hang_or_an_abort() {
+    let dir = temp_dir("cli", "tiny-step");
+    let out = dir.join("x.png");
+    for step in ["1e-5", "1e-300"] {
+        let started = std::time::Instant::now();
+        let e = err(&[
+            "render",
+            "--shape",
+            "disk",
+            "--pose",
+            "0,0,2,0",
+            "--slide-from",
+            "2,0",
+            "--step",
+            step,
+            "-o",
+            s(&out),
+        ]);
+        assert!(e.contains("step_mm") && e.contains("more than the 2000"), "{step}: {e}");
+        assert!(!out.exists(), "{step}: nothing written");
+        println!("--step {step}: refused in {:?}", started.elapsed());
+    }
 }

@@ -25,6 +25,10 @@ pub struct Path {
     pub steps: Vec<PathStep>,
 }
 
+/// Most steps a path may have (a 2 mm slide in 1 um steps): every step is a contact solve, so
+/// a path's length is bounded before any work starts.
+pub const MAX_PATH_STEPS: usize = 2_000;
+
 impl Path {
     /// A tap: straight down onto `target` from out of contact, captured there.
     pub fn tap(target: SensorPose) -> Self {
@@ -59,7 +63,18 @@ impl Path {
         if !(lateral.is_finite() && twist.is_finite()) {
             return Err(SimError::invalid("path", "start", format!("must be finite, got {start:?}")));
         }
-        let n = (lateral / step_mm).ceil().max((twist / step_deg).ceil()).max(1.0) as usize;
+        let n = (lateral / step_mm).ceil().max((twist / step_deg).ceil()).max(1.0);
+        if n > MAX_PATH_STEPS as f64 {
+            return Err(SimError::invalid(
+                "path",
+                "step_mm",
+                format!(
+                    "a slide of {lateral:.3} mm and {twist:.2} deg in steps of at most {step_mm} mm and {step_deg} deg \
+                     takes {n:.0} steps, more than the {MAX_PATH_STEPS} a path may have: use a larger step"
+                ),
+            ));
+        }
+        let n = n as usize;
         let mut steps = vec![PathStep { pose: start, capture: false }];
         steps.extend((1..=n).map(|i| PathStep { pose: start.lerp(&target, i as f64 / n as f64), capture: i == n }));
         Ok(Self { steps })

@@ -228,9 +228,10 @@ pub struct SlideSpec {
     pub axes: Vec<Axes>,
     /// Range of the yaw offset at touch-down (deg): rotational shear; `[0, 0]` for none.
     pub twist_deg: [f64; 2],
-    /// Largest lateral step along the slide (mm); accuracy/speed knob (`tacsim bench`).
+    /// Largest lateral step along the slide (mm, 0.01 to 10); accuracy/speed knob (`tacsim
+    /// bench`).
     pub step_mm: f64,
-    /// Largest yaw step along the slide (deg).
+    /// Largest yaw step along the slide (deg, 0.01 to 45).
     pub step_deg: f64,
 }
 
@@ -406,11 +407,11 @@ impl Recipe {
         if s.axes.is_empty() {
             return bad("slides.axes", "must list at least one of \"x\", \"y\", \"both\"".into());
         }
-        if !(s.step_mm.is_finite() && s.step_mm > 0.0) {
-            return bad("slides.step_mm", format!("must be a positive number of mm, got {}", s.step_mm));
+        if !(s.step_mm.is_finite() && (0.01..=10.0).contains(&s.step_mm)) {
+            return bad("slides.step_mm", format!("must be in [0.01, 10] mm, got {}", s.step_mm));
         }
-        if !(s.step_deg.is_finite() && s.step_deg > 0.0) {
-            return bad("slides.step_deg", format!("must be a positive number of degrees, got {}", s.step_deg));
+        if !(s.step_deg.is_finite() && (0.01..=45.0).contains(&s.step_deg)) {
+            return bad("slides.step_deg", format!("must be in [0.01, 45] deg, got {}", s.step_deg));
         }
         let d = &self.randomise;
         let side = f64::from(self.image_size);
@@ -486,6 +487,9 @@ mod tests {
             ("[poses]\nper_shape = -3\n", "per_shape"),
             ("[taps]\nper_pose = 0\n[slides]\nper_pose = 0\n", "taps.per_pose"),
             ("[slides]\nstep_mm = 0.0\n", "slides.step_mm"),
+            ("[slides]\nstep_mm = 1e-300\n", "slides.step_mm"),
+            ("[slides]\nstep_mm = 1e300\n", "slides.step_mm"),
+            ("[slides]\nstep_deg = 1e-300\n", "slides.step_deg"),
             ("[split]\ntrain = 0.7\n", "split"),
             ("colour = 3\n", "colour"),
             ("[slides]\naxes = [\"z\"]\n", "axes"),
