@@ -66,6 +66,13 @@ pub struct ShapeSpec {
     pub edge_radius_mm: Option<f64>,
 }
 
+/// Most poses per shape a recipe may draw.
+pub const MAX_PER_SHAPE: usize = 1_000_000;
+/// Most taps (or slides) per pose.
+pub const MAX_PER_POSE: usize = 10_000;
+/// Most images one recipe may make (shapes x poses x samples per pose).
+pub const MAX_SAMPLES: usize = 10_000_000;
+
 /// The frame the pose labels (and the slides' touch-down offsets) are given in.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -315,10 +322,19 @@ impl Default for SplitSpec {
 }
 
 impl Recipe {
-    /// Parses and validates a recipe; `source_name` names it in errors.
+    /// Parses and validates a recipe; `source_name` names it in errors. A recipe that sets
+    /// nothing is an error (it would silently be the 120,000-image `paper` recipe).
     pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self> {
         let r: Recipe = toml::from_str(text)
             .map_err(|e| SimError::Toml { source_name: source_name.into(), message: e.to_string() })?;
+        if toml::from_str::<toml::Table>(text).is_ok_and(|t| t.is_empty()) {
+            return Err(SimError::invalid(
+                source_name,
+                "recipe",
+                "sets nothing: write the fields that differ from the defaults, or name a built-in recipe (paper, \
+                 quick, ...) instead of a file",
+            ));
+        }
         r.validate(source_name)?;
         Ok(r)
     }
@@ -360,8 +376,8 @@ impl Recipe {
             }
         }
         let p = &self.poses;
-        if p.per_shape == 0 {
-            return bad("poses.per_shape", "must be at least 1".into());
+        if p.per_shape == 0 || p.per_shape > MAX_PER_SHAPE {
+            return bad("poses.per_shape", format!("must be in [1, {MAX_PER_SHAPE}], got {}", p.per_shape));
         }
         let range = |field: &str, r: [f64; 2], lo: f64, hi: f64| -> Result<()> {
             if !r.iter().all(|v| v.is_finite()) {
@@ -401,6 +417,24 @@ impl Recipe {
         let s = &self.slides;
         if t.per_pose == 0 && s.per_pose == 0 {
             return bad("taps.per_pose", "taps.per_pose and slides.per_pose cannot both be 0".into());
+        }
+        for (field, n) in [("taps.per_pose", t.per_pose), ("slides.per_pose", s.per_pose)] {
+            if n > MAX_PER_POSE {
+                return bad(field, format!("must be at most {MAX_PER_POSE}, got {n}"));
+            }
+        }
+        let total = self.shapes.len() * p.per_shape * (t.per_pose + s.per_pose);
+        if total > MAX_SAMPLES {
+            return bad(
+                "poses.per_shape",
+                format!(
+                    "{} shapes x {} poses x {} samples per pose = {total} images, more than the {MAX_SAMPLES} a \
+                     recipe may make (the paper recipe makes 120000): split it into recipes or shards",
+                    self.shapes.len(),
+                    p.per_shape,
+                    t.per_pose + s.per_pose
+                ),
+            );
         }
         range("slides.offset_mm", s.offset_mm, -20.0, 20.0)?;
         range("slides.twist_deg", s.twist_deg, -90.0, 90.0)?;
@@ -484,6 +518,11 @@ mod tests {
             ("[poses]\nx_mm = [5.0, -5.0]\n", "poses.x_mm"),
             ("[poses]\ndepth_mm = [1.0, nan]\n", "poses.depth_mm"),
             ("[poses]\nper_shape = 0\n", "poses.per_shape"),
+            ("", "sets nothing"),
+            ("# only a comment\n", "sets nothing"),
+            ("[poses]\nper_shape = 1000000000000\n", "poses.per_shape"),
+            ("[taps]\nper_pose = 18446744073709551615\n", "taps.per_pose"),
+            ("[poses]\nper_shape = 1000000\n[taps]\nper_pose = 100\n", "poses.per_shape"),
             ("[poses]\nper_shape = -3\n", "per_shape"),
             ("[taps]\nper_pose = 0\n[slides]\nper_pose = 0\n", "taps.per_pose"),
             ("[slides]\nstep_mm = 0.0\n", "slides.step_mm"),
