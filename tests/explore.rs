@@ -120,6 +120,12 @@ fn bad_scenarios_are_clear_errors_and_failures_exit_non_zero() {
         ("depth_mm = -1.0\n", "depth_mm"),
         ("perception = \"telepathy\"\n", "perception"),
         ("[criteria]\niou = 1.5\n", "criteria.iou"),
+        // Absurd but parseable values that hung or ran away (issue 32): each is refused at once.
+        ("[noise]\noffset_mm = 1000\n", "noise.offset_mm"),
+        ("[control]\nkp_offset = 1e300\n", "control.kp_offset"),
+        ("substep_mm = 1e-300\n", "substep_mm"),
+        ("step_mm = 1e300\n", "step_mm"),
+        ("max_steps = 100000000\n", "max_steps"),
     ] {
         let f = dir.join("bad.toml");
         std::fs::write(&f, text).expect("write");

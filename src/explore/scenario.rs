@@ -94,6 +94,9 @@ impl Default for Models {
     }
 }
 
+/// Most contact sub-steps per robot step (`step_mm / substep_mm`).
+pub const MAX_SUBSTEPS: usize = 1000;
+
 /// Gaussian noise on the perceived pose.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -207,7 +210,7 @@ impl Scenario {
         }
     }
 
-    /// Checks every value, naming the field.
+    /// Checks every value, naming the field and its range.
     pub fn validate(&self) -> Result<()> {
         let positive = |field: &str, v: f64| -> Result<()> {
             if !(v.is_finite() && v > 0.0) {
@@ -255,6 +258,40 @@ impl Scenario {
             if !(0.0..=1.0).contains(&v) {
                 bail!("field `{field}` must be a fraction in [0, 1], got {v}");
             }
+        }
+        // Practical ranges: each bounds a loop or a draw whose size the run follows.
+        for (field, v, hi) in [
+            ("step_mm", self.step_mm, 10.0),
+            ("speed_mm_s", self.speed_mm_s, 1000.0),
+            ("noise.offset_mm", self.noise.offset_mm, 10.0),
+            ("noise.angle_deg", self.noise.angle_deg, 90.0),
+            ("control.kp_offset", self.control.kp_offset, 10.0),
+            ("control.ki_offset", self.control.ki_offset, 10.0),
+            ("control.kp_angle", self.control.kp_angle, 10.0),
+            ("control.ki_angle", self.control.ki_angle, 10.0),
+            ("control.integral_clip", self.control.integral_clip, 50.0),
+        ] {
+            if v > hi {
+                bail!("field `{field}` must be at most {hi}, got {v}");
+            }
+        }
+        if self.control.offset_ref_mm.abs() > 10.0 {
+            bail!("field `control.offset_ref_mm` must be in [-10, 10] mm, got {}", self.control.offset_ref_mm);
+        }
+        if self.step_mm / self.substep_mm > MAX_SUBSTEPS as f64 {
+            bail!(
+                "field `substep_mm` = {} makes {:.0} contact sub-steps per {} mm step, more than {MAX_SUBSTEPS}: use a \
+                 larger sub-step",
+                self.substep_mm,
+                (self.step_mm / self.substep_mm).ceil(),
+                self.step_mm
+            );
+        }
+        if self.noise.latency_steps > 100 {
+            bail!("field `noise.latency_steps` must be at most 100, got {}", self.noise.latency_steps);
+        }
+        if self.max_steps > 100_000 {
+            bail!("field `max_steps` must be at most 100000, got {}", self.max_steps);
         }
         if !(16..=2048).contains(&self.image_size) {
             bail!("field `image_size` must be in [16, 2048] px, got {}", self.image_size);
