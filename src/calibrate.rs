@@ -99,16 +99,18 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     let spinner = if o.quiet { ProgressBar::hidden() } else { ProgressBar::new_spinner() };
     spinner.set_style(ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_msg}")?);
     spinner.enable_steady_tick(std::time::Duration::from_millis(200));
+    // Without a terminal (CI logs, background runs) the spinner is hidden: print each step.
+    let log = !o.quiet && !std::io::stderr().is_terminal();
+    let progress = |m: &str| {
+        if log {
+            eprintln!("[{:>6.1} s] {m}", started.elapsed().as_secs_f64());
+        }
+        spinner.set_message(m.to_owned());
+    };
     spinner.set_message(format!("tracking the pins of {} recordings", folder.samples.len()));
     let obs = Observations::track(&folder, &reference)?;
     let split = Split::of(&obs);
     if let Some((stimulus, contact)) = edge {
-        let step = |m: &str| {
-            if !o.quiet {
-                eprintln!("[{:>6.1} s] {m}", started.elapsed().as_secs_f64());
-            }
-        };
-        spinner.finish_and_clear();
         let summary = crate::edge_fit::edge_fit(&crate::edge_fit::EdgeFitJob {
             options: o,
             stimulus,
@@ -118,8 +120,9 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
             base: &base,
             report_dir: &report_dir,
             command,
-            progress: &step,
+            progress: &progress,
         })?;
+        spinner.finish_and_clear();
         return Ok(summary);
     }
     if split.train.len() < 8 || split.held_out.is_empty() {
@@ -152,14 +155,6 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         obs: &obs,
         surface: &surface,
         cells: opts.cells,
-    };
-    // Without a terminal (CI logs, background runs) the spinner is hidden: print each step.
-    let log = !o.quiet && !std::io::stderr().is_terminal();
-    let progress = |m: &str| {
-        if log {
-            eprintln!("[{:>6.1} s] {m}", started.elapsed().as_secs_f64());
-        }
-        spinner.set_message(m.to_owned());
     };
     let calib = fit(&problem, &split, &opts, &progress).with_context(|| match &reference.source {
         ReferenceSource::Consensus(names) => format!(

@@ -19,7 +19,7 @@ use tacsim_sim::calibrate::model::Deformation;
 use tacsim_sim::calibrate::observe::Observations;
 use tacsim_sim::sensor::SensorParams;
 use tacsim_sim::stimulus::Stimulus;
-use tacsim_sim::stimulus::catalogue::CONTACT_TOLERANCE_MM;
+use tacsim_sim::stimulus::catalogue::off_the_edge;
 
 use crate::calibrate::CalibrateOptions;
 
@@ -112,13 +112,8 @@ pub fn edge_stimulus(shape: &str, contact: Option<[f64; 2]>) -> Result<(Arc<Stim
     if stimulus.contour.loops.is_empty() {
         bail!("shape `{shape}` has no top-face contour, so no edge to tap");
     }
-    let d = stimulus.contour.signed_distance(c);
-    if !(c.iter().all(|v| v.is_finite()) && d.abs() <= CONTACT_TOLERANCE_MM) {
-        bail!(
-            "--edge-contact {},{} is {d:.2} mm from the edge of `{shape}`: it must lie within {CONTACT_TOLERANCE_MM} mm of it",
-            c[0],
-            c[1]
-        );
+    if let Some(reason) = off_the_edge(&stimulus.contour, c, shape) {
+        bail!("--edge-contact {},{}: {reason}", c[0], c[1]);
     }
     Ok((stimulus, c))
 }

@@ -194,7 +194,8 @@ pub struct PinParams {
     pub patch_radius_mm: f64,
 }
 
-fn is_zero(v: &f64) -> bool {
+/// Whether `v` is zero (serde: fields left out of a file when 0).
+pub(crate) fn is_zero(v: &f64) -> bool {
     *v == 0.0
 }
 

@@ -48,12 +48,8 @@ pub struct ShapeEntry {
     /// Radius (mm) of the rounding of the top face's edge (a quarter circle from the top face
     /// down the wall; 0: sharp). The contact engine sees it ([`Stimulus::drop_below_top_mm`]);
     /// the mesh, the ray casts of the renderer and the contour keep the sharp edge.
-    #[serde(default, skip_serializing_if = "is_zero")]
+    #[serde(default, skip_serializing_if = "crate::sensor::is_zero")]
     pub edge_radius_mm: f64,
-}
-
-fn is_zero(v: &f64) -> bool {
-    *v == 0.0
 }
 
 #[derive(Debug, Default, Serialize, Deserialize)]
@@ -78,24 +74,22 @@ impl Stimulus {
     /// This stimulus with the skin-stimulus friction `friction` where one is given (a recipe's
     /// or a scenario's override), else itself.
     pub fn with_friction(self: &Arc<Self>, friction: Option<f64>) -> Arc<Self> {
-        match friction {
-            None => Arc::clone(self),
-            Some(f) => {
-                let mut s = (**self).clone();
-                s.entry.friction = f;
-                Arc::new(s)
-            }
-        }
+        self.overridden(friction, |e, f| e.friction = f)
     }
 
     /// This stimulus with its top face's edge rounded to `radius_mm` where one is given (a
     /// recipe's override), else itself. The radius must lie in `[0, MAX_EDGE_RADIUS_MM]`.
     pub fn with_edge_radius(self: &Arc<Self>, radius_mm: Option<f64>) -> Arc<Self> {
-        match radius_mm {
+        self.overridden(radius_mm, |e, r| e.edge_radius_mm = r)
+    }
+
+    /// Itself without `value`, else a copy whose entry `set` changed.
+    fn overridden(self: &Arc<Self>, value: Option<f64>, set: impl FnOnce(&mut ShapeEntry, f64)) -> Arc<Self> {
+        match value {
             None => Arc::clone(self),
-            Some(r) => {
+            Some(v) => {
                 let mut s = (**self).clone();
-                s.entry.edge_radius_mm = r;
+                set(&mut s.entry, v);
                 Arc::new(s)
             }
         }
@@ -125,6 +119,14 @@ impl Stimulus {
         let (lo, hi) = self.mesh.bounds();
         [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]]
     }
+}
+
+/// Why the contact point `c` (object frame, mm) is not on the edge of `contour` (shape
+/// `name`), or `None` when it lies within [`CONTACT_TOLERANCE_MM`] of it.
+pub fn off_the_edge(contour: &Contour, c: [f64; 2], name: &str) -> Option<String> {
+    let d = contour.signed_distance(c);
+    (d.abs() > CONTACT_TOLERANCE_MM)
+        .then(|| format!("{c:?} is {d:.2} mm from the edge of `{name}` (must be within {CONTACT_TOLERANCE_MM} mm)"))
 }
 
 /// Checks an edge rounding radius (mm) read from `source_name`'s `field`.
@@ -180,16 +182,8 @@ impl Catalogue {
                 if !c.iter().all(|v| v.is_finite()) {
                     return Err(SimError::invalid(source_name, field("contact_mm"), "must be finite"));
                 }
-                let d = contour.signed_distance(c);
-                if d.abs() > CONTACT_TOLERANCE_MM {
-                    return Err(SimError::invalid(
-                        source_name,
-                        field("contact_mm"),
-                        format!(
-                            "{c:?} is {d:.2} mm from the edge of `{}` (must be within {CONTACT_TOLERANCE_MM} mm)",
-                            entry.name
-                        ),
-                    ));
+                if let Some(reason) = off_the_edge(&contour, c, &entry.name) {
+                    return Err(SimError::invalid(source_name, field("contact_mm"), reason));
                 }
             }
             stimuli.push(Arc::new(Stimulus { entry, mesh, contour }));
