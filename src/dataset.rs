@@ -101,7 +101,7 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
             Ok(scene)
         })
         .collect::<Result<Vec<_>>>()?;
-    let ctx = Context { plan: &plan, model: &model, scenes: &scenes, renderer: &renderer };
+    let ctx = Context { plan: &plan, model: &model, scenes: &scenes, renderer: &renderer, source: &source };
     let target = Target { out: opts.out.clone(), shard: opts.shard, resume: opts.resume };
     let total = match opts.shard {
         Some((i, n)) => generate::shard_range(plan.len(), i, n).len(),
@@ -157,7 +157,11 @@ fn report(recipe: &Recipe, out: &Path, total: usize, s: &Summary) -> String {
         pct(s.render_s),
         pct(s.encode_s),
         pct(s.write_s),
-    )
+    ) + &if s.no_contact > 0 {
+        format!("{} samples touch nothing (poses.allow_no_contact): undeformed images\n", s.no_contact)
+    } else {
+        String::new()
+    }
 }
 
 /// `tacsim merge`: joins shards into `out`.

@@ -59,6 +59,12 @@ fn same_seed_same_bytes_whatever_threads_and_shards() {
     let o = tacsim(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(fa == files(&merged), "merged shards equal the single run");
+    // Merging again into the same folder (an interrupted merge) finishes it; it used to
+    // advise `--resume`, which `merge` does not have (issue 32).
+    std::fs::remove_file(merged.join("images/image_7.png")).expect("remove one image");
+    let o = tacsim(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(fa == files(&merged), "the merge rerun gives the same bytes");
     // Merging an incomplete set is refused.
     let o = tacsim(&["merge", "--out", s(&root.join("bad")), s(&shards[0]), s(&shards[2])]);
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("shard"));
@@ -202,6 +208,10 @@ fn bad_recipes_and_outputs_are_clear_errors() {
         ("[poses]\nyaw_deg = [nan, 1.0]\n", "poses.yaw_deg"),
         ("[slides]\nspeed = 3\n", "speed"),
         ("[split]\ntrain = 0.9\n", "split"),
+        // A depth beyond the dome's range passed validation and failed mid-run (issue 32).
+        ("[poses]\ndepth_mm = [1.0, 15.0]\n", "pose.depth_mm"),
+        // Poses off the shape gave undeformed images labelled 1-6 mm deep (issue 32).
+        ("[poses]\nx_mm = [45.0, 50.0]\ny_mm = [45.0, 50.0]\n", "touch nothing"),
     ] {
         std::fs::write(&recipe, text).expect("write");
         let out = root.join("never");
@@ -308,4 +318,37 @@ fn a_rig_takes_the_labs_labels_where_its_robot_went() {
         assert!((moved - b.shear[0].hypot(b.shear[1])).abs() < 1e-9);
         assert!(t1.rx_deg.hypot(t1.ry_deg) < b.pose[3].hypot(b.pose[4]) + 1e-9);
     }
+}
+
+#[test]
+fn a_nan_label_or_an_image_of_another_size_or_colour_is_refused_with_file_and_row() {
+    // Issue 32: NaN labels in test rows were accepted, and 1x1 or RGB 3000x17 images inside a
+    // 128 px dataset trained without complaint.
+    let root = fresh_path("data", "loader-checks");
+    let dir = root.join("d");
+    generate(&dir, &[]);
+    let csv = std::fs::read_to_string(dir.join("targets.csv")).expect("csv");
+    let mut lines: Vec<String> = csv.lines().map(str::to_owned).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = header.iter().position(|h| *h == "pose_z").expect("pose_z column");
+    let mut cells: Vec<String> = lines[3].split(',').map(str::to_owned).collect();
+    cells[col] = "NaN".into();
+    lines[3] = cells.join(",");
+    std::fs::write(dir.join("targets.csv"), lines.join("\n") + "\n").expect("write");
+    let e = Dataset::open(&dir).expect_err("a NaN label").to_string();
+    assert!(e.contains("targets.csv") && e.contains("row 4") && e.contains("pose_z"), "{e}");
+    std::fs::write(dir.join("targets.csv"), &csv).expect("restore");
+    let ds = Dataset::open(&dir).expect("valid again");
+    let row = &ds.rows[4];
+    for (w, h, rgb) in [(1, 1, false), (3000, 17, true), (128, 128, true)] {
+        let path = ds.image_path(row);
+        if rgb {
+            image::RgbImage::new(w, h).save(&path).expect("save rgb");
+        } else {
+            image::GrayImage::new(w, h).save(&path).expect("save grey");
+        }
+        let e = ds.image(row).expect_err("wrong image").to_string();
+        assert!(e.contains(&row.sensor_image) && e.contains("8-bit grey"), "{w}x{h}: {e}");
+    }
+    let _ = std::fs::remove_dir_all(&root);
 }

@@ -145,6 +145,12 @@ fn bad_scenarios_are_clear_errors_and_failures_exit_non_zero() {
     assert_eq!(o.status.code(), Some(1), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stdout).contains("FAIL: completion"));
     assert!(out.join("report.json").is_file() && out.join("short.svg").is_file());
+    // A report directory that cannot be made stops before any run (issue 32: it used to
+    // simulate every scenario first and then fail without a word).
+    let o = tacsim(&["run", f.to_str().expect("utf-8"), "--out", f.join("out").to_str().expect("utf-8")]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--out") && !err.contains("FAIL"), "{err}");
+    assert!(o.stdout.is_empty(), "no run before the check: {}", String::from_utf8_lossy(&o.stdout));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

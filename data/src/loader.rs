@@ -45,6 +45,28 @@ impl Dataset {
         if meta.shard.is_none() && rows.len() != meta.samples {
             return Err(fail(format!("targets.csv has {} rows, meta.json says {}", rows.len(), meta.samples)));
         }
+        for (k, r) in rows.iter().enumerate() {
+            let labels = [
+                ("pose_x", r.pose_x),
+                ("pose_y", r.pose_y),
+                ("pose_z", r.pose_z),
+                ("pose_Rx", r.pose_rx),
+                ("pose_Ry", r.pose_ry),
+                ("pose_Rz", r.pose_rz),
+                ("shear_x", r.shear_x),
+                ("shear_y", r.shear_y),
+                ("shear_z", r.shear_z),
+                ("shear_Rx", r.shear_rx),
+                ("shear_Ry", r.shear_ry),
+                ("shear_Rz", r.shear_rz),
+            ];
+            if let Some((column, v)) = labels.iter().find(|(_, v)| !v.is_finite()) {
+                return Err(DataError::format(
+                    dir.join("targets.csv"),
+                    format!("row {} ({}): {column} is {v}; every label must be a finite number", k + 2, r.sensor_image),
+                ));
+            }
+        }
         for name in rows.iter().map(|r| &r.sensor_image).chain(std::iter::once(&meta.reference_image)) {
             if !dir.join("images").join(name).is_file() {
                 return Err(fail(format!(
@@ -118,18 +140,31 @@ impl Dataset {
         self.dir.join("images").join(&row.sensor_image)
     }
 
-    /// Loads a row's image (8-bit grey).
+    /// Loads a row's image: 8-bit grey at the dataset's `image_size`, as `tacsim generate`
+    /// writes them (another size or an RGB image is an error naming the file).
     pub fn image(&self, row: &Row) -> Result<GrayImage> {
-        load_grey(&self.image_path(row))
+        self.checked(&self.image_path(row))
     }
 
-    /// Loads the undeformed reference image.
+    /// Loads the undeformed reference image (checked as [`Dataset::image`]).
     pub fn reference(&self) -> Result<GrayImage> {
-        load_grey(&self.dir.join("images").join(&self.meta.reference_image))
+        self.checked(&self.dir.join("images").join(&self.meta.reference_image))
     }
-}
 
-fn load_grey(path: &Path) -> Result<GrayImage> {
-    let img = image::open(path).map_err(|e| DataError::format(path, format!("not a readable image: {e}")))?;
-    Ok(img.into_luma8())
+    fn checked(&self, path: &Path) -> Result<GrayImage> {
+        let img = image::open(path).map_err(|e| DataError::format(path, format!("not a readable image: {e}")))?;
+        let side = self.meta.image_size;
+        if img.color() != image::ColorType::L8 || (img.width(), img.height()) != (side, side) {
+            return Err(DataError::format(
+                path,
+                format!(
+                    "is {}x{} {:?}; the images of this dataset are {side}x{side} 8-bit grey (meta.json image_size)",
+                    img.width(),
+                    img.height(),
+                    img.color()
+                ),
+            ));
+        }
+        Ok(img.into_luma8())
+    }
 }

@@ -111,6 +111,23 @@ impl Corpus {
         self.images.side()
     }
 
+    /// A 64-bit FNV-1a hash of the rows (labels, splits, pairs, image names) and every
+    /// image's pixels as loaded: a training run records it, and a resume with other data
+    /// is refused.
+    pub fn fingerprint(&self) -> u64 {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        let mut eat = |bytes: &[u8]| {
+            for b in bytes {
+                h = (h ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3);
+            }
+        };
+        for (k, row) in self.dataset.rows.iter().enumerate() {
+            eat(serde_json::to_string(row).unwrap_or_default().as_bytes());
+            eat(self.images.image(k));
+        }
+        h
+    }
+
     /// A batch of the images of `rows`, shifted by `shifts` (px).
     pub fn batch(&self, rows: &[usize], shifts: &[(i32, i32)], device: &Device) -> Tensor<4> {
         self.images.batch(rows, shifts, device)

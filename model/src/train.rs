@@ -211,17 +211,45 @@ fn run_loop<M: Module, T: Copy>(
     Ok((model, state))
 }
 
-/// Prepares a run directory: writes the config, or (on resume) checks it is the same and
-/// loads the newest checkpoint.
+/// The data a run trains on (`data.json` in its directory).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct DataRecord {
+    /// The dataset's directory, for the message.
+    dir: String,
+    /// [`Corpus::fingerprint`], in hex.
+    fingerprint: String,
+}
+
+/// Prepares a run directory: writes the config and the data's fingerprint, or (on resume)
+/// checks both are the same and loads the newest checkpoint.
 fn open_run<M: Module, C: Serialize + for<'de> Deserialize<'de> + PartialEq>(
     out: &std::path::Path,
     config: &C,
+    corpus: &Corpus,
     resume: bool,
     model: M,
     optim: ModuleOptimizer,
 ) -> Result<(RunDir, M, ModuleOptimizer, TrainState)> {
     let run = RunDir::create(out)?;
     let path = run.config();
+    let data = DataRecord {
+        dir: corpus.dataset.dir.display().to_string(),
+        fingerprint: format!("{:016x}", corpus.fingerprint()),
+    };
+    let data_path = out.join("data.json");
+    if path.is_file() && resume && data_path.is_file() {
+        let saved: DataRecord = read_json(&data_path)?;
+        if saved.fingerprint != data.fingerprint {
+            return Err(ModelError::checkpoint(
+                &data_path,
+                format!(
+                    "the run was trained on other data ({}, fingerprint {}; --data {} gives {}): resume with the \
+                     same --data, or choose another --out",
+                    saved.dir, saved.fingerprint, data.dir, data.fingerprint
+                ),
+            ));
+        }
+    }
     if path.is_file() {
         if !resume {
             return Err(ModelError::checkpoint(
@@ -236,12 +264,18 @@ fn open_run<M: Module, C: Serialize + for<'de> Deserialize<'de> + PartialEq>(
                 "the run was started with another config: resume with the same options, or choose another --out",
             ));
         }
+        if !data_path.is_file() {
+            write_json(&data_path, &data)?;
+        }
         if let Some(dir) = run.latest_checkpoint() {
             let (model, optim, state) = RunDir::load_checkpoint(&dir, model, optim)?;
             return Ok((run, model, optim, state));
         }
     } else {
         write_json(&path, config)?;
+    }
+    if !data_path.is_file() {
+        write_json(&data_path, &data)?;
     }
     Ok((run, model, optim, TrainState::default()))
 }
@@ -308,7 +342,7 @@ pub fn train_unshear(
         Mode::Baseline => corpus.dataset.true_pairs(Split::Train, Subset::All),
         Mode::SelfSupervised => Vec::new(),
     };
-    let (run, model, optim, state) = open_run(out, cfg, resume, model, settings.adam.init())?;
+    let (run, model, optim, state) = open_run(out, cfg, corpus, resume, model, settings.adam.init())?;
     if state.done {
         progress.message("the run had already finished");
         return Ok((model, state));
@@ -381,7 +415,7 @@ pub fn train_posenet(
         checkpoint_steps: cfg.checkpoint_steps,
         adam: AdamConfig::new(),
     };
-    let (run, model, optim, state) = open_run(out, cfg, resume, model, settings.adam.init())?;
+    let (run, model, optim, state) = open_run(out, cfg, corpus, resume, model, settings.adam.init())?;
     write_json(&out.join("scale.json"), &scale)?;
     if state.done {
         progress.message("the run had already finished");

@@ -69,6 +69,12 @@ fn interrupted_run_resumes_to_the_same_weights_and_refuses_a_changed_config() {
     let other = UnshearConfig { seed: 9, ..cfg.clone() };
     let err = train_unshear(&corpus, &other, Backend::Flex, &b, true, None, &mut Silent).expect_err("other config");
     assert!(err.to_string().contains("another config"), "{err}");
+    // Resuming on other data silently went on with it (issue 32): refused by its fingerprint.
+    common::write_dataset(&dir.join("other"), 64, 12, 2, 4, 3);
+    let other_data = Corpus::open(&dir.join("other"), 64).expect("open the other dataset");
+    assert_ne!(other_data.fingerprint(), corpus.fingerprint());
+    let err = train_unshear(&other_data, &cfg, Backend::Flex, &b, true, None, &mut Silent).expect_err("other data");
+    assert!(err.to_string().contains("other data") && err.to_string().contains("data.json"), "{err}");
     train_unshear(&corpus, &cfg, Backend::Flex, &b, true, None, &mut Silent).expect("resumed");
     assert!(outputs(&corpus, &a) == outputs(&corpus, &b), "resumed run ended elsewhere");
 }

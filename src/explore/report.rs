@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use anyhow::Context as _;
 use anyhow::Result;
 use plotters::prelude::*;
 use serde::Serialize;
@@ -16,6 +17,34 @@ pub struct Summary {
     pub pass: bool,
     /// The runs, in the order given.
     pub runs: Vec<RunReport>,
+}
+
+/// The plot file of each scenario (`names[i]` from `files[i]`): `NAME.svg` with every character
+/// outside `[A-Za-z0-9._-]` replaced by `_`, so a name cannot leave the report directory; a
+/// name shared by several scenarios takes its file's folder as a prefix (`FOLDER-NAME.svg`),
+/// and the run's position where that is shared too (`FOLDER-NAME-3.svg`).
+pub fn plot_names(files: &[std::path::PathBuf], names: &[&str]) -> Vec<String> {
+    let clean = |s: &str| -> String {
+        s.chars().map(|c| if c.is_ascii_alphanumeric() || "._-".contains(c) { c } else { '_' }).collect()
+    };
+    let count = |v: &[String], x: &String| v.iter().filter(|y| *y == x).count();
+    let base: Vec<String> = names.iter().map(|n| clean(n)).collect();
+    let folder = |i: usize| {
+        let dir = files[i].parent().and_then(|d| d.file_name()).map(|d| d.to_string_lossy().into_owned());
+        clean(&dir.unwrap_or_default())
+    };
+    let prefixed: Vec<String> = (0..base.len())
+        .map(|i| if count(&base, &base[i]) > 1 { format!("{}-{}", folder(i), base[i]) } else { base[i].clone() })
+        .collect();
+    (0..prefixed.len())
+        .map(|i| {
+            if count(&prefixed, &prefixed[i]) > 1 {
+                format!("{}-{}.svg", prefixed[i], i + 1)
+            } else {
+                format!("{}.svg", prefixed[i])
+            }
+        })
+        .collect()
 }
 
 /// `tacsim run`: loads every scenario first (a bad file stops before any run), runs them in
@@ -40,15 +69,17 @@ pub fn run_files(
     let catalogue = crate::commands::load_catalogue(None)?;
     // Each scenario's own sensor, loaded before any run (a bad file stops them all).
     let sensors = scenarios.iter().map(|s| s.sensor_or(sensor)).collect::<Result<Vec<_>>>()?;
-    let runs = scenarios
+    // The report directory, checked writable before any run.
+    crate::commands::ensure_writable(out).context("the report directory (--out)")?;
+    let plots = plot_names(files, &scenarios.iter().map(|s| s.name.as_str()).collect::<Vec<_>>());
+    let mut runs = scenarios
         .par_iter()
         .zip(&sensors)
         .map(|(s, sensor)| super::run::run(s, sensor, &catalogue))
         .collect::<Result<Vec<_>>>()?;
-    std::fs::create_dir_all(out)
-        .map_err(|e| anyhow::anyhow!("{}: cannot create the report directory: {e}", out.display()))?;
-    for r in &runs {
-        plot(r, &out.join(format!("{}.svg", r.name)))?;
+    for (r, name) in runs.iter_mut().zip(plots) {
+        plot(r, &out.join(&name))?;
+        r.plot = name;
     }
     let summary = Summary { pass: runs.iter().all(|r| r.pass), runs };
     let text = serde_json::to_string_pretty(&summary)? + "\n";
@@ -148,4 +179,23 @@ pub fn plot(r: &RunReport, path: &Path) -> Result<()> {
     }
     tacsim_sim::atomic::write_atomic(path, svg.as_bytes())?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::PathBuf;
+
+    use super::plot_names;
+
+    #[test]
+    fn two_scenarios_with_one_name_overwrote_each_others_plot() {
+        let files: Vec<PathBuf> = ["a/disk.toml", "b/disk.toml", "c/x.toml", "a/z/disk.toml", "a/q/disk.toml"]
+            .iter()
+            .map(PathBuf::from)
+            .collect();
+        let names = plot_names(&files, &["disk", "disk", "../../etc/x", "disk", "disk"]);
+        assert_eq!(names, ["a-disk.svg", "b-disk.svg", ".._.._etc_x.svg", "z-disk.svg", "q-disk.svg"]);
+        let same = plot_names(&[PathBuf::from("a/d.toml"), PathBuf::from("a/d.toml")], &["d", "d"]);
+        assert_eq!(same, ["a-d-1.svg", "a-d-2.svg"]);
+    }
 }

@@ -59,6 +59,9 @@ pub struct RunReport {
     pub wall_s: f64,
     /// Servo steps per wall second.
     pub steps_per_s: f64,
+    /// The plot's file name in the report directory (`NAME.svg`; a scenario whose name another
+    /// one shares takes its folder's name too).
+    pub plot: String,
     /// Whether every criterion holds.
     pub pass: bool,
     /// The criteria that failed.
@@ -327,6 +330,7 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
         substeps,
         wall_s: 0.0,
         steps_per_s: 0.0,
+        plot: String::new(),
         pass: false,
         failures: Vec::new(),
         trajectory,

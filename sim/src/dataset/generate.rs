@@ -17,7 +17,8 @@ use tacsim_data::{Kind, Meta, Row, Shard};
 
 use super::plan::{Plan, REFERENCE_IMAGE, Sample, image_name};
 use crate::atomic::{is_temp_name, write_atomic, write_atomic_unsynced};
-use crate::contact::engine::{ContactModel, Simulation};
+use crate::contact::engine::{ContactModel, Simulation, footprint_grid};
+use crate::contact::frame::ContactFrame;
 use crate::contact::trajectory::Path as SensorPath;
 use crate::error::{Result, SimError};
 use crate::pins::PinLayout;
@@ -47,6 +48,8 @@ pub struct Summary {
     pub written: usize,
     /// Images already present (resume).
     pub skipped: usize,
+    /// Samples (of the run's range) whose sensor touches nothing (`poses.allow_no_contact`).
+    pub no_contact: usize,
     /// Taps and slides written.
     pub taps: usize,
     /// Slides written.
@@ -169,6 +172,60 @@ pub struct Context<'a> {
     pub scenes: &'a [Scene],
     /// Renderer at the recipe's image size.
     pub renderer: &'a PinRenderer,
+    /// Where the recipe came from (a file, or a built-in's name), for errors.
+    pub source: &'a str,
+}
+
+/// Every sample of `range` checked before any work: its sensor poses within the sensor's
+/// range and its path bounded; a sample that touches nothing is an error unless the recipe
+/// allows it (`poses.allow_no_contact`). Returns how many touch nothing.
+pub fn check_samples(ctx: &Context<'_>, range: std::ops::Range<usize>) -> Result<usize> {
+    let plan = ctx.plan;
+    let source = ctx.source;
+    let radius = ctx.model.sensor.dome.outer_radius_mm;
+    let misses: Vec<usize> = range
+        .into_par_iter()
+        .map(|i| -> Result<Option<usize>> {
+            let s = plan.sample(i);
+            let (start, target) = plan.sensor_poses(&s);
+            let at =
+                |e: SimError| SimError::invalid(source, format!("sample {} ({})", i + 1, image_name(i)), e.to_string());
+            start.validate("its start pose", radius).map_err(at)?;
+            target.validate("its pose", radius).map_err(at)?;
+            let path = match s.kind {
+                Kind::Tap => SensorPath::tap(target),
+                Kind::Slide => {
+                    let sl = &plan.recipe.slides;
+                    SensorPath::slide_between(start, target, sl.step_mm, sl.step_deg).map_err(at)?
+                }
+            };
+            let poses = path.poses();
+            let scene = &ctx.scenes[plan.poses[s.pose_id].shape];
+            let touches = footprint_grid(ctx.model, scene, &poses, &ContactFrame::of_poses(&poses)).is_some();
+            Ok((!touches).then_some(i))
+        })
+        .filter_map(Result::transpose)
+        .collect::<Result<Vec<_>>>()?;
+    if let (Some(&first), false) = (misses.first(), plan.recipe.poses.allow_no_contact) {
+        let s = plan.sample(first);
+        return Err(SimError::invalid(
+            source,
+            "poses",
+            format!(
+                "{} of the samples touch nothing (the first: sample {}, labels x {:.2} mm, y {:.2} mm, depth {:.2} \
+                 mm, yaw {:.1} deg): their images would be undeformed under a depth label. Keep the poses on the \
+                 shape (poses.x_mm, poses.y_mm, shapes[].contact_mm), or set poses.allow_no_contact = true to keep \
+                 such samples",
+                misses.len(),
+                first + 1,
+                s.pose[0],
+                s.pose[1],
+                s.pose[2],
+                s.pose[5]
+            ),
+        ));
+    }
+    Ok(misses.len())
 }
 
 /// Simulates, renders and encodes one sample; returns the PNG bytes and the stage times
@@ -218,6 +275,7 @@ pub fn generate(
     };
     let shard = target.shard.map(|(index, count)| Shard { index, count, start: range.start, end: range.end });
     let meta = meta(plan, sensor, shard)?;
+    let no_contact = check_samples(ctx, range.clone())?;
     prepare(target, &meta)?;
     let out = &target.out;
     let rows: Vec<Row> = range.clone().map(|i| plan.row(&plan.sample(i))).collect();
@@ -263,6 +321,7 @@ pub fn generate(
     Ok(Summary {
         written: todo.len(),
         skipped,
+        no_contact,
         taps,
         slides: todo.len() - taps,
         wall_s: wall.elapsed().as_secs_f64(),
@@ -302,7 +361,8 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     if parts.len() != count {
         return Err(bad(format!("{} of {count} shards given", parts.len())));
     }
-    let target = Target { out: out.to_owned(), shard: None, resume: false };
+    // A folder that already holds this dataset is an interrupted merge: merging again finishes it.
+    let target = Target { out: out.to_owned(), shard: None, resume: true };
     let meta = Meta { shard: None, ..parts[0].1.meta.clone() };
     prepare(&target, &meta)?;
     let images = out.join("images");

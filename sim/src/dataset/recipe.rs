@@ -112,6 +112,11 @@ pub struct PoseSpec {
     pub rx_deg: [f64; 2],
     /// Tilt about y (deg).
     pub ry_deg: [f64; 2],
+    /// Keep samples whose sensor touches nothing (undeformed images, labelled as drawn; the
+    /// count is reported), as a lab's own recordings beside an edge do. Without it such a
+    /// sample is an error before any work: a range off the shape is a mistake more often.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub allow_no_contact: bool,
 }
 
 /// Taps: pressed straight down onto the pose.
@@ -286,6 +291,7 @@ impl Default for PoseSpec {
             per_shape: 200,
             frame: Frame::Scene,
             around_contour: false,
+            allow_no_contact: false,
             x_mm: [-5.0, 5.0],
             y_mm: [-5.0, 5.0],
             depth_mm: [1.0, 6.0],
