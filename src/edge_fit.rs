@@ -23,17 +23,35 @@ use tacsim_sim::stimulus::catalogue::off_the_edge;
 
 use crate::calibrate::CalibrateOptions;
 
-/// The candidates: rounding of the edge (mm, the stimulus) and the pins' skin patch (mm, the
-/// sensor: `pins.patch_radius_mm`), one changed at a time from the sensor as given.
-pub const CANDIDATES: [(f64, Option<f64>); 8] = [
-    (0.0, None),
-    (1.0, None),
-    (2.0, None),
-    (4.0, None),
-    (0.0, Some(0.0)),
-    (0.0, Some(0.75)),
-    (0.0, Some(1.5)),
-    (0.0, Some(2.5)),
+/// One candidate model of the taps: `None` keeps the sensor's own value.
+#[derive(Clone, Copy, Debug)]
+pub struct Candidate {
+    /// Rounding of the stimulus's edge (mm).
+    pub edge_radius_mm: f64,
+    /// The pins' skin patch (mm, `pins.patch_radius_mm`).
+    pub patch_radius_mm: Option<f64>,
+    /// Factor on the dome's slope (`skin.dome_slope`).
+    pub dome_slope: Option<f64>,
+}
+
+const fn candidate(edge_radius_mm: f64, patch_radius_mm: Option<f64>, dome_slope: Option<f64>) -> Candidate {
+    Candidate { edge_radius_mm, patch_radius_mm, dome_slope }
+}
+
+/// The candidates, one change at a time from the sensor as given: rounding of the edge (the
+/// stimulus), the pins' skin patch and the dome's slope (the sensor).
+pub const CANDIDATES: [Candidate; 11] = [
+    candidate(0.0, None, None),
+    candidate(1.0, None, None),
+    candidate(2.0, None, None),
+    candidate(4.0, None, None),
+    candidate(0.0, Some(0.0), None),
+    candidate(0.0, Some(0.75), None),
+    candidate(0.0, Some(1.5), None),
+    candidate(0.0, Some(2.5), None),
+    candidate(0.0, None, Some(0.0)),
+    candidate(0.0, None, Some(1.0)),
+    candidate(0.0, None, Some(2.0)),
 ];
 /// Contact grid cells across (the `edge-2d` recipe's).
 const CELLS: usize = 17;
@@ -70,6 +88,8 @@ pub struct EdgeCandidate {
     pub edge_radius_mm: f64,
     /// The pins' skin patch (mm).
     pub patch_radius_mm: f64,
+    /// Factor on the dome's slope.
+    pub dome_slope: f64,
     /// The label map fitted on the fitting taps.
     pub labels: EdgeLabels,
     /// Pooled relative per-pin error on the taps the map was fitted on.
@@ -134,31 +154,36 @@ pub fn edge_fit(job: &EdgeFitJob) -> Result<String> {
     let mut by_depth = job.split.held_out.clone();
     by_depth.sort_by(|&a, &b| job.obs.samples[a].sample.pose[2].total_cmp(&job.obs.samples[b].sample.pose[2]));
     let mut candidates = Vec::new();
-    for (r, patch) in CANDIDATES {
+    for c in CANDIDATES {
         let mut sensor = job.base.clone();
-        if let Some(a) = patch {
-            sensor.pins.patch_radius_mm = a;
-        }
-        let a = sensor.pins.patch_radius_mm;
-        // A candidate the sensor as given already is (its own patch) runs once.
-        if candidates.iter().any(|c: &EdgeCandidate| c.edge_radius_mm == r && c.patch_radius_mm == a) {
+        sensor.pins.patch_radius_mm = c.patch_radius_mm.unwrap_or(sensor.pins.patch_radius_mm);
+        sensor.skin.dome_slope = c.dome_slope.unwrap_or(sensor.skin.dome_slope);
+        let (r, a, g) = (c.edge_radius_mm, sensor.pins.patch_radius_mm, sensor.skin.dome_slope);
+        // A candidate the sensor as given already is (its own patch and slope) runs once.
+        if candidates
+            .iter()
+            .any(|c: &EdgeCandidate| c.edge_radius_mm == r && c.patch_radius_mm == a && c.dome_slope == g)
+        {
             continue;
         }
         (job.progress)(&format!(
-            "edge rounding {r} mm, skin patch {a} mm: fitting the label map on {} taps",
+            "edge rounding {r} mm, skin patch {a} mm, dome slope {g}: fitting the label map on {} taps",
             fit_taps.len()
         ));
         let (scene, frame) = edge_scene(stimulus.with_edge_radius(Some(r)), contact)?;
         let deformation = Deformation::of(&sensor, stimulus.entry.friction);
         let sim = Simulator::on_scene(&sensor, &deformation, CELLS, job.obs, scene)?;
         let (labels, fit_error) = fit_labels(&sim, &frame, job.obs, &fit_taps, start_labels(job.obs, &job.split.train))
-            .with_context(|| format!("fitting the label map with the edge rounded to {r} mm, skin patch {a} mm"))?;
+            .with_context(|| {
+                format!("fitting the label map with the edge rounded to {r} mm, skin patch {a} mm, dome slope {g}")
+            })?;
         let held = tap_errors(&sim, &frame, &labels, job.obs, &by_depth)?;
         let quarter = held.len().div_ceil(4);
         let held_out_by_depth = held.chunks(quarter).map(pooled_error).collect();
         candidates.push(EdgeCandidate {
             edge_radius_mm: r,
             patch_radius_mm: a,
+            dome_slope: g,
             labels,
             fit_error,
             held_out_error: pooled_error(&held),
@@ -182,26 +207,29 @@ pub fn edge_fit(job: &EdgeFitJob) -> Result<String> {
     let b = &report.candidates[best];
     let mut sensor = job.base.clone();
     sensor.pins.patch_radius_mm = b.patch_radius_mm;
+    sensor.skin.dome_slope = b.dome_slope;
     let header = format!(
-        "# {} with the skin patch of edge taps of {} on `{}` fitted by `{}`.\n# Best: edge rounding {} mm, skin \
-         patch {} mm (held-out per-pin error {:.3}); report: {}.\n\n",
+        "# {} with the skin patch and dome slope of edge taps of {} on `{}` fitted by `{}`.\n# Best: edge \
+         rounding {} mm, skin patch {} mm, dome slope {} (held-out per-pin error {:.3}); report: {}.\n\n",
         job.base.name,
         o.real.display(),
         stimulus.name(),
         job.command,
         b.edge_radius_mm,
         b.patch_radius_mm,
+        b.dome_slope,
         b.held_out_error,
         job.report_dir.display()
     );
     write_atomic(&o.output, format!("{header}{}", sensor.to_toml()).as_bytes())?;
     Ok(format!(
-        "{} taps fitted, {} held out; best: edge rounding {} mm, skin patch {} mm: held-out per-pin error {:.3}\n\
-         wrote {} and {}\n",
+        "{} taps fitted, {} held out; best: edge rounding {} mm, skin patch {} mm, dome slope {}: held-out per-pin \
+         error {:.3}\nwrote {} and {}\n",
         report.fitted,
         report.held_out,
         b.edge_radius_mm,
         b.patch_radius_mm,
+        b.dome_slope,
         b.held_out_error,
         o.output.display(),
         job.report_dir.join("report.md").display()
@@ -214,17 +242,19 @@ pub fn markdown(r: &EdgeReport) -> String {
         "# Edge taps against the simulator\n\nMade by `{}` from `{}`: taps on the edge of `{}`, the label map fitted \
          on {} of the fitting taps, the error on the {} held-out taps (pooled mean per-pin displacement error over \
          mean real displacement, the surface fit's measure).\n\n\
-         | edge rounding (mm) | skin patch (mm) | fitted on | held out | held out by depth quarter (shallow to deep) | lateral: sign, \
-         edge at (mm) | yaw: sign, offset (deg) | depth offset (mm) |\n|---|---|---|---|---|---|---|---|\n",
+         | edge rounding (mm) | skin patch (mm) | dome slope | fitted on | held out | held out by depth quarter (shallow to \
+         deep) | lateral: sign, edge at (mm) | yaw: sign, offset (deg) | depth offset (mm) |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
         r.command, r.real, r.shape, r.fitted, r.held_out
     );
     for (i, c) in r.candidates.iter().enumerate() {
         let l = &c.labels;
         let quarters: Vec<String> = c.held_out_by_depth.iter().map(|e| format!("{e:.3}")).collect();
         md += &format!(
-            "| {} | {}{} | {:.3} | {:.3} | {} | {:+}, {:.2} | {:+}, {:.1} | {:.2} |\n",
+            "| {} | {} | {}{} | {:.3} | {:.3} | {} | {:+}, {:.2} | {:+}, {:.1} | {:.2} |\n",
             c.edge_radius_mm,
             c.patch_radius_mm,
+            c.dome_slope,
             if i == r.best { " (best)" } else { "" },
             c.fit_error,
             c.held_out_error,
@@ -239,6 +269,6 @@ pub fn markdown(r: &EdgeReport) -> String {
     md += "\nEdge frame: x across the edge, positive off the material, `x = sign (lateral - edge)`; yaw from the \
            edge's tangent, `yaw = sign yaw_label + offset`; indentation `= depth label + depth offset`. A \
            recipe takes the rounding as `[[shapes]] edge_radius_mm`; the preset written is the sensor with the best \
-           candidate's skin patch (`pins.patch_radius_mm`).\n";
+           candidate's skin patch (`pins.patch_radius_mm`) and dome slope (`skin.dome_slope`).\n";
     md
 }

@@ -136,6 +136,17 @@ pub struct SkinParams {
     pub gel_youngs_modulus_mpa: f64,
     /// `skin-on-gel`: Poisson's ratio of the gel, in [0, 0.5]. Default 0.5.
     pub gel_poisson: f64,
+    /// Factor (0 to 3) on the dome's own slope in the contact's boundary conditions; 0: the
+    /// flat half-space, as if the skin faced the stimulus everywhere. The skin under a contact
+    /// at polar angle `theta` is pushed along the stimulus normal, which is not its own: a
+    /// stuck point pressed in by `u_n` (mm) moves `u_n tan(theta)` along the skin, away from
+    /// the apex, and frictionless pressure `p` loads the skin with `p tan(theta)` along it
+    /// ([`crate::contact`]'s engine). A contact off the apex (an edge beside the sensor) then
+    /// drags the whole skin towards itself. 1: the dome of `dome.outer_radius_mm`; more where
+    /// that radius is an effective one wider than the real dome. Fitted on edge taps
+    /// (`tacsim calibrate --edge`).
+    #[serde(skip_serializing_if = "is_zero")]
+    pub dome_slope: f64,
 }
 
 impl Default for SkinParams {
@@ -149,9 +160,13 @@ impl Default for SkinParams {
             base_depth_mm: 20.0,
             gel_youngs_modulus_mpa: 0.1,
             gel_poisson: 0.5,
+            dome_slope: 0.0,
         }
     }
 }
+
+/// Largest factor on the dome's slope ([`SkinParams::dome_slope`]).
+pub const MAX_DOME_SLOPE: f64 = 3.0;
 
 /// Largest skin patch a pin turns with (mm).
 pub const MAX_PATCH_RADIUS_MM: f64 = 5.0;
@@ -338,8 +353,18 @@ impl SensorParams {
     /// Parses and validates a sensor TOML. `source_name` (a file name) is used in errors.
     /// Missing fields take the defaults; unknown fields are errors.
     pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self> {
-        let params: SensorParams = toml::from_str(text)
-            .map_err(|e| SimError::Toml { source_name: source_name.to_owned(), message: e.to_string() })?;
+        let toml_error =
+            |e: toml::de::Error| SimError::Toml { source_name: source_name.to_owned(), message: e.to_string() };
+        // A file that sets nothing is a mistake (an empty or truncated file), not the default.
+        if toml::from_str::<toml::Table>(text).map_err(toml_error)?.is_empty() {
+            return Err(SimError::invalid(
+                source_name,
+                "(file)",
+                "sets no field: write the fields that differ from the default (see \
+                 sim/presets/tactip-331-calibrated.toml), or leave out the sensor for the default",
+            ));
+        }
+        let params: SensorParams = toml::from_str(text).map_err(toml_error)?;
         params.validate(source_name)?;
         Ok(params)
     }
@@ -586,6 +611,9 @@ impl SensorParams {
         if !(0.0..=0.5).contains(&k.gel_poisson) {
             return bad("skin.gel_poisson", format!("must be in [0, 0.5], got {}", k.gel_poisson));
         }
+        if !(0.0..=MAX_DOME_SLOPE).contains(&k.dome_slope) {
+            return bad("skin.dome_slope", format!("must be in [0, {MAX_DOME_SLOPE}], got {}", k.dome_slope));
+        }
         // Every pin tip must be in front of the camera, and the distortion must stay monotonic
         // over the part of the field the pins use (otherwise the image folds over).
         let theta_max = self.ring_polar_rad().last().copied().unwrap_or(0.0);
@@ -654,6 +682,12 @@ mod tests {
             ("[pins]\npatch_radius_mm = 6.0\n", "pins.patch_radius_mm"),
             ("[pins]\npatch_radius_mm = -1.0\n", "pins.patch_radius_mm"),
             ("[pins]\npatch_radius_mm = inf\n", "pins.patch_radius_mm"),
+            ("[skin]\ndome_slope = 4.0\n", "skin.dome_slope"),
+            ("[skin]\ndome_slope = -0.5\n", "skin.dome_slope"),
+            ("[skin]\ndome_slope = nan\n", "skin.dome_slope"),
+            // An empty file silently meant the default sensor (issue 32).
+            ("", "sets no field"),
+            ("# only a comment\n", "sets no field"),
         ] {
             let e = SensorParams::from_toml_str(text, "s.toml").expect_err(text).to_string();
             assert!(e.contains("s.toml") && e.contains(field), "{text}: {e}");

@@ -324,3 +324,23 @@ fn a_skin_patch_closes_the_split_of_the_pins_along_a_sharp_edge() {
     println!("largest pin motion in the middle of the face: {m0:.3} mm, {m1:.3} mm with the patch");
     assert!((m1 - m0).abs() < 0.15 * m0, "{m1} vs {m0}");
 }
+
+#[test]
+fn the_dome_slope_drags_the_skin_towards_a_contact_off_the_apex() {
+    let scene = scene_with("square");
+    // 5 mm off the square's edge (x = 45 mm): the contact is on the sensor's -x side.
+    let tap = |slope: f64| {
+        let mut sensor = SensorParams::default();
+        sensor.skin.dome_slope = slope;
+        let model = ContactModel::new(&sensor);
+        let pose = SensorPose::new(50.0, 0.0, 1.5, 0.0);
+        let pins = trajectory::run(&model, &scene, &Path::tap(pose), None).expect("tap")[0].pins.clone();
+        let rest = model.layout.poses();
+        let far: Vec<f64> =
+            rest.iter().zip(&pins).filter(|(r, _)| r.tip.x > 3.0).map(|(r, p)| p.tip.x - r.tip.x).collect();
+        far.iter().sum::<f64>() / far.len() as f64
+    };
+    let (flat, sloped) = (tap(0.0), tap(1.0));
+    println!("far-side pins' mean x motion: {flat:.4} mm flat, {sloped:.4} mm with the dome's slope");
+    assert!(sloped < flat - 0.01, "{sloped} vs {flat}");
+}

@@ -210,6 +210,20 @@ fn probe_box(
     b.map(|a| [(a[0] - margin).max(-r), (a[1] - margin).max(-r), (a[2] + margin).min(r), (a[3] + margin).min(r)])
 }
 
+/// `factor` times the slope `grad h = c / sqrt(R^2 - |c|^2)` of the dome (radius `R`, mm) at
+/// each cell centre `c` of `grid`: how far the undeformed surface recedes from the contact
+/// plane per mm outwards (in the grid's frame the dome is a sphere about the origin).
+fn dome_slope(grid: &Grid, dome_radius: f64, factor: f64) -> (Vec<f64>, Vec<f64>) {
+    grid.centres()
+        .into_iter()
+        .map(|c| {
+            let z =
+                (dome_radius * dome_radius - c[0] * c[0] - c[1] * c[1]).max(1e-6 * dome_radius * dome_radius).sqrt();
+            (factor * c[0] / z, factor * c[1] / z)
+        })
+        .unzip()
+}
+
 /// Point of the undeformed outer dome surface above grid point `c` (in the grid's frame: the
 /// dome is a sphere about the origin in the sensor frame and every contact frame).
 fn dome_point(dome_radius: f64, c: [f64; 2]) -> Vector3<f64> {
@@ -290,6 +304,10 @@ pub struct Simulation<'a> {
     /// tangential operator on them (reused while the contact stays inside).
     seen: Vec<bool>,
     lipschitz: Option<f64>,
+    /// The dome's slope `dh/dx, dh/dy` per cell times `skin.dome_slope` (none at 0).
+    slope: Option<(Vec<f64>, Vec<f64>)>,
+    /// How far each cell's surface was pressed in at the end of the previous step (mm).
+    closure: Vec<f64>,
     pose: Option<SensorPose>,
     report: StepReport,
 }
@@ -315,6 +333,8 @@ impl<'a> Simulation<'a> {
         let n = op.as_ref().map_or(0, |o| o.grid().len());
         let layout =
             if frame.is_sensor() { model.layout.clone() } else { Arc::new(frame.layout_to_contact(&model.layout)) };
+        let factor = model.sensor.skin.dome_slope;
+        let slope = op.as_ref().filter(|_| factor > 0.0).map(|o| dome_slope(o.grid(), model.dome_radius(), factor));
         Self {
             model,
             scene,
@@ -328,6 +348,8 @@ impl<'a> Simulation<'a> {
             friction: vec![0.0; n],
             seen: vec![false; n],
             lipschitz: None,
+            slope,
+            closure: vec![0.0; n],
             pose: None,
             report: StepReport::default(),
         }
@@ -388,6 +410,7 @@ impl<'a> Simulation<'a> {
             self.pressure.iter_mut().for_each(|v| *v = 0.0);
             self.qx.iter_mut().for_each(|v| *v = 0.0);
             self.qy.iter_mut().for_each(|v| *v = 0.0);
+            self.closure.iter_mut().for_each(|v| *v = 0.0);
             self.report = StepReport::default();
             return Ok(&self.report);
         }
@@ -410,6 +433,7 @@ impl<'a> Simulation<'a> {
         let moving = wx.iter().chain(&wy).any(|w| *w != 0.0);
         let frictional = mu.iter().any(|m| *m > 0.0);
         let (p_prev, qx_prev, qy_prev) = (self.pressure.clone(), self.qx.clone(), self.qy.clone());
+        let closure_prev = self.closure.clone();
         let mut report = StepReport { in_contact: true, ..StepReport::default() };
         let mut extra: Option<Vec<f64>> = None;
         let rounds = if op.uncoupled() { 1 } else { self.model.coupling_iterations.max(1) };
@@ -430,7 +454,10 @@ impl<'a> Simulation<'a> {
                     self.gap[k] = *g;
                 }
             }
-            let needs_tangential = frictional && (moving || !op.uncoupled() || qx_prev.iter().any(|q| *q != 0.0));
+            let closure: Vec<f64> =
+                self.gap.iter().zip(&g0).map(|(g, g0)| if g0.is_finite() { g - g0 } else { 0.0 }).collect();
+            let needs_tangential =
+                self.slope.is_some() || frictional && (moving || !op.uncoupled() || qx_prev.iter().any(|q| *q != 0.0));
             if !needs_tangential {
                 self.qx.iter_mut().for_each(|v| *v = 0.0);
                 self.qy.iter_mut().for_each(|v| *v = 0.0);
@@ -451,6 +478,52 @@ impl<'a> Simulation<'a> {
                     cy[k] += uy[k];
                 }
             }
+            // The dome's slope: the skin's traction is the solved (stimulus-plane) one plus
+            // `p grad h`, and its stuck cells move `du_n grad h` along the skin.
+            let offset = |p: &[f64]| -> (Vec<f64>, Vec<f64>) {
+                match &self.slope {
+                    Some((hx, hy)) => {
+                        (p.iter().zip(hx).map(|(p, h)| p * h).collect(), p.iter().zip(hy).map(|(p, h)| p * h).collect())
+                    }
+                    None => (vec![0.0; n], vec![0.0; n]),
+                }
+            };
+            let (ox, oy) = offset(&self.pressure);
+            let (ox_prev, oy_prev) = offset(&p_prev);
+            if let Some((hx, hy)) = &self.slope {
+                let dq: [Vec<f64>; 2] = [0, 1].map(|a| {
+                    let (o, o_prev) = if a == 0 { (&ox, &ox_prev) } else { (&oy, &oy_prev) };
+                    o.iter().zip(o_prev).map(|(a, b)| a - b).collect()
+                });
+                let src: Vec<usize> = (0..n).filter(|&k| dq[0][k] != 0.0 || dq[1][k] != 0.0).collect();
+                let dst: Vec<usize> = (0..n).filter(|&k| self.pressure[k] > 0.0).collect();
+                let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
+                let choice = Product::by_size(dst.len(), self.model.tangential.dense_max_cells, &src, &dst);
+                op.apply(&[(Component::Xx, &dq[0]), (Component::Xy, &dq[1])], &mut ux, choice);
+                op.apply(&[(Component::Xy, &dq[0]), (Component::Yy, &dq[1])], &mut uy, choice);
+                for &k in &dst {
+                    let du_n = closure[k] - closure_prev[k];
+                    cx[k] += ux[k] - du_n * hx[k];
+                    cy[k] += uy[k] - du_n * hy[k];
+                }
+            }
+            let minus = |q: &[f64], o: &[f64]| -> Vec<f64> { q.iter().zip(o).map(|(q, o)| q - o).collect() };
+            let (prev_x, prev_y) = (minus(&qx_prev, &ox_prev), minus(&qy_prev, &oy_prev));
+            let (warm_x, warm_y) = (minus(&self.qx, &ox), minus(&self.qy, &oy));
+            if !frictional {
+                // Frictionless: the stimulus-plane traction is zero; the skin's is `p grad h`.
+                let change: f64 =
+                    ox.iter().zip(&self.qx).chain(oy.iter().zip(&self.qy)).map(|(a, b)| (a - b).abs()).sum();
+                let scale: f64 = self.pressure.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+                self.qx = ox;
+                self.qy = oy;
+                self.closure = closure;
+                if op.uncoupled() || change / scale < 1e-9 {
+                    break;
+                }
+                extra = Some(self.normal_from_shear(op, &g0));
+                continue;
+            }
             // The eigenvalue bound on all cells seen in contact serves every step inside them.
             let mut grown = false;
             for (k, p) in self.pressure.iter().enumerate() {
@@ -468,9 +541,9 @@ impl<'a> Simulation<'a> {
                 op,
                 &self.pressure,
                 &mu,
-                (&qx_prev, &qy_prev),
+                (&prev_x, &prev_y),
                 (&cx, &cy),
-                Some((&self.qx, &self.qy)),
+                Some((&warm_x, &warm_y)),
                 self.lipschitz,
                 &self.model.tangential,
             )?;
@@ -480,24 +553,18 @@ impl<'a> Simulation<'a> {
             report.force_n[1] = t.force_n[1];
             report.slip_cells = t.slipping.iter().filter(|s| **s).count();
             report.dissipation_nmm = t.dissipation_nmm;
-            let change: f64 = t.qx.iter().zip(&self.qx).map(|(a, b)| (a - b).abs()).sum::<f64>()
-                + t.qy.iter().zip(&self.qy).map(|(a, b)| (a - b).abs()).sum::<f64>();
+            let qx: Vec<f64> = t.qx.iter().zip(&ox).map(|(q, o)| q + o).collect();
+            let qy: Vec<f64> = t.qy.iter().zip(&oy).map(|(q, o)| q + o).collect();
+            let change: f64 = qx.iter().zip(&self.qx).map(|(a, b)| (a - b).abs()).sum::<f64>()
+                + qy.iter().zip(&self.qy).map(|(a, b)| (a - b).abs()).sum::<f64>();
             let scale: f64 = self.pressure.iter().sum::<f64>().max(f64::MIN_POSITIVE);
-            self.qx = t.qx;
-            self.qy = t.qy;
+            self.qx = qx;
+            self.qy = qy;
+            self.closure = closure;
             if op.uncoupled() || change / scale < 1e-9 {
                 break;
             }
-            // Normal displacement from the shear tractions, for the next normal solve.
-            let src: Vec<usize> = (0..n).filter(|&k| self.qx[k] != 0.0 || self.qy[k] != 0.0).collect();
-            let dst: Vec<usize> = (0..n).filter(|&k| g0[k].is_finite()).collect();
-            let mut uz = vec![0.0; n];
-            op.apply(
-                &[(Component::Zx, &self.qx), (Component::Zy, &self.qy)],
-                &mut uz,
-                Product::by_size(dst.len(), self.model.normal.products.dense_max_cells, &src, &dst),
-            );
-            extra = Some(uz);
+            extra = Some(self.normal_from_shear(op, &g0));
         }
         report.contact_force_n = report.force_n;
         if !self.frame.is_sensor() {
@@ -514,6 +581,21 @@ impl<'a> Simulation<'a> {
         }
         self.report = report;
         Ok(&self.report)
+    }
+
+    /// Normal displacement (mm) of the cells with a finite gap from the shear tractions, for
+    /// the next normal solve of a coupled material.
+    fn normal_from_shear(&self, op: &Operator, g0: &[f64]) -> Vec<f64> {
+        let n = g0.len();
+        let src: Vec<usize> = (0..n).filter(|&k| self.qx[k] != 0.0 || self.qy[k] != 0.0).collect();
+        let dst: Vec<usize> = (0..n).filter(|&k| g0[k].is_finite()).collect();
+        let mut uz = vec![0.0; n];
+        op.apply(
+            &[(Component::Zx, &self.qx), (Component::Zy, &self.qy)],
+            &mut uz,
+            Product::by_size(dst.len(), self.model.normal.products.dense_max_cells, &src, &dst),
+        );
+        uz
     }
 
     /// Pin poses (sensor frame) for the current state: the undeformed layout without contact.
