@@ -12,7 +12,7 @@ fn recipe(dir: &Path, name: &str, seed: u64, taps: usize) -> std::path::PathBuf 
     let text = format!(
         "name = \"{name}\"\nseed = {seed}\nimage_size = 128\ncells_across = 9\nsensor = \"tactip-331-edge2d\"\n\
          [[shapes]]\nname = \"square\"\ncontact_mm = [45.0, 0.0]\n\
-         [poses]\nper_shape = {taps}\nframe = \"edge\"\nx_mm = [-6.0, 6.0]\ny_mm = [0.0, 0.0]\ndepth_mm = [0.3, 1.0]\nyaw_deg = [-180.0, 180.0]\n\
+         [poses]\nper_shape = {taps}\nframe = \"edge\"\nx_mm = [-6.0, 6.0]\ny_mm = [0.0, 0.0]\ndepth_mm = [0.3, 1.0]\nyaw_deg = [-180.0, 180.0]\nallow_no_contact = true\n\
          [taps]\nper_pose = 1\ndepth_jitter_mm = 0.0\n[slides]\nper_pose = 0\n\
          [split]\ntrain = 0.8\nval = 0.2\ntest = 0.0\npaired_fraction = 0.0\n"
     );
