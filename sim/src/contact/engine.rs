@@ -508,8 +508,15 @@ impl<'a> Simulation<'a> {
                 }
             }
             let minus = |q: &[f64], o: &[f64]| -> Vec<f64> { q.iter().zip(o).map(|(q, o)| q - o).collect() };
-            let (prev_x, prev_y) = (minus(&qx_prev, &ox_prev), minus(&qy_prev, &oy_prev));
-            let (warm_x, warm_y) = (minus(&self.qx, &ox), minus(&self.qy, &oy));
+            // The solver works on the stimulus-plane tractions: the skin's less `p grad h`
+            // (no copies without a slope).
+            let shifted = self.slope.as_ref().map(|_| {
+                [minus(&qx_prev, &ox_prev), minus(&qy_prev, &oy_prev), minus(&self.qx, &ox), minus(&self.qy, &oy)]
+            });
+            let (prev_x, prev_y, warm_x, warm_y) = match &shifted {
+                Some([a, b, c, d]) => (a.as_slice(), b.as_slice(), c.as_slice(), d.as_slice()),
+                None => (qx_prev.as_slice(), qy_prev.as_slice(), self.qx.as_slice(), self.qy.as_slice()),
+            };
             if !frictional {
                 // Frictionless: the stimulus-plane traction is zero; the skin's is `p grad h`.
                 let change: f64 =
@@ -541,9 +548,9 @@ impl<'a> Simulation<'a> {
                 op,
                 &self.pressure,
                 &mu,
-                (&prev_x, &prev_y),
+                (prev_x, prev_y),
                 (&cx, &cy),
-                Some((&warm_x, &warm_y)),
+                Some((warm_x, warm_y)),
                 self.lipschitz,
                 &self.model.tangential,
             )?;
