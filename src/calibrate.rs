@@ -52,10 +52,11 @@ pub struct CalibrateOptions {
     #[arg(long, conflicts_with = "camera_only")]
     pub rig_only: bool,
     /// The recordings are taps on this stimulus's edge (a catalogue shape, e.g. square) at
-    /// labelled lateral offset, depth and yaw: fits the label map and compares the edge's
-    /// rounding (0, 1, 2, 4 mm) and the pins' skin patch (0, 0.75, 1.5, 2.5 mm) on the held-out
-    /// per-pin error, the rest of the sensor held as given ([`crate::edge_fit`]). The preset
-    /// written is the sensor with the best candidate's skin patch.
+    /// labelled lateral offset, depth and yaw: fits the label map (signs, offsets, the rig's
+    /// yield under load) and compares the edge's rounding (0, 1, 2, 4 mm), the pins' skin
+    /// patch (0, 0.75, 1.5, 2.5 mm) and the dome's slope (0, 1, 2) on the held-out per-pin
+    /// error, the rest of the sensor held as given ([`crate::edge_fit`]). The preset written is
+    /// the sensor with the best candidate's skin patch and dome slope.
     #[arg(long, conflicts_with_all = ["camera_only", "rig_only"])]
     pub edge: Option<String>,
     /// With --edge: the point on the shape's edge the taps' lateral offsets are measured from
@@ -63,7 +64,8 @@ pub struct CalibrateOptions {
     /// side: 45,0.
     #[arg(long, requires = "edge", value_parser = crate::commands::parse_offset, allow_hyphen_values = true)]
     pub edge_contact: Option<[f64; 2]>,
-    /// A short fit (one model, few evaluations) for a first look.
+    /// A short fit (one model, few evaluations) for a first look; with --edge, the label map
+    /// of the sensor as given only, no candidates.
     #[arg(long)]
     pub quick: bool,
     /// No progress spinner.

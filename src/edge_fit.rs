@@ -154,7 +154,9 @@ pub fn edge_fit(job: &EdgeFitJob) -> Result<String> {
     let mut by_depth = job.split.held_out.clone();
     by_depth.sort_by(|&a, &b| job.obs.samples[a].sample.pose[2].total_cmp(&job.obs.samples[b].sample.pose[2]));
     let mut candidates = Vec::new();
-    for c in CANDIDATES {
+    // --quick: the sensor as given only (its label map and held-out error).
+    let tried = if o.quick { &CANDIDATES[..1] } else { &CANDIDATES[..] };
+    for &c in tried {
         let mut sensor = job.base.clone();
         sensor.pins.patch_radius_mm = c.patch_radius_mm.unwrap_or(sensor.pins.patch_radius_mm);
         sensor.skin.dome_slope = c.dome_slope.unwrap_or(sensor.skin.dome_slope);
@@ -243,15 +245,15 @@ pub fn markdown(r: &EdgeReport) -> String {
          on {} of the fitting taps, the error on the {} held-out taps (pooled mean per-pin displacement error over \
          mean real displacement, the surface fit's measure).\n\n\
          | edge rounding (mm) | skin patch (mm) | dome slope | fitted on | held out | held out by depth quarter (shallow to \
-         deep) | lateral: sign, edge at (mm) | yaw: sign, offset (deg) | depth offset (mm) |\n\
-         |---|---|---|---|---|---|---|---|---|\n",
+         deep) | lateral: sign, edge at (mm) | yaw: sign, offset (deg) | depth offset (mm) | rig yield (mm^-0.5) |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
         r.command, r.real, r.shape, r.fitted, r.held_out
     );
     for (i, c) in r.candidates.iter().enumerate() {
         let l = &c.labels;
         let quarters: Vec<String> = c.held_out_by_depth.iter().map(|e| format!("{e:.3}")).collect();
         md += &format!(
-            "| {} | {} | {}{} | {:.3} | {:.3} | {} | {:+}, {:.2} | {:+}, {:.1} | {:.2} |\n",
+            "| {} | {} | {}{} | {:.3} | {:.3} | {} | {:+}, {:.2} | {:+}, {:.1} | {:.2} | {:.3} |\n",
             c.edge_radius_mm,
             c.patch_radius_mm,
             c.dome_slope,
@@ -263,12 +265,20 @@ pub fn markdown(r: &EdgeReport) -> String {
             l.lateral_offset_mm,
             l.yaw_sign,
             l.yaw_offset_deg,
-            l.depth_offset_mm
+            l.depth_offset_mm,
+            l.depth_compliance
         );
     }
     md += "\nEdge frame: x across the edge, positive off the material, `x = sign (lateral - edge)`; yaw from the \
-           edge's tangent, `yaw = sign yaw_label + offset`; indentation `= depth label + depth offset`. A \
-           recipe takes the rounding as `[[shapes]] edge_radius_mm`; the preset written is the sensor with the best \
-           candidate's skin patch (`pins.patch_radius_mm`) and dome slope (`skin.dome_slope`).\n";
+           edge's tangent, `yaw = sign yaw_label + offset`; indentation `= c - yield c^1.5`, `c = depth label + depth \
+           offset` (the rig gives way under load). A recipe takes the rounding as `[[shapes]] edge_radius_mm`; the \
+           preset written is the sensor with the best candidate's skin patch (`pins.patch_radius_mm`) and dome slope \
+           (`skin.dome_slope`).\n";
+    let b = &r.candidates[r.best].labels;
+    md += &format!(
+        "\nA recipe whose labels are the lab's depths replays the best candidate's depth map with:\n\n```toml\n[rig]\n\
+         depth_offset_mm = {:.3}\ndepth_compliance = {:.4}\n```\n",
+        b.depth_offset_mm, b.depth_compliance
+    );
     md
 }

@@ -127,6 +127,9 @@ enum Command {
         /// Finish an interrupted run into the same directory.
         #[arg(long)]
         resume: bool,
+        /// Write more than 1,000,000 images or about 16 GiB (refused without it).
+        #[arg(long)]
+        force: bool,
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
@@ -267,7 +270,7 @@ fn main() -> Result<()> {
         Command::Bench { json, samples, plot, cells, skin } => {
             print!("{}", bench::run(samples, cells, skin, json, &plot)?);
         }
-        Command::Generate { recipe, out, sensor, size, seed, cells, threads, shard, resume, quiet } => {
+        Command::Generate { recipe, out, sensor, size, seed, cells, threads, shard, resume, force, quiet } => {
             let opts = tacsim::dataset::GenerateOptions {
                 recipe,
                 out,
@@ -279,6 +282,7 @@ fn main() -> Result<()> {
                 shard,
                 resume,
                 quiet,
+                force,
             };
             print!("{}", tacsim::dataset::generate(&opts)?);
         }

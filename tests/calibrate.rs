@@ -249,7 +249,7 @@ fn the_edge2d_preset_is_what_camera_only_makes_of_the_edge_recordings() {
 
 /// `--edge`: taps simulated on the square's rounded edge with a known label map (lateral
 /// reversed and measured from 1 mm off the edge, yaw reversed and turned, depth zero 2.9 mm
-/// above first touch; the lab's older column names, an undeformed `image_0.png`) give that
+/// above first touch, no yield; the lab's older column names, an undeformed `image_0.png`) give that
 /// map back, and the rounding they were made with fits the held-out taps best.
 #[test]
 fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with() {
@@ -309,6 +309,8 @@ fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with()
     assert!((f(&l["lateral_offset_mm"]) - 1.0).abs() < 0.3, "{best}");
     assert!((f(&l["yaw_offset_deg"]) + 178.8).abs() < 6.0, "{best}");
     assert!((f(&l["depth_offset_mm"]) + 2.9).abs() < 0.15, "{best}");
+    // The taps were pressed as labelled: no yield under load.
+    assert!(f(&l["depth_compliance"]) < 0.03, "{best}");
     assert_eq!(f(&best["edge_radius_mm"]), 2.0, "{report}");
     // What is left is the 320 px images' quantisation (pins tracked as pixel blobs).
     assert!(f(&best["held_out_error"]) < 0.12, "{best}");

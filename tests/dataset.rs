@@ -212,6 +212,11 @@ fn bad_recipes_and_outputs_are_clear_errors() {
         ("[poses]\ndepth_mm = [1.0, 15.0]\n", "pose.depth_mm"),
         // Poses off the shape gave undeformed images labelled 1-6 mm deep (issue 32).
         ("[poses]\nx_mm = [45.0, 50.0]\ny_mm = [45.0, 50.0]\n", "touch nothing"),
+        // 10^6 images and more were written on without a word about their size (issue 32).
+        (
+            "[[shapes]]\nname = \"disk\"\n[poses]\nper_shape = 2000\n[taps]\nper_pose = 501\n[slides]\nper_pose = 0\n",
+            "1002000 images",
+        ),
     ] {
         std::fs::write(&recipe, text).expect("write");
         let out = root.join("never");

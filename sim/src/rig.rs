@@ -48,6 +48,12 @@ impl Press {
     }
 }
 
+/// The indentation (mm) a rig that yields `depth_compliance` (mm^-0.5) reaches when
+/// commanded `commanded_mm`: `c - depth_compliance max(c, 0)^1.5` ([`Press::depth_compliance`]).
+pub fn yielded_depth_mm(commanded_mm: f64, depth_compliance: f64) -> f64 {
+    commanded_mm - depth_compliance * commanded_mm.max(0.0).powf(1.5)
+}
+
 /// An orthogonal map from the labels' lateral axes to the sensor's (row-major).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RigFrame {
@@ -115,7 +121,7 @@ impl RigFrame {
         let target = SensorPose {
             x_mm: at[0],
             y_mm: at[1],
-            depth_mm: commanded - press.depth_compliance * loaded.powf(1.5) - lift,
+            depth_mm: yielded_depth_mm(commanded, press.depth_compliance) - lift,
             yaw_deg: d * pose[5],
             rx_deg: d * tilt[0],
             ry_deg: d * tilt[1],

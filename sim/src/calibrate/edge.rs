@@ -5,7 +5,8 @@
 //! The edge frame ([`LabelFrame::edge`]) has `x` across the edge (positive off the
 //! material), yaw from the edge tangent. A lab labels lateral offset, depth and yaw in its
 //! own frame: [`EdgeLabels`] maps them, `x = s_l (lateral - l_0)`, `yaw = s_y yaw_lab + y_0`,
-//! indentation `= depth_lab + d_0` (mm, deg).
+//! indentation `= c - k c^1.5` with `c = depth_lab + d_0` (mm, deg; `k` the rig's yield under
+//! load, [`crate::rig::Press::depth_compliance`], so that a recipe's `[rig]` replays the map).
 
 use std::sync::Arc;
 
@@ -19,6 +20,7 @@ use super::observe::Observations;
 use crate::contact::pose::SensorPose;
 use crate::dataset::plan::LabelFrame;
 use crate::error::{Result, SimError};
+use crate::rig::yielded_depth_mm;
 use crate::scene::{ObjectPose, Scene};
 use crate::stimulus::Stimulus;
 
@@ -35,8 +37,12 @@ pub struct EdgeLabels {
     pub yaw_sign: f64,
     /// The edge frame's yaw at yaw label 0 (deg).
     pub yaw_offset_deg: f64,
-    /// Added to the depth label (`pose_z`) to give the indentation (mm).
+    /// Added to the depth label (`pose_z`) to give the commanded indentation `c` (mm).
     pub depth_offset_mm: f64,
+    /// The rig's yield (mm^-0.5): the indentation reached is `c - k c^1.5`
+    /// ([`yielded_depth_mm`]); 0 where the rig is stiff.
+    #[serde(default)]
+    pub depth_compliance: f64,
 }
 
 impl EdgeLabels {
@@ -45,7 +51,7 @@ impl EdgeLabels {
         let p = &sample.pose;
         (
             self.lateral_sign * (p[self.lateral] - self.lateral_offset_mm),
-            p[2] + self.depth_offset_mm,
+            yielded_depth_mm(p[2] + self.depth_offset_mm, self.depth_compliance),
             self.yaw_sign * p[5] + self.yaw_offset_deg,
         )
     }
@@ -113,12 +119,14 @@ pub fn start_labels(obs: &Observations, which: &[usize]) -> EdgeLabels {
         yaw_sign: 1.0,
         yaw_offset_deg: 0.0,
         depth_offset_mm: -range(2).0,
+        depth_compliance: 0.0,
     }
 }
 
 /// Fits the label map on the taps `which` (signs and offsets): for each of
 /// the four sign choices, the yaw offset searched every 30 deg and then a coordinate search
-/// (lateral offset from 1 mm, yaw from 10 deg, depth from 0.4 mm steps, halved three times);
+/// (lateral offset from 1 mm, yaw from 10 deg, depth from 0.4 mm and the yield from 0.08
+/// mm^-0.5 steps, halved three times; the yield within [0, [`MAX_DEPTH_COMPLIANCE`]]);
 /// the best of the four. Returns the map and its pooled error.
 pub fn fit_labels(
     sim: &Simulator,
@@ -148,18 +156,26 @@ pub fn fit_labels(
     Ok(best)
 }
 
-/// Coordinate search from `start` over the lateral offset, yaw offset and depth offset.
+/// The largest rig yield the label map may take (mm^-0.5): the surface rig fit's bound.
+pub const MAX_DEPTH_COMPLIANCE: f64 = 0.3;
+
+/// Coordinate search from `start` over the lateral offset, yaw offset, depth offset and the
+/// rig's yield.
 fn refine(mut best: (EdgeLabels, f64), score: &dyn Fn(&EdgeLabels) -> Result<f64>) -> Result<(EdgeLabels, f64)> {
-    let mut steps = [1.0, 10.0, 0.4];
+    let mut steps = [1.0, 10.0, 0.4, 0.08];
     for _ in 0..4 {
-        for p in 0..3 {
+        for p in 0..4 {
             for dir in [-1.0, 1.0] {
                 loop {
                     let mut t = best.0;
                     match p {
                         0 => t.lateral_offset_mm += dir * steps[0],
                         1 => t.yaw_offset_deg += dir * steps[1],
-                        _ => t.depth_offset_mm += dir * steps[2],
+                        2 => t.depth_offset_mm += dir * steps[2],
+                        _ => t.depth_compliance += dir * steps[3],
+                    }
+                    if !(0.0..=MAX_DEPTH_COMPLIANCE).contains(&t.depth_compliance) {
+                        break;
                     }
                     let s = score(&t)?;
                     if s < best.1 {
