@@ -14,6 +14,7 @@ pub mod camera;
 pub mod contact;
 pub mod dataset;
 pub mod detect;
+pub mod embedded;
 pub mod error;
 pub mod fit;
 pub mod pins;

@@ -355,6 +355,21 @@ impl<'a> Simulation<'a> {
         }
     }
 
+    /// Lifts the sensor off: no contact and no history, as [`Simulation::new`] left it (the
+    /// grid is kept).
+    pub fn lift(&mut self) {
+        self.pressure.fill(0.0);
+        self.qx.fill(0.0);
+        self.qy.fill(0.0);
+        self.gap.fill(f64::INFINITY);
+        self.friction.fill(0.0);
+        self.seen.fill(false);
+        self.lipschitz = None;
+        self.closure.fill(0.0);
+        self.pose = None;
+        self.report = StepReport::default();
+    }
+
     /// The frame the grid, tractions and gaps are in.
     pub fn frame(&self) -> &ContactFrame {
         &self.frame

@@ -1,0 +1,224 @@
+//! `Contact`: the sensor pressed and slid over a scene, with stick/slip history.
+
+use std::collections::HashMap;
+
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use tacsim_sim::PinRenderer;
+use tacsim_sim::contact::engine::{ContactModel, Simulation, StepReport, contact_disk_grid};
+use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::contact::trajectory::Path as SensorPath;
+use tacsim_sim::scene::Scene;
+
+use crate::scene::PyScene;
+use crate::sensor::{PySensor, image_array};
+use crate::sim_err;
+
+/// What a [`Simulation`] borrows: the contact model and the scene.
+struct Owner {
+    model: ContactModel,
+    scene: Scene,
+    /// Contact grid half-depth: every untilted contact up to this indentation (mm) fits.
+    max_depth_mm: f64,
+}
+
+self_cell::self_cell!(
+    /// A simulation together with the model and scene it borrows.
+    struct Cell {
+        owner: Owner,
+        #[covariant]
+        dependent: Simulation,
+    }
+);
+
+fn fresh(owner: Owner) -> Cell {
+    Cell::new(owner, |o| Simulation::with_grid(&o.model, &o.scene, Some(contact_disk_grid(&o.model, o.max_depth_mm))))
+}
+
+/// A sensor over a scene with contact history: `press`, `slide_to`, `lift`; then the image,
+/// pins, pressure and force of the last step.
+#[pyclass(name = "Contact", module = "tacsim._tacsim")]
+pub struct PyContact {
+    cell: Cell,
+    sensor: PySensor,
+    renderers: HashMap<u32, PinRenderer>,
+    pose: Option<SensorPose>,
+}
+
+/// A pose from `(x_mm, y_mm, depth_mm, yaw_deg[, rx_deg, ry_deg])`.
+fn sensor_pose(pose: &[f64]) -> PyResult<SensorPose> {
+    let p = match pose {
+        [x, y, d, yaw] => SensorPose::new(*x, *y, *d, *yaw),
+        [x, y, d, yaw, rx, ry] => {
+            SensorPose { x_mm: *x, y_mm: *y, depth_mm: *d, yaw_deg: *yaw, rx_deg: *rx, ry_deg: *ry }
+        }
+        _ => {
+            return Err(PyValueError::new_err(format!(
+                "pose must be (x_mm, y_mm, depth_mm, yaw_deg) or (x_mm, y_mm, depth_mm, yaw_deg, rx_deg, ry_deg), got {} \
+                 values",
+                pose.len()
+            )));
+        }
+    };
+    if !pose.iter().all(|v| v.is_finite() && v.abs() <= 1e4) {
+        return Err(PyValueError::new_err(format!(
+            "pose values must be finite and at most 10000 in size, got {pose:?}"
+        )));
+    }
+    Ok(p)
+}
+
+impl PyContact {
+    /// Steps through `poses` (without the GIL); the last report.
+    fn run(&mut self, py: Python<'_>, poses: Vec<SensorPose>) -> PyResult<()> {
+        let cell = &mut self.cell;
+        py.detach(|| {
+            for p in &poses {
+                cell.with_dependent_mut(|_, sim| sim.step(*p).map(|_| ()))?;
+            }
+            Ok::<(), tacsim_sim::SimError>(())
+        })
+        .map_err(sim_err)?;
+        self.pose = poses.last().copied().or(self.pose);
+        Ok(())
+    }
+
+    fn report(&self) -> StepReport {
+        self.cell.borrow_dependent().report().clone()
+    }
+
+    fn renderer(&mut self, size: Option<u32>) -> PyResult<&PinRenderer> {
+        let size = size.unwrap_or(self.sensor.params.camera.image_size);
+        if !self.renderers.contains_key(&size) {
+            let r = self.sensor.renderer(Some(size))?;
+            self.renderers.insert(size, r);
+        }
+        self.renderers.get(&size).ok_or_else(|| PyValueError::new_err("renderer"))
+    }
+}
+
+#[pymethods]
+impl PyContact {
+    /// The sensor over `scene`; contact is solved on a grid that holds every untilted contact
+    /// up to `max_depth_mm` of indentation (deeper presses are cut at its border).
+    #[new]
+    #[pyo3(signature = (sensor, scene, max_depth_mm = 5.0))]
+    fn new(sensor: &PySensor, scene: &PyScene, max_depth_mm: f64) -> PyResult<Self> {
+        let half = 0.5 * sensor.params.dome.outer_radius_mm;
+        if !(max_depth_mm > 0.0 && max_depth_mm <= half) {
+            return Err(PyValueError::new_err(format!(
+                "max_depth_mm must be in (0, {half}] (half the dome radius), got {max_depth_mm}"
+            )));
+        }
+        let owner = Owner { model: ContactModel::new(&sensor.params), scene: scene.build()?, max_depth_mm };
+        Ok(Self { cell: fresh(owner), sensor: sensor.clone(), renderers: HashMap::new(), pose: None })
+    }
+
+    /// Lifts off (the history is cleared) and presses straight onto `pose`
+    /// `(x_mm, y_mm, depth_mm, yaw_deg[, rx_deg, ry_deg])`; depth below the highest top face.
+    fn press(&mut self, py: Python<'_>, pose: Vec<f64>) -> PyResult<()> {
+        let p = sensor_pose(&pose)?;
+        self.lift();
+        self.run(py, vec![p])
+    }
+
+    /// Slides from the current pose to `pose` in straight steps of at most `step_mm`
+    /// laterally and `step_deg` of yaw, keeping the stick/slip history (press first).
+    #[pyo3(signature = (pose, step_mm = 0.25, step_deg = 5.0))]
+    fn slide_to(&mut self, py: Python<'_>, pose: Vec<f64>, step_mm: f64, step_deg: f64) -> PyResult<()> {
+        let target = sensor_pose(&pose)?;
+        let start = self.pose.ok_or_else(|| PyValueError::new_err("slide_to needs a press first"))?;
+        if !(step_mm.is_finite() && (0.01..=10.0).contains(&step_mm)) {
+            return Err(PyValueError::new_err(format!("step_mm must be in [0.01, 10] mm, got {step_mm}")));
+        }
+        if !(step_deg.is_finite() && (0.01..=45.0).contains(&step_deg)) {
+            return Err(PyValueError::new_err(format!("step_deg must be in [0.01, 45] deg, got {step_deg}")));
+        }
+        let path = SensorPath::slide_between(start, target, step_mm, step_deg).map_err(sim_err)?;
+        let poses: Vec<SensorPose> = path.steps.iter().skip(1).map(|s| s.pose).collect();
+        if poses.len() > 100_000 {
+            return Err(PyValueError::new_err(format!(
+                "the slide takes {} steps, more than 100000: raise step_mm or step_deg",
+                poses.len()
+            )));
+        }
+        self.run(py, poses)
+    }
+
+    /// Lifts the sensor off: no contact, no history.
+    fn lift(&mut self) {
+        self.cell.with_dependent_mut(|_, sim| sim.lift());
+        self.pose = None;
+    }
+
+    /// The current pose `(x_mm, y_mm, depth_mm, yaw_deg, rx_deg, ry_deg)`, `None` when lifted.
+    #[getter]
+    fn pose(&self) -> Option<(f64, f64, f64, f64, f64, f64)> {
+        self.pose.map(|p| (p.x_mm, p.y_mm, p.depth_mm, p.yaw_deg, p.rx_deg, p.ry_deg))
+    }
+
+    /// Whether the skin touches a stimulus.
+    #[getter]
+    fn in_contact(&self) -> bool {
+        self.report().in_contact
+    }
+
+    /// Total force on the skin in the sensor frame (N): shear `x`, `y`, normal (pressing).
+    #[getter]
+    fn force_n<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_vec(py, self.report().force_n.to_vec())
+    }
+
+    /// Cells in contact and cells slipping at the last step.
+    #[getter]
+    fn contact_cells(&self) -> (usize, usize) {
+        let r = self.report();
+        (r.contact_cells, r.slip_cells)
+    }
+
+    /// The binary pin image `uint8 (size, size)`, 0 or 255 (default size: the camera's).
+    #[pyo3(signature = (size = None))]
+    fn image<'py>(&mut self, py: Python<'py>, size: Option<u32>) -> PyResult<Bound<'py, PyArray2<u8>>> {
+        let pins = self.cell.borrow_dependent().pins();
+        let img = self.renderer(size)?.render(&pins);
+        image_array(py, img)
+    }
+
+    /// Pin tip centres in the image, `float (n, 2)`: `u` right, `v` down (px at `size`);
+    /// pins the camera cannot see are `nan`.
+    #[pyo3(signature = (size = None))]
+    fn pins_px<'py>(&mut self, py: Python<'py>, size: Option<u32>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let pins = self.cell.borrow_dependent().pins();
+        let r = self.renderer(size)?;
+        let tip = r.layout().tip_radius_mm;
+        let mut out = Vec::with_capacity(2 * pins.len());
+        for p in &pins {
+            match r.camera().project_disc(&p.tip, &p.axis, tip) {
+                Some(d) => out.extend([d.u, d.v]),
+                None => out.extend([f64::NAN, f64::NAN]),
+            }
+        }
+        PyArray1::from_vec(py, out).reshape([pins.len(), 2])
+    }
+
+    /// Pin tip centres in the sensor frame, `float (n, 3)` (mm).
+    fn pins_mm<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let pins = self.cell.borrow_dependent().pins();
+        let flat: Vec<f64> = pins.iter().flat_map(|p| [p.tip.x, p.tip.y, p.tip.z]).collect();
+        PyArray1::from_vec(py, flat).reshape([pins.len(), 3])
+    }
+
+    /// The contact pressure field `float (ny, nx)` (MPa) on the contact grid, with the
+    /// grid's cell side (mm); rows along sensor `y`, columns along `x`, centred on the apex.
+    fn pressure<'py>(&self, py: Python<'py>) -> PyResult<(Bound<'py, PyArray2<f64>>, f64)> {
+        let sim = self.cell.borrow_dependent();
+        let (nx, ny, cell) = sim.grid().map_or((0, 0, 0.0), |g| (g.nx, g.ny, g.cell_mm));
+        let p = sim.pressure().to_vec();
+        Ok((PyArray1::from_vec(py, p).reshape([ny, nx])?, cell))
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Contact(sensor={:?}, pose={:?})", self.sensor.params.name, self.pose())
+    }
+}

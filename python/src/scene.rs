@@ -1,0 +1,133 @@
+//! `Scene`: stimuli placed in the world (built-in shapes or OBJ files).
+
+use std::path::Path;
+use std::sync::Arc;
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::stimulus::{Catalogue, Stimulus};
+
+use crate::sim_err;
+
+/// Stimuli placed in the world: `Scene("square")`, `Scene(obj_path="part.obj")`, `.add(...)`.
+#[pyclass(name = "Scene", module = "tacsim._tacsim")]
+#[derive(Clone, Default)]
+pub struct PyScene {
+    pub(crate) objects: Vec<(Arc<Stimulus>, ObjectPose)>,
+}
+
+impl PyScene {
+    /// The simulator's scene of these objects.
+    pub(crate) fn build(&self) -> PyResult<Scene> {
+        let mut scene = Scene::new();
+        for (stimulus, pose) in &self.objects {
+            scene.add(stimulus.clone(), *pose).map_err(sim_err)?;
+        }
+        Ok(scene)
+    }
+}
+
+/// `(x_mm, y_mm, yaw_deg)` as an object pose on the table (top face at the object's height).
+fn object_pose(pose: (f64, f64, f64)) -> PyResult<ObjectPose> {
+    let (x, y, yaw) = pose;
+    if !(x.is_finite() && y.is_finite() && yaw.is_finite()) || x.abs() > 1e4 || y.abs() > 1e4 {
+        return Err(PyValueError::new_err(format!(
+            "pose must be finite (x_mm, y_mm, yaw_deg) with |x|, |y| <= 10000 mm, got {pose:?}"
+        )));
+    }
+    Ok(ObjectPose { position_mm: [x, y, 0.0], yaw_deg: yaw })
+}
+
+/// The stimulus `shape` (built-in name) or the OBJ file `obj_path` (friction `friction`,
+/// default: the catalogue's, 0.5 for a file).
+fn stimulus(shape: Option<&str>, obj_path: Option<&str>, friction: Option<f64>) -> PyResult<Arc<Stimulus>> {
+    let loaded = match (shape, obj_path) {
+        (Some(name), None) => tacsim_sim::embedded::catalogue().and_then(|c| c.get(name)).map_err(sim_err)?,
+        (None, Some(path)) => obj_stimulus(Path::new(path))?,
+        _ => return Err(PyValueError::new_err("give exactly one of shape (a built-in name) and obj_path")),
+    };
+    if let Some(f) = friction
+        && !(f.is_finite() && (0.0..=tacsim_sim::stimulus::catalogue::MAX_FRICTION).contains(&f))
+    {
+        return Err(PyValueError::new_err(format!(
+            "friction must be in [0, {}], got {f}",
+            tacsim_sim::stimulus::catalogue::MAX_FRICTION
+        )));
+    }
+    Ok(loaded.with_friction(friction))
+}
+
+/// A one-shape catalogue of an OBJ file (named after the file, friction 0.5).
+fn obj_stimulus(path: &Path) -> PyResult<Arc<Stimulus>> {
+    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "mesh".into());
+    let file = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+    let toml = format!(
+        "[[shape]]\nname = {name:?}\nfile = {file:?}\nmaterial = \"user\"\nfriction = 0.5\ndescription = \"{}\"\n",
+        path.display().to_string().replace('"', "'")
+    );
+    let source = format!("{} (as a one-shape catalogue)", path.display());
+    let catalogue = Catalogue::parse(&toml, &source, |_| {
+        std::fs::read_to_string(path)
+            .map(|text| (text, path.display().to_string()))
+            .map_err(|e| tacsim_sim::SimError::io(path, "read", e))
+    })
+    .map_err(sim_err)?;
+    catalogue.get(&name).map_err(sim_err)
+}
+
+#[pymethods]
+impl PyScene {
+    /// A scene with one stimulus (or none): a built-in `shape` or an `obj_path`, placed at
+    /// `pose` `(x_mm, y_mm, yaw_deg)`, with `friction` overriding its own.
+    #[new]
+    #[pyo3(signature = (shape = None, obj_path = None, pose = (0.0, 0.0, 0.0), friction = None))]
+    fn new(
+        shape: Option<&str>,
+        obj_path: Option<&str>,
+        pose: (f64, f64, f64),
+        friction: Option<f64>,
+    ) -> PyResult<Self> {
+        let mut s = Self::default();
+        if shape.is_some() || obj_path.is_some() {
+            s.add(shape, obj_path, pose, friction)?;
+        }
+        Ok(s)
+    }
+
+    /// Adds a stimulus (as the constructor).
+    #[pyo3(signature = (shape = None, obj_path = None, pose = (0.0, 0.0, 0.0), friction = None))]
+    fn add(
+        &mut self,
+        shape: Option<&str>,
+        obj_path: Option<&str>,
+        pose: (f64, f64, f64),
+        friction: Option<f64>,
+    ) -> PyResult<()> {
+        let stimulus = stimulus(shape, obj_path, friction)?;
+        self.objects.push((stimulus, object_pose(pose)?));
+        Ok(())
+    }
+
+    /// The stimuli's names, in order.
+    #[getter]
+    fn names(&self) -> Vec<String> {
+        self.objects.iter().map(|(s, _)| s.name().to_owned()).collect()
+    }
+
+    /// The stimulus `i`'s contact point from the catalogue (mm, object frame), if any.
+    fn contact_mm(&self, i: usize) -> PyResult<Option<(f64, f64)>> {
+        let (s, _) = self.objects.get(i).ok_or_else(|| PyValueError::new_err(format!("no stimulus {i}")))?;
+        Ok(s.entry.contact_mm.map(|[x, y]| (x, y)))
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Scene({:?})", self.names())
+    }
+}
+
+/// The built-in stimuli's names.
+#[pyfunction]
+pub fn shapes() -> PyResult<Vec<String>> {
+    Ok(tacsim_sim::embedded::catalogue().map_err(sim_err)?.names())
+}

@@ -1,0 +1,106 @@
+//! `Sensor`: a TacTip's parameters (a built-in preset or a sensor TOML file).
+
+use std::path::Path;
+
+use numpy::{PyArray2, PyArrayMethods};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use tacsim_sim::sensor::PRESETS;
+use tacsim_sim::{PinRenderer, SensorParams};
+
+use crate::sim_err;
+
+/// A TacTip sensor: dome, skin, pins, camera (`Sensor.load()`).
+#[pyclass(name = "Sensor", module = "tacsim._tacsim", frozen)]
+#[derive(Clone)]
+pub struct PySensor {
+    pub(crate) params: SensorParams,
+}
+
+impl PySensor {
+    /// The renderer at `size` px (default: the camera's image size).
+    pub(crate) fn renderer(&self, size: Option<u32>) -> PyResult<PinRenderer> {
+        let size = size.unwrap_or(self.params.camera.image_size);
+        if !(16..=2048).contains(&size) {
+            return Err(PyValueError::new_err(format!("size must be in [16, 2048] px, got {size}")));
+        }
+        PinRenderer::new(&self.params, size).map_err(sim_err)
+    }
+}
+
+/// A greyscale image as a `uint8` numpy array `(height, width)`.
+pub(crate) fn image_array<'py>(py: Python<'py>, img: image::GrayImage) -> PyResult<Bound<'py, PyArray2<u8>>> {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    numpy::PyArray1::from_vec(py, img.into_raw()).reshape([h, w])
+}
+
+#[pymethods]
+impl PySensor {
+    /// A sensor from a built-in preset name or a sensor TOML file (default: the built-in
+    /// TacTip calibrated on the lab's flat-surface recordings).
+    #[staticmethod]
+    #[pyo3(signature = (name_or_path = None))]
+    fn load(name_or_path: Option<&str>) -> PyResult<Self> {
+        let params = match name_or_path {
+            None => SensorParams::default(),
+            Some(arg) if Path::new(arg).is_file() => SensorParams::load(Path::new(arg)).map_err(sim_err)?,
+            Some(arg) if PRESETS.iter().any(|(n, _)| *n == arg) => SensorParams::preset(arg).map_err(sim_err)?,
+            Some(arg) => {
+                return Err(PyValueError::new_err(format!(
+                    "sensor `{arg}` is neither a file nor a built-in preset ({})",
+                    presets().join(", ")
+                )));
+            }
+        };
+        Ok(Self { params })
+    }
+
+    /// The built-in preset names.
+    #[staticmethod]
+    fn presets() -> Vec<String> {
+        presets()
+    }
+
+    /// The sensor's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.params.name.clone()
+    }
+
+    /// Number of pins.
+    #[getter]
+    fn pin_count(&self) -> usize {
+        tacsim_sim::pins::PinLayout::new(&self.params).pins.len()
+    }
+
+    /// The camera's image size (px).
+    #[getter]
+    fn image_size(&self) -> u32 {
+        self.params.camera.image_size
+    }
+
+    /// Outer radius of the dome (mm).
+    #[getter]
+    fn dome_radius_mm(&self) -> f64 {
+        self.params.dome.outer_radius_mm
+    }
+
+    /// The sensor as TOML (the format of `sim/presets/*.toml`).
+    fn to_toml(&self) -> String {
+        self.params.to_toml()
+    }
+
+    /// The undeformed binary image, `uint8 (size, size)`, 0 or 255.
+    #[pyo3(signature = (size = None))]
+    fn undeformed_image<'py>(&self, py: Python<'py>, size: Option<u32>) -> PyResult<Bound<'py, PyArray2<u8>>> {
+        image_array(py, self.renderer(size)?.render_undeformed())
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Sensor(name={:?}, pins={}, image_size={})", self.params.name, self.pin_count(), self.image_size())
+    }
+}
+
+fn presets() -> Vec<String> {
+    PRESETS.iter().map(|(n, _)| (*n).to_owned()).collect()
+}

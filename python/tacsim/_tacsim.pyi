@@ -1,0 +1,114 @@
+"""Type stubs of the extension module (units: mm, deg, N, MPa)."""
+
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+Pose = Sequence[float]
+"""(x_mm, y_mm, depth_mm, yaw_deg) or (x_mm, y_mm, depth_mm, yaw_deg, rx_deg, ry_deg)."""
+
+def shapes() -> list[str]:
+    """The built-in stimuli's names (disk, square, clover, ...)."""
+
+class Sensor:
+    """A TacTip: dome, skin, pins, camera."""
+
+    @staticmethod
+    def load(name_or_path: Optional[str] = None) -> "Sensor":
+        """A built-in preset or a sensor TOML file (default: the calibrated TacTip)."""
+    @staticmethod
+    def presets() -> list[str]:
+        """The built-in preset names."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def pin_count(self) -> int: ...
+    @property
+    def image_size(self) -> int:
+        """The camera's image size (px)."""
+    @property
+    def dome_radius_mm(self) -> float: ...
+    def to_toml(self) -> str:
+        """The sensor in the TOML format of sim/presets/*.toml."""
+    def undeformed_image(self, size: Optional[int] = None) -> npt.NDArray[np.uint8]:
+        """The undeformed binary image, (size, size), 0 or 255."""
+
+class Scene:
+    """Stimuli placed in the world."""
+
+    def __init__(
+        self,
+        shape: Optional[str] = None,
+        obj_path: Optional[str] = None,
+        pose: Tuple[float, float, float] = (0.0, 0.0, 0.0),
+        friction: Optional[float] = None,
+    ) -> None:
+        """One stimulus (a built-in shape or an OBJ file) at pose (x_mm, y_mm, yaw_deg);
+        friction in [0, 2] overrides the catalogue's (0.5 for a file)."""
+    def add(
+        self,
+        shape: Optional[str] = None,
+        obj_path: Optional[str] = None,
+        pose: Tuple[float, float, float] = (0.0, 0.0, 0.0),
+        friction: Optional[float] = None,
+    ) -> None:
+        """Adds a stimulus (as the constructor)."""
+    @property
+    def names(self) -> list[str]: ...
+    def contact_mm(self, i: int) -> Optional[Tuple[float, float]]:
+        """Stimulus i's catalogue contact point on its edge (mm, object frame)."""
+
+class Contact:
+    """The sensor over a scene, with stick/slip history. The GIL is released while it solves."""
+
+    def __init__(self, sensor: Sensor, scene: Scene, max_depth_mm: float = 5.0) -> None:
+        """Contact is solved on a grid holding every untilted contact up to max_depth_mm."""
+    def press(self, pose: Pose) -> None:
+        """Lifts off (history cleared) and presses straight onto pose."""
+    def slide_to(self, pose: Pose, step_mm: float = 0.25, step_deg: float = 5.0) -> None:
+        """Slides from the current pose to pose in steps of at most step_mm / step_deg."""
+    def lift(self) -> None:
+        """No contact, no history."""
+    @property
+    def pose(self) -> Optional[Tuple[float, float, float, float, float, float]]: ...
+    @property
+    def in_contact(self) -> bool: ...
+    @property
+    def force_n(self) -> npt.NDArray[np.float64]:
+        """Total force on the skin, sensor frame (N): shear x, y and normal (pressing)."""
+    @property
+    def contact_cells(self) -> Tuple[int, int]:
+        """(cells in contact, cells slipping) at the last step."""
+    def image(self, size: Optional[int] = None) -> npt.NDArray[np.uint8]:
+        """The binary pin image, (size, size), 0 or 255."""
+    def pins_px(self, size: Optional[int] = None) -> npt.NDArray[np.float64]:
+        """Pin tip centres in the image, (n, 2): u right, v down (px); nan if unseen."""
+    def pins_mm(self) -> npt.NDArray[np.float64]:
+        """Pin tip centres in the sensor frame, (n, 3) (mm)."""
+    def pressure(self) -> Tuple[npt.NDArray[np.float64], float]:
+        """The contact pressure (MPa) on the grid, (ny, nx), and the cell side (mm)."""
+
+class Dataset:
+    """A dataset written by `tacsim generate`."""
+
+    def __init__(self, dir: str) -> None: ...
+    def __len__(self) -> int: ...
+    @property
+    def columns(self) -> list[str]:
+        """The 12 label columns (pose_x .. shear_Rz; mm, deg)."""
+    @property
+    def image_size(self) -> int: ...
+    def samples(
+        self, split_name: str = "train", kind_name: str = "tap", subset_name: str = "all"
+    ) -> Tuple[npt.NDArray[np.uint8], npt.NDArray[np.float64]]:
+        """(images (n, s, s), labels (n, 12)) of one split (train/val/test), kind (tap/slide)
+        and subset (all/paired/unpaired)."""
+    def true_pairs(
+        self, split_name: str = "train", subset_name: str = "all"
+    ) -> Tuple[
+        npt.NDArray[np.uint8], npt.NDArray[np.uint8], npt.NDArray[np.float64], npt.NDArray[np.float64]
+    ]:
+        """(tap images, slide images, tap labels, slide labels) of the true pairs."""
+    def reference(self) -> npt.NDArray[np.uint8]:
+        """The undeformed reference image."""
