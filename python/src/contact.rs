@@ -5,6 +5,7 @@ use std::collections::HashMap;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use rayon::prelude::*;
 use tacsim_sim::PinRenderer;
 use tacsim_sim::contact::engine::{ContactModel, Simulation, StepReport, contact_disk_grid};
 use tacsim_sim::contact::pose::SensorPose;
@@ -14,6 +15,9 @@ use tacsim_sim::scene::Scene;
 use crate::scene::PyScene;
 use crate::sensor::{PySensor, image_array};
 use crate::sim_err;
+
+/// Most contact steps one slide may take.
+const MAX_SLIDE_STEPS: usize = 100_000;
 
 /// What a [`Simulation`] borrows: the contact model and the scene.
 struct Owner {
@@ -72,16 +76,43 @@ fn sensor_pose(pose: &[f64]) -> PyResult<SensorPose> {
 impl PyContact {
     /// Steps through `poses` (without the GIL); the last report.
     fn run(&mut self, py: Python<'_>, poses: Vec<SensorPose>) -> PyResult<()> {
-        let cell = &mut self.cell;
-        py.detach(|| {
-            for p in &poses {
-                cell.with_dependent_mut(|_, sim| sim.step(*p).map(|_| ()))?;
-            }
-            Ok::<(), tacsim_sim::SimError>(())
-        })
-        .map_err(sim_err)?;
+        py.detach(|| self.steps(&poses)).map_err(sim_err)
+    }
+
+    /// The sub-poses of a slide from the current pose to `pose` (checked).
+    fn slide_poses(&self, pose: &[f64], step_mm: f64, step_deg: f64) -> PyResult<Vec<SensorPose>> {
+        let target = sensor_pose(pose)?;
+        let start = self.pose.ok_or_else(|| PyValueError::new_err("slide_to needs a press first"))?;
+        if !(step_mm.is_finite() && (0.01..=10.0).contains(&step_mm)) {
+            return Err(PyValueError::new_err(format!("step_mm must be in [0.01, 10] mm, got {step_mm}")));
+        }
+        if !(step_deg.is_finite() && (0.01..=45.0).contains(&step_deg)) {
+            return Err(PyValueError::new_err(format!("step_deg must be in [0.01, 45] deg, got {step_deg}")));
+        }
+        let path = SensorPath::slide_between(start, target, step_mm, step_deg).map_err(sim_err)?;
+        let poses: Vec<SensorPose> = path.steps.iter().skip(1).map(|s| s.pose).collect();
+        if poses.len() > MAX_SLIDE_STEPS {
+            return Err(PyValueError::new_err(format!(
+                "the slide takes {} steps, more than {MAX_SLIDE_STEPS}: raise step_mm or step_deg",
+                poses.len()
+            )));
+        }
+        Ok(poses)
+    }
+
+    /// Steps through `poses` (the GIL held by the caller or not).
+    fn steps(&mut self, poses: &[SensorPose]) -> Result<(), tacsim_sim::SimError> {
+        for p in poses {
+            self.cell.with_dependent_mut(|_, sim| sim.step(*p).map(|_| ()))?;
+        }
         self.pose = poses.last().copied().or(self.pose);
         Ok(())
+    }
+
+    /// The binary image at `size` (px).
+    fn render(&mut self, size: Option<u32>) -> PyResult<image::GrayImage> {
+        let pins = self.cell.borrow_dependent().pins();
+        Ok(self.renderer(size)?.render(&pins))
     }
 
     fn report(&self) -> StepReport {
@@ -100,18 +131,28 @@ impl PyContact {
 
 #[pymethods]
 impl PyContact {
-    /// The sensor over `scene`; contact is solved on a grid that holds every untilted contact
-    /// up to `max_depth_mm` of indentation (deeper presses are cut at its border).
+    /// The sensor over `scene`; contact is solved on a square grid of `cells` cells across
+    /// (default: the sensor's `skin.cells_across`) centred on the apex, holding every untilted
+    /// contact up to `max_depth_mm` of indentation (side `2.2 sqrt(2 R max_depth_mm)`, `R` the
+    /// dome radius; deeper contact is cut at its border): set it near the deepest press, as
+    /// the cells grow with it.
     #[new]
-    #[pyo3(signature = (sensor, scene, max_depth_mm = 5.0))]
-    fn new(sensor: &PySensor, scene: &PyScene, max_depth_mm: f64) -> PyResult<Self> {
+    #[pyo3(signature = (sensor, scene, max_depth_mm = 5.0, cells = None))]
+    fn new(sensor: &PySensor, scene: &PyScene, max_depth_mm: f64, cells: Option<usize>) -> PyResult<Self> {
         let half = 0.5 * sensor.params.dome.outer_radius_mm;
         if !(max_depth_mm > 0.0 && max_depth_mm <= half) {
             return Err(PyValueError::new_err(format!(
                 "max_depth_mm must be in (0, {half}] (half the dome radius), got {max_depth_mm}"
             )));
         }
-        let owner = Owner { model: ContactModel::new(&sensor.params), scene: scene.build()?, max_depth_mm };
+        let mut params = sensor.params.clone();
+        if let Some(n) = cells {
+            if !(5..=129).contains(&n) {
+                return Err(PyValueError::new_err(format!("cells must be in [5, 129], got {n}")));
+            }
+            params.skin.cells_across = n;
+        }
+        let owner = Owner { model: ContactModel::new(&params), scene: scene.build()?, max_depth_mm };
         Ok(Self { cell: fresh(owner), sensor: sensor.clone(), renderers: HashMap::new(), pose: None })
     }
 
@@ -127,22 +168,7 @@ impl PyContact {
     /// laterally and `step_deg` of yaw, keeping the stick/slip history (press first).
     #[pyo3(signature = (pose, step_mm = 0.25, step_deg = 5.0))]
     fn slide_to(&mut self, py: Python<'_>, pose: Vec<f64>, step_mm: f64, step_deg: f64) -> PyResult<()> {
-        let target = sensor_pose(&pose)?;
-        let start = self.pose.ok_or_else(|| PyValueError::new_err("slide_to needs a press first"))?;
-        if !(step_mm.is_finite() && (0.01..=10.0).contains(&step_mm)) {
-            return Err(PyValueError::new_err(format!("step_mm must be in [0.01, 10] mm, got {step_mm}")));
-        }
-        if !(step_deg.is_finite() && (0.01..=45.0).contains(&step_deg)) {
-            return Err(PyValueError::new_err(format!("step_deg must be in [0.01, 45] deg, got {step_deg}")));
-        }
-        let path = SensorPath::slide_between(start, target, step_mm, step_deg).map_err(sim_err)?;
-        let poses: Vec<SensorPose> = path.steps.iter().skip(1).map(|s| s.pose).collect();
-        if poses.len() > 100_000 {
-            return Err(PyValueError::new_err(format!(
-                "the slide takes {} steps, more than 100000: raise step_mm or step_deg",
-                poses.len()
-            )));
-        }
+        let poses = self.slide_poses(&pose, step_mm, step_deg)?;
         self.run(py, poses)
     }
 
@@ -180,8 +206,7 @@ impl PyContact {
     /// The binary pin image `uint8 (size, size)`, 0 or 255 (default size: the camera's).
     #[pyo3(signature = (size = None))]
     fn image<'py>(&mut self, py: Python<'py>, size: Option<u32>) -> PyResult<Bound<'py, PyArray2<u8>>> {
-        let pins = self.cell.borrow_dependent().pins();
-        let img = self.renderer(size)?.render(&pins);
+        let img = self.render(size)?;
         image_array(py, img)
     }
 
@@ -221,4 +246,46 @@ impl PyContact {
     fn __repr__(&self) -> String {
         format!("Contact(sensor={:?}, pose={:?})", self.sensor.params.name, self.pose())
     }
+}
+
+/// Slides each contact to its pose (as `Contact.slide_to`, same steps) on all cores, without
+/// the GIL; then returns their images `uint8 (n, size, size)`. The contacts must be distinct.
+/// Each contact's result is what `slide_to` and `image` give it alone, whatever the threads.
+#[pyfunction]
+#[pyo3(signature = (contacts, poses, step_mm = 0.25, step_deg = 5.0, size = None))]
+pub fn slide_many<'py>(
+    py: Python<'py>,
+    mut contacts: Vec<PyRefMut<'py, PyContact>>,
+    poses: Vec<Vec<f64>>,
+    step_mm: f64,
+    step_deg: f64,
+    size: Option<u32>,
+) -> PyResult<Bound<'py, numpy::PyArray3<u8>>> {
+    if contacts.len() != poses.len() {
+        return Err(PyValueError::new_err(format!("{} contacts but {} poses", contacts.len(), poses.len())));
+    }
+    let side = size.unwrap_or_else(|| contacts.first().map_or(128, |c| c.sensor.params.camera.image_size));
+    let mut plans = Vec::with_capacity(contacts.len());
+    for (c, p) in contacts.iter_mut().zip(&poses) {
+        plans.push(c.slide_poses(p, step_mm, step_deg)?);
+        c.renderer(Some(side))?;
+    }
+    let mut targets: Vec<&mut PyContact> = contacts.iter_mut().map(|c| &mut **c).collect();
+    let images = py
+        .detach(|| {
+            targets
+                .par_iter_mut()
+                .zip(&plans)
+                .map(|(c, plan)| {
+                    c.steps(plan).map_err(|e| e.to_string())?;
+                    let pins = c.cell.borrow_dependent().pins();
+                    // Made above for every contact, with the GIL.
+                    let r = c.renderers.get(&side).ok_or_else(|| format!("no renderer at {side} px"))?;
+                    Ok(r.render(&pins).into_raw())
+                })
+                .collect::<Result<Vec<_>, String>>()
+        })
+        .map_err(PyValueError::new_err)?;
+    let n = images.len();
+    PyArray1::from_vec(py, images.concat()).reshape([n, side as usize, side as usize])
 }

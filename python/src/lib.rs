@@ -40,5 +40,6 @@ fn _tacsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<contact::PyContact>()?;
     m.add_class::<dataset::PyDataset>()?;
     m.add_function(wrap_pyfunction!(scene::shapes, m)?)?;
+    m.add_function(wrap_pyfunction!(contact::slide_many, m)?)?;
     Ok(())
 }

@@ -3,6 +3,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use tacsim_sim::scene::{ObjectPose, Scene};
@@ -18,6 +19,13 @@ pub struct PyScene {
 }
 
 impl PyScene {
+    /// Stimulus `i` and its pose.
+    fn object(&self, i: usize) -> PyResult<&(Arc<Stimulus>, ObjectPose)> {
+        self.objects
+            .get(i)
+            .ok_or_else(|| PyValueError::new_err(format!("no stimulus {i}: the scene holds {}", self.objects.len())))
+    }
+
     /// The simulator's scene of these objects.
     pub(crate) fn build(&self) -> PyResult<Scene> {
         let mut scene = Scene::new();
@@ -117,8 +125,44 @@ impl PyScene {
 
     /// The stimulus `i`'s contact point from the catalogue (mm, object frame), if any.
     fn contact_mm(&self, i: usize) -> PyResult<Option<(f64, f64)>> {
-        let (s, _) = self.objects.get(i).ok_or_else(|| PyValueError::new_err(format!("no stimulus {i}")))?;
+        let (s, _) = self.object(i)?;
         Ok(s.entry.contact_mm.map(|[x, y]| (x, y)))
+    }
+
+    /// The edge of stimulus `i` nearest the world point `(x_mm, y_mm)`: `(signed distance (mm,
+    /// negative inside the material), nearest point (x_mm, y_mm), unit tangent (material on
+    /// its left))`.
+    #[pyo3(signature = (x_mm, y_mm, i = 0))]
+    #[allow(clippy::type_complexity)]
+    fn edge(&self, x_mm: f64, y_mm: f64, i: usize) -> PyResult<(f64, (f64, f64), (f64, f64))> {
+        let (stimulus, pose) = self.object(i)?;
+        let p = pose.to_object([x_mm, y_mm, 0.0]);
+        let e = stimulus.contour.nearest([p[0], p[1]]);
+        let w = pose.to_world([e.point[0], e.point[1], 0.0]);
+        let t = pose.rotate_to_world(e.tangent);
+        Ok((e.signed_distance_mm, (w[0], w[1]), (t[0], t[1])))
+    }
+
+    /// The top-face contour of stimulus `i` in the world: its closed loops, each `float (n, 2)`
+    /// (mm, counter-clockwise around the material, no repeated closing vertex).
+    #[pyo3(signature = (i = 0))]
+    fn contour<'py>(&self, py: Python<'py>, i: usize) -> PyResult<Vec<Bound<'py, PyArray2<f64>>>> {
+        let (stimulus, pose) = self.object(i)?;
+        stimulus
+            .contour
+            .loops
+            .iter()
+            .map(|l| {
+                let flat: Vec<f64> = l
+                    .iter()
+                    .flat_map(|p| {
+                        let w = pose.to_world([p[0], p[1], 0.0]);
+                        [w[0], w[1]]
+                    })
+                    .collect();
+                PyArray1::from_vec(py, flat).reshape([l.len(), 2])
+            })
+            .collect()
     }
 
     fn __repr__(&self) -> String {

@@ -15,6 +15,15 @@ its axis, pressing); image ``u`` runs right and ``v`` down (px).
 (128, 128)
 """
 
-from ._tacsim import Contact, Dataset, Scene, Sensor, shapes
+from ._tacsim import Contact, Dataset, Scene, Sensor, shapes, slide_many
 
-__all__ = ["Contact", "Dataset", "Scene", "Sensor", "shapes"]
+__all__ = ["Contact", "Dataset", "Scene", "Sensor", "shapes", "slide_many"]
+
+try:  # The environments need gymnasium (pip install gymnasium); the engine does not.
+    import gymnasium as _gymnasium  # noqa: F401
+except ImportError:
+    pass
+else:
+    from .envs import register as _register
+
+    _register()

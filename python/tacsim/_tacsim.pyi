@@ -11,6 +11,16 @@ Pose = Sequence[float]
 def shapes() -> list[str]:
     """The built-in stimuli's names (disk, square, clover, ...)."""
 
+def slide_many(
+    contacts: Sequence["Contact"],
+    poses: Sequence[Pose],
+    step_mm: float = 0.25,
+    step_deg: float = 5.0,
+    size: Optional[int] = None,
+) -> npt.NDArray[np.uint8]:
+    """Slides each (distinct) contact to its pose on all cores, GIL released; their images
+    (n, size, size). Each result equals Contact.slide_to then Contact.image alone."""
+
 class Sensor:
     """A TacTip: dome, skin, pins, camera."""
 
@@ -58,12 +68,20 @@ class Scene:
     def names(self) -> list[str]: ...
     def contact_mm(self, i: int) -> Optional[Tuple[float, float]]:
         """Stimulus i's catalogue contact point on its edge (mm, object frame)."""
+    def edge(
+        self, x_mm: float, y_mm: float, i: int = 0
+    ) -> Tuple[float, Tuple[float, float], Tuple[float, float]]:
+        """Stimulus i's edge nearest (x_mm, y_mm): (signed distance (mm, negative inside the
+        material), nearest point, unit tangent with the material on its left)."""
+    def contour(self, i: int = 0) -> list[npt.NDArray[np.float64]]:
+        """Stimulus i's top-face contour loops in the world, each (n, 2) (mm)."""
 
 class Contact:
     """The sensor over a scene, with stick/slip history. The GIL is released while it solves."""
 
-    def __init__(self, sensor: Sensor, scene: Scene, max_depth_mm: float = 5.0) -> None:
-        """Contact is solved on a grid holding every untilted contact up to max_depth_mm."""
+    def __init__(self, sensor: Sensor, scene: Scene, max_depth_mm: float = 5.0, cells: Optional[int] = None) -> None:
+        """Contact is solved on a grid of cells x cells (default: the sensor's skin.cells_across)
+        holding every untilted contact up to max_depth_mm: set it near the deepest press."""
     def press(self, pose: Pose) -> None:
         """Lifts off (history cleared) and presses straight onto pose."""
     def slide_to(self, pose: Pose, step_mm: float = 0.25, step_deg: float = 5.0) -> None:
