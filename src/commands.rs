@@ -12,7 +12,7 @@ use tacsim_sim::pins::{PinLayout, PinPose};
 use tacsim_sim::png_io::{PngDepth, write_png};
 use tacsim_sim::realism::Realism;
 use tacsim_sim::scene::{ObjectPose, Scene};
-use tacsim_sim::sensor::{PRESETS, SkinModel};
+use tacsim_sim::sensor::SkinModel;
 use tacsim_sim::stimulus::Catalogue;
 use tacsim_sim::{PinRenderer, SensorParams};
 
@@ -142,18 +142,13 @@ pub fn ensure_writable(dir: &Path) -> Result<()> {
 /// (`tactip-331-edge2d`); a relative path is taken from `dir` when given.
 pub fn sensor_file_or_preset(arg: &str, dir: Option<&Path>) -> Result<SensorParams> {
     let path = dir.map_or_else(|| PathBuf::from(arg), |d| d.join(arg));
-    if path.is_file() {
-        return SensorParams::load(&path)
-            .context("loading the sensor file (see sim/presets/tactip-331-calibrated.toml for the format)");
-    }
-    if PRESETS.iter().any(|(n, _)| *n == arg) {
-        return Ok(SensorParams::preset(arg)?);
-    }
-    anyhow::bail!(
-        "sensor `{arg}` is neither a file ({} does not exist) nor a built-in preset ({})",
-        path.display(),
-        PRESETS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
-    )
+    SensorParams::file_or_preset(arg, dir).with_context(|| {
+        if path.is_file() {
+            "loading the sensor file (see sim/presets/tactip-331-calibrated.toml for the format)".to_owned()
+        } else {
+            format!("{} does not exist", path.display())
+        }
+    })
 }
 
 /// `tacsim render`: renders the undeformed sensor. Returns a one-line summary.

@@ -11,6 +11,7 @@ use pyo3::prelude::*;
 
 mod contact;
 mod dataset;
+mod generate;
 mod scene;
 mod sensor;
 
@@ -41,5 +42,6 @@ fn _tacsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<dataset::PyDataset>()?;
     m.add_function(wrap_pyfunction!(scene::shapes, m)?)?;
     m.add_function(wrap_pyfunction!(contact::slide_many, m)?)?;
+    m.add_function(wrap_pyfunction!(generate::generate, m)?)?;
     Ok(())
 }

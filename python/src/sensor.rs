@@ -1,7 +1,5 @@
 //! `Sensor`: a TacTip's parameters (a built-in preset or a sensor TOML file).
 
-use std::path::Path;
-
 use numpy::{PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
@@ -43,14 +41,7 @@ impl PySensor {
     fn load(name_or_path: Option<&str>) -> PyResult<Self> {
         let params = match name_or_path {
             None => SensorParams::default(),
-            Some(arg) if Path::new(arg).is_file() => SensorParams::load(Path::new(arg)).map_err(sim_err)?,
-            Some(arg) if PRESETS.iter().any(|(n, _)| *n == arg) => SensorParams::preset(arg).map_err(sim_err)?,
-            Some(arg) => {
-                return Err(PyValueError::new_err(format!(
-                    "sensor `{arg}` is neither a file nor a built-in preset ({})",
-                    presets().join(", ")
-                )));
-            }
+            Some(arg) => SensorParams::file_or_preset(arg, None).map_err(sim_err)?,
         };
         Ok(Self { params })
     }

@@ -1,6 +1,6 @@
 """Type stubs of the extension module (units: mm, deg, N, MPa)."""
 
-from typing import Optional, Sequence, Tuple
+from typing import Callable, Optional, Sequence, Tuple
 
 import numpy as np
 import numpy.typing as npt
@@ -20,6 +20,23 @@ def slide_many(
 ) -> npt.NDArray[np.uint8]:
     """Slides each (distinct) contact to its pose on all cores, GIL released; their images
     (n, size, size). Each result equals Contact.slide_to then Contact.image alone."""
+
+def generate(
+    recipe: str,
+    out: str,
+    sensor: Optional[str] = None,
+    seed: Optional[int] = None,
+    size: Optional[int] = None,
+    cells: Optional[int] = None,
+    threads: Optional[int] = None,
+    resume: bool = False,
+    force: bool = False,
+    progress: Optional[Callable[[int, int], None]] = None,
+) -> dict:
+    """The dataset of a recipe (file or built-in name) into out, as `tacsim generate` writes it
+    (same bytes for a seed); progress(done, total) about 100 times; returns the summary
+    (images, written, skipped, no_contact, wall_s). More than 1,000,000 images or about
+    16 GiB need force=True."""
 
 class Sensor:
     """A TacTip: dome, skin, pins, camera."""

@@ -148,6 +148,36 @@ def tacsim_binary():
     return path
 
 
+def test_generate_writes_the_same_bytes_as_the_command_line(tmp_path):
+    calls = []
+    summary = tacsim.generate("quick", str(tmp_path / "py"), threads=1, progress=lambda d, t: calls.append((d, t)))
+    assert summary["written"] == summary["images"] > 0 and summary["skipped"] == 0
+    assert calls and calls[-1] == (summary["images"], summary["images"]) and len(calls) <= 101
+    subprocess.run([tacsim_binary(), "generate", "quick", "--quiet", "--out", str(tmp_path / "cli")], check=True)
+    files = lambda d: {p.relative_to(d): p.read_bytes() for p in d.rglob("*") if p.is_file()}  # noqa: E731
+    assert files(tmp_path / "py") == files(tmp_path / "cli")
+    again = tacsim.generate("quick", str(tmp_path / "py"), resume=True)
+    assert again["skipped"] == summary["images"] and again["written"] == 0
+
+
+def test_generate_refuses_bad_recipes_and_oversized_runs_before_any_work(tmp_path):
+    with pytest.raises(ValueError) as e:
+        tacsim.generate("no-such-recipe", str(tmp_path / "x"))
+    assert "paper, quick" in str(e.value)
+    big = tmp_path / "big.toml"
+    big.write_text('[[shapes]]\nname = "disk"\n[poses]\nper_shape = 2000\n[taps]\nper_pose = 501\n[slides]\nper_pose = 0\n')
+    with pytest.raises(ValueError) as e:
+        tacsim.generate(str(big), str(tmp_path / "big"))
+    assert "1002000 images" in str(e.value) and "--force" in str(e.value)
+    assert not (tmp_path / "big").exists()
+
+    def stop(done, total):
+        raise RuntimeError("stop")
+
+    with pytest.raises(RuntimeError):
+        tacsim.generate("quick", str(tmp_path / "cb"), progress=stop)
+
+
 def test_a_generated_dataset_as_arrays(tmp_path):
     out = tmp_path / "quick"
     subprocess.run([tacsim_binary(), "generate", "quick", "--quiet", "--out", str(out)], check=True)

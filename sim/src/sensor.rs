@@ -322,6 +322,23 @@ impl SensorParams {
         }
     }
 
+    /// The sensor file `arg` (relative to `dir` where given), else the built-in preset of
+    /// that name.
+    pub fn file_or_preset(arg: &str, dir: Option<&std::path::Path>) -> Result<Self> {
+        let path = dir.map_or_else(|| std::path::PathBuf::from(arg), |d| d.join(arg));
+        if path.is_file() {
+            return Self::load(&path);
+        }
+        match PRESETS.iter().find(|(n, _)| *n == arg) {
+            Some(_) => Self::preset(arg),
+            None => Err(SimError::Unknown {
+                kind: "sensor (neither a file nor a built-in preset)",
+                name: arg.to_owned(),
+                known: PRESETS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+            }),
+        }
+    }
+
     /// The edge recordings' TacTip ([`EDGE2D_PRESET`]).
     pub fn edge2d() -> Result<Self> {
         Self::from_toml_str(EDGE2D_PRESET, "sim/presets/tactip-331-edge2d.toml")

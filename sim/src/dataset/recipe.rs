@@ -345,6 +345,26 @@ impl Recipe {
         Ok(r)
     }
 
+    /// The recipe file `arg`, else the built-in recipe of that name
+    /// ([`crate::embedded::RECIPES`]); with its source name for errors.
+    pub fn file_or_builtin(arg: &str) -> Result<(Self, String)> {
+        let path = std::path::Path::new(arg);
+        if path.exists() {
+            return Ok((Self::load(path)?, path.display().to_string()));
+        }
+        match crate::embedded::RECIPES.iter().find(|(n, _)| *n == arg) {
+            Some((name, text)) => {
+                let source = format!("built-in recipe {name} (scenarios/datasets/{name}.toml)");
+                Ok((Self::from_toml_str(text, &source)?, source))
+            }
+            None => Err(SimError::Unknown {
+                kind: "recipe (neither a file nor a built-in recipe)",
+                name: arg.to_owned(),
+                known: crate::embedded::RECIPES.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+            }),
+        }
+    }
+
     /// Loads and validates a recipe file.
     pub fn load(path: &std::path::Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).map_err(|e| SimError::io(path, "read", e))?;

@@ -1,0 +1,113 @@
+//! `generate`: a dataset from a recipe, as `tacsim generate` writes it.
+
+use std::path::Path;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use tacsim_sim::SensorParams;
+use tacsim_sim::dataset::job::Job;
+use tacsim_sim::dataset::recipe::Recipe;
+
+use crate::sim_err;
+
+/// The sensor a run starts from: `sensor`, else the recipe's (a preset or a file beside the
+/// recipe), else the calibrated TacTip.
+fn base_sensor(recipe: &Recipe, recipe_arg: &str, sensor: Option<&str>) -> PyResult<SensorParams> {
+    match (sensor, &recipe.sensor) {
+        (Some(arg), _) => SensorParams::file_or_preset(arg, None).map_err(sim_err),
+        (None, Some(name)) => {
+            let dir = Some(Path::new(recipe_arg)).filter(|p| p.is_file()).and_then(Path::parent);
+            SensorParams::file_or_preset(name, dir).map_err(sim_err)
+        }
+        (None, None) => Ok(SensorParams::default()),
+    }
+}
+
+/// Generates the dataset of `recipe` (a file or a built-in name: paper, quick, edge-2d, ...)
+/// into `out`, as `tacsim generate` does (same bytes for the same seed, whatever `threads`).
+/// `progress(done, total)` is called as images are written (from worker threads, at most
+/// about 100 times; an exception it raises is re-raised at the end). Returns the summary:
+/// images, written, skipped (already there with `resume`), no_contact, wall_s.
+#[pyfunction]
+#[pyo3(signature = (
+    recipe, out, sensor = None, seed = None, size = None, cells = None, threads = None, resume = false,
+    force = false, progress = None
+))]
+#[allow(clippy::too_many_arguments)]
+pub fn generate<'py>(
+    py: Python<'py>,
+    recipe: &str,
+    out: &str,
+    sensor: Option<&str>,
+    seed: Option<u64>,
+    size: Option<u32>,
+    cells: Option<usize>,
+    threads: Option<usize>,
+    resume: bool,
+    force: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (mut r, source) = Recipe::file_or_builtin(recipe).map_err(sim_err)?;
+    if let Some(s) = seed {
+        r.seed = s;
+    }
+    if let Some(s) = size {
+        r.image_size = s;
+    }
+    if let Some(c) = cells {
+        r.cells_across = Some(c);
+    }
+    if threads.is_some_and(|n| !(1..=1024).contains(&n)) {
+        return Err(PyValueError::new_err(format!("threads must be in [1, 1024], got {threads:?}")));
+    }
+    let base = base_sensor(&r, recipe, sensor)?;
+    let catalogue = tacsim_sim::embedded::catalogue().map_err(sim_err)?;
+    let job = Job::new(&r, &source, &base, &catalogue, None).map_err(sim_err)?;
+    job.estimate().map_err(sim_err)?.check(&source, force).map_err(sim_err)?;
+    let total = job.images();
+    let step = total.div_ceil(100).max(1);
+    let reported = AtomicUsize::new(0);
+    let failed: Mutex<Option<PyErr>> = Mutex::new(None);
+    let report = |done: usize| {
+        let Some(cb) = &progress else { return };
+        let last = reported.load(Ordering::Relaxed);
+        if (done < last + step && done < total)
+            || reported.compare_exchange(last, done, Ordering::Relaxed, Ordering::Relaxed).is_err()
+        {
+            return;
+        }
+        Python::attach(|py| {
+            if let Err(e) = cb.call1(py, (done, total))
+                && let Ok(mut slot) = failed.lock()
+            {
+                slot.get_or_insert(e);
+            }
+        });
+    };
+    let summary = py
+        .detach(|| {
+            let run = || job.run(Path::new(out), resume, &report);
+            match threads {
+                Some(n) => rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .map_err(|e| tacsim_sim::SimError::invalid("generate", "threads", e.to_string()))
+                    .and_then(|pool| pool.install(run)),
+                None => run(),
+            }
+        })
+        .map_err(sim_err)?;
+    if let Some(e) = failed.into_inner().ok().flatten() {
+        return Err(e);
+    }
+    let d = PyDict::new(py);
+    d.set_item("images", total)?;
+    d.set_item("written", summary.written)?;
+    d.set_item("skipped", summary.skipped)?;
+    d.set_item("no_contact", summary.no_contact)?;
+    d.set_item("wall_s", summary.wall_s)?;
+    Ok(d)
+}
