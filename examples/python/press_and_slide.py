@@ -7,7 +7,7 @@ import matplotlib.pyplot as plt
 
 import tacsim
 
-contact = tacsim.Contact(tacsim.Sensor.load(), tacsim.Scene("square"))
+contact = tacsim.Contact(tacsim.Sensor.load(), tacsim.Scene("square"), max_depth_mm=2.0)  # grid for presses up to 2 mm
 contact.press((45.0, 0.0, 1.5, 0.0))  # x, y (mm), depth (mm), yaw (deg): on the right edge
 pressed = contact.image(256)
 print("pressed: force (N)", contact.force_n.round(3))

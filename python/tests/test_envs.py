@@ -94,6 +94,13 @@ def test_surface_pose_rewards_the_truth_and_is_seeded():
     assert worse < -0.1
 
 
+def test_the_most_tilted_deepest_press_stays_inside_the_contact_grid():
+    env = SurfacePoseEnv()
+    env.contact.press((0.0, 0.0, env.depth[1], 0.0, env.tilt, -env.tilt))
+    p, _ = env.contact.pressure()
+    assert p.max() > 0 and p[0].max() == p[-1].max() == p[:, 0].max() == p[:, -1].max() == 0.0
+
+
 @pytest.mark.parametrize(
     "make, needle",
     [

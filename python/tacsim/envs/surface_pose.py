@@ -30,7 +30,13 @@ class SurfacePoseEnv(gym.Env):
         self.sensor = sensor if isinstance(sensor, tacsim.Sensor) else tacsim.Sensor.load(sensor)
         self.size, self.depth, self.tilt = int(image_size), (float(lo), float(hi)), float(tilt_deg)
         self.render_mode = render_mode
-        self.contact = tacsim.Contact(self.sensor, tacsim.Scene("disk"), max_depth_mm=min(5.0, hi + 1.5))
+        # The grid is centred on the apex and holds untilted contacts up to max_depth_mm (its
+        # half-side 1.1 sqrt(2 R max_depth)); a tilt moves the contact R sin(tilt) off the apex.
+        r = self.sensor.dome_radius_mm
+        half = r * np.sin(np.radians(self.tilt)) + 1.1 * np.sqrt(2.0 * r * hi)
+        self.contact = tacsim.Contact(
+            self.sensor, tacsim.Scene("disk"), max_depth_mm=min(0.5 * r, (half / 1.1) ** 2 / (2.0 * r))
+        )
         self.observation_space = spaces.Box(0, 255, (self.size, self.size, 1), np.uint8)
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
         self._mid = np.array([0.5 * (lo + hi), 0.0, 0.0])
