@@ -448,7 +448,7 @@ impl<'a> Simulation<'a> {
         let moving = wx.iter().chain(&wy).any(|w| *w != 0.0);
         let frictional = mu.iter().any(|m| *m > 0.0);
         let (p_prev, qx_prev, qy_prev) = (self.pressure.clone(), self.qx.clone(), self.qy.clone());
-        let closure_prev = self.closure.clone();
+        let closure_prev = if self.slope.is_some() { self.closure.clone() } else { Vec::new() };
         let mut report = StepReport { in_contact: true, ..StepReport::default() };
         let mut extra: Option<Vec<f64>> = None;
         let rounds = if op.uncoupled() { 1 } else { self.model.coupling_iterations.max(1) };
@@ -469,8 +469,11 @@ impl<'a> Simulation<'a> {
                     self.gap[k] = *g;
                 }
             }
-            let closure: Vec<f64> =
-                self.gap.iter().zip(&g0).map(|(g, g0)| if g0.is_finite() { g - g0 } else { 0.0 }).collect();
+            // How far each cell was pressed in: needed (and kept) only with a dome slope.
+            let closure: Option<Vec<f64>> = self
+                .slope
+                .as_ref()
+                .map(|_| self.gap.iter().zip(&g0).map(|(g, g0)| if g0.is_finite() { g - g0 } else { 0.0 }).collect());
             let needs_tangential =
                 self.slope.is_some() || frictional && (moving || !op.uncoupled() || qx_prev.iter().any(|q| *q != 0.0));
             if !needs_tangential {
@@ -495,21 +498,16 @@ impl<'a> Simulation<'a> {
             }
             // The dome's slope: the skin's traction is the solved (stimulus-plane) one plus
             // `p grad h`, and its stuck cells move `du_n grad h` along the skin.
-            let offset = |p: &[f64]| -> (Vec<f64>, Vec<f64>) {
-                match &self.slope {
-                    Some((hx, hy)) => {
-                        (p.iter().zip(hx).map(|(p, h)| p * h).collect(), p.iter().zip(hy).map(|(p, h)| p * h).collect())
-                    }
-                    None => (vec![0.0; n], vec![0.0; n]),
-                }
-            };
-            let (ox, oy) = offset(&self.pressure);
-            let (ox_prev, oy_prev) = offset(&p_prev);
-            if let Some((hx, hy)) = &self.slope {
-                let dq: [Vec<f64>; 2] = [0, 1].map(|a| {
-                    let (o, o_prev) = if a == 0 { (&ox, &ox_prev) } else { (&oy, &oy_prev) };
-                    o.iter().zip(o_prev).map(|(a, b)| a - b).collect()
-                });
+            // `(p grad h, p_prev grad h)` per axis, with a slope only.
+            let offsets = self.slope.as_ref().map(|(hx, hy)| {
+                let times = |p: &[f64], h: &[f64]| -> Vec<f64> { p.iter().zip(h).map(|(p, h)| p * h).collect() };
+                ([times(&self.pressure, hx), times(&self.pressure, hy)], [times(&p_prev, hx), times(&p_prev, hy)])
+            });
+            if let (Some(([ox, oy], [ox_prev, oy_prev])), Some((hx, hy)), Some(closure)) =
+                (&offsets, &self.slope, &closure)
+            {
+                let dq: [Vec<f64>; 2] = [(ox, ox_prev), (oy, oy_prev)]
+                    .map(|(o, o_prev)| o.iter().zip(o_prev).map(|(a, b)| a - b).collect());
                 let src: Vec<usize> = (0..n).filter(|&k| dq[0][k] != 0.0 || dq[1][k] != 0.0).collect();
                 let dst: Vec<usize> = (0..n).filter(|&k| self.pressure[k] > 0.0).collect();
                 let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
@@ -525,21 +523,25 @@ impl<'a> Simulation<'a> {
             let minus = |q: &[f64], o: &[f64]| -> Vec<f64> { q.iter().zip(o).map(|(q, o)| q - o).collect() };
             // The solver works on the stimulus-plane tractions: the skin's less `p grad h`
             // (no copies without a slope).
-            let shifted = self.slope.as_ref().map(|_| {
-                [minus(&qx_prev, &ox_prev), minus(&qy_prev, &oy_prev), minus(&self.qx, &ox), minus(&self.qy, &oy)]
+            let shifted = offsets.as_ref().map(|([ox, oy], [ox_prev, oy_prev])| {
+                [minus(&qx_prev, ox_prev), minus(&qy_prev, oy_prev), minus(&self.qx, ox), minus(&self.qy, oy)]
             });
             let (prev_x, prev_y, warm_x, warm_y) = match &shifted {
                 Some([a, b, c, d]) => (a.as_slice(), b.as_slice(), c.as_slice(), d.as_slice()),
                 None => (qx_prev.as_slice(), qy_prev.as_slice(), self.qx.as_slice(), self.qy.as_slice()),
             };
             if !frictional {
-                // Frictionless: the stimulus-plane traction is zero; the skin's is `p grad h`.
+                // Frictionless (reached only with a slope): the stimulus-plane traction is
+                // zero; the skin's is `p grad h`.
+                let [ox, oy] = offsets.map(|(o, _)| o).unwrap_or_else(|| [vec![0.0; n], vec![0.0; n]]);
                 let change: f64 =
                     ox.iter().zip(&self.qx).chain(oy.iter().zip(&self.qy)).map(|(a, b)| (a - b).abs()).sum();
                 let scale: f64 = self.pressure.iter().sum::<f64>().max(f64::MIN_POSITIVE);
                 self.qx = ox;
                 self.qy = oy;
-                self.closure = closure;
+                if let Some(c) = closure {
+                    self.closure = c;
+                }
                 if op.uncoupled() || change / scale < 1e-9 {
                     break;
                 }
@@ -575,14 +577,21 @@ impl<'a> Simulation<'a> {
             report.force_n[1] = t.force_n[1];
             report.slip_cells = t.slipping.iter().filter(|s| **s).count();
             report.dissipation_nmm = t.dissipation_nmm;
-            let qx: Vec<f64> = t.qx.iter().zip(&ox).map(|(q, o)| q + o).collect();
-            let qy: Vec<f64> = t.qy.iter().zip(&oy).map(|(q, o)| q + o).collect();
+            let (qx, qy) = match &offsets {
+                Some(([ox, oy], _)) => (
+                    t.qx.iter().zip(ox).map(|(q, o)| q + o).collect::<Vec<f64>>(),
+                    t.qy.iter().zip(oy).map(|(q, o)| q + o).collect::<Vec<f64>>(),
+                ),
+                None => (t.qx, t.qy),
+            };
             let change: f64 = qx.iter().zip(&self.qx).map(|(a, b)| (a - b).abs()).sum::<f64>()
                 + qy.iter().zip(&self.qy).map(|(a, b)| (a - b).abs()).sum::<f64>();
             let scale: f64 = self.pressure.iter().sum::<f64>().max(f64::MIN_POSITIVE);
             self.qx = qx;
             self.qy = qy;
-            self.closure = closure;
+            if let Some(c) = closure {
+                self.closure = c;
+            }
             if op.uncoupled() || change / scale < 1e-9 {
                 break;
             }
