@@ -82,6 +82,8 @@ impl PyContact {
     /// The sub-poses of a slide from the current pose to `pose` (checked).
     fn slide_poses(&self, pose: &[f64], step_mm: f64, step_deg: f64) -> PyResult<Vec<SensorPose>> {
         let target = sensor_pose(pose)?;
+        // Checked before any step, so that a bad target leaves the contact as it was.
+        target.validate("pose", self.sensor.params.dome.outer_radius_mm).map_err(sim_err)?;
         let start = self.pose.ok_or_else(|| PyValueError::new_err("slide_to needs a press first"))?;
         if !(step_mm.is_finite() && (0.01..=10.0).contains(&step_mm)) {
             return Err(PyValueError::new_err(format!("step_mm must be in [0.01, 10] mm, got {step_mm}")));
@@ -160,6 +162,7 @@ impl PyContact {
     /// `(x_mm, y_mm, depth_mm, yaw_deg[, rx_deg, ry_deg])`; depth below the highest top face.
     fn press(&mut self, py: Python<'_>, pose: Vec<f64>) -> PyResult<()> {
         let p = sensor_pose(&pose)?;
+        p.validate("pose", self.sensor.params.dome.outer_radius_mm).map_err(sim_err)?;
         self.lift();
         self.run(py, vec![p])
     }

@@ -126,6 +126,15 @@ def test_bad_input_raises_value_error_naming_the_field(call, needle):
     assert needle in str(e.value)
 
 
+def test_a_bad_slide_target_leaves_the_contact_as_it_was():
+    contact = pressed()
+    before = contact.pins_mm()
+    with pytest.raises(ValueError):
+        contact.slide_to((45.0, 0.0, 30.0, 0.0))
+    assert contact.pose == (45.0, 0.0, 1.5, 0.0, 0.0, 0.0)
+    np.testing.assert_array_equal(contact.pins_mm(), before)
+
+
 def test_an_obj_file_is_a_stimulus(tmp_path):
     scene = tacsim.Scene(obj_path=str(REPO / "shapes" / "disk.obj"), friction=0.3)
     assert scene.names == ["disk"]
