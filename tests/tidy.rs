@@ -1,6 +1,6 @@
 //! Tidy checks over the source tree: every Rust file starts with a `//!` doc comment saying
-//! what it is for (module docs are the map of the house), and no file carries leftover
-//! debugging macros.
+//! what it is for (module docs are the map of the house), no file carries leftover debugging
+//! macros, and the files and `tacsim` subcommands README.md and ARCHITECTURE.md name exist.
 
 use std::path::{Path, PathBuf};
 
@@ -22,9 +22,18 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
 fn every_rust_file_has_module_docs() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
     let mut files = Vec::new();
-    for dir in
-        ["src", "tests", "sim/src", "sim/tests", "sim/benches", "data/src", "model/src", "model/tests", "xtask/src"]
-    {
+    for dir in [
+        "src",
+        "tests",
+        "sim/src",
+        "sim/tests",
+        "sim/benches",
+        "data/src",
+        "model/src",
+        "model/tests",
+        "python/src",
+        "xtask/src",
+    ] {
         rust_files(&root.join(dir), &mut files);
     }
     assert!(files.len() > 20, "found only {} files", files.len());
@@ -39,4 +48,79 @@ fn every_rust_file_has_module_docs() {
         }
     }
     assert!(missing.is_empty(), "files without a leading //! doc comment: {missing:?}");
+}
+
+/// Where a path named in the docs may be relative to: the repository or a crate's sources.
+const DOC_ROOTS: [&str; 9] =
+    ["", "sim/src/", "src/", "model/src/", "model/", "data/src/", "python/", "python/src/", "sim/"];
+/// File kinds whose paths the docs name.
+const DOC_EXTENSIONS: [&str; 8] = [".rs", ".toml", ".py", ".md", ".json", ".patch", ".sh", ".pyi"];
+
+/// The code spans of a Markdown text: inline `code` and the lines of fenced blocks.
+fn code_spans(text: &str) -> Vec<String> {
+    let mut spans = Vec::new();
+    let mut fenced = false;
+    for line in text.lines() {
+        if line.trim_start().starts_with("```") {
+            fenced = !fenced;
+            continue;
+        }
+        if fenced {
+            spans.push(line.to_owned());
+        } else {
+            spans.extend(line.split('`').skip(1).step_by(2).map(str::to_owned));
+        }
+    }
+    spans
+}
+
+/// The `tacsim` subcommands, from `tacsim --help`.
+fn subcommands() -> Vec<String> {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tacsim")).arg("--help").output().expect("tacsim runs");
+    let help = String::from_utf8_lossy(&o.stdout).into_owned();
+    help.split("Commands:")
+        .nth(1)
+        .and_then(|t| t.split("Options:").next())
+        .map(|t| t.lines().filter_map(|l| l.split_whitespace().next()).map(str::to_owned).collect())
+        .unwrap_or_default()
+}
+
+#[test]
+fn the_files_and_subcommands_the_docs_name_exist() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let commands = subcommands();
+    assert!(commands.iter().any(|c| c == "generate"), "{commands:?}");
+    let mut stale = Vec::new();
+    for doc in ["README.md", "ARCHITECTURE.md"] {
+        let text = std::fs::read_to_string(root.join(doc)).expect("readable");
+        for span in code_spans(&text) {
+            let tokens: Vec<&str> = span.split_whitespace().collect();
+            // `tacsim SUBCOMMAND ...` at the start of a span or after a shell prompt.
+            let start = usize::from(tokens.first() == Some(&"$"));
+            if tokens.get(start) == Some(&"tacsim")
+                && let Some(sub) =
+                    tokens.get(start + 1).filter(|t| t.chars().all(|c| c.is_ascii_lowercase() || c == '-'))
+                && !commands.iter().any(|c| c == sub)
+            {
+                stale.push(format!("{doc}: `tacsim {sub}` is not a subcommand"));
+            }
+            for t in tokens {
+                let t = t.trim_matches(|c: char| ",;:()[]\"'".contains(c));
+                let named = t.contains('/') && DOC_EXTENSIONS.iter().any(|e| t.ends_with(e));
+                // Outputs, other trees, globs, `git show REV:path`, placeholders (`DIR/...`).
+                let placeholder =
+                    t.split('/').next().is_some_and(|c| c.chars().all(|c| c.is_ascii_uppercase() || c == '_'));
+                let elsewhere = ["target/", "../", "/", "~", "$"].iter().any(|p| t.starts_with(p))
+                    || t.contains('*')
+                    || t.contains(':')
+                    || placeholder;
+                if named && !elsewhere && !DOC_ROOTS.iter().any(|r| root.join(format!("{r}{t}")).exists()) {
+                    stale.push(format!("{doc}: {t} does not exist"));
+                }
+            }
+        }
+    }
+    stale.sort();
+    stale.dedup();
+    assert!(stale.is_empty(), "the docs name what is not there: {stale:#?}");
 }
