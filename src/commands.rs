@@ -60,14 +60,7 @@ pub struct RenderOptions {
 
 /// Parses `x,y,depth,yaw[,rx,ry]` (mm, deg).
 pub fn parse_pose(text: &str) -> Result<SensorPose, String> {
-    let v = parse_list(text)?;
-    match v.as_slice() {
-        [x, y, d, yaw] => Ok(SensorPose::new(*x, *y, *d, *yaw)),
-        [x, y, d, yaw, rx, ry] => {
-            Ok(SensorPose { x_mm: *x, y_mm: *y, depth_mm: *d, yaw_deg: *yaw, rx_deg: *rx, ry_deg: *ry })
-        }
-        _ => Err(format!("expected x,y,depth,yaw or x,y,depth,yaw,rx,ry (mm, deg), got {} values", v.len())),
-    }
+    SensorPose::from_values(&parse_list(text)?)
 }
 
 /// Parses `dx,dy` (mm).

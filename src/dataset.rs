@@ -6,7 +6,7 @@ use anyhow::{Context as _, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use tacsim_sim::SensorParams;
 use tacsim_sim::dataset::generate::{self, Summary};
-use tacsim_sim::dataset::job::Job;
+use tacsim_sim::dataset::job::{self, Job};
 use tacsim_sim::dataset::recipe::Recipe;
 
 use crate::commands::load_catalogue;
@@ -58,16 +58,8 @@ pub fn load_recipe(arg: Option<&str>) -> Result<(Recipe, String)> {
 
 /// `tacsim generate`: returns the summary lines to print.
 pub fn generate(opts: &GenerateOptions) -> Result<String> {
-    let (mut recipe, source) = load_recipe(opts.recipe.as_deref())?;
-    if let Some(s) = opts.size {
-        recipe.image_size = s;
-    }
-    if let Some(s) = opts.seed {
-        recipe.seed = s;
-    }
-    if let Some(c) = opts.cells {
-        recipe.cells_across = Some(c);
-    }
+    let (recipe, source) = load_recipe(opts.recipe.as_deref())?;
+    let recipe = recipe.with_overrides(opts.seed, opts.size, opts.cells);
     let base = recipe_base_sensor(&recipe, opts)?;
     let job = Job::new(&recipe, &source, &base, &load_catalogue(None)?, opts.shard)?;
     job.estimate()?.check(&source, opts.force)?;
@@ -92,14 +84,11 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
 /// The sensor a generate run starts from: `--sensor`, else the recipe's `sensor` (a preset
 /// name, or a file beside the recipe), else the calibrated TacTip.
 pub fn recipe_base_sensor(recipe: &Recipe, opts: &GenerateOptions) -> Result<SensorParams> {
-    match (&opts.sensor, &recipe.sensor) {
-        (Some(_), _) | (None, None) => crate::commands::load_sensor(opts.sensor.as_deref(), None),
-        (None, Some(name)) => {
-            let dir = opts.recipe.as_deref().map(Path::new).filter(|p| p.is_file()).and_then(Path::parent);
-            SensorParams::file_or_preset(name, dir)
-                .with_context(|| format!("the sensor of recipe {} (its `sensor` field)", recipe.name))
-        }
-    }
+    let sensor = opts.sensor.as_deref().map(|p| p.to_string_lossy().into_owned());
+    job::base_sensor(recipe, opts.recipe.as_deref().map(Path::new), sensor.as_deref()).with_context(|| match &sensor {
+        Some(s) => format!("loading the sensor `{s}` (see sim/presets/tactip-331-calibrated.toml for the format)"),
+        None => format!("the sensor of recipe {} (its `sensor` field)", recipe.name),
+    })
 }
 
 fn report(recipe: &Recipe, out: &Path, total: usize, s: &Summary) -> String {

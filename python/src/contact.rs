@@ -16,9 +16,6 @@ use crate::scene::PyScene;
 use crate::sensor::{PySensor, image_array};
 use crate::sim_err;
 
-/// Most contact steps one slide may take.
-const MAX_SLIDE_STEPS: usize = 100_000;
-
 /// What a [`Simulation`] borrows: the contact model and the scene.
 struct Owner {
     model: ContactModel,
@@ -50,26 +47,10 @@ pub struct PyContact {
     pose: Option<SensorPose>,
 }
 
-/// A pose from `(x_mm, y_mm, depth_mm, yaw_deg[, rx_deg, ry_deg])`.
-fn sensor_pose(pose: &[f64]) -> PyResult<SensorPose> {
-    let p = match pose {
-        [x, y, d, yaw] => SensorPose::new(*x, *y, *d, *yaw),
-        [x, y, d, yaw, rx, ry] => {
-            SensorPose { x_mm: *x, y_mm: *y, depth_mm: *d, yaw_deg: *yaw, rx_deg: *rx, ry_deg: *ry }
-        }
-        _ => {
-            return Err(PyValueError::new_err(format!(
-                "pose must be (x_mm, y_mm, depth_mm, yaw_deg) or (x_mm, y_mm, depth_mm, yaw_deg, rx_deg, ry_deg), got {} \
-                 values",
-                pose.len()
-            )));
-        }
-    };
-    if !pose.iter().all(|v| v.is_finite() && v.abs() <= 1e4) {
-        return Err(PyValueError::new_err(format!(
-            "pose values must be finite and at most 10000 in size, got {pose:?}"
-        )));
-    }
+/// A pose from `(x_mm, y_mm, depth_mm, yaw_deg[, rx_deg, ry_deg])`, checked for this sensor.
+fn sensor_pose(pose: &[f64], sensor: &PySensor) -> PyResult<SensorPose> {
+    let p = SensorPose::from_values(pose).map_err(PyValueError::new_err)?;
+    p.validate("pose", sensor.params.dome.outer_radius_mm).map_err(sim_err)?;
     Ok(p)
 }
 
@@ -81,9 +62,8 @@ impl PyContact {
 
     /// The sub-poses of a slide from the current pose to `pose` (checked).
     fn slide_poses(&self, pose: &[f64], step_mm: f64, step_deg: f64) -> PyResult<Vec<SensorPose>> {
-        let target = sensor_pose(pose)?;
         // Checked before any step, so that a bad target leaves the contact as it was.
-        target.validate("pose", self.sensor.params.dome.outer_radius_mm).map_err(sim_err)?;
+        let target = sensor_pose(pose, &self.sensor)?;
         let start = self.pose.ok_or_else(|| PyValueError::new_err("slide_to needs a press first"))?;
         if !(step_mm.is_finite() && (0.01..=10.0).contains(&step_mm)) {
             return Err(PyValueError::new_err(format!("step_mm must be in [0.01, 10] mm, got {step_mm}")));
@@ -92,14 +72,8 @@ impl PyContact {
             return Err(PyValueError::new_err(format!("step_deg must be in [0.01, 45] deg, got {step_deg}")));
         }
         let path = SensorPath::slide_between(start, target, step_mm, step_deg).map_err(sim_err)?;
-        let poses: Vec<SensorPose> = path.steps.iter().skip(1).map(|s| s.pose).collect();
-        if poses.len() > MAX_SLIDE_STEPS {
-            return Err(PyValueError::new_err(format!(
-                "the slide takes {} steps, more than {MAX_SLIDE_STEPS}: raise step_mm or step_deg",
-                poses.len()
-            )));
-        }
-        Ok(poses)
+        // The path's own bound caps its steps (`MAX_PATH_STEPS`).
+        Ok(path.steps.iter().skip(1).map(|s| s.pose).collect())
     }
 
     /// Steps through `poses` (the GIL held by the caller or not).
@@ -161,8 +135,7 @@ impl PyContact {
     /// Lifts off (the history is cleared) and presses straight onto `pose`
     /// `(x_mm, y_mm, depth_mm, yaw_deg[, rx_deg, ry_deg])`; depth below the highest top face.
     fn press(&mut self, py: Python<'_>, pose: Vec<f64>) -> PyResult<()> {
-        let p = sensor_pose(&pose)?;
-        p.validate("pose", self.sensor.params.dome.outer_radius_mm).map_err(sim_err)?;
+        let p = sensor_pose(&pose, &self.sensor)?;
         self.lift();
         self.run(py, vec![p])
     }

@@ -27,30 +27,24 @@ fn labels(r: &Row) -> [f64; 12] {
     [p[0], p[1], p[2], p[3], p[4], p[5], s[0], s[1], s[2], s[3], s[4], s[5]]
 }
 
+/// The value named `name` among `choices`, else a `ValueError` listing them.
+fn choice<T: Copy>(what: &str, name: &str, choices: &[(&str, T)]) -> PyResult<T> {
+    choices.iter().find(|(n, _)| *n == name).map(|(_, v)| *v).ok_or_else(|| {
+        let names: Vec<&str> = choices.iter().map(|(n, _)| *n).collect();
+        PyValueError::new_err(format!("{what} must be {}, got {name:?}", names.join(", ")))
+    })
+}
+
 fn split(name: &str) -> PyResult<Split> {
-    match name {
-        "train" => Ok(Split::Train),
-        "val" => Ok(Split::Val),
-        "test" => Ok(Split::Test),
-        _ => Err(PyValueError::new_err(format!("split must be train, val or test, got {name:?}"))),
-    }
+    choice("split", name, &[("train", Split::Train), ("val", Split::Val), ("test", Split::Test)])
 }
 
 fn subset(name: &str) -> PyResult<Subset> {
-    match name {
-        "all" => Ok(Subset::All),
-        "paired" => Ok(Subset::Paired),
-        "unpaired" => Ok(Subset::Unpaired),
-        _ => Err(PyValueError::new_err(format!("subset must be all, paired or unpaired, got {name:?}"))),
-    }
+    choice("subset", name, &[("all", Subset::All), ("paired", Subset::Paired), ("unpaired", Subset::Unpaired)])
 }
 
 fn kind(name: &str) -> PyResult<Kind> {
-    match name {
-        "tap" => Ok(Kind::Tap),
-        "slide" => Ok(Kind::Slide),
-        _ => Err(PyValueError::new_err(format!("kind must be tap or slide, got {name:?}"))),
-    }
+    choice("kind", name, &[("tap", Kind::Tap), ("slide", Kind::Slide)])
 }
 
 /// A generated dataset (`targets.csv`, `meta.json`, `images/`).

@@ -7,24 +7,10 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tacsim_sim::SensorParams;
-use tacsim_sim::dataset::job::Job;
+use tacsim_sim::dataset::job::{self, Job};
 use tacsim_sim::dataset::recipe::Recipe;
 
 use crate::sim_err;
-
-/// The sensor a run starts from: `sensor`, else the recipe's (a preset or a file beside the
-/// recipe), else the calibrated TacTip.
-fn base_sensor(recipe: &Recipe, recipe_arg: &str, sensor: Option<&str>) -> PyResult<SensorParams> {
-    match (sensor, &recipe.sensor) {
-        (Some(arg), _) => SensorParams::file_or_preset(arg, None).map_err(sim_err),
-        (None, Some(name)) => {
-            let dir = Some(Path::new(recipe_arg)).filter(|p| p.is_file()).and_then(Path::parent);
-            SensorParams::file_or_preset(name, dir).map_err(sim_err)
-        }
-        (None, None) => Ok(SensorParams::default()),
-    }
-}
 
 /// Generates the dataset of `recipe` (a file or a built-in name: paper, quick, edge-2d, ...)
 /// into `out`, as `tacsim generate` does (same bytes for the same seed, whatever `threads`).
@@ -50,20 +36,12 @@ pub fn generate<'py>(
     force: bool,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (mut r, source) = Recipe::file_or_builtin(recipe).map_err(sim_err)?;
-    if let Some(s) = seed {
-        r.seed = s;
-    }
-    if let Some(s) = size {
-        r.image_size = s;
-    }
-    if let Some(c) = cells {
-        r.cells_across = Some(c);
-    }
+    let (r, source) = Recipe::file_or_builtin(recipe).map_err(sim_err)?;
+    let r = r.with_overrides(seed, size, cells);
     if threads.is_some_and(|n| !(1..=1024).contains(&n)) {
         return Err(PyValueError::new_err(format!("threads must be in [1, 1024], got {threads:?}")));
     }
-    let base = base_sensor(&r, recipe, sensor)?;
+    let base = job::base_sensor(&r, Some(Path::new(recipe)), sensor).map_err(sim_err)?;
     let catalogue = tacsim_sim::embedded::catalogue().map_err(sim_err)?;
     let job = Job::new(&r, &source, &base, &catalogue, None).map_err(sim_err)?;
     job.estimate().map_err(sim_err)?.check(&source, force).map_err(sim_err)?;

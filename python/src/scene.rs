@@ -7,7 +7,7 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use tacsim_sim::scene::{ObjectPose, Scene};
-use tacsim_sim::stimulus::{Catalogue, Stimulus};
+use tacsim_sim::stimulus::{Contour, Mesh, ShapeEntry, Stimulus};
 
 use crate::sim_err;
 
@@ -66,22 +66,23 @@ fn stimulus(shape: Option<&str>, obj_path: Option<&str>, friction: Option<f64>) 
     Ok(loaded.with_friction(friction))
 }
 
-/// A one-shape catalogue of an OBJ file (named after the file, friction 0.5).
+/// The stimulus of an OBJ file: named after the file, friction 0.5, its top-face contour
+/// from the mesh (as a catalogue entry's).
 fn obj_stimulus(path: &Path) -> PyResult<Arc<Stimulus>> {
-    let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "mesh".into());
-    let file = path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let toml = format!(
-        "[[shape]]\nname = {name:?}\nfile = {file:?}\nmaterial = \"user\"\nfriction = 0.5\ndescription = \"{}\"\n",
-        path.display().to_string().replace('"', "'")
-    );
-    let source = format!("{} (as a one-shape catalogue)", path.display());
-    let catalogue = Catalogue::parse(&toml, &source, |_| {
-        std::fs::read_to_string(path)
-            .map(|text| (text, path.display().to_string()))
-            .map_err(|e| tacsim_sim::SimError::io(path, "read", e))
-    })
-    .map_err(sim_err)?;
-    catalogue.get(&name).map_err(sim_err)
+    let text = std::fs::read_to_string(path).map_err(|e| sim_err(tacsim_sim::SimError::io(path, "read", e)))?;
+    let shown = path.display().to_string();
+    let mesh = Mesh::from_obj_str(&text, &shown).map_err(sim_err)?;
+    let contour = Contour::from_mesh(&mesh, &shown).map_err(sim_err)?;
+    let entry = ShapeEntry {
+        name: path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "mesh".into()),
+        file: shown.clone(),
+        material: "user".into(),
+        friction: 0.5,
+        description: shown,
+        contact_mm: None,
+        edge_radius_mm: 0.0,
+    };
+    Ok(Arc::new(Stimulus { entry, mesh, contour }))
 }
 
 #[pymethods]

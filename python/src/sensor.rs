@@ -18,6 +18,7 @@ pub struct PySensor {
 impl PySensor {
     /// The renderer at `size` px (default: the camera's image size).
     pub(crate) fn renderer(&self, size: Option<u32>) -> PyResult<PinRenderer> {
+        // A dataset recipe's range (`image_size`), narrower than the renderer's own.
         let size = size.unwrap_or(self.params.camera.image_size);
         if !(16..=2048).contains(&size) {
             return Err(PyValueError::new_err(format!("size must be in [16, 2048] px, got {size}")));
@@ -61,7 +62,7 @@ impl PySensor {
     /// Number of pins.
     #[getter]
     fn pin_count(&self) -> usize {
-        tacsim_sim::pins::PinLayout::new(&self.params).pins.len()
+        self.params.pin_count()
     }
 
     /// The camera's image size (px).

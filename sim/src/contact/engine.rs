@@ -530,59 +530,48 @@ impl<'a> Simulation<'a> {
                 Some([a, b, c, d]) => (a.as_slice(), b.as_slice(), c.as_slice(), d.as_slice()),
                 None => (qx_prev.as_slice(), qy_prev.as_slice(), self.qx.as_slice(), self.qy.as_slice()),
             };
-            if !frictional {
+            let (qx, qy) = if !frictional {
                 // Frictionless (reached only with a slope): the stimulus-plane traction is
                 // zero; the skin's is `p grad h`.
                 let [ox, oy] = offsets.map(|(o, _)| o).unwrap_or_else(|| [vec![0.0; n], vec![0.0; n]]);
-                let change: f64 =
-                    ox.iter().zip(&self.qx).chain(oy.iter().zip(&self.qy)).map(|(a, b)| (a - b).abs()).sum();
-                let scale: f64 = self.pressure.iter().sum::<f64>().max(f64::MIN_POSITIVE);
-                self.qx = ox;
-                self.qy = oy;
-                if let Some(c) = closure {
-                    self.closure = c;
+                (ox, oy)
+            } else {
+                // The eigenvalue bound on all cells seen in contact serves every step inside them.
+                let mut grown = false;
+                for (k, p) in self.pressure.iter().enumerate() {
+                    if *p > 0.0 && !self.seen[k] {
+                        self.seen[k] = true;
+                        grown = true;
+                    }
                 }
-                if op.uncoupled() || change / scale < 1e-9 {
-                    break;
+                if grown || self.lipschitz.is_none() {
+                    let cells: Vec<usize> = (0..n).filter(|&k| self.seen[k]).collect();
+                    self.lipschitz =
+                        Some(tangential::largest_eigenvalue(op, &cells, self.model.tangential.dense_max_cells));
                 }
-                extra = Some(self.normal_from_shear(op, &g0));
-                continue;
-            }
-            // The eigenvalue bound on all cells seen in contact serves every step inside them.
-            let mut grown = false;
-            for (k, p) in self.pressure.iter().enumerate() {
-                if *p > 0.0 && !self.seen[k] {
-                    self.seen[k] = true;
-                    grown = true;
+                let t = tangential::solve_step(
+                    op,
+                    &self.pressure,
+                    &mu,
+                    (prev_x, prev_y),
+                    (&cx, &cy),
+                    Some((warm_x, warm_y)),
+                    self.lipschitz,
+                    &self.model.tangential,
+                )?;
+                report.tangential_solved = true;
+                report.tangential_iterations += t.iterations;
+                report.force_n[0] = t.force_n[0];
+                report.force_n[1] = t.force_n[1];
+                report.slip_cells = t.slipping.iter().filter(|s| **s).count();
+                report.dissipation_nmm = t.dissipation_nmm;
+                match &offsets {
+                    Some(([ox, oy], _)) => (
+                        t.qx.iter().zip(ox).map(|(q, o)| q + o).collect::<Vec<f64>>(),
+                        t.qy.iter().zip(oy).map(|(q, o)| q + o).collect::<Vec<f64>>(),
+                    ),
+                    None => (t.qx, t.qy),
                 }
-            }
-            if grown || self.lipschitz.is_none() {
-                let cells: Vec<usize> = (0..n).filter(|&k| self.seen[k]).collect();
-                self.lipschitz =
-                    Some(tangential::largest_eigenvalue(op, &cells, self.model.tangential.dense_max_cells));
-            }
-            let t = tangential::solve_step(
-                op,
-                &self.pressure,
-                &mu,
-                (prev_x, prev_y),
-                (&cx, &cy),
-                Some((warm_x, warm_y)),
-                self.lipschitz,
-                &self.model.tangential,
-            )?;
-            report.tangential_solved = true;
-            report.tangential_iterations += t.iterations;
-            report.force_n[0] = t.force_n[0];
-            report.force_n[1] = t.force_n[1];
-            report.slip_cells = t.slipping.iter().filter(|s| **s).count();
-            report.dissipation_nmm = t.dissipation_nmm;
-            let (qx, qy) = match &offsets {
-                Some(([ox, oy], _)) => (
-                    t.qx.iter().zip(ox).map(|(q, o)| q + o).collect::<Vec<f64>>(),
-                    t.qy.iter().zip(oy).map(|(q, o)| q + o).collect::<Vec<f64>>(),
-                ),
-                None => (t.qx, t.qy),
             };
             let change: f64 = qx.iter().zip(&self.qx).map(|(a, b)| (a - b).abs()).sum::<f64>()
                 + qy.iter().zip(&self.qy).map(|(a, b)| (a - b).abs()).sum::<f64>();

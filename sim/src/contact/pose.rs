@@ -38,6 +38,18 @@ impl SensorPose {
         Self { x_mm, y_mm, depth_mm, yaw_deg, rx_deg: 0.0, ry_deg: 0.0 }
     }
 
+    /// The pose of `x, y, depth, yaw` or `x, y, depth, yaw, rx, ry` (mm, deg); `Err` says how
+    /// many values were given. Check it with [`SensorPose::validate`].
+    pub fn from_values(v: &[f64]) -> std::result::Result<Self, String> {
+        match v {
+            [x, y, d, yaw] => Ok(Self::new(*x, *y, *d, *yaw)),
+            [x, y, d, yaw, rx, ry] => {
+                Ok(Self { x_mm: *x, y_mm: *y, depth_mm: *d, yaw_deg: *yaw, rx_deg: *rx, ry_deg: *ry })
+            }
+            _ => Err(format!("expected x,y,depth,yaw or x,y,depth,yaw,rx,ry (mm, deg), got {} values", v.len())),
+        }
+    }
+
     /// Checks that every field is finite, the depth at most the dome radius and the tilt within
     /// [`MAX_TILT_DEG`].
     pub fn validate(&self, source_name: &str, dome_radius_mm: f64) -> Result<()> {

@@ -67,6 +67,20 @@ fn human_bytes(bytes: u64) -> String {
     if gib >= 1.0 { format!("{gib:.1} GiB") } else { format!("{:.1} MiB", bytes as f64 / f64::from(1u32 << 20)) }
 }
 
+/// The sensor a run of `recipe` starts from: `sensor` (a file or a preset), else the
+/// recipe's `sensor` field (a preset, or a file beside the recipe file `recipe_path`), else
+/// the calibrated TacTip.
+pub fn base_sensor(recipe: &Recipe, recipe_path: Option<&Path>, sensor: Option<&str>) -> Result<SensorParams> {
+    match (sensor, &recipe.sensor) {
+        (Some(arg), _) => SensorParams::file_or_preset(arg, None),
+        (None, Some(name)) => {
+            let dir = recipe_path.filter(|p| p.is_file()).and_then(Path::parent);
+            SensorParams::file_or_preset(name, dir)
+        }
+        (None, None) => Ok(SensorParams::default()),
+    }
+}
+
 /// A recipe's run, everything built but nothing simulated or written.
 pub struct Job {
     /// The plan (its recipe validated).

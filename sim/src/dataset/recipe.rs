@@ -365,6 +365,14 @@ impl Recipe {
         }
     }
 
+    /// This recipe with a run's overrides (`--seed`, `--size`, `--cells`) where given.
+    pub fn with_overrides(mut self, seed: Option<u64>, image_size: Option<u32>, cells_across: Option<usize>) -> Self {
+        self.seed = seed.unwrap_or(self.seed);
+        self.image_size = image_size.unwrap_or(self.image_size);
+        self.cells_across = cells_across.or(self.cells_across);
+        self
+    }
+
     /// Loads and validates a recipe file.
     pub fn load(path: &std::path::Path) -> Result<Self> {
         let text = std::fs::read_to_string(path).map_err(|e| SimError::io(path, "read", e))?;
