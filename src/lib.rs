@@ -3,7 +3,7 @@
 //! [`calibrate`] fits the simulator to a lab's recordings (`calibrate`);
 //! [`embedded`] carries the built-in stimuli and recipes so the binary runs anywhere;
 //! [`commands`] holds one function per subcommand, called by the thin `main.rs`; [`dataset`]
-//! runs `generate` and `merge`; [`explore`] is the closed-loop contour follower (`run`); [`validation`] and [`bench`] run the contact checks and
+//! runs `generate` and `merge`; [`explore`] runs the closed loop of `tacsim-explore` with learned perception and reports it (`run`); [`validation`] and [`bench`] run the contact checks and
 //! benchmarks; [`learn`] trains and evaluates the networks of `tacsim-model`; [`sim2real`]
 //! measures how a network trained on simulated images reads a lab's real ones.
 

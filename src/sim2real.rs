@@ -2,7 +2,7 @@
 //!
 //! One pipeline, each stage a named step whose output lands under `--out`, so an interrupted
 //! run resumes where it stopped:
-//! 1. [`generate_sim`]: the recipe's dataset with the sensor (`sim/`);
+//! 1. [`generate_sim`]: the recipe's dataset with the sensor (`sim/`), or `--sim`, one made before;
 //! 2. [`train_both`]: the pose network on the simulated images (`sim-posenet/`) and the same
 //!    network, same settings, on the lab folder's fitting part (`real-posenet/`);
 //! 3. [`score`]: the label map (component, sign and offset, [`LabelMap::fit`]) from the
@@ -50,6 +50,10 @@ pub struct Sim2RealOptions {
     /// TacTip).
     #[arg(long)]
     pub sensor: Option<PathBuf>,
+    /// A simulated dataset made beforehand (`tacsim generate`, shards merged, or several sets
+    /// joined) to train on instead of generating the recipe's; the recipe is then unused.
+    #[arg(long, conflicts_with_all = ["recipe", "sensor"])]
+    pub sim: Option<PathBuf>,
     /// Work directory: the simulated set (sim/) and the two runs; rerun to resume.
     #[arg(long)]
     pub out: PathBuf,
@@ -106,7 +110,7 @@ pub struct Sim2RealReport {
     pub command: String,
     /// The lab folder.
     pub real: String,
-    /// The recipe.
+    /// The recipe (or the `--sim` dataset).
     pub recipe: String,
     /// Simulated training images.
     pub sim_train: usize,
@@ -139,8 +143,10 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let cfg = PoseConfig { size: o.size, epochs: o.epochs, seed: o.seed, ..file };
     cfg.validate()?;
     // Bad input stops here, before any work: the recipe, its sensor, the outputs.
-    let (recipe, _) = crate::dataset::load_recipe(Some(&o.recipe))?;
-    crate::dataset::recipe_base_sensor(&recipe, &generate_options(o))?;
+    if o.sim.is_none() {
+        let (recipe, _) = crate::dataset::load_recipe(Some(&o.recipe))?;
+        crate::dataset::recipe_base_sensor(&recipe, &generate_options(o))?;
+    }
     let report_dir = o.report.clone().unwrap_or_else(|| o.out.clone());
     crate::commands::ensure_writable(&o.out)?;
     crate::commands::ensure_writable(&report_dir)?;
@@ -164,8 +170,13 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     }
     let real_cfg = PoseConfig { labels: real_labels.clone(), ..cfg.clone() };
 
-    let sim_dir = generate_sim(o)?;
-    let sim = Corpus::open(&sim_dir, o.size)?;
+    let sim_dir = match &o.sim {
+        Some(dir) => dir.clone(),
+        None => generate_sim(o)?,
+    };
+    let sim = Corpus::open(&sim_dir, o.size).with_context(|| {
+        format!("{} is not a simulated dataset (meta.json, targets.csv, images/)", sim_dir.display())
+    })?;
     let sim_rows = sim.pose_rows(Split::Train, &real_labels);
     let sim_labels = sim.varying(&Column::ALL, &sim_rows);
     if sim_labels.is_empty() {
@@ -181,7 +192,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let report = Sim2RealReport {
         command: command.to_owned(),
         real: o.real.display().to_string(),
-        recipe: o.recipe.clone(),
+        recipe: o.sim.as_ref().map_or_else(|| o.recipe.clone(), |d| d.display().to_string()),
         sim_train: sim_rows.len(),
         sim_labels,
         real_fitting: fitting.len(),

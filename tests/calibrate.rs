@@ -155,8 +155,8 @@ fn a_lab_folder_with_non_square_images_calibrates() {
 
 #[test]
 fn the_consensus_of_the_shallowest_presses_stands_in_for_the_undeformed_image() {
-    use tacsim_sim::calibrate::observe::pin_centres;
     use tacsim_sim::calibrate::reference::Reference;
+    use tacsim_sim::detect::pin_centres;
     let Some(real) = lab_folder("real-tactip-surface3d") else { return };
     let lab = tacsim_data::LabFolder::open(&real).expect("lab folder");
     let truth = pin_centres(&Reference::image(&lab, "image_0.png").expect("image_0").image);

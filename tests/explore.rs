@@ -6,13 +6,19 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use rayon::prelude::*;
-use tacsim::explore::run::run;
-use tacsim::explore::scenario::{PerceptionKind, Scenario};
+use tacsim_explore::{PerceptionKind, RunReport, Scenario};
 use tacsim_sim::SensorParams;
 use tacsim_sim::contact::engine::{ContactModel, Simulation, contact_disk_grid};
 use tacsim_sim::contact::grid::Grid;
 use tacsim_sim::contact::pose::SensorPose;
 use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::stimulus::Catalogue;
+
+/// A scenario run as `tacsim run` does it, with the `tacsim-model` networks for learned
+/// perception.
+fn run(s: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) -> tacsim_explore::Result<RunReport> {
+    tacsim_explore::run(s, sensor, catalogue, Some(&tacsim::explore::learned::Networks))
+}
 
 fn scenarios() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/explore");
@@ -182,8 +188,8 @@ fn the_pins_voronoi_patch_matches_the_contact_engines_patch() {
     let mut shares = Vec::new();
     for (x, yaw) in [(50.0, 90.0), (49.0, 90.0), (51.0, 30.0), (50.5, 0.0), (49.5, -45.0)] {
         let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
-        let press = tacsim::explore::run::reference_press(&model, depth, 0.5).expect("reference press");
-        let mut g = tacsim::explore::perception::Geometric::new(&sensor, 256, &press).expect("perception");
+        let press = tacsim_explore::reference_press(&model, depth, 0.5).expect("reference press");
+        let mut g = tacsim_explore::Geometric::new(&sensor, 256, &press).expect("perception");
         sim.step(SensorPose::new(x, 0.0, depth, yaw)).expect("step");
         g.estimate(&sim.pins());
         let centres = grid.centres();
@@ -214,7 +220,7 @@ fn the_pins_voronoi_patch_matches_the_contact_engines_patch() {
 
 #[test]
 fn edge_frame_labels_are_the_pose_relative_to_the_edge_that_the_servo_reads() {
-    use tacsim::explore::perception::{oracle, wrap_deg};
+    use tacsim_explore::{oracle, wrap_deg};
     use tacsim_sim::dataset::plan::Plan;
     use tacsim_sim::dataset::recipe::Recipe;
     let text = "[poses]\nper_shape = 40\nframe = \"edge\"\naround_contour = true\nx_mm = [-3.0, 3.0]\n\
@@ -320,8 +326,8 @@ fn a_dome_wholly_on_the_material_reads_no_free_skin() {
     let centres = grid.centres();
     for (x, yaw) in [(40.0, 90.0), (30.0, 0.0), (44.0, 45.0)] {
         let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
-        let press = tacsim::explore::run::reference_press(&model, depth, 0.5).expect("reference press");
-        let mut g = tacsim::explore::perception::Geometric::new(&sensor, 256, &press).expect("perception");
+        let press = tacsim_explore::reference_press(&model, depth, 0.5).expect("reference press");
+        let mut g = tacsim_explore::Geometric::new(&sensor, 256, &press).expect("perception");
         sim.step(SensorPose::new(x, 0.0, depth, yaw)).expect("step");
         g.estimate(&sim.pins());
         let touching = g.touching(&centres);
@@ -345,9 +351,9 @@ fn geometric_perception_keeps_the_edge_pins_through_a_slide() {
     // missing the disk run left the contour (completion 0.285, read error 3.3 mm / 63 deg).
     // Now the tracker follows them from the undeformed image and the fitted edge stays within
     // half a millimetre and a few degrees of the truth along a slide on the disk's edge.
-    use tacsim::explore::perception::{EdgeEstimate, Geometric, oracle, wrap_deg};
+    use tacsim_explore::{EdgeEstimate, Geometric, oracle, wrap_deg};
     let (scene, sensor, model, grid) = on_the_disk(DEPTH_MM);
-    let press = tacsim::explore::run::reference_press(&model, DEPTH_MM, 0.5).expect("reference press");
+    let press = tacsim_explore::reference_press(&model, DEPTH_MM, 0.5).expect("reference press");
     let mut g = Geometric::new(&sensor, 256, &press).expect("perception");
     let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
     // Along the disk's edge at x = 50 mm, the material on the sensor's left, sliding +y.

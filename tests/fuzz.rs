@@ -147,7 +147,7 @@ proptest! {
         for body in [t, mutate(SCENARIO, i, &v)] {
             let f = dir.join("s.toml");
             std::fs::write(&f, body).expect("write");
-            let _ = tacsim::explore::scenario::Scenario::load(&f);
+            let _ = tacsim_explore::Scenario::load(&f);
         }
         let _ = std::fs::remove_dir_all(&dir);
     }

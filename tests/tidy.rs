@@ -1,6 +1,7 @@
 //! Tidy checks over the source tree: every Rust file starts with a `//!` doc comment saying
 //! what it is for (module docs are the map of the house), no file carries leftover debugging
-//! macros, and the files and `tacsim` subcommands README.md and ARCHITECTURE.md name exist.
+//! macros, the files and `tacsim` subcommands README.md, ARCHITECTURE.md and the guides in
+//! `docs/guide/` name exist, and the README stays a short front page linking every guide.
 
 use std::path::{Path, PathBuf};
 
@@ -91,15 +92,26 @@ fn the_files_and_subcommands_the_docs_name_exist() {
     let commands = subcommands();
     assert!(commands.iter().any(|c| c == "generate"), "{commands:?}");
     let mut stale = Vec::new();
-    for doc in ["README.md", "ARCHITECTURE.md"] {
+    let mut docs = vec![PathBuf::from("README.md"), PathBuf::from("ARCHITECTURE.md")];
+    let mut guides: Vec<PathBuf> = std::fs::read_dir(root.join("docs/guide"))
+        .expect("docs/guide")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "md"))
+        .map(|p| p.strip_prefix(&root).expect("under the root").to_path_buf())
+        .collect();
+    guides.sort();
+    docs.extend(guides);
+    for doc in &docs {
         let text = std::fs::read_to_string(root.join(doc)).expect("readable");
+        let doc = doc.display();
         for span in code_spans(&text) {
             let tokens: Vec<&str> = span.split_whitespace().collect();
             // `tacsim SUBCOMMAND ...` at the start of a span or after a shell prompt.
             let start = usize::from(tokens.first() == Some(&"$"));
             if tokens.get(start) == Some(&"tacsim")
-                && let Some(sub) =
-                    tokens.get(start + 1).filter(|t| t.chars().all(|c| c.is_ascii_lowercase() || c == '-'))
+                && let Some(sub) = tokens
+                    .get(start + 1)
+                    .filter(|t| !t.starts_with('-') && t.chars().all(|c| c.is_ascii_lowercase() || c == '-'))
                 && !commands.iter().any(|c| c == sub)
             {
                 stale.push(format!("{doc}: `tacsim {sub}` is not a subcommand"));
@@ -123,4 +135,18 @@ fn the_files_and_subcommands_the_docs_name_exist() {
     stale.sort();
     stale.dedup();
     assert!(stale.is_empty(), "the docs name what is not there: {stale:#?}");
+}
+
+/// The README stays a front page (set-up, tour, headline figures, links); the long form
+/// lives in `docs/guide/`, and the README links every guide there is.
+#[test]
+fn the_readme_is_short_and_links_every_guide() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let readme = std::fs::read_to_string(root.join("README.md")).expect("readable");
+    let lines = readme.lines().count();
+    assert!(lines <= 220, "README.md has {lines} lines: move the long form into docs/guide/");
+    for entry in std::fs::read_dir(root.join("docs/guide")).expect("docs/guide") {
+        let name = entry.expect("entry").file_name().to_string_lossy().into_owned();
+        assert!(readme.contains(&format!("docs/guide/{name}")), "README.md does not link docs/guide/{name}");
+    }
 }

@@ -14,7 +14,7 @@
 //! Not in the paper, off by default (`adversarial_weight = 0`): an adversarial term in the
 //! self-supervised phase, as CycleGAN pairs its cycle losses with. The paper's cycles and
 //! reconstruction are all met by `M` close to the identity with the shear left in the pose
-//! code (README, "The CPU-scale study"); a critic `C` that tells tap images from `M`'s output
+//! code (docs/guide/learning.md, "The CPU-scale study"); a critic `C` that tells tap images from `M`'s output
 //! rules that out. Least-squares GAN losses over `C`'s 8x8 patch scores:
 //!
 //! - critic `L_C = (E(C(x_t) - 1)^2 + E C(M(x_s))^2) / 2`, with `M(x_s)` detached;

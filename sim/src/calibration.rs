@@ -15,15 +15,7 @@ use crate::realism::Realism;
 use crate::render::PinRenderer;
 use crate::sensor::SensorParams;
 
-/// Pin blobs in a processed 420 px image are about 115 px; these bounds reject specks and
-/// merged rim clutter.
-pub const PIN_AREA_RANGE_PX420: (f64, f64) = (0.4 * 117.0, 2.0 * 117.0);
-
-/// [`PIN_AREA_RANGE_PX420`] scaled to a `size` px image: `(min, max)` blob area (px) of a pin.
-pub fn pin_area_range(size: u32) -> (u32, u32) {
-    let k = (size as f64 / 420.0).powi(2);
-    ((PIN_AREA_RANGE_PX420.0 * k).floor().max(1.0) as u32, (PIN_AREA_RANGE_PX420.1 * k).ceil() as u32)
-}
+pub use crate::detect::{PIN_AREA_RANGE_PX420, pin_area_range};
 
 /// One ring of detected pins.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,8 +1,12 @@
 //! Pin detection in binary images: 8-connected components of white pixels, with centroid and
-//! area. Used for calibration, real-data checks and (later) Voronoi contact geometry.
+//! area; pin centres; and which sensor pin a detected one is (through the camera). Used by
+//! calibration, real-data checks and the closed loop's image-based perception.
 
 use image::{GrayImage, Luma};
 use imageproc::region_labelling::{Connectivity, connected_components};
+
+use crate::pins::PinPose;
+use crate::render::PinRenderer;
 
 /// One connected white region.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,6 +57,50 @@ pub fn detect_blobs(img: &GrayImage) -> Vec<Blob> {
 /// clutter.
 pub fn detect_pins(img: &GrayImage, min_area: u32, max_area: u32) -> Vec<Blob> {
     detect_blobs(img).into_iter().filter(|b| b.area >= min_area && b.area <= max_area).collect()
+}
+
+/// Pin blobs in a processed 420 px image are about 115 px; these bounds reject specks and
+/// merged rim clutter.
+pub const PIN_AREA_RANGE_PX420: (f64, f64) = (0.4 * 117.0, 2.0 * 117.0);
+
+/// [`PIN_AREA_RANGE_PX420`] scaled to a `size` px image: `(min, max)` blob area (px) of a pin.
+pub fn pin_area_range(size: u32) -> (u32, u32) {
+    let k = (size as f64 / 420.0).powi(2);
+    ((PIN_AREA_RANGE_PX420.0 * k).floor().max(1.0) as u32, (PIN_AREA_RANGE_PX420.1 * k).ceil() as u32)
+}
+
+/// Pin centres of a binary image (px): its blobs of a pin's area ([`pin_area_range`]).
+pub fn pin_centres(img: &GrayImage) -> Vec<[f64; 2]> {
+    let (lo, hi) = pin_area_range(img.width());
+    detect_pins(img, lo, hi).iter().map(|b| b.centroid).collect()
+}
+
+/// Image positions (px) of the pin tips of `pins` as `renderer`'s camera sees them (`None`
+/// where a tip leaves the view).
+pub fn tip_pixels(renderer: &PinRenderer, pins: &[PinPose]) -> Vec<Option<[f64; 2]>> {
+    pins.iter().map(|p| renderer.camera().project(&p.tip)).collect()
+}
+
+/// For each real reference pin, the sensor pin whose undeformed image lies nearest, within
+/// `radius` px (the camera fit puts them within a pixel).
+pub fn match_reference(
+    renderer: &PinRenderer,
+    layout_pins: &[PinPose],
+    reference: &[[f64; 2]],
+    radius: f64,
+) -> Vec<Option<usize>> {
+    let sim = tip_pixels(renderer, layout_pins);
+    reference
+        .iter()
+        .map(|r| {
+            sim.iter()
+                .enumerate()
+                .filter_map(|(i, p)| p.map(|p| (i, (p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2))))
+                .filter(|(_, d2)| *d2 <= radius * radius)
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(i, _)| i)
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -253,3 +253,12 @@ impl Scene {
         }
     }
 }
+
+/// A flat surface (the top of `disk`, at the origin) with friction `friction`.
+pub fn flat_scene(disk: &Stimulus, friction: f64) -> Result<Scene> {
+    let mut stim = disk.clone();
+    stim.entry.friction = friction;
+    let mut scene = Scene::new();
+    scene.add(Arc::new(stim), ObjectPose::default())?;
+    Ok(scene)
+}

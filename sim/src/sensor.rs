@@ -294,7 +294,7 @@ pub const CAMERA_ONLY_PRESET: &str = include_str!("../presets/tactip-331-camera.
 /// layout and framing (128 px, rim visible) fitted by `tacsim calibrate --camera-only` to the
 /// consensus of its shallowest taps, from `docs/calibration-edge2d/base.toml`: the calibrated
 /// default's skin and pins, the dome's radius (40 mm, an effective contact radius) chosen by
-/// the edge taps (README, "Sim-to-real").
+/// the edge taps (`docs/guide/sim2real.md`).
 pub const EDGE2D_PRESET: &str = include_str!("../presets/tactip-331-edge2d.toml");
 
 /// The TacTip of the flat-surface recordings (`../shared/data/real-tactip-surface3d/`), as
@@ -730,7 +730,7 @@ mod tests {
         assert_eq!(
             preset,
             SensorParams::default(),
-            "rerun `tacsim calibrate` (README, Calibration) and copy the values"
+            "rerun `tacsim calibrate` (docs/guide/calibration.md) and copy the values"
         );
     }
 

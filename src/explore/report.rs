@@ -8,7 +8,7 @@ use anyhow::Result;
 use plotters::prelude::*;
 use serde::Serialize;
 
-use super::run::RunReport;
+use tacsim_explore::{RunReport, Scenario};
 
 /// All runs of one `tacsim run`.
 #[derive(Clone, Debug, Serialize)]
@@ -51,7 +51,7 @@ pub fn plot_names(files: &[std::path::PathBuf], names: &[&str]) -> Vec<String> {
 /// parallel, writes `out/report.json` and `out/NAME.svg`; returns the text to print and
 /// whether every run passed. `sensor` is used by the scenarios that name none. `models`, when
 /// given, is the directory the scenarios' `[models]` runs are looked up in, by their directory
-/// names ([`super::scenario::Models::under`]).
+/// names ([`tacsim_explore::Models::under`]).
 pub fn run_files(
     files: &[std::path::PathBuf],
     out: &Path,
@@ -60,7 +60,7 @@ pub fn run_files(
     sensor: &tacsim_sim::SensorParams,
 ) -> Result<(String, bool)> {
     use rayon::prelude::*;
-    let mut scenarios = files.iter().map(|f| super::scenario::Scenario::load(f)).collect::<Result<Vec<_>>>()?;
+    let mut scenarios = files.iter().map(|f| Scenario::load(f)).collect::<Result<Vec<_>, _>>()?;
     if let Some(dir) = models {
         for s in &mut scenarios {
             s.models = s.models.under(dir);
@@ -68,15 +68,15 @@ pub fn run_files(
     }
     let catalogue = crate::commands::load_catalogue(None)?;
     // Each scenario's own sensor, loaded before any run (a bad file stops them all).
-    let sensors = scenarios.iter().map(|s| s.sensor_or(sensor)).collect::<Result<Vec<_>>>()?;
+    let sensors = scenarios.iter().map(|s| s.sensor_or(sensor)).collect::<Result<Vec<_>, _>>()?;
     // The report directory, checked writable before any run.
     crate::commands::ensure_writable(out).context("the report directory (--out)")?;
     let plots = plot_names(files, &scenarios.iter().map(|s| s.name.as_str()).collect::<Vec<_>>());
     let mut runs = scenarios
         .par_iter()
         .zip(&sensors)
-        .map(|(s, sensor)| super::run::run(s, sensor, &catalogue))
-        .collect::<Result<Vec<_>>>()?;
+        .map(|(s, sensor)| tacsim_explore::run(s, sensor, &catalogue, Some(&super::learned::Networks)))
+        .collect::<Result<Vec<_>, _>>()?;
     for (r, name) in runs.iter_mut().zip(plots) {
         plot(r, &out.join(&name))?;
         r.plot = name;

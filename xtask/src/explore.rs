@@ -19,18 +19,19 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 
-use crate::reproduce::{Job, LR_SELF_SUPERVISED, LR_SUPERVISED, run_jobs, s, tacsim, tacsim_binary, train, workers};
+use crate::reproduce::{
+    Job, LR_SELF_SUPERVISED, LR_SUPERVISED, RunArgs, run_jobs, s, tacsim, tacsim_binary, train, workers,
+};
 
 /// Network side (px).
 const SIZE: usize = 64;
 
 /// Runs the pipeline into `out` (default `target/explore`, where the scenarios' `[models]`
 /// defaults look).
-pub fn run(args: &[String]) -> Result<()> {
-    let value = |flag: &str| args.iter().position(|a| a == flag).and_then(|i| args.get(i + 1));
+pub fn run(args: &RunArgs) -> Result<()> {
     let root = crate::root();
-    let out = value("--out").map(PathBuf::from).unwrap_or_else(|| root.join("target").join("explore"));
-    let workers = workers(value("--jobs"))?;
+    let out = args.out.clone().unwrap_or_else(|| root.join("target").join("explore"));
+    let workers = workers(args.jobs)?;
     let started = std::time::Instant::now();
     let bin = tacsim_binary()?;
     let data = out.join("data");

@@ -29,6 +29,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand};
 use tacsim_sim::atomic::write_atomic;
 use tacsim_sim::calibration::{compare_sensor, fit_camera, fit_realism, ring_table};
 use tacsim_sim::realism::Realism;
@@ -40,32 +41,125 @@ fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().map(Path::to_path_buf).unwrap_or_default()
 }
 
+/// `cargo xtask`: project automation (see the module docs).
+#[derive(Debug, Parser)]
+#[command(name = "xtask", bin_name = "cargo xtask", about = "tacsim's project automation")]
+struct Xtask {
+    #[command(subcommand)]
+    command: Task,
+}
+
+#[derive(Debug, Subcommand)]
+enum Task {
+    /// Regenerate the built-in stimuli in shapes/ (or check the committed files).
+    Shapes {
+        /// Check that the committed files are up to date instead of writing them.
+        #[arg(long)]
+        check: bool,
+    },
+    /// Fit the camera and ring layout to the lab's undeformed reference image and write
+    /// sim/presets/tactip-331-camera.toml.
+    FitCamera {
+        /// The reference image (default: the surface recordings' image_0.png).
+        #[arg(long)]
+        real: Option<PathBuf>,
+    },
+    /// Run the criterion benchmarks (renderer, contact operator products).
+    Bench {
+        /// Arguments passed on to criterion.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        criterion: Vec<String>,
+    },
+    /// Track the lab's recordings and compare the simulated pin motion of one parameter set
+    /// with the real one.
+    RealCompare(RealCompareArgs),
+    /// The paper's study end to end (dataset, every model, evaluation report).
+    Reproduce {
+        /// The CPU-scale study's quick plan.
+        #[arg(long)]
+        quick: bool,
+        #[command(flatten)]
+        run: reproduce::RunArgs,
+    },
+    /// Contour following with learned perception, end to end.
+    Explore(reproduce::RunArgs),
+    /// Training and inference throughput of the networks.
+    BenchModel {
+        /// 64 px on flex only; docs/model-bench.json is not written.
+        #[arg(long)]
+        quick: bool,
+        /// A Python interpreter that imports torch: the same networks in PyTorch beside.
+        #[arg(long, value_name = "PYTHON")]
+        pytorch: Option<String>,
+    },
+}
+
+/// `cargo xtask real-compare`'s flags: the parameter set (the calibrated default with the
+/// changes named) and what to print or dump.
+#[derive(Debug, clap::Args)]
+struct RealCompareArgs {
+    /// The lab folder (default: the surface recordings).
+    #[arg(long)]
+    real: Option<PathBuf>,
+    /// Sensor file (default: the calibrated TacTip).
+    #[arg(long)]
+    sensor: Option<PathBuf>,
+    /// Skin model: half-space, layer or skin-on-gel.
+    #[arg(long)]
+    skin: Option<String>,
+    /// The rig's depth zero (mm).
+    #[arg(long, value_name = "MM")]
+    depth_offset: Option<f64>,
+    /// Friction coefficient.
+    #[arg(long, value_name = "MU")]
+    friction: Option<f64>,
+    /// Tilt pivot above the apex (mm).
+    #[arg(long, value_name = "MM")]
+    pivot: Option<f64>,
+    /// The rig's yield under load (mm^-0.5).
+    #[arg(long, value_name = "C")]
+    depth_compliance: Option<f64>,
+    /// Tilt relaxation (1/mm).
+    #[arg(long, value_name = "K")]
+    tilt_relaxation: Option<f64>,
+    /// Rigid base below the apex (mm).
+    #[arg(long, value_name = "MM")]
+    base_depth: Option<f64>,
+    /// Gel over skin modulus ratio.
+    #[arg(long, value_name = "R")]
+    gel_ratio: Option<f64>,
+    /// Pin length (mm).
+    #[arg(long, value_name = "MM")]
+    pin_length: Option<f64>,
+    /// Poisson's ratio of the skin.
+    #[arg(long, value_name = "NU")]
+    poisson: Option<f64>,
+    /// Refit the camera at this distance (mm).
+    #[arg(long, value_name = "MM")]
+    camera_distance: Option<f64>,
+    /// Cells across the footprint (17, as `tacsim calibrate` fits).
+    #[arg(long, default_value_t = 17)]
+    cells: usize,
+    /// The label frame: DEG, DEGm (mirrored first), DEGmr (tilts reversed too) or auto (found
+    /// from the data); default the identity.
+    #[arg(long, value_name = "DEG[m][r]|auto")]
+    frame: Option<String>,
+    /// Write every recording's real and simulated fields as JSON.
+    #[arg(long, value_name = "FILE")]
+    dump: Option<PathBuf>,
+}
+
 fn main() -> Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    match args.first().map(String::as_str) {
-        Some("shapes") => shapes(args.iter().any(|a| a == "--check")),
-        Some("fit-camera") => {
-            let real = args
-                .iter()
-                .position(|a| a == "--real")
-                .and_then(|i| args.get(i + 1))
-                .map(PathBuf::from)
-                .unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d/images/image_0.png"));
-            fit(&real)
+    match Xtask::parse().command {
+        Task::Shapes { check } => shapes(check),
+        Task::FitCamera { real } => {
+            fit(&real.unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d/images/image_0.png")))
         }
-        Some("bench") => bench(&args[1..]),
-        Some("real-compare") => real_compare(&args[1..]),
-        Some("reproduce") => reproduce::run(&args[1..]),
-        Some("explore") => explore::run(&args[1..]),
-        Some("bench-model") => bench_model(&args[1..]),
-        _ => {
-            eprintln!(
-                "usage: cargo xtask shapes [--check] | fit-camera [--real PNG] | bench [criterion args] | bench-model [--quick] [--pytorch PYTHON] | reproduce [--quick] [--out DIR] [--jobs N] | explore [--out DIR] [--jobs N] | \
-                 real-compare [--real DIR] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM] [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] \
-                 [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM] [--cells N] [--frame DEG[m][r]|auto] [--dump FILE]"
-            );
-            bail!("unknown or missing command")
-        }
+        Task::Bench { criterion } => bench(&criterion),
+        Task::RealCompare(a) => real_compare(&a),
+        Task::Reproduce { quick, run } => reproduce::run(quick, &run),
+        Task::Explore(run) => explore::run(&run),
+        Task::BenchModel { quick, pytorch } => bench_model(quick, pytorch.as_deref()),
     }
 }
 
@@ -159,7 +253,7 @@ fn fit(real_path: &Path) -> Result<()> {
     write_atomic(&out, format!("{header}{}", fitted.to_toml()).as_bytes())?;
     println!("wrote {}", out.display());
     if fitted != start {
-        println!("the camera fit changed: rerun `tacsim calibrate` from it (README, Calibration)");
+        println!("the camera fit changed: rerun `tacsim calibrate` from it (docs/guide/calibration.md)");
     }
     Ok(())
 }
@@ -177,17 +271,12 @@ fn bench(extra: &[String]) -> Result<()> {
     Ok(())
 }
 
-fn flag<'a>(args: &'a [String], name: &str) -> Option<&'a str> {
-    args.iter().position(|a| a == name).and_then(|i| args.get(i + 1)).map(String::as_str)
-}
-
-fn real_compare(args: &[String]) -> Result<()> {
+fn real_compare(args: &RealCompareArgs) -> Result<()> {
     use tacsim_sim::calibrate::evaluate::Simulator;
     use tacsim_sim::calibrate::frame::{ImageMap, best_frame, label_frame, shift_samples};
     use tacsim_sim::calibrate::model::{Deformation, RigFrame};
     use tacsim_sim::calibrate::observe::Observations;
-    let dir =
-        flag(args, "--real").map(PathBuf::from).unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d"));
+    let dir = args.real.clone().unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d"));
     let lab = tacsim_data::LabFolder::open(&dir)?;
     let reference = tacsim_sim::calibrate::reference::Reference::of(&lab, None)?;
     let obs = Observations::track(&lab, &reference)?;
@@ -200,43 +289,37 @@ fn real_compare(args: &[String]) -> Result<()> {
         tracked.iter().sum::<usize>() as f64 / tracked.len().max(1) as f64,
         tracked.iter().min().copied().unwrap_or(0)
     );
-    let mut base = match flag(args, "--sensor") {
-        Some(p) => SensorParams::load(Path::new(p))?,
+    let mut base = match &args.sensor {
+        Some(p) => SensorParams::load(p)?,
         None => SensorParams::default(),
     };
-    if let Some(v) = flag(args, "--camera-distance") {
-        base =
-            tacsim_sim::calibration::fit_camera_at(&base, &reference.image, &reference.describe(), Some(v.parse()?))?;
+    if let Some(v) = args.camera_distance {
+        base = tacsim_sim::calibration::fit_camera_at(&base, &reference.image, &reference.describe(), Some(v))?;
         println!("camera refitted at {v} mm: {:?}", base.camera);
     }
     let mut d = Deformation::of(&base, 0.5);
-    if let Some(m) = flag(args, "--skin") {
-        d.model = m.parse().map_err(anyhow::Error::msg)?;
+    if let Some(m) = &args.skin {
+        d.model = m.parse().map_err(|e| anyhow::anyhow!("--skin {m}: {e}"))?;
     }
-    if let Some(v) = flag(args, "--depth-offset") {
-        d.depth_offset_mm = v.parse()?;
-    }
-    for (name, field) in [
-        ("--pivot", &mut d.pivot_mm),
-        ("--depth-compliance", &mut d.depth_compliance),
-        ("--tilt-relaxation", &mut d.tilt_relaxation_per_mm),
-        ("--base-depth", &mut d.base_depth_mm),
-        ("--gel-ratio", &mut d.gel_ratio),
-        ("--pin-length", &mut d.pin_length_mm),
-        ("--poisson", &mut d.poisson),
+    for (value, field) in [
+        (args.depth_offset, &mut d.depth_offset_mm),
+        (args.pivot, &mut d.pivot_mm),
+        (args.depth_compliance, &mut d.depth_compliance),
+        (args.tilt_relaxation, &mut d.tilt_relaxation_per_mm),
+        (args.base_depth, &mut d.base_depth_mm),
+        (args.gel_ratio, &mut d.gel_ratio),
+        (args.pin_length, &mut d.pin_length_mm),
+        (args.poisson, &mut d.poisson),
+        (args.friction, &mut d.friction),
     ] {
-        if let Some(v) = flag(args, name) {
-            *field = v.parse().with_context(|| format!("{name} {v}"))?;
+        if let Some(v) = value {
+            *field = v;
         }
-    }
-    if let Some(v) = flag(args, "--friction") {
-        d.friction = v.parse()?;
     }
     let cat = Catalogue::load_dir(&root().join("shapes"))?;
     let disk = cat.get("disk")?;
     // 17 cells across the footprint, as `tacsim calibrate` fits; `--cells` for a finer grid.
-    let cells = flag(args, "--cells").map(str::parse).transpose()?.unwrap_or(17);
-    let sim = Simulator::new(&base, &d, cells, &obs, &disk)?;
+    let sim = Simulator::new(&base, &d, args.cells, &obs, &disk)?;
     let (rms, matched) = sim.undeformed_rms(&obs);
     println!("{d:?}\nundeformed: {matched} pins matched, RMS {rms:.2} px from the real reference");
     println!("radial displacement (px, outward), real / simulated untilted tap, recordings tilted < 8 deg:");
@@ -276,7 +359,7 @@ fn real_compare(args: &[String]) -> Result<()> {
     // `--frame DEG`, `DEGm`, `DEGmr`: labels rotated by DEG (mirrored first with `m`, tilts
     // reversed with `r`);
     // `--frame auto`: the frame found from the data; by default the identity.
-    let frame = match flag(args, "--frame") {
+    let frame = match args.frame.as_deref() {
         Some("auto") => fit.frame,
         Some(f) => {
             let reversed = f.ends_with('r');
@@ -293,7 +376,7 @@ fn real_compare(args: &[String]) -> Result<()> {
         "all recordings, mean relative error left after the best affine map of each simulated field onto the real one: {:.2}",
         affine.iter().sum::<f64>() / affine.len().max(1) as f64
     );
-    if let Some(path) = flag(args, "--dump") {
+    if let Some(path) = &args.dump {
         let rows: Vec<serde_json::Value> = fields
             .iter()
             .zip(&obs.samples)
@@ -302,10 +385,7 @@ fn real_compare(args: &[String]) -> Result<()> {
                 serde_json::json!({"pose": o.sample.pose, "shear": o.sample.shear, "real": o.tracking.displacement, "sim": simd})
             })
             .collect();
-        write_atomic(
-            Path::new(path),
-            &serde_json::to_vec(&serde_json::json!({"reference": obs.reference, "samples": rows}))?,
-        )?;
+        write_atomic(path, &serde_json::to_vec(&serde_json::json!({"reference": obs.reference, "samples": rows}))?)?;
     }
     for (name, zmax, tmax) in
         [("depth <= 2.5 mm, tilt < 8 deg", 2.5, 8.0), ("depth <= 2.5 mm", 2.5, 90.0), ("all", f64::INFINITY, 90.0)]
@@ -332,17 +412,10 @@ fn real_compare(args: &[String]) -> Result<()> {
 
 /// `cargo xtask bench-model [--quick] [--pytorch PYTHON]`: throughput of the networks (`tacsim_model::bench`).
 /// `--quick` measures 64 px on flex only.
-fn bench_model(args: &[String]) -> Result<()> {
+fn bench_model(quick: bool, python: Option<&str>) -> Result<()> {
     use tacsim_model::Backend;
     use tacsim_model::bench::BenchRow;
-    let quick = args.iter().any(|a| a == "--quick");
-    let python = args.iter().position(|a| a == "--pytorch").map(|i| args.get(i + 1));
-    let python = match python {
-        Some(Some(p)) => Some(p.clone()),
-        Some(None) => bail!("--pytorch needs a Python interpreter that imports torch (for example python3)"),
-        None => None,
-    };
-    if let Some(python) = &python {
+    if let Some(python) = python {
         // Checked before the burn measurements, which take minutes.
         let ok = Command::new(python)
             .args(["-c", "import torch, numpy"])
@@ -379,7 +452,7 @@ fn bench_model(args: &[String]) -> Result<()> {
         print(&r);
         rows.push(r);
     }
-    if let Some(python) = &python {
+    if let Some(python) = python {
         // The same networks and steps in PyTorch (model/pytorch/bench.py): one thread, as
         // flex runs here, then every core.
         let cores = std::thread::available_parallelism().map_or(1, |n| n.get());

@@ -29,10 +29,10 @@
 //! 40 epochs 74%; the same 10 epochs without the self-supervised phase 11%). After 50
 //! supervised epochs the start is gone: on the `study` data at 64 px the 10% model reached
 //! 88.4% after 3 x 150 self-supervised batches, 88.5% after 6 x 150 and 88.3% with none
-//! (README, "The CPU-scale study"), so a longer self-supervised phase buys nothing. In the full
+//! (docs/guide/learning.md, "The CPU-scale study"), so a longer self-supervised phase buys nothing. In the full
 //! study, 50 supervised epochs instead of 25 (and a baseline of 5 epochs instead of 3) raised
 //! SSIM(U_rec, U_GT) from 80.0% to 83.4% at 10% labels and from 81.6% to 86.9% for the
-//! baseline (README, "The CPU-scale study"). Everything else keeps the paper's values.
+//! baseline (docs/guide/learning.md, "The CPU-scale study"). Everything else keeps the paper's values.
 //! Independent runs train in parallel (`--jobs`, default: one per core; a training is
 //! single-threaded on flex).
 
@@ -152,15 +152,23 @@ pub(crate) fn train(net: &str, data: &Path, out: &Path, config: &str, extra: &[S
 }
 
 /// The `--jobs` count: a positive number, or one per core.
-pub(crate) fn workers(jobs: Option<&String>) -> Result<usize> {
+pub(crate) fn workers(jobs: Option<usize>) -> Result<usize> {
     Ok(match jobs {
-        Some(v) => v
-            .parse::<usize>()
-            .ok()
-            .filter(|&n| n > 0)
-            .with_context(|| format!("--jobs {v}: expected a positive count"))?,
+        Some(0) => bail!("--jobs 0: expected a positive count"),
+        Some(n) => n,
         None => std::thread::available_parallelism().map_or(1, |n| n.get()),
     })
+}
+
+/// The flags `reproduce` and `explore` share.
+#[derive(Debug, clap::Args)]
+pub(crate) struct RunArgs {
+    /// Where the data, runs and report go (default: under target/); rerun to resume.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Trainings at a time (default: every core).
+    #[arg(long)]
+    pub jobs: Option<usize>,
 }
 
 /// Runs `jobs` on `workers` threads, each job once every job it waits for has finished.
@@ -209,14 +217,13 @@ pub(crate) fn run_jobs(bin: &Path, jobs: &[Job], workers: usize) -> Result<()> {
 }
 
 /// Runs the study into `out`.
-pub fn run(args: &[String]) -> Result<()> {
-    let quick = args.iter().any(|a| a == "--quick");
+pub fn run(quick: bool, args: &RunArgs) -> Result<()> {
     let plan = if quick { QUICK } else { FULL };
-    let value = |flag: &str| args.iter().position(|a| a == flag).and_then(|i| args.get(i + 1));
-    let out = value("--out")
-        .map(PathBuf::from)
+    let out = args
+        .out
+        .clone()
         .unwrap_or_else(|| crate::root().join("target").join(if quick { "reproduce-quick" } else { "reproduce" }));
-    let workers = workers(value("--jobs"))?;
+    let workers = workers(args.jobs)?;
     let started = std::time::Instant::now();
     let bin = tacsim_binary()?;
     let data = out.join("data");

@@ -6,12 +6,12 @@
 
 use image::GrayImage;
 
-use super::model::{match_reference, tip_pixels};
-use super::observe::{SPACING_PX420, pin_centres};
+use super::observe::SPACING_PX420;
 use super::reference::Reference;
 use crate::calibration::{
     Comparison, RingProfile, compare_sensor, fit_camera_at, fit_framing, fit_ring_angles, ring_profile,
 };
+use crate::detect::{match_reference, pin_centres, tip_pixels};
 use crate::error::Result;
 use crate::render::PinRenderer;
 use crate::sensor::SensorParams;

@@ -3,17 +3,15 @@
 
 use rayon::prelude::*;
 
-use super::model::{
-    Deformation, RigFrame, SampleError, affine_residual, compare, displacements, flat_scene, match_reference,
-    simulate_pins, tip_pixels,
-};
+use super::model::{Deformation, RigFrame, SampleError, affine_residual, compare, displacements, simulate_pins};
 use super::observe::Observations;
 use crate::contact::engine::{ContactModel, Simulation};
 use crate::contact::pose::SensorPose;
+use crate::detect::{match_reference, tip_pixels};
 use crate::error::Result;
 use crate::pins::PinPose;
 use crate::render::PinRenderer;
-use crate::scene::Scene;
+use crate::scene::{Scene, flat_scene};
 use crate::sensor::SensorParams;
 use crate::stimulus::Stimulus;
 

@@ -5,20 +5,18 @@
 //! see [`super::frame`]) maps them to the sensor's and a [`Press`] (fitted with the skin) says
 //! how the rig pressed ([`crate::rig`]).
 
-use std::sync::Arc;
-
 use serde::{Deserialize, Serialize};
 use tacsim_data::LabSample;
 
 use crate::contact::engine::{ContactModel, Simulation};
 use crate::contact::trajectory::Path as SensorPath;
+use crate::detect::tip_pixels;
 use crate::error::Result;
 use crate::pins::PinPose;
 use crate::render::PinRenderer;
 pub use crate::rig::{Press, RigFrame};
-use crate::scene::{ObjectPose, Scene};
+use crate::scene::Scene;
 use crate::sensor::{SensorParams, SkinModel};
-use crate::stimulus::Stimulus;
 use crate::tracking::median;
 
 /// The deformation parameters a calibration fits.
@@ -103,20 +101,6 @@ impl Deformation {
     }
 }
 
-/// A flat surface (the top of `disk`, at the origin) with friction `friction`.
-pub fn flat_scene(disk: &Stimulus, friction: f64) -> Result<Scene> {
-    let mut stim = disk.clone();
-    stim.entry.friction = friction;
-    let mut scene = Scene::new();
-    scene.add(Arc::new(stim), ObjectPose::default())?;
-    Ok(scene)
-}
-
-/// Image positions (px) of the pin tips of `pins` (`None` where a tip leaves the view).
-pub(super) fn tip_pixels(renderer: &PinRenderer, pins: &[PinPose]) -> Vec<Option<[f64; 2]>> {
-    pins.iter().map(|p| renderer.camera().project(&p.tip)).collect()
-}
-
 /// The simulated pins of a recording pressed as `press` says: touch down, slide in steps of
 /// at most `step_mm`, capture.
 pub fn simulate_pins(
@@ -145,28 +129,6 @@ pub fn displacements(model: &ContactModel, renderer: &PinRenderer, pins: &[PinPo
         .map(|(a, b)| match (a, b) {
             (Some(a), Some(b)) => Some([b[0] - a[0], b[1] - a[1]]),
             _ => None,
-        })
-        .collect()
-}
-
-/// For each real reference pin, the sensor pin whose undeformed image lies nearest, within
-/// `radius` px (the camera fit puts them within a pixel).
-pub fn match_reference(
-    renderer: &PinRenderer,
-    layout_pins: &[PinPose],
-    reference: &[[f64; 2]],
-    radius: f64,
-) -> Vec<Option<usize>> {
-    let sim = tip_pixels(renderer, layout_pins);
-    reference
-        .iter()
-        .map(|r| {
-            sim.iter()
-                .enumerate()
-                .filter_map(|(i, p)| p.map(|p| (i, (p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2))))
-                .filter(|(_, d2)| *d2 <= radius * radius)
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|(i, _)| i)
         })
         .collect()
 }

@@ -5,8 +5,7 @@ use rayon::prelude::*;
 use tacsim_data::{LabFolder, LabSample};
 
 use super::reference::Reference;
-use crate::calibration::pin_area_range;
-use crate::detect::detect_pins;
+use crate::detect::pin_centres;
 use crate::error::{Result, SimError};
 use crate::tracking::{Tracking, global_warp, track};
 
@@ -35,12 +34,6 @@ pub struct Observations {
     pub reference: Vec<[f64; 2]>,
     /// The samples other than the reference.
     pub samples: Vec<Observation>,
-}
-
-/// Pin centres of a binary image (px).
-pub fn pin_centres(img: &image::GrayImage) -> Vec<[f64; 2]> {
-    let (lo, hi) = pin_area_range(img.width());
-    detect_pins(img, lo, hi).iter().map(|b| b.centroid).collect()
 }
 
 impl Observations {

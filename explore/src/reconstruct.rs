@@ -9,7 +9,7 @@ use spade::{DelaunayTriangulation, Point2};
 use tacsim_sim::contact::grid::Grid;
 use tacsim_sim::contact::pose::SensorPose;
 
-use super::contact_geometry::Sample;
+use crate::contact_geometry::Sample;
 
 /// Side of the fusion bins (mm).
 const BIN_MM: f64 = 0.5;

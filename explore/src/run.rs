@@ -4,7 +4,6 @@
 
 use std::time::Instant;
 
-use anyhow::{Context, Result};
 use serde::Serialize;
 use tacsim_sim::SensorParams;
 use tacsim_sim::contact::engine::{ContactModel, Simulation, contact_disk_grid};
@@ -12,12 +11,13 @@ use tacsim_sim::contact::pose::SensorPose;
 use tacsim_sim::scene::{ObjectPose, Scene};
 use tacsim_sim::stimulus::Catalogue;
 
-use super::control::Servo;
-use super::learned::Learned;
-use super::perception::{Corruption, EdgeEstimate, Geometric, oracle, wrap_deg};
-use super::reconstruct::{Fusion, iou};
-use super::robot::Robot;
-use super::scenario::{PerceptionKind, Scenario};
+use crate::control::Servo;
+use crate::error::{ExploreError, Result};
+use crate::learned::LearnedPerception;
+use crate::perception::{Corruption, EdgeEstimate, Geometric, oracle, wrap_deg};
+use crate::reconstruct::{Fusion, iou};
+use crate::robot::Robot;
+use crate::scenario::{PerceptionKind, Scenario};
 
 /// What a run achieved, with the pass/fail verdict per criterion.
 #[derive(Clone, Debug, Serialize)]
@@ -44,7 +44,7 @@ pub struct RunReport {
     /// best the pins can do, and the criterion for `oracle` perception, which renders no image.
     pub iou: f64,
     /// Image-based perception: IoU of the footprint fused from the patches read off the
-    /// image's pins (Voronoi cells, [`super::contact_geometry`]): the criterion.
+    /// image's pins (Voronoi cells, [`crate::contact_geometry`]): the criterion.
     pub iou_pins: Option<f64>,
     /// Image-based perception: its error against the oracle at the poses where it read a
     /// contact.
@@ -118,8 +118,9 @@ impl PerceptionError {
     }
 }
 
-/// Arc length along a closed polyline of the point nearest `p`.
-fn arc_position(outline: &[[f64; 2]], cumulative: &[f64], p: [f64; 2]) -> f64 {
+/// Arc length (mm) along the closed polyline `outline` (its cumulative lengths `cumulative`,
+/// starting at 0) of the point nearest `p` (mm).
+pub fn arc_position(outline: &[[f64; 2]], cumulative: &[f64], p: [f64; 2]) -> f64 {
     let mut best = (f64::INFINITY, 0.0);
     for (k, a) in outline.iter().enumerate() {
         let b = outline[(k + 1) % outline.len()];
@@ -139,17 +140,28 @@ fn arc_position(outline: &[[f64; 2]], cumulative: &[f64], p: [f64; 2]) -> f64 {
 /// the built-in `disk`, at its centre, with friction `friction`): image-based perception's
 /// template ([`Geometric`]).
 pub fn reference_press(model: &ContactModel, depth_mm: f64, friction: f64) -> Result<Vec<tacsim_sim::pins::PinPose>> {
-    let disk = crate::embedded::catalogue().context("loading the built-in shapes")?.get("disk")?;
-    let scene = tacsim_sim::calibrate::model::flat_scene(&disk, friction)?;
+    let disk =
+        tacsim_sim::embedded::catalogue().map_err(ExploreError::sim("loading the built-in shapes"))?.get("disk")?;
+    let scene = tacsim_sim::scene::flat_scene(&disk, friction)?;
     let mut sim = Simulation::with_grid(model, &scene, Some(contact_disk_grid(model, depth_mm)));
     sim.step(SensorPose::new(0.0, 0.0, depth_mm, 0.0))?;
     Ok(sim.pins())
 }
 
-/// Runs `scenario` with `sensor` on the stimuli of `catalogue`.
-pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) -> Result<RunReport> {
+/// Runs `scenario` with `sensor` on the stimuli of `catalogue`; `learned` builds the reader of
+/// `learned` and `learned-raw` perception (an error names the scenario where it is needed and
+/// missing).
+pub fn run(
+    scenario: &Scenario,
+    sensor: &SensorParams,
+    catalogue: &Catalogue,
+    learned: Option<&dyn LearnedPerception>,
+) -> Result<RunReport> {
     let wall = Instant::now();
-    let stim = catalogue.get(&scenario.shape).with_context(|| format!("scenario {}: field `shape`", scenario.name))?;
+    let in_scenario = format!("scenario {}", scenario.name);
+    let stim = catalogue
+        .get(&scenario.shape)
+        .map_err(ExploreError::sim(format!("scenario {}: field `shape`", scenario.name)))?;
     let stim = stim.with_friction(scenario.friction);
     let (contact_mm, friction) = (stim.entry.contact_mm, stim.entry.friction);
     let mut scene = Scene::new();
@@ -194,19 +206,26 @@ pub fn run(scenario: &Scenario, sensor: &SensorParams, catalogue: &Catalogue) ->
         PerceptionKind::Oracle => None,
         _ => {
             let press = reference_press(&model, scenario.depth_mm, friction)?;
-            Some(
-                Geometric::new(sensor, scenario.image_size, &press)
-                    .with_context(|| format!("scenario {}", scenario.name))?,
-            )
+            Some(Geometric::new(sensor, scenario.image_size, &press).map_err(|e| match e {
+                ExploreError::Scenario { what, reason } => {
+                    ExploreError::scenario(format!("{in_scenario}: {what}"), reason)
+                }
+                e => e,
+            })?)
         }
     };
     let learned = match scenario.perception {
-        PerceptionKind::Learned | PerceptionKind::LearnedRaw => {
-            let raw = scenario.perception == PerceptionKind::LearnedRaw;
-            let l = Learned::new(sensor, scenario.image_size, &scenario.models, raw)
-                .with_context(|| format!("scenario {}", scenario.name))?;
-            Some(l)
-        }
+        PerceptionKind::Learned | PerceptionKind::LearnedRaw => match learned {
+            Some(l) => Some(l.reader(scenario, sensor)?),
+            None => {
+                return Err(ExploreError::Perception {
+                    what: format!("{in_scenario}: field `perception`"),
+                    reason: "learned perception needs trained networks, which this caller does not supply: \
+                             run the scenario with `tacsim run`"
+                        .into(),
+                });
+            }
+        },
         PerceptionKind::Oracle | PerceptionKind::Geometric => None,
     };
     // Without contact the image-based estimates say "the edge is a contact radius inward".

@@ -7,7 +7,7 @@ use rand_chacha::ChaCha8Rng;
 use tacsim_sim::contact::pose::SensorPose;
 use tacsim_sim::scene::{ObjectId, Scene};
 
-use super::scenario::Noise;
+use crate::scenario::Noise;
 
 /// The pose relative to the edge.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -72,7 +72,7 @@ impl Corruption {
 /// Model-free edge estimate from the sensor's image, against the sensor's own flat press.
 ///
 /// At start-up the contact engine presses the sensor onto a flat face at the scenario's depth
-/// (the reference press, [`super::run::reference_press`]); its image gives each pin's
+/// (the reference press, [`crate::run::reference_press`]); its image gives each pin's
 /// full-contact spread `D_i` (the template). Each image is then read in three stages:
 /// [`Geometric::track`] finds the pins (detection, then the tracker of `tacsim_sim::tracking`
 /// from the undeformed image, which follows presses and slides that move pins by most of a
@@ -110,7 +110,7 @@ pub struct Geometric {
     /// The reference pins perception tracks: those near the contact (all while empty).
     watched: Vec<usize>,
     /// The undeformed Voronoi tessellation, for the contact patch.
-    geometry: super::contact_geometry::ContactGeometry,
+    geometry: crate::contact_geometry::ContactGeometry,
     /// The edge of the latest estimate: inward normal (contact-plane, sensor frame) and the
     /// edge's distance from the apex along it (mm), tared.
     edge: Option<([f64; 2], f64)>,
@@ -173,26 +173,26 @@ pub fn fit_edge(template: &[([f64; 2], f64, f64)], reach_mm: f64) -> ([f64; 2], 
 
 impl Geometric {
     /// Perception for `sensor` rendering at `size` px, with the pins of its reference press
-    /// `press` (a flat face at the scenario's depth, [`super::run::reference_press`]).
+    /// `press` (a flat face at the scenario's depth, [`crate::run::reference_press`]).
     pub fn new(
         sensor: &tacsim_sim::SensorParams,
         size: u32,
         press: &[tacsim_sim::pins::PinPose],
-    ) -> anyhow::Result<Self> {
+    ) -> crate::Result<Self> {
         use tacsim_sim::pins::PinLayout;
         let renderer = tacsim_sim::PinRenderer::new(sensor, size)?;
         let layout = PinLayout::new(sensor);
-        let reference_px = tacsim_sim::calibrate::observe::pin_centres(&renderer.render(&layout.poses()));
+        let reference_px = tacsim_sim::detect::pin_centres(&renderer.render(&layout.poses()));
         let spacing_px = 17.5 * size as f64 / 420.0;
         // Rest positions: the layout pin whose projected tip is nearest each detected pin.
         let rest_mm: Vec<Option<[f64; 2]>> =
-            tacsim_sim::calibrate::model::match_reference(&renderer, &layout.poses(), &reference_px, spacing_px)
+            tacsim_sim::detect::match_reference(&renderer, &layout.poses(), &reference_px, spacing_px)
                 .into_iter()
                 .map(|m| m.map(|i| [layout.pins[i].base.x, layout.pins[i].base.y]))
                 .collect();
         let neighbours = tacsim_sim::tracking::nearest_neighbours(&reference_px, 6);
         let last = reference_px.iter().map(|p| Some(*p)).collect();
-        let geometry = super::contact_geometry::ContactGeometry::new(&reference_px, spacing_px);
+        let geometry = crate::contact_geometry::ContactGeometry::new(&reference_px, spacing_px);
         let mut g = Self {
             renderer,
             reference_px,
@@ -215,7 +215,7 @@ impl Geometric {
             .iter()
             .zip(&g.rest_mm)
             .enumerate()
-            .filter_map(|(i, (m, r))| Some((i, (*r)?, (*m)?)).filter(|t| t.2 > super::contact_geometry::NO_CONTACT))
+            .filter_map(|(i, (m, r))| Some((i, (*r)?, (*m)?)).filter(|t| t.2 > crate::contact_geometry::NO_CONTACT))
             .collect();
         g.reach_mm = g.template.iter().fold(0.0f64, |m, (_, r, _)| m.max(r[0].hypot(r[1])));
         // From here on only the pins within two pitches of the contact's reach are tracked:
@@ -227,17 +227,17 @@ impl Geometric {
             .filter(|&i| g.rest_mm[i].is_some_and(|r| r[0].hypot(r[1]) <= g.reach_mm + 2.0 * pitch_mm))
             .collect();
         if g.template.len() < 3 {
-            anyhow::bail!(
-                "the reference press spread {} pins (at least 3 needed): press deeper (field `depth_mm`)",
-                g.template.len()
-            );
+            return Err(crate::ExploreError::scenario(
+                "field `depth_mm`",
+                format!("the reference press spread {} pins (at least 3 needed): press deeper", g.template.len()),
+            ));
         }
         Ok(g)
     }
 
     /// The contact patch of the image of the latest estimate: whether the skin touches at
     /// each of `points` (contact-plane mm, sensor frame), from the tracked pins' Voronoi
-    /// cells ([`super::contact_geometry`], thresholds `TOUCH_SHARE` and `FREE_SHARE`);
+    /// cells ([`crate::contact_geometry`], thresholds `TOUCH_SHARE` and `FREE_SHARE`);
     /// `None` where undecided. Free skin on the material's side of the estimated edge is
     /// undecided too: with the dome wholly on the material the indentation fades towards the
     /// rim of the contact as it does towards an edge, and reading that rim as "no material"
@@ -246,7 +246,7 @@ impl Geometric {
     /// the reference press's reach, are free skin whatever their cells say: the skin bent over
     /// the edge grows cells there.
     pub fn touching(&self, points: &[[f64; 2]]) -> Vec<Option<bool>> {
-        let mut t = super::contact_geometry::touching(
+        let mut t = crate::contact_geometry::touching(
             &self.geometry.indentation(&self.last, &self.rest_mm),
             FREE_SHARE,
             TOUCH_SHARE,
@@ -282,7 +282,7 @@ impl Geometric {
     /// are `None`.
     fn track(&self, img: &image::GrayImage, start: [f64; 2]) -> (Vec<Option<[f64; 2]>>, [f64; 2]) {
         use tacsim_sim::tracking::{Warp, track};
-        let detected = tacsim_sim::calibrate::observe::pin_centres(img);
+        let detected = tacsim_sim::detect::pin_centres(img);
         let all: Vec<usize> = (0..self.reference_px.len()).collect();
         let which = if self.watched.is_empty() { &all } else { &self.watched };
         let reference: Vec<[f64; 2]> = which.iter().map(|&i| self.reference_px[i]).collect();
@@ -339,7 +339,7 @@ impl Geometric {
         // Template pins the tracker lost say nothing (they are skipped, not guessed).
         let pins: Vec<([f64; 2], f64, f64)> =
             self.template.iter().filter_map(|(i, r, d)| m[*i].map(|m| (*r, *d, m))).collect();
-        if !pins.iter().any(|p| p.2 > super::contact_geometry::NO_CONTACT) {
+        if !pins.iter().any(|p| p.2 > crate::contact_geometry::NO_CONTACT) {
             return None;
         }
         let (n, h) = fit_edge(&pins, self.reach_mm);

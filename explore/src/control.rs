@@ -4,8 +4,8 @@
 
 use tacsim_sim::contact::pose::SensorPose;
 
-use super::perception::EdgeEstimate;
-use super::scenario::Control;
+use crate::perception::EdgeEstimate;
+use crate::scenario::Control;
 
 /// The servo and its integrators.
 #[derive(Clone, Debug)]

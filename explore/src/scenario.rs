@@ -4,8 +4,16 @@
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
+
+use crate::error::{ExploreError, Result};
+
+/// Returns a [`ExploreError::Scenario`] for scenario `$s`: field and value in the message.
+macro_rules! bail {
+    ($s:expr, $($arg:tt)*) => {
+        return Err(ExploreError::scenario(format!("scenario {}", $s.name), format!($($arg)*)))
+    };
+}
 
 /// How the pose relative to the edge is estimated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -14,10 +22,10 @@ pub enum PerceptionKind {
     /// The true pose from the shape's geometry; no image is rendered.
     Oracle,
     /// Model-free: the contact patch read off the tracked pins of the rendered image
-    /// ([`super::perception::Geometric`]).
+    /// ([`crate::perception::Geometric`]).
     Geometric,
     /// The shear-removal model, then the pose network, on the rendered image
-    /// ([`super::learned::Learned`]; checkpoints in `[models]`).
+    /// (a [`crate::LearnedPerception`] the caller supplies; checkpoints in `[models]`).
     Learned,
     /// The pose network on the rendered (sheared) image directly.
     LearnedRaw,
@@ -188,15 +196,20 @@ impl Default for Criteria {
 impl Scenario {
     /// Loads and validates a scenario file; the name defaults to the file stem.
     pub fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-        let mut s: Scenario = toml::from_str(&text).with_context(|| format!("{}: bad scenario", path.display()))?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| ExploreError::Io { path: path.to_owned(), source })?;
+        let bad = |reason: String| ExploreError::scenario(format!("{}: bad scenario", path.display()), reason);
+        let mut s: Scenario = toml::from_str(&text).map_err(|e| bad(e.to_string()))?;
         if s.name.is_empty() {
             s.name = path.file_stem().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
         }
         if let Some(sensor) = &mut s.sensor {
             *sensor = path.parent().unwrap_or(Path::new("")).join(&*sensor);
         }
-        s.validate().with_context(|| format!("{}: bad scenario", path.display()))?;
+        s.validate().map_err(|e| match e {
+            ExploreError::Scenario { reason, .. } => bad(reason),
+            e => e,
+        })?;
         Ok(s)
     }
 
@@ -204,7 +217,8 @@ impl Scenario {
     pub fn sensor_or<'a>(&self, default: &'a tacsim_sim::SensorParams) -> Result<Cow<'a, tacsim_sim::SensorParams>> {
         match &self.sensor {
             Some(p) => Ok(Cow::Owned(
-                tacsim_sim::SensorParams::load(p).with_context(|| format!("scenario {}: field `sensor`", self.name))?,
+                tacsim_sim::SensorParams::load(p)
+                    .map_err(ExploreError::sim(format!("scenario {}: field `sensor`", self.name)))?,
             )),
             None => Ok(Cow::Borrowed(default)),
         }
@@ -214,13 +228,13 @@ impl Scenario {
     pub fn validate(&self) -> Result<()> {
         let positive = |field: &str, v: f64| -> Result<()> {
             if !(v.is_finite() && v > 0.0) {
-                bail!("field `{field}` must be a positive number, got {v}");
+                bail!(self, "field `{field}` must be a positive number, got {v}");
             }
             Ok(())
         };
         positive("depth_mm", self.depth_mm)?;
         if self.depth_mm > 8.0 {
-            bail!("field `depth_mm` must be at most 8 mm, got {}", self.depth_mm);
+            bail!(self, "field `depth_mm` must be at most 8 mm, got {}", self.depth_mm);
         }
         positive("speed_mm_s", self.speed_mm_s)?;
         positive("step_mm", self.step_mm)?;
@@ -228,12 +242,12 @@ impl Scenario {
         if let Some(f) = self.friction
             && !(f.is_finite() && f >= 0.0)
         {
-            bail!("field `friction` must be >= 0, got {f}");
+            bail!(self, "field `friction` must be >= 0, got {f}");
         }
         if let Some(p) = self.start_mm
             && !p.iter().all(|v| v.is_finite())
         {
-            bail!("field `start_mm` must be finite, got {p:?}");
+            bail!(self, "field `start_mm` must be finite, got {p:?}");
         }
         for (field, v) in [
             ("noise.offset_mm", self.noise.offset_mm),
@@ -248,15 +262,15 @@ impl Scenario {
             ("criteria.yaw_error_deg", self.criteria.yaw_error_deg),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                bail!("field `{field}` must be a finite number >= 0, got {v}");
+                bail!(self, "field `{field}` must be a finite number >= 0, got {v}");
             }
         }
         if !self.control.offset_ref_mm.is_finite() {
-            bail!("field `control.offset_ref_mm` must be finite");
+            bail!(self, "field `control.offset_ref_mm` must be finite");
         }
         for (field, v) in [("criteria.completion", self.criteria.completion), ("criteria.iou", self.criteria.iou)] {
             if !(0.0..=1.0).contains(&v) {
-                bail!("field `{field}` must be a fraction in [0, 1], got {v}");
+                bail!(self, "field `{field}` must be a fraction in [0, 1], got {v}");
             }
         }
         // Practical ranges: each bounds a loop or a draw whose size the run follows.
@@ -272,14 +286,15 @@ impl Scenario {
             ("control.integral_clip", self.control.integral_clip, 50.0),
         ] {
             if v > hi {
-                bail!("field `{field}` must be at most {hi}, got {v}");
+                bail!(self, "field `{field}` must be at most {hi}, got {v}");
             }
         }
         if self.control.offset_ref_mm.abs() > 10.0 {
-            bail!("field `control.offset_ref_mm` must be in [-10, 10] mm, got {}", self.control.offset_ref_mm);
+            bail!(self, "field `control.offset_ref_mm` must be in [-10, 10] mm, got {}", self.control.offset_ref_mm);
         }
         if self.step_mm / self.substep_mm > MAX_SUBSTEPS as f64 {
             bail!(
+                self,
                 "field `substep_mm` = {} makes {:.0} contact sub-steps per {} mm step, more than {MAX_SUBSTEPS}: use a \
                  larger sub-step",
                 self.substep_mm,
@@ -288,16 +303,16 @@ impl Scenario {
             );
         }
         if self.noise.latency_steps > 100 {
-            bail!("field `noise.latency_steps` must be at most 100, got {}", self.noise.latency_steps);
+            bail!(self, "field `noise.latency_steps` must be at most 100, got {}", self.noise.latency_steps);
         }
         if self.max_steps > 100_000 {
-            bail!("field `max_steps` must be at most 100000, got {}", self.max_steps);
+            bail!(self, "field `max_steps` must be at most 100000, got {}", self.max_steps);
         }
         if !(16..=2048).contains(&self.image_size) {
-            bail!("field `image_size` must be in [16, 2048] px, got {}", self.image_size);
+            bail!(self, "field `image_size` must be in [16, 2048] px, got {}", self.image_size);
         }
         if self.max_steps == 0 {
-            bail!("field `max_steps` must be at least 1");
+            bail!(self, "field `max_steps` must be at least 1");
         }
         Ok(())
     }

@@ -1,0 +1,74 @@
+"""How the inner and outer pins of edge taps move towards or away from the image centre, by
+lateral offset and depth, real against simulated (issue 30).
+
+Both sides are measured alike: each image's pins (blobs of 2-30 px within 44 px of the
+centre at 128 px) are matched within 2 px to the pins of the consensus reference (the
+pixel-wise majority of the 75 shallowest taps, as `tacsim calibrate` builds it for a folder
+without an undeformed image), and the mean radial displacement (px, + outward) is reported for
+the pins at 10-25 px from the centre (inner) and beyond 30 px (outer). A simulated set's
+labels are turned into the lab's lateral offset through the sim2real label map's offset
+(lab = OFFSET - simulated x). Needs numpy, pillow, scipy.
+
+    python3 docs/sim2real-edge2d/radial_signature.py real ../shared/data/real-tactip-edge2d
+    python3 docs/sim2real-edge2d/radial_signature.py sim target/sim2real-edge2d/sim 2.74
+"""
+import csv
+import sys
+
+import numpy as np
+from PIL import Image
+from scipy import ndimage
+from scipy.spatial import cKDTree
+
+CENTRE = np.array([64.4, 64.5])
+
+
+def load(path):
+    return np.array(Image.open(path).convert("L")) > 127
+
+
+def pins(image):
+    labels, n = ndimage.label(image)
+    index = np.arange(1, n + 1)
+    area = ndimage.sum(image, labels, index)
+    centres = np.array(ndimage.center_of_mass(image, labels, index))[:, ::-1] + 0.5
+    keep = (area >= 2) & (area <= 30) & (np.hypot(*(centres - CENTRE).T) < 44)
+    return centres[keep]
+
+
+def radial(found, reference, tree):
+    distance, nearest = tree.query(found, distance_upper_bound=2.0)
+    ok = np.isfinite(distance)
+    moved, rest = found[ok], reference[nearest[ok]]
+    out = rest - CENTRE
+    r = np.hypot(*out.T)
+    along = ((moved - rest) * out).sum(1) / np.maximum(r, 1e-9)
+    return along[r > 30].mean(), along[(r > 10) & (r < 25)].mean()
+
+
+def main(kind, folder, offset=None):
+    rows = list(csv.DictReader(open(f"{folder}/targets.csv")))
+    if kind == "real":
+        depth = np.array([float(r["pose_3"]) for r in rows])
+        lateral = np.array([float(r["pose_2"]) for r in rows])
+    else:
+        depth = np.array([float(r["pose_z"]) for r in rows])
+        lateral = float(offset) - np.array([float(r["pose_x"]) for r in rows])
+    images = [load(f"{folder}/images/{r['sensor_image']}") for r in rows]
+    consensus = np.array(images)[np.argsort(depth)[:75]].mean(0) > 0.5
+    reference = pins(consensus)
+    tree = cKDTree(reference)
+    moves = np.array([radial(pins(im), reference, tree) for im in images])
+    print(f"{kind} {folder}: outer / inner mean radial displacement (px) from the consensus, by depth band")
+    bands = [(3.0, 3.4), (3.4, 3.8), (3.8, 4.2), (4.2, 4.6), (4.6, 5.01)]
+    print("lateral (mm)   " + "   ".join(f"{a:.1f}-{b:.1f} mm" for a, b in bands))
+    for lo, hi in [(-6, -4), (-4, -2), (-2, 0), (0, 2), (2, 4), (4, 6)]:
+        cells = []
+        for a, b in bands:
+            m = (lateral >= lo) & (lateral < hi) & (depth >= a) & (depth < b)
+            cells.append(f"{moves[m, 0].mean():+.2f}/{moves[m, 1].mean():+.2f}" if m.any() else "   -   ")
+        print(f"[{lo:+d}, {hi:+d})      " + "   ".join(cells))
+
+
+if __name__ == "__main__":
+    main(*sys.argv[1:])
