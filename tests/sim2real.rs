@@ -84,6 +84,14 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     let again = ok(&[&args[..], &["--epochs", "2", "-q"]].concat());
     let table = |t: &str| t.lines().filter(|l| l.starts_with("| pose_")).map(str::to_owned).collect::<Vec<_>>();
     assert_eq!(table(&again), table(&text));
+    // `--sim`: the set made before (here the one the recipe generated) trains the same
+    // networks to the same errors; a folder that holds no dataset is a clear error.
+    let (set, given_out) = (out.join("sim"), dir.join("given"));
+    let given = ["sim2real", "--real", s(&lab), "--sim", s(&set), "--out", s(&given_out)];
+    let from_set = ok(&[&given[..], &["--epochs", "2", "-q"]].concat());
+    assert_eq!(table(&from_set), table(&text));
+    let e = err(&["sim2real", "--real", s(&lab), "--sim", s(&lab), "--out", s(&dir.join("bad-set")), "-q"]);
+    assert!(e.contains("is not a simulated dataset") && e.contains("meta.json"), "{e}");
 }
 
 #[test]

@@ -5,9 +5,10 @@ Both sides are measured alike: each image's pins (blobs of 2-30 px within 44 px 
 centre at 128 px) are matched within 2 px to the pins of the consensus reference (the
 pixel-wise majority of the 75 shallowest taps, as `tacsim calibrate` builds it for a folder
 without an undeformed image), and the mean radial displacement (px, + outward) is reported for
-the pins at 10-25 px from the centre (inner) and beyond 30 px (outer). A simulated set's
+the pins at 10-25 px from the centre (inner) and beyond 30 px (outer); then the share of the
+pin field's pixels that differ from the consensus, for the taps shallower than 3.3 mm. A simulated set's
 labels are turned into the lab's lateral offset through the sim2real label map's offset
-(lab = OFFSET - simulated x). Needs numpy, pillow, scipy.
+(lab = OFFSET - simulated x), and only its taps within the lab's -6..6 mm are used. Needs numpy, pillow, scipy.
 
     python3 docs/sim2real-edge2d/radial_signature.py real ../shared/data/real-tactip-edge2d
     python3 docs/sim2real-edge2d/radial_signature.py sim target/sim2real-edge2d/sim 2.74
@@ -54,6 +55,10 @@ def main(kind, folder, offset=None):
     else:
         depth = np.array([float(r["pose_z"]) for r in rows])
         lateral = float(offset) - np.array([float(r["pose_x"]) for r in rows])
+        # The lab's range only, so that both consensus images come from the same span.
+        keep = np.abs(lateral) <= 6.0
+        rows = [r for r, k in zip(rows, keep) if k]
+        depth, lateral = depth[keep], lateral[keep]
     images = [load(f"{folder}/images/{r['sensor_image']}") for r in rows]
     consensus = np.array(images)[np.argsort(depth)[:75]].mean(0) > 0.5
     reference = pins(consensus)
@@ -68,6 +73,14 @@ def main(kind, folder, offset=None):
             m = (lateral >= lo) & (lateral < hi) & (depth >= a) & (depth < b)
             cells.append(f"{moves[m, 0].mean():+.2f}/{moves[m, 1].mean():+.2f}" if m.any() else "   -   ")
         print(f"[{lo:+d}, {hi:+d})      " + "   ".join(cells))
+    # The share of pin-field pixels (within 46 px) that differ from the consensus, shallow taps.
+    inner = np.hypot(*(np.mgrid[0:128, 0:128][::-1] - CENTRE[:, None, None] + 0.5)) < 46
+    change = np.array([(im ^ consensus)[inner].mean() for im in images])
+    shallow = depth < 3.3
+    print("pixels changed, taps shallower than 3.3 mm, by lateral (mm):")
+    for lo, hi in [(-6, -4), (-4, -2), (-2, 0), (0, 2), (2, 4), (4, 6)]:
+        m = shallow & (lateral >= lo) & (lateral < hi)
+        print(f"[{lo:+d}, {hi:+d})      {change[m].mean():.4f} ({m.sum()} taps)")
 
 
 if __name__ == "__main__":

@@ -72,7 +72,7 @@ enum Task {
     },
     /// Track the lab's recordings and compare the simulated pin motion of one parameter set
     /// with the real one.
-    RealCompare(RealCompareArgs),
+    RealCompare(Box<RealCompareArgs>),
     /// The paper's study end to end (dataset, every model, evaluation report).
     Reproduce {
         /// The CPU-scale study's quick plan.
