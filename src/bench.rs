@@ -150,12 +150,27 @@ fn tap_rate(
     let cells: Vec<usize> = poses
         .par_iter()
         .map(|(pose, _)| {
-            let frames = trajectory::run(model, scene, &SensorPath::tap(*pose), Some(renderer))?;
+            let frames = captured(model, scene, &SensorPath::tap(*pose), renderer)?;
             Ok(frames.first().map_or(0, |f| f.report.contact_cells))
         })
         .collect::<Result<_>>()?;
     let rate = poses.len() as f64 / start.elapsed().as_secs_f64();
     Ok((rate, cells.iter().sum::<usize>() as f64 / cells.len().max(1) as f64))
+}
+
+/// A path run and each captured frame rendered, as a dataset sample is (the images are
+/// timed, not kept).
+fn captured(
+    model: &ContactModel,
+    scene: &Scene,
+    path: &SensorPath,
+    renderer: &PinRenderer,
+) -> tacsim_sim::Result<Vec<trajectory::Frame>> {
+    let frames = trajectory::run(model, scene, path)?;
+    for f in &frames {
+        std::hint::black_box(renderer.render(&f.pins));
+    }
+    Ok(frames)
 }
 
 fn slide_rate(
@@ -167,7 +182,7 @@ fn slide_rate(
 ) -> Result<f64> {
     let start = Instant::now();
     poses.par_iter().try_for_each(|(pose, from)| -> Result<()> {
-        trajectory::run(model, scene, &SensorPath::slide(*pose, *from, step)?, Some(renderer))?;
+        captured(model, scene, &SensorPath::slide(*pose, *from, step)?, renderer)?;
         Ok(())
     })?;
     Ok(poses.len() as f64 / start.elapsed().as_secs_f64())
@@ -253,9 +268,8 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
         let m = ContactModel::new(&s);
-        let ms = pool.install(|| {
-            ms_single(few.len(), |i| Ok(trajectory::run(&m, &scene, &SensorPath::tap(few[i].0), Some(&renderer))?))
-        })?;
+        let ms = pool
+            .install(|| ms_single(few.len(), |i| Ok(captured(&m, &scene, &SensorPath::tap(few[i].0), &renderer)?)))?;
         let mut err = 0.0f64;
         for ((p, _), r) in few.iter().zip(&reference) {
             for (a, b) in tap_pins(&m, *p, false)?.iter().zip(r) {
@@ -274,14 +288,14 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
     let slides = &poses[..samples_n.min(8)];
     let reference: Vec<_> = slides
         .iter()
-        .map(|(p, f)| trajectory::run(&model, &scene, &SensorPath::slide(*p, *f, 0.025)?, None))
+        .map(|(p, f)| trajectory::run(&model, &scene, &SensorPath::slide(*p, *f, 0.025)?))
         .collect::<Result<_, _>>()?;
     for step in [2.5, 1.0, 0.5, 0.25, 0.1] {
         let mut err = 0.0f64;
         let ms = pool.install(|| {
             ms_single(slides.len(), |i| {
                 let (p, f) = slides[i];
-                let frames = trajectory::run(&model, &scene, &SensorPath::slide(p, f, step)?, Some(&renderer))?;
+                let frames = captured(&model, &scene, &SensorPath::slide(p, f, step)?, &renderer)?;
                 for (a, b) in frames[0].pins.iter().zip(&reference[i][0].pins) {
                     err = err.max((a.tip - b.tip).norm());
                 }

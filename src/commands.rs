@@ -91,7 +91,7 @@ fn pressed_pins(sensor: &SensorParams, opts: &RenderOptions) -> Result<(Vec<PinP
         None => SensorPath::tap(opts.pose),
     };
     let model = ContactModel::new(sensor);
-    let frames = trajectory::run(&model, &scene, &path, None).context("solving the contact")?;
+    let frames = trajectory::run(&model, &scene, &path).context("solving the contact")?;
     let frame = frames.last().context("the path captured no frame")?;
     let r = &frame.report;
     let summary = if r.in_contact {

@@ -27,12 +27,11 @@ fn tap_and_slide_differ_and_lift_off_restores_pins() {
     let model = ContactModel::new(&SensorParams::default());
     let target = SensorPose::new(0.0, 0.0, 2.0, 0.0);
     let t = Instant::now();
-    let tap = trajectory::run(&model, &scene, &Path::tap(target), None).expect("tap");
+    let tap = trajectory::run(&model, &scene, &Path::tap(target)).expect("tap");
     let tap_time = t.elapsed();
     let t = Instant::now();
-    let slide =
-        trajectory::run(&model, &scene, &Path::slide(target, [2.5, 0.0], 0.25).expect("path").then_lift(3.0), None)
-            .expect("slide");
+    let slide = trajectory::run(&model, &scene, &Path::slide(target, [2.5, 0.0], 0.25).expect("path").then_lift(3.0))
+        .expect("slide");
     let slide_time = t.elapsed();
     let tap = &tap[0];
     println!("tap: {:?} in {tap_time:?}", tap.report);
@@ -83,10 +82,10 @@ fn check_slide_history(sensor: &SensorParams, slipping: f64) {
     let scene = scene_with("disk");
     let model = ContactModel::new(sensor);
     let target = SensorPose::new(5.0, -3.0, 2.0, 30.0);
-    let tap = trajectory::run(&model, &scene, &Path::tap(target), None).expect("tap");
+    let tap = trajectory::run(&model, &scene, &Path::tap(target)).expect("tap");
     let diff = |d: f64| {
         let frames =
-            trajectory::run(&model, &scene, &Path::slide(target, [d, 0.0], 0.1).expect("path"), None).expect("slide");
+            trajectory::run(&model, &scene, &Path::slide(target, [d, 0.0], 0.1).expect("path")).expect("slide");
         (max_pin_shift(&tap[0].pins, &frames[0].pins), frames[0].report.slip_cells, frames[0].report.contact_cells)
     };
     let (short, short_slip, cells) = diff(0.1);
@@ -170,9 +169,9 @@ fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
         let model = ContactModel::new(&sensor);
         let build = t.elapsed();
         let t = Instant::now();
-        let tap = trajectory::run(&model, &scene, &Path::tap(target), None).expect("tap");
+        let tap = trajectory::run(&model, &scene, &Path::tap(target)).expect("tap");
         let slide =
-            trajectory::run(&model, &scene, &Path::slide(target, [2.5, 0.0], 0.25).expect("path").then_lift(3.0), None)
+            trajectory::run(&model, &scene, &Path::slide(target, [2.5, 0.0], 0.25).expect("path").then_lift(3.0))
                 .expect("slide");
         let s = slide[0].report.clone();
         assert!(s.in_contact && s.force_n[2] > 0.0, "{skin:?}: {s:?}");
@@ -215,7 +214,7 @@ fn a_tilted_press_pushes_the_skin_along_the_surface_normal() {
     let radius = model.sensor.dome.outer_radius_mm;
     let indentation = 1.5;
     let tip_motion = |pose: SensorPose, pin: usize| {
-        let frames = trajectory::run(&model, &scene, &Path::tap(pose), None).expect("tap");
+        let frames = trajectory::run(&model, &scene, &Path::tap(pose)).expect("tap");
         frames[0].pins[pin].tip - model.layout.pins[pin].tip
     };
     // Untilted: the apex pin moves straight in along the axis.
@@ -308,7 +307,7 @@ fn a_skin_patch_closes_the_split_of_the_pins_along_a_sharp_edge() {
         sensor.pins.patch_radius_mm = patch;
         let model = ContactModel::new(&sensor);
         let pose = SensorPose::new(x, 0.0, 1.5, 0.0);
-        let pins = trajectory::run(&model, &scene, &Path::tap(pose), None).expect("tap")[0].pins.clone();
+        let pins = trajectory::run(&model, &scene, &Path::tap(pose)).expect("tap")[0].pins.clone();
         (model.layout.poses(), pins)
     };
     let (rest, sharp) = tap(0.0, 44.0);
@@ -334,7 +333,7 @@ fn the_dome_slope_drags_the_skin_towards_a_contact_off_the_apex() {
         sensor.skin.dome_slope = slope;
         let model = ContactModel::new(&sensor);
         let pose = SensorPose::new(50.0, 0.0, 1.5, 0.0);
-        let pins = trajectory::run(&model, &scene, &Path::tap(pose), None).expect("tap")[0].pins.clone();
+        let pins = trajectory::run(&model, &scene, &Path::tap(pose)).expect("tap")[0].pins.clone();
         let rest = model.layout.poses();
         let far: Vec<f64> =
             rest.iter().zip(&pins).filter(|(r, _)| r.tip.x > 3.0).map(|(r, p)| p.tip.x - r.tip.x).collect();

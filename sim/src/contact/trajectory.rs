@@ -1,12 +1,9 @@
 //! Paths through poses (press, slide, lift) and running them: the trajectory API.
 
-use image::GrayImage;
-
 use super::engine::{ContactModel, Simulation, StepReport};
 use super::pose::SensorPose;
 use crate::error::{Result, SimError};
 use crate::pins::PinPose;
-use crate::render::PinRenderer;
 use crate::scene::Scene;
 
 /// One pose of a path and whether to capture pins (and an image) there.
@@ -14,7 +11,7 @@ use crate::scene::Scene;
 pub struct PathStep {
     /// The pose.
     pub pose: SensorPose,
-    /// Capture pins (and render, when a renderer is given) after this step.
+    /// Capture the pins after this step.
     pub capture: bool,
 }
 
@@ -106,20 +103,17 @@ pub struct Frame {
     pub report: StepReport,
     /// Pin poses (sensor frame).
     pub pins: Vec<PinPose>,
-    /// The binary image, when a renderer was given.
-    pub image: Option<GrayImage>,
 }
 
-/// Runs `path` over `scene`, returning the captured frames.
-pub fn run(model: &ContactModel, scene: &Scene, path: &Path, renderer: Option<&PinRenderer>) -> Result<Vec<Frame>> {
+/// Runs `path` over `scene`, returning the captured frames (their pins: rendering them is the
+/// image stage's, downstream).
+pub fn run(model: &ContactModel, scene: &Scene, path: &Path) -> Result<Vec<Frame>> {
     let mut sim = Simulation::new(model, scene, &path.poses());
     let mut frames = Vec::new();
     for (i, s) in path.steps.iter().enumerate() {
         let report = sim.step(s.pose)?.clone();
         if s.capture {
-            let pins = sim.pins();
-            let image = renderer.map(|r| r.render(&pins));
-            frames.push(Frame { step: i, pose: s.pose, report, pins, image });
+            frames.push(Frame { step: i, pose: s.pose, report, pins: sim.pins() });
         }
     }
     Ok(frames)
