@@ -1,7 +1,9 @@
 """Joins simulated datasets into one for `tacsim sim2real --sim` (issue 30's mixtures):
 images hard-linked as d{K}_NAME, rows concatenated (pose ids kept apart), meta.json from the
 first set with the counts summed. `DIR:LO:HI` maps that set's depth labels linearly from
-[LO, HI] mm (its indentation range) onto the lab's 3..5 mm.
+[LO, HI] mm (its indentation range) onto the lab's 3..5 mm; `DIR:convex:K:ZERO` labels a set
+pressed over indentations i with the lab depth d of the convex map i = c + K c^1.5,
+c = d - ZERO.
 
     python3 docs/sim2real-edge2d/join_datasets.py OUT DIR[:LO:HI]...
 """
@@ -22,7 +24,14 @@ for k, spec in enumerate(dirs):
             name = f"d{k}_" + row["sensor_image"]
             os.link(d + "/images/" + row["sensor_image"], out + "/images/" + name)
             row["sensor_image"] = name
-            if rng:
+            if rng and rng[0] == "convex":
+                kc, zero = map(float, rng[1:])
+                i = float(row["pose_z"])
+                c = max(i, 1e-6)
+                for _ in range(50):  # Newton on c + kc c^1.5 = i
+                    c = max(c - (c + kc * c**1.5 - i) / (1 + 1.5 * kc * c**0.5), 1e-9)
+                row["pose_z"] = repr(c + zero)
+            elif rng:
                 lo, hi = map(float, rng)
                 row["pose_z"] = repr(3.0 + 2.0 * (float(row["pose_z"]) - lo) / (hi - lo))
             for c in ("pose_id", "pair_id"):

@@ -4,7 +4,9 @@
 #  - domes: the edge preset's dome radius 26, 32, 40 and 50 mm (camera, rings and framing
 #    refitted by `calibrate --camera-only`), each pressed over its own indentation range
 #    (image_change_fit.py's, 40 mm: the recipe's [rig]) and labelled 3..5 mm;
-#  - gain: the edge preset pressed 0.9-2.35 mm instead of 0.35-2.35 (5,000 taps), labelled 3..5.
+#  - gain: the edge preset pressed 0.9-2.35 mm instead of 0.35-2.35 (5,000 taps), labelled 3..5;
+#  - convex: pressed 0.1-2.36 mm, labelled through the convex map i = c + 0.087 c^1.5,
+#    c = pose_3 - 2.9 mm (the image growing faster with the press at depth).
 # Every set has its own seed, so the mixtures hold 5,000 distinct poses as `edge-2d` does.
 #
 #   cargo build --release && sh docs/sim2real-edge2d/mixtures.sh target/edge-mixtures
@@ -34,6 +36,9 @@ python3 docs/sim2real-edge2d/join_datasets.py "$W/domes" "$W/r26-sim:0.15:1.4" "
 recipe edge-2d-gain tactip-331-edge2d "0.9, 2.35" 0 5000 > "$W/gain-recipe.toml"
 rm -rf "$W/gain-sim" "$W/gain"; "$TACSIM" generate "$W/gain-recipe.toml" --out "$W/gain-sim" -q > /dev/null
 python3 docs/sim2real-edge2d/join_datasets.py "$W/gain" "$W/gain-sim:0.9:2.35"
-for set in domes gain; do
+recipe edge-2d-convex tactip-331-edge2d "0.1, 2.36" 0 5000 > "$W/convex-recipe.toml"
+rm -rf "$W/convex-sim" "$W/convex"; "$TACSIM" generate "$W/convex-recipe.toml" --out "$W/convex-sim" -q > /dev/null
+python3 docs/sim2real-edge2d/join_datasets.py "$W/convex" "$W/convex-sim:convex:0.087:2.9"
+for set in domes gain convex; do
     "$TACSIM" sim2real --real "$REAL" --sim "$W/$set" --out "$W/$set-s2r" -q | grep -E "^\| pose_" | sed "s/^/$set /"
 done
