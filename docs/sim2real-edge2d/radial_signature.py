@@ -5,8 +5,10 @@ Both sides are measured alike: each image's pins (blobs of 2-30 px within 44 px 
 centre at 128 px) are matched within 2 px to the pins of the consensus reference (the
 pixel-wise majority of the 75 shallowest taps, as `tacsim calibrate` builds it for a folder
 without an undeformed image), and the mean radial displacement (px, + outward) is reported for
-the pins at 10-25 px from the centre (inner) and beyond 30 px (outer); then the share of the
-pin field's pixels that differ from the consensus, for the taps shallower than 3.3 mm. A simulated set's
+the pins at 10-25 px from the centre (inner) and beyond 30 px (outer); then, for the real taps,
+the inner pins' mean translation in a frame turned with the yaw (how much of their motion is a
+shift rather than a contraction); then the share of the pin field's pixels that differ from
+the consensus, for the taps shallower than 3.3 mm. A simulated set's
 labels are turned into the lab's lateral offset through the sim2real label map's offset
 (lab = OFFSET - simulated x), and only its taps within the lab's -6..6 mm are used. Needs numpy, pillow, scipy.
 
@@ -77,6 +79,25 @@ def main(kind, folder, offset=None):
     inner = np.hypot(*(np.mgrid[0:128, 0:128][::-1] - CENTRE[:, None, None] + 0.5)) < 46
     change = np.array([(im ^ consensus)[inner].mean() for im in images])
     shallow = depth < 3.3
+    if kind == "real":
+        # Translation against contraction: the inner pins' mean displacement turned by minus
+        # the yaw (so the edge keeps one direction), taps shallower than 3.4 mm.
+        yaw = np.radians([float(r["pose_6"]) for r in rows])
+        print("inner pins, taps shallower than 3.4 mm: mean translation in the yaw-turned frame (px)")
+        for lo, hi in [(-6, -4), (-4, -2), (4, 6)]:
+            moved = []
+            for i in np.where((lateral >= lo) & (lateral < hi) & (depth < 3.4))[0]:
+                found = pins(images[i])
+                distance, nearest = tree.query(found, distance_upper_bound=2.0)
+                ok = np.isfinite(distance)
+                rest = reference[nearest[ok]]
+                r = np.hypot(*(rest - CENTRE).T)
+                inner_pins = (r > 10) & (r < 25)
+                v = (found[ok] - rest)[inner_pins].mean(0)
+                c, s = np.cos(-yaw[i]), np.sin(-yaw[i])
+                moved.append([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+            m = np.mean(moved, 0)
+            print(f"[{lo:+d}, {hi:+d})      ({m[0]:+.2f}, {m[1]:+.2f}) |{np.hypot(*m):.2f}|")
     print("pixels changed, taps shallower than 3.3 mm, by lateral (mm):")
     for lo, hi in [(-6, -4), (-4, -2), (-2, 0), (0, 2), (2, 4), (4, 6)]:
         m = shallow & (lateral >= lo) & (lateral < hi)
