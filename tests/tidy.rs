@@ -86,6 +86,18 @@ fn subcommands() -> Vec<String> {
         .unwrap_or_default()
 }
 
+/// The guides (`docs/guide/*.md`), relative to the root, sorted.
+fn guides(root: &Path) -> Vec<PathBuf> {
+    let mut guides: Vec<PathBuf> = std::fs::read_dir(root.join("docs/guide"))
+        .expect("docs/guide")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "md"))
+        .map(|p| p.strip_prefix(root).expect("under the root").to_path_buf())
+        .collect();
+    guides.sort();
+    guides
+}
+
 #[test]
 fn the_files_and_subcommands_the_docs_name_exist() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
@@ -93,14 +105,7 @@ fn the_files_and_subcommands_the_docs_name_exist() {
     assert!(commands.iter().any(|c| c == "generate"), "{commands:?}");
     let mut stale = Vec::new();
     let mut docs = vec![PathBuf::from("README.md"), PathBuf::from("ARCHITECTURE.md")];
-    let mut guides: Vec<PathBuf> = std::fs::read_dir(root.join("docs/guide"))
-        .expect("docs/guide")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.extension().is_some_and(|e| e == "md"))
-        .map(|p| p.strip_prefix(&root).expect("under the root").to_path_buf())
-        .collect();
-    guides.sort();
-    docs.extend(guides);
+    docs.extend(guides(&root));
     for doc in &docs {
         let text = std::fs::read_to_string(root.join(doc)).expect("readable");
         let doc = doc.display();
@@ -145,8 +150,8 @@ fn the_readme_is_short_and_links_every_guide() {
     let readme = std::fs::read_to_string(root.join("README.md")).expect("readable");
     let lines = readme.lines().count();
     assert!(lines <= 220, "README.md has {lines} lines: move the long form into docs/guide/");
-    for entry in std::fs::read_dir(root.join("docs/guide")).expect("docs/guide") {
-        let name = entry.expect("entry").file_name().to_string_lossy().into_owned();
-        assert!(readme.contains(&format!("docs/guide/{name}")), "README.md does not link docs/guide/{name}");
+    for guide in guides(&root) {
+        let name = guide.display().to_string();
+        assert!(readme.contains(&name), "README.md does not link {name}");
     }
 }

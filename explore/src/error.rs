@@ -51,6 +51,16 @@ impl ExploreError {
         Self::Scenario { what: what.into(), reason: reason.into() }
     }
 
+    /// The error with `context` (a scenario, a file) put before what it names; errors that
+    /// name nothing (I/O, the simulator's own) are kept as they are.
+    pub fn within(self, context: &str) -> Self {
+        match self {
+            Self::Scenario { what, reason } => Self::Scenario { what: format!("{context}: {what}"), reason },
+            Self::Perception { what, reason } => Self::Perception { what: format!("{context}: {what}"), reason },
+            e => e,
+        }
+    }
+
     /// A simulator error in the context `what`.
     pub fn sim(what: impl Into<String>) -> impl FnOnce(SimError) -> Self {
         let what = what.into();

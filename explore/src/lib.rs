@@ -1,11 +1,11 @@
-//! tacsim's closed loop: contour following (DESIGN.md section 6). A kinematic [`Robot`] slides
+//! tacsim's closed loop: contour following (DESIGN.md section 6). A kinematic robot slides
 //! the sensor along a stimulus's edge, staying in contact so that every step carries sliding
 //! history from the contact engine; perception estimates the pose relative to the edge
 //! ([`oracle`], [`Geometric`] from the rendered image's pins, or a [`LearnedPerception`] the
 //! caller supplies: the networks live in `tacsim-model`, so this crate builds without burn);
-//! the [`Servo`] corrects it with the lab's PI control; [`run`] strings them into a loop with
-//! metrics ([`RunReport`]); [`ContactGeometry`] reads the contact patch off the pins' Voronoi
-//! cells; [`Fusion`] fuses the contact patches into the object's footprint. Scenarios are TOML
+//! a PI servo corrects it as the lab's does; [`run`] strings them into a loop with metrics
+//! ([`RunReport`]), reading the contact patch off the pins' Voronoi cells and fusing the
+//! patches into the object's footprint. Scenarios are TOML
 //! files ([`Scenario`], `scenarios/explore/`). Data flows one way: scene -> contact -> pins ->
 //! image -> perception -> control.
 //!
@@ -23,12 +23,8 @@ mod robot;
 mod run;
 mod scenario;
 
-pub use contact_geometry::{ContactGeometry, NO_CONTACT, PinIndentation, cell_areas, touching};
-pub use control::Servo;
 pub use error::{ExploreError, Result};
 pub use learned::{EdgeReader, LearnedPerception};
-pub use perception::{Corruption, EDGE_WIDTH_MM, EdgeEstimate, Geometric, fit_edge, oracle, wrap_deg};
-pub use reconstruct::{Fusion, iou};
-pub use robot::Robot;
-pub use run::{PerceptionError, RunReport, arc_position, reference_press, run};
+pub use perception::{EdgeEstimate, Geometric, oracle, wrap_deg};
+pub use run::{PerceptionError, RunReport, reference_press, run};
 pub use scenario::{Control, Criteria, MAX_SUBSTEPS, Models, Noise, PerceptionKind, Scenario};

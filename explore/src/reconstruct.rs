@@ -53,16 +53,6 @@ impl Fusion {
         }
     }
 
-    /// Number of fused bins.
-    pub fn len(&self) -> usize {
-        self.bins.len()
-    }
-
-    /// Whether nothing was fused.
-    pub fn is_empty(&self) -> bool {
-        self.bins.is_empty()
-    }
-
     /// The footprint over `[x0, y0, x1, y1]` (mm) on a `RASTER_MM` raster: natural-neighbour
     /// interpolation of the bins' mean evidence, at least one half inside. Returns the raster
     /// (row-major, `nx x ny`) and its shape.

@@ -118,9 +118,8 @@ impl PerceptionError {
     }
 }
 
-/// Arc length (mm) along the closed polyline `outline` (its cumulative lengths `cumulative`,
-/// starting at 0) of the point nearest `p` (mm).
-pub fn arc_position(outline: &[[f64; 2]], cumulative: &[f64], p: [f64; 2]) -> f64 {
+/// Arc length along a closed polyline of the point nearest `p`.
+fn arc_position(outline: &[[f64; 2]], cumulative: &[f64], p: [f64; 2]) -> f64 {
     let mut best = (f64::INFINITY, 0.0);
     for (k, a) in outline.iter().enumerate() {
         let b = outline[(k + 1) % outline.len()];
@@ -206,12 +205,7 @@ pub fn run(
         PerceptionKind::Oracle => None,
         _ => {
             let press = reference_press(&model, scenario.depth_mm, friction)?;
-            Some(Geometric::new(sensor, scenario.image_size, &press).map_err(|e| match e {
-                ExploreError::Scenario { what, reason } => {
-                    ExploreError::scenario(format!("{in_scenario}: {what}"), reason)
-                }
-                e => e,
-            })?)
+            Some(Geometric::new(sensor, scenario.image_size, &press).map_err(|e| e.within(&in_scenario))?)
         }
     };
     let learned = match scenario.perception {

@@ -8,14 +8,12 @@
 
 use image::GrayImage;
 
-use crate::detect::{Blob, detect_pins};
+use crate::detect::{Blob, detect_pins, pin_area_range};
 use crate::error::{Result, SimError};
 use crate::fit::levenberg_marquardt;
 use crate::realism::Realism;
 use crate::render::PinRenderer;
 use crate::sensor::SensorParams;
-
-pub use crate::detect::{PIN_AREA_RANGE_PX420, pin_area_range};
 
 /// One ring of detected pins.
 #[derive(Clone, Debug, PartialEq)]

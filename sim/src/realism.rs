@@ -79,8 +79,9 @@ impl Realism {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::{pin_area_range, ring_profile};
+    use crate::calibration::ring_profile;
     use crate::detect::detect_pins;
+    use crate::detect::pin_area_range;
     use crate::sensor::SensorParams;
 
     #[test]

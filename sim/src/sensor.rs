@@ -716,7 +716,7 @@ mod tests {
         let sensor = SensorParams::edge2d().expect("valid preset");
         assert_eq!((sensor.camera.image_size, sensor.pin_count()), (128, 331));
         let img = crate::render::PinRenderer::new(&sensor, 128).expect("renderable").render_undeformed();
-        let (lo, hi) = crate::calibration::pin_area_range(128);
+        let (lo, hi) = crate::detect::pin_area_range(128);
         assert_eq!(crate::detect::detect_pins(&img, lo, hi).len(), 331);
         // The rim: a white ring near the border, black beyond it.
         assert_eq!(img.get_pixel(1, 1).0[0], 0);

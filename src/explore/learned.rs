@@ -70,11 +70,6 @@ impl LearnedPerception for Networks {
         let raw = scenario.perception == tacsim_explore::PerceptionKind::LearnedRaw;
         Learned::new(sensor, scenario.image_size, &scenario.models, raw)
             .map(|l| Box::new(l) as Box<dyn EdgeReader>)
-            .map_err(|e| match e {
-                ExploreError::Perception { what, reason } => {
-                    ExploreError::Perception { what: format!("scenario {}: {what}", scenario.name), reason }
-                }
-                e => e,
-            })
+            .map_err(|e| e.within(&format!("scenario {}", scenario.name)))
     }
 }

@@ -21,8 +21,8 @@
 use image::GrayImage;
 use tacsim_data::{LabFolder, LabSample};
 
-use crate::calibration::pin_area_range;
 use crate::detect::detect_pins;
+use crate::detect::pin_area_range;
 use crate::error::{Result, SimError};
 use crate::png_io::read_png;
 
