@@ -1,6 +1,6 @@
 //! `tacsim calibrate`: fit the simulator to a lab's own recordings (`targets.csv` +
 //! `images/`; an undeformed reference image where there is one, else the consensus of the
-//! shallowest presses; any image shape) and write a sensor preset and a held-out report
+//! most alike shallow recordings; any image shape) and write a sensor preset and a held-out report
 //! (`report.md`, `report.json`, `grid.png`). `--camera-only` fits the camera, ring layout and
 //! image framing alone: the first step for a TacTip whose recordings are not of a flat surface.
 
@@ -83,7 +83,7 @@ pub fn default_report_dir(output: &Path) -> PathBuf {
 pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     let folder = LabFolder::open(&o.real)
         .with_context(|| format!("{} is not a lab folder (targets.csv + images/)", o.real.display()))?;
-    let base = crate::commands::load_sensor(o.sensor.as_deref(), None)?;
+    let base = crate::commands::SensorArgs { sensor: o.sensor.clone(), ..Default::default() }.load()?;
     // The outputs are checked writable before any work.
     let report_dir = o.report.clone().unwrap_or_else(|| default_report_dir(&o.output));
     for dir in
@@ -160,7 +160,7 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     };
     let calib = fit(&problem, &split, &opts, &progress).with_context(|| match &reference.source {
         ReferenceSource::Consensus(names) => format!(
-            "the reference is the consensus of the {} shallowest recordings: where those presses move the pins too \
+            "the reference is the consensus of the {} most alike shallow recordings: where those presses move the pins too \
              much for a clear layout, name an undeformed image with --reference or record a few shallow presses",
             names.len()
         ),

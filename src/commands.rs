@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
+use clap::Args;
 use tacsim_sim::contact::engine::ContactModel;
 use tacsim_sim::contact::pose::SensorPose;
 use tacsim_sim::contact::trajectory::{self, Path as SensorPath};
@@ -27,35 +28,93 @@ pub enum RenderMode {
     Grey,
 }
 
-/// Options of `tacsim render`.
-#[derive(Clone, Debug)]
-pub struct RenderOptions {
-    /// Sensor TOML; `None` for the built-in calibrated TacTip.
+/// The sensor a command simulates: a file or built-in preset, with the overrides a user may
+/// give on the command line. [`SensorArgs::load`] is the one loader behind them.
+#[derive(Args, Clone, Debug, Default)]
+pub struct SensorArgs {
+    /// Sensor TOML or built-in preset (tactip-331-calibrated, tactip-331-camera,
+    /// tactip-331-edge2d; default: the TacTip calibrated to the lab's images).
+    #[arg(long)]
     pub sensor: Option<PathBuf>,
-    /// Image size (px); `None` for the sensor's `camera.image_size`.
-    pub size: Option<u32>,
-    /// Pin count override (centred hexagonal: 127, 331, ...).
+    /// Pin count, centred hexagonal (331 default, 127, ...).
+    #[arg(long)]
     pub pins: Option<usize>,
-    /// Elastic model behind the skin; `None` for the sensor's `skin.model`.
+    /// Elastic model behind the skin: half-space, layer or skin-on-gel (default: the
+    /// sensor's skin.model).
+    #[arg(long)]
     pub skin: Option<SkinModel>,
-    /// Rendering mode.
-    pub mode: RenderMode,
-    /// Noise seed for the realistic modes.
+}
+
+impl SensorArgs {
+    /// The sensor named (or the built-in calibrated TacTip), with the pin count and skin
+    /// model given.
+    pub fn load(&self) -> Result<SensorParams> {
+        let mut sensor = match &self.sensor {
+            Some(p) => sensor_file_or_preset(&p.to_string_lossy(), None)?,
+            None => SensorParams::default(),
+        };
+        if let Some(n) = self.pins {
+            sensor = sensor.with_pin_count(n)?;
+        }
+        if let Some(m) = self.skin {
+            sensor.skin.model = m;
+        }
+        Ok(sensor)
+    }
+}
+
+/// Options of `tacsim render`.
+#[derive(Args, Clone, Debug)]
+pub struct RenderOptions {
+    /// The sensor drawn.
+    #[command(flatten)]
+    pub sensor: SensorArgs,
+    /// Image size in px (default: the sensor's camera.image_size, 256).
+    #[arg(long)]
+    pub size: Option<u32>,
+    /// Grey rendering with blur and noise, then the lab's adaptive threshold and mask.
+    #[arg(long, conflicts_with = "grey")]
+    pub realism: bool,
+    /// Write the raw grey frame (blur and noise, no threshold).
+    #[arg(long)]
+    pub grey: bool,
+    /// Noise seed for --realism / --grey.
+    #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Write 1-bit instead of 8-bit PNG (binary modes only).
+    /// Write a 1-bit PNG (binary images only).
+    #[arg(long)]
     pub one_bit: bool,
     /// Output PNG.
+    #[arg(short, long)]
     pub output: PathBuf,
-    /// Press the sensor onto this stimulus (catalogue name); `None` renders the undeformed sensor.
+    /// Press onto this stimulus (see `tacsim shapes`); without it the sensor is undeformed.
+    #[arg(long)]
     pub shape: Option<String>,
-    /// Catalogue directory for `shape` (default: the built-in shapes).
+    /// Catalogue directory for --shape (default: the built-in shapes).
+    #[arg(long)]
     pub shapes_dir: Option<PathBuf>,
-    /// Sensor pose over the stimulus.
+    /// Pose over the stimulus: x,y,depth,yaw[,rx,ry] (mm, deg); depth below the top face.
+    #[arg(long, value_parser = parse_pose, default_value = "0,0,2,0", allow_hyphen_values = true)]
     pub pose: SensorPose,
-    /// Touch down this far (mm, world x, y) from the pose and slide to it; `None` taps.
+    /// Touch down at pose + dx,dy (mm) and slide to the pose; without it the sensor taps.
+    #[arg(long, value_parser = parse_offset, allow_hyphen_values = true)]
     pub slide_from: Option<[f64; 2]>,
     /// Largest slide step (mm).
+    #[arg(long = "step", value_name = "MM", default_value_t = 0.25)]
     pub step_mm: f64,
+}
+
+impl RenderOptions {
+    /// The rendering mode the flags ask for.
+    pub fn mode(&self) -> RenderMode {
+        if self.realism {
+            RenderMode::Realistic
+        } else if self.grey {
+            RenderMode::Grey
+        } else {
+            RenderMode::Binary
+        }
+    }
 }
 
 /// Parses `x,y,depth,yaw[,rx,ry]` (mm, deg).
@@ -110,18 +169,6 @@ fn pressed_pins(sensor: &SensorParams, opts: &RenderOptions) -> Result<(Vec<PinP
     Ok((frame.pins.clone(), summary))
 }
 
-/// Loads the sensor of `path` (or the default) and applies a pin-count override.
-pub fn load_sensor(path: Option<&Path>, pins: Option<usize>) -> Result<SensorParams> {
-    let sensor = match path {
-        Some(p) => sensor_file_or_preset(&p.to_string_lossy(), None)?,
-        None => SensorParams::default(),
-    };
-    match pins {
-        Some(n) => Ok(sensor.with_pin_count(n)?),
-        None => Ok(sensor),
-    }
-}
-
 /// Creates `dir` and checks that files can be written in it, before any work.
 pub fn ensure_writable(dir: &Path) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("creating {} for the output", dir.display()))?;
@@ -146,15 +193,12 @@ pub fn sensor_file_or_preset(arg: &str, dir: Option<&Path>) -> Result<SensorPara
 
 /// `tacsim render`: renders the undeformed sensor. Returns a one-line summary.
 pub fn render(opts: &RenderOptions) -> Result<String> {
-    let mut sensor = load_sensor(opts.sensor.as_deref(), opts.pins)?;
-    if let Some(m) = opts.skin {
-        sensor.skin.model = m;
-    }
+    let sensor = opts.sensor.load()?;
     let size = opts.size.unwrap_or(sensor.camera.image_size);
     let renderer = PinRenderer::new(&sensor, size)?;
     let (pins, contact) = pressed_pins(&sensor, opts)?;
     let realism = Realism { seed: opts.seed, ..Realism::default() };
-    let (img, depth) = match opts.mode {
+    let (img, depth) = match opts.mode() {
         RenderMode::Binary => (renderer.render(&pins), if opts.one_bit { PngDepth::OneBit } else { PngDepth::Grey8 }),
         RenderMode::Realistic => {
             (realism.render(&renderer, &pins)?, if opts.one_bit { PngDepth::OneBit } else { PngDepth::Grey8 })
@@ -163,7 +207,7 @@ pub fn render(opts: &RenderOptions) -> Result<String> {
     };
     write_png(&opts.output, &img, depth).with_context(|| format!("writing {}", opts.output.display()))?;
     let blobs =
-        if opts.mode == RenderMode::Grey { String::new() } else { format!(", {} blobs", detect_blobs(&img).len()) };
+        if opts.mode() == RenderMode::Grey { String::new() } else { format!(", {} blobs", detect_blobs(&img).len()) };
     Ok(format!(
         "wrote {}: {size}x{size} px, sensor `{}` with {} pins{blobs}{contact}",
         opts.output.display(),

@@ -1,12 +1,12 @@
 //! `tacsim`: physics-simulated TacTip data generator and test harness.
 
 use std::path::PathBuf;
+use std::process::ExitCode;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
-use tacsim::commands::{self, RenderMode, RenderOptions};
+use tacsim::commands::{self, RenderOptions};
 use tacsim::{bench, validation};
-use tacsim_sim::contact::pose::SensorPose;
 use tacsim_sim::sensor::SkinModel;
 
 #[derive(Parser)]
@@ -19,52 +19,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render the sensor to a PNG: undeformed, or tapped / slid onto a stimulus.
-    Render {
-        /// Sensor TOML or built-in preset (tactip-331-calibrated, tactip-331-camera,
-        /// tactip-331-edge2d; default: the TacTip calibrated to the lab's images).
-        #[arg(long)]
-        sensor: Option<PathBuf>,
-        /// Image size in px (default: the sensor's camera.image_size, 256).
-        #[arg(long)]
-        size: Option<u32>,
-        /// Pin count, centred hexagonal (331 default, 127, ...).
-        #[arg(long)]
-        pins: Option<usize>,
-        /// Elastic model behind the skin: half-space, layer or skin-on-gel (default: the
-        /// sensor's skin.model).
-        #[arg(long)]
-        skin: Option<SkinModel>,
-        /// Grey rendering with blur and noise, then the lab's adaptive threshold and mask.
-        #[arg(long, conflicts_with = "grey")]
-        realism: bool,
-        /// Write the raw grey frame (blur and noise, no threshold).
-        #[arg(long)]
-        grey: bool,
-        /// Noise seed for --realism / --grey.
-        #[arg(long, default_value_t = 0)]
-        seed: u64,
-        /// Write a 1-bit PNG (binary images only).
-        #[arg(long)]
-        one_bit: bool,
-        /// Output PNG.
-        #[arg(short, long)]
-        output: PathBuf,
-        /// Press onto this stimulus (see `tacsim shapes`); without it the sensor is undeformed.
-        #[arg(long)]
-        shape: Option<String>,
-        /// Catalogue directory for --shape (default: the built-in shapes).
-        #[arg(long)]
-        shapes_dir: Option<PathBuf>,
-        /// Pose over the stimulus: x,y,depth,yaw[,rx,ry] (mm, deg); depth below the top face.
-        #[arg(long, value_parser = commands::parse_pose, default_value = "0,0,2,0", allow_hyphen_values = true)]
-        pose: SensorPose,
-        /// Touch down at pose + dx,dy (mm) and slide to the pose; without it the sensor taps.
-        #[arg(long, value_parser = commands::parse_offset, allow_hyphen_values = true)]
-        slide_from: Option<[f64; 2]>,
-        /// Largest slide step (mm).
-        #[arg(long, default_value_t = 0.25)]
-        step: f64,
-    },
+    Render(RenderOptions),
     /// Run the analytic contact cases (Hertz, Cattaneo-Mindlin) and print errors.
     Validate {
         /// Cells across the validation grid (odd).
@@ -160,10 +115,10 @@ enum Command {
         /// their directory names (`posenet`, `unshear`, `baseline`).
         #[arg(long)]
         models: Option<PathBuf>,
-        /// Sensor file or built-in preset (default: the built-in calibrated TacTip). The learned runs'
-        /// networks must have been trained on images of the same sensor.
-        #[arg(long)]
-        sensor: Option<PathBuf>,
+        /// The sensor (default: the built-in calibrated TacTip). The learned runs' networks must
+        /// have been trained on images of the same sensor.
+        #[command(flatten)]
+        sensor: commands::SensorArgs,
     },
     /// Train a network of the paper on a dataset (`tacsim generate` output): the shear-removal
     /// model, the supervised baseline or the pose network. Resumable; Ctrl-C saves a
@@ -218,54 +173,16 @@ fn command_line() -> String {
         .join(" ")
 }
 
-fn main() -> Result<()> {
+/// Runs the command; a failed check (`validate`, `run`) exits with status 1 after its report.
+fn main() -> Result<ExitCode> {
     match Cli::parse().command {
-        Command::Render {
-            sensor,
-            size,
-            pins,
-            skin,
-            realism,
-            grey,
-            seed,
-            one_bit,
-            output,
-            shape,
-            shapes_dir,
-            pose,
-            slide_from,
-            step,
-        } => {
-            let mode = if realism {
-                RenderMode::Realistic
-            } else if grey {
-                RenderMode::Grey
-            } else {
-                RenderMode::Binary
-            };
-            let line = commands::render(&RenderOptions {
-                sensor,
-                size,
-                pins,
-                skin,
-                mode,
-                seed,
-                one_bit,
-                output,
-                shape,
-                shapes_dir,
-                pose,
-                slide_from,
-                step_mm: step,
-            })?;
-            println!("{line}");
+        Command::Render(o) => {
+            println!("{}", commands::render(&o)?);
         }
         Command::Validate { grid, json, convergence } => {
             let (text, pass) = validation::run(grid, json, convergence)?;
             print!("{text}");
-            if !pass {
-                std::process::exit(1);
-            }
+            return Ok(exit_code(pass));
         }
         Command::Bench { json, samples, plot, cells, skin } => {
             print!("{}", bench::run(samples, cells, skin, json, &plot)?);
@@ -290,12 +207,10 @@ fn main() -> Result<()> {
             print!("{}", tacsim::dataset::merge(&out, &shards)?);
         }
         Command::Run { scenarios, out, json, models, sensor } => {
-            let sensor = commands::load_sensor(sensor.as_deref(), None)?;
+            let sensor = sensor.load()?;
             let (text, pass) = tacsim::explore::report::run_files(&scenarios, &out, json, models.as_deref(), &sensor)?;
             print!("{text}");
-            if !pass {
-                std::process::exit(1);
-            }
+            return Ok(exit_code(pass));
         }
         Command::Train(opts) => {
             print!("{}", tacsim::learn::train(&opts)?);
@@ -313,5 +228,10 @@ fn main() -> Result<()> {
             print!("{}", commands::shapes_table(&commands::load_catalogue(dir.as_deref())?));
         }
     }
-    Ok(())
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Status 0 when every check passed, else 1.
+fn exit_code(pass: bool) -> ExitCode {
+    if pass { ExitCode::SUCCESS } else { ExitCode::FAILURE }
 }

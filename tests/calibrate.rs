@@ -178,7 +178,7 @@ fn the_consensus_of_the_shallowest_presses_stands_in_for_the_undeformed_image() 
     let dir = temp_dir("calibrate", "consensus");
     derived_folder(&real, &dir.join("lab"), 40, |img| img);
     let e = err(&["calibrate", "--real", s(&dir.join("lab")), "-o", s(&dir.join("p.toml")), "--quick", "-q"]);
-    assert!(e.contains("consensus of the 30 shallowest") && e.contains("--reference"), "{e}");
+    assert!(e.contains("consensus of the 30 most alike") && e.contains("--reference"), "{e}");
 }
 
 #[test]

@@ -2,8 +2,9 @@
 `edge-2d` recipe's depth range (issue 30).
 
 For every image, the fraction of pin-field pixels (within 46 px of the centre at 128 px) that
-differ from the undeformed image (real: the pixel-wise majority of the 75 shallowest taps, as
-`tacsim calibrate` builds it; simulated: the set's own image_0.png). The simulated fraction is
+differ from the undeformed image (real: the pixel-wise majority of the 30 most alike of the
+shallowest half, as `tacsim calibrate` builds it: taps that touch nothing; simulated: the set's
+own image_0.png). The simulated fraction is
 tabulated over (lateral x, depth) and the real taps are looked up through a map
     sim x = sign * pose_2 + offset,   sim depth = gain * (pose_3 - zero)
 whose parameters a grid search chooses (least squares) on the fitting 80% of the taps; the
@@ -34,6 +35,21 @@ def is_held_out(name):
     return h % 5 == 0
 
 
+def consensus(images, depth, k=30, pool=600):
+    """The pixel-wise majority of the k most alike of the shallowest half (at most `pool`), as
+    `tacsim calibrate` builds a folder's reference (`Reference::consensus`): the image whose
+    (k-1)-th nearest other is nearest, with those others. (Ties in depth here go by row order,
+    there by image name.)"""
+    order = np.argsort(depth, kind="stable")[: min(max(len(depth) // 2, k), pool)]
+    packed = np.packbits(images[order].reshape(len(order), -1), axis=1)
+    table = np.array([np.unpackbits(p ^ packed, axis=1).sum(1) for p in packed])
+    np.fill_diagonal(table, np.iinfo(np.int64).max)
+    near = np.sort(table, 1)[:, k - 2]
+    best = int(np.argmin(near))
+    group = np.concatenate([[best], np.argsort(table[best], kind="stable")[: k - 1]])
+    return images[order[group]].mean(0) > 0.5
+
+
 def changes(images, reference):
     return np.array([(im ^ reference)[INNER].mean() for im in images])
 
@@ -43,7 +59,7 @@ def main(real_dir, sim_dirs):
     imgs = np.array([load(f"{real_dir}/images/{r['sensor_image']}") for r in rows])
     depth = np.array([float(r["pose_3"]) for r in rows])
     lat = np.array([float(r["pose_2"]) for r in rows])
-    ref = imgs[np.argsort(depth)[:75]].mean(0) > 0.5
+    ref = consensus(imgs, depth)
     real = changes(imgs, ref)
     held = np.array([is_held_out(r["sensor_image"]) for r in rows])
     print(f"real: {len(rows)} taps ({held.sum()} held out), image change {real.mean():.4f} +- {real.std():.4f}")

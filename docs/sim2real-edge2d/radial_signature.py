@@ -2,18 +2,23 @@
 lateral offset and depth, real against simulated (issue 30).
 
 Both sides are measured alike: each image's pins (blobs of 2-30 px within 44 px of the
-centre at 128 px) are matched within 2 px to the pins of the consensus reference (the
-pixel-wise majority of the 75 shallowest taps, as `tacsim calibrate` builds it for a folder
-without an undeformed image), and the mean radial displacement (px, + outward) is reported for
-the pins at 10-25 px from the centre (inner) and beyond 30 px (outer); then, for the real taps,
-the inner pins' mean translation in a frame turned with the yaw (how much of their motion is a
-shift rather than a contraction); then the share of the pin field's pixels that differ from
-the consensus, for the taps shallower than 3.3 mm. A simulated set's
-labels are turned into the lab's lateral offset through the sim2real label map's offset
-(lab = OFFSET - simulated x), and only its taps within the lab's -6..6 mm are used. Needs numpy, pillow, scipy.
+centre at 128 px) are matched within 2 px to the pins of the undeformed reference, and the
+mean radial displacement (px, + outward) is reported for the pins at 10-25 px from the centre
+(inner) and beyond 30 px (outer); then, for the real taps, the inner pins' mean translation in
+a frame turned with the yaw (how much of their motion is a shift rather than a contraction);
+then the share of the pin field's pixels that differ from the reference, for the taps
+shallower than 3.3 mm. The reference: of the real taps, the pixel-wise majority of the 30 most
+alike of the shallowest half, as `tacsim calibrate` builds it for a folder without an
+undeformed image (taps that touch nothing); of a simulated set, its undeformed image_0.png.
+With REFERENCE `shallowest`, both sides take the majority of their 75 shallowest taps instead,
+the rule before: the real ones among them press the material, so that reference is not
+undeformed and every real tap looked contracted against it (docs/guide/sim2real.md). A
+simulated set's labels are turned into the lab's lateral offset through the sim2real label
+map's offset (lab = OFFSET - simulated x), and only its taps within the lab's -6..6 mm are
+used. Needs numpy, pillow, scipy.
 
-    python3 docs/sim2real-edge2d/radial_signature.py real ../shared/data/real-tactip-edge2d
-    python3 docs/sim2real-edge2d/radial_signature.py sim target/sim2real-edge2d/sim 2.74
+    python3 docs/sim2real-edge2d/radial_signature.py real ../shared/data/real-tactip-edge2d [- REFERENCE]
+    python3 docs/sim2real-edge2d/radial_signature.py sim target/sim2real-edge2d/sim 2.74 [REFERENCE]
 """
 import csv
 import sys
@@ -22,6 +27,9 @@ import numpy as np
 from PIL import Image
 from scipy import ndimage
 from scipy.spatial import cKDTree
+
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from image_change_fit import consensus as majority  # noqa: E402
 
 CENTRE = np.array([64.4, 64.5])
 
@@ -49,7 +57,7 @@ def radial(found, reference, tree):
     return along[r > 30].mean(), along[(r > 10) & (r < 25)].mean()
 
 
-def main(kind, folder, offset=None):
+def main(kind, folder, offset="-", reference="alike"):
     rows = list(csv.DictReader(open(f"{folder}/targets.csv")))
     if kind == "real":
         depth = np.array([float(r["pose_3"]) for r in rows])
@@ -62,7 +70,12 @@ def main(kind, folder, offset=None):
         rows = [r for r, k in zip(rows, keep) if k]
         depth, lateral = depth[keep], lateral[keep]
     images = [load(f"{folder}/images/{r['sensor_image']}") for r in rows]
-    consensus = np.array(images)[np.argsort(depth)[:75]].mean(0) > 0.5
+    if reference == "shallowest":
+        consensus = np.array(images)[np.argsort(depth)[:75]].mean(0) > 0.5
+    elif kind == "real":
+        consensus = majority(np.array(images), depth)
+    else:
+        consensus = load(f"{folder}/images/image_0.png")
     reference = pins(consensus)
     tree = cKDTree(reference)
     moves = np.array([radial(pins(im), reference, tree) for im in images])

@@ -292,7 +292,7 @@ pub const CAMERA_ONLY_PRESET: &str = include_str!("../presets/tactip-331-camera.
 
 /// The TacTip of the edge recordings (`../shared/data/real-tactip-edge2d/`): camera, ring
 /// layout and framing (128 px, rim visible) fitted by `tacsim calibrate --camera-only` to the
-/// consensus of its shallowest taps, from `docs/calibration-edge2d/base.toml`: the calibrated
+/// consensus of its taps that touch nothing, from `docs/calibration-edge2d/base.toml`: the calibrated
 /// default's skin and pins, the dome's radius (40 mm, an effective contact radius) chosen by
 /// the edge taps (`docs/guide/sim2real.md`).
 pub const EDGE2D_PRESET: &str = include_str!("../presets/tactip-331-edge2d.toml");

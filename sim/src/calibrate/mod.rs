@@ -4,7 +4,7 @@
 //! difference ([`evaluate`]; `cargo xtask real-compare` prints it), fit the parameters on 80%
 //! of the recordings ([`fitting`]) and report on the held-out 20% ([`report`];
 //! `tacsim calibrate` runs both). [`reference`] finds the undeformed layout (an undeformed
-//! image, or the consensus of the shallowest presses) and cuts non-square images square;
+//! image, or the consensus of the most alike shallow recordings) and cuts non-square images square;
 //! [`camera`] fits a sensor's camera, ring layout and framing to that reference alone.
 
 pub mod camera;

@@ -2,16 +2,19 @@
 //!
 //! Calibration measures every recording's pin motion from an undeformed layout. Few lab
 //! folders hold an image of the sensor touching nothing, so where none is named the
-//! reference is the **consensus** of the shallowest presses: the pixel-wise majority of the
-//! [`consensus_count`] recordings with the smallest depth label (`pose z`, mm). Each press moves
-//! only the pins near its contact, and the contacts differ from press to press, so the majority
-//! keeps each pin where most presses leave it: on the edge taps (1,500, no undeformed image)
-//! the consensus of the 75 shallowest shows 330 pins and the camera fit puts 327 of them
-//! within 0.35 px RMS at 128 px. Presses that all touch the same pins do not suit it: on the
-//! surface recordings, whose undeformed `image_0.png` tells the truth, the consensus of the
-//! 30 shallowest of 600 flat presses finds 322 of 327 pins within 2.4 px RMS of it at 420 px,
-//! but its central pins are smeared (ring 1 shows 3 of 6), so the ring fit cannot read it
-//! (`tests/calibrate.rs`). Name an undeformed image where one exists.
+//! reference is the **consensus** of the most alike shallow recordings: among the shallowest
+//! half (smallest depth label, `pose z`, mm), the one whose [`CONSENSUS_MIN`]-th nearest
+//! neighbour (pixels that differ) is nearest, and the pixel-wise majority of it and those
+//! neighbours ([`Reference::consensus`]). Taps that touch nothing are alike whatever their yaw
+//! and lateral offset, so where a folder holds some they are the tightest group: on the edge
+//! taps (1,500, no undeformed image) the group is 30 taps 4.4-6 mm beside the edge (their
+//! images differ from each other by 0.5% of the pixels), where the 75 shallowest, which an
+//! earlier rule took, had pressed the material and moved the central pins by up to 0.4 px
+//! (`docs/guide/sim2real.md`). Where every recording presses, the tightest group is of the
+//! shallowest flat presses. Presses that all touch the same pins do not suit it: on the
+//! surface recordings, whose undeformed `image_0.png` tells the truth, the consensus of 600
+//! flat presses still finds most pins, but its central pins are smeared and the ring fit
+//! cannot read it (`tests/calibrate.rs`). Name an undeformed image where one exists.
 //!
 //! Lab images need not be square (a camera frame cropped by the lab's bounding box): the
 //! pin field's circle is found on the reference ([`PinField`]) and every image is cut to the
@@ -28,16 +31,12 @@ use crate::png_io::read_png;
 
 /// The conventional name of the undeformed reference in a lab folder's `images/`.
 pub const DEFAULT_REFERENCE: &str = "image_0.png";
-/// Fewest recordings a consensus reference is built from.
+/// How many recordings a consensus reference is built from (or all, when fewer).
 pub const CONSENSUS_MIN: usize = 30;
+/// Most recordings a consensus reference is chosen among (the shallowest).
+pub const CONSENSUS_POOL: usize = 600;
 /// Largest image side read (px): a lab image is a processed camera frame.
 const MAX_SIDE: u32 = 8192;
-
-/// How many of `n` recordings a consensus reference takes: the shallowest 5%, at least
-/// [`CONSENSUS_MIN`] (or all when fewer).
-pub fn consensus_count(n: usize) -> usize {
-    (n / 20).max(CONSENSUS_MIN).min(n)
-}
 
 /// The circle of the pin field in an image (px).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -184,22 +183,23 @@ impl Reference {
         Self::framed(raw, &path, ReferenceSource::Image(name.to_owned()))
     }
 
-    /// The pixel-wise majority of the [`consensus_count`] shallowest recordings (smallest
-    /// `pose z`; ties by image name).
+    /// The pixel-wise majority of the most alike shallow recordings: of the shallowest half
+    /// (smallest `pose z`; ties by image name; at least [`CONSENSUS_MIN`], at most
+    /// [`CONSENSUS_POOL`]), the recording
+    /// whose [`CONSENSUS_MIN`]-th nearest other (pixels that differ) is nearest, with those
+    /// nearest others ([`CONSENSUS_MIN`] recordings in all, or every one when fewer). Ties go
+    /// to the shallower recording, so the choice does not depend on the order of the rows.
     pub fn consensus(folder: &LabFolder) -> Result<Self> {
         let mut order: Vec<&LabSample> = folder.samples.iter().collect();
         order.sort_by(|a, b| a.pose[2].total_cmp(&b.pose[2]).then_with(|| a.image.cmp(&b.image)));
-        order.truncate(consensus_count(order.len()));
+        order.truncate((order.len() / 2).clamp(CONSENSUS_MIN, CONSENSUS_POOL).min(order.len()));
         let first = folder.image_path(order[0]);
-        let (mut w, mut h) = (0, 0);
-        let mut votes = Vec::new();
+        let mut size = None;
+        let mut bits: Vec<Vec<u64>> = Vec::with_capacity(order.len());
         for s in &order {
             let path = folder.image_path(s);
             let img = read_checked(&path)?;
-            if votes.is_empty() {
-                (w, h) = img.dimensions();
-                votes = vec![0u32; (w * h) as usize];
-            }
+            let (w, h) = *size.get_or_insert(img.dimensions());
             if img.dimensions() != (w, h) {
                 return Err(SimError::Image {
                     path,
@@ -211,14 +211,17 @@ impl Reference {
                     ),
                 });
             }
-            for (v, p) in votes.iter_mut().zip(img.as_raw()) {
-                *v += u32::from(*p >= 128);
-            }
+            bits.push(packed(&img));
         }
-        let n = order.len() as u32;
-        let raw = GrayImage::from_raw(w, h, votes.iter().map(|&v| if 2 * v > n { 255 } else { 0 }).collect())
-            .ok_or_else(|| SimError::Image { path: first.clone(), reason: "image buffer size".to_owned() })?;
-        let names = order.iter().map(|s| s.image.clone()).collect();
+        let (w, h) = size.unwrap_or((0, 0));
+        let group = tightest_group(&bits, CONSENSUS_MIN);
+        let n = group.len();
+        let raw = GrayImage::from_fn(w, h, |x, y| {
+            let i = (y * w + x) as usize;
+            let votes = group.iter().filter(|&&g| bits[g][i / 64] >> (i % 64) & 1 == 1).count();
+            image::Luma([if 2 * votes > n { 255 } else { 0 }])
+        });
+        let names = group.iter().map(|&g| order[g].image.clone()).collect();
         Self::framed(raw, &folder.dir.join("images"), ReferenceSource::Consensus(names))
     }
 
@@ -262,7 +265,7 @@ impl Reference {
         match &self.source {
             ReferenceSource::Image(n) => format!("undeformed image {n}{framing}"),
             ReferenceSource::Consensus(names) => {
-                format!("consensus (pixel-wise majority) of the {} shallowest recordings{framing}", names.len())
+                format!("consensus (pixel-wise majority) of the {} most alike shallow recordings{framing}", names.len())
             }
         }
     }
@@ -271,6 +274,42 @@ impl Reference {
     pub fn read(&self, path: &std::path::Path) -> Result<GrayImage> {
         self.crop.apply(read_checked(path)?, path)
     }
+}
+
+/// An image's pixels as bits (on: grey >= 128), row-major, 64 to a word.
+fn packed(img: &GrayImage) -> Vec<u64> {
+    let mut bits = vec![0u64; img.as_raw().len().div_ceil(64)];
+    for (i, &p) in img.as_raw().iter().enumerate() {
+        bits[i / 64] |= u64::from(p >= 128) << (i % 64);
+    }
+    bits
+}
+
+/// The tightest group of `k` among `images` (bit-packed, in order of preference): the image
+/// whose `k - 1`-th nearest other (pixels that differ) is nearest, and those nearest others
+/// (nearer first, ties by index). Every image when there are `k` or fewer.
+fn tightest_group(images: &[Vec<u64>], k: usize) -> Vec<usize> {
+    let n = images.len();
+    if n <= k {
+        return (0..n).collect();
+    }
+    let differ = |a: &[u64], b: &[u64]| a.iter().zip(b).map(|(x, y)| (x ^ y).count_ones()).sum::<u32>();
+    let mut table = vec![0u32; n * n];
+    for i in 0..n {
+        for j in i + 1..n {
+            let d = differ(&images[i], &images[j]);
+            table[i * n + j] = d;
+            table[j * n + i] = d;
+        }
+    }
+    let nearest = |i: usize| {
+        let mut d: Vec<(u32, usize)> = (0..n).filter(|&j| j != i).map(|j| (table[i * n + j], j)).collect();
+        d.sort_unstable();
+        d.truncate(k - 1);
+        d
+    };
+    let best = (0..n).min_by_key(|&i| (nearest(i).last().map_or(0, |l| l.0), i)).unwrap_or(0);
+    std::iter::once(best).chain(nearest(best).into_iter().map(|(_, j)| j)).collect()
 }
 
 /// Reads a PNG, refusing absurd sizes before any work.
@@ -320,6 +359,29 @@ mod tests {
         // The same pins, about the middle of the square.
         assert_eq!(f.pins, g.pins);
         assert!((f.centre[0] - 68.0).abs() <= 1.0 && (f.centre[1] - 68.0).abs() <= 1.0, "{f:?}");
+    }
+
+    #[test]
+    fn the_consensus_takes_the_alike_untouched_images_not_the_shallowest_pressed_ones() {
+        // Twelve images that differ from each other in a few pixels each (touching nothing,
+        // thresholding noise) and twenty that differ in many, each its own way (presses at
+        // other places), listed first as the shallower ones are.
+        let base: Vec<u64> = (0..64u64).map(|i| i.wrapping_mul(0x9E37_79B9_7F4A_7C15)).collect();
+        let with = |flips: &[usize]| {
+            let mut b = base.clone();
+            for &f in flips {
+                b[f / 64] ^= 1 << (f % 64);
+            }
+            b
+        };
+        let mut images: Vec<Vec<u64>> =
+            (0..20).map(|i| with(&(0..200).map(|j| (i * 97 + j * 13) % 4096).collect::<Vec<_>>())).collect();
+        images.extend((0..12).map(|i| with(&[i * 7, 1000 + i])));
+        let group = tightest_group(&images, 10);
+        assert_eq!(group.len(), 10);
+        assert!(group.iter().all(|&g| g >= 20), "{group:?}");
+        // With as many images as the group takes, every one is in it.
+        assert_eq!(tightest_group(&images[..5], 10), vec![0, 1, 2, 3, 4]);
     }
 
     #[test]

@@ -98,7 +98,7 @@ pub struct Report {
     pub command: String,
     /// The recordings' folder.
     pub real_dir: String,
-    /// The undeformed reference: an image, or the consensus of the shallowest recordings.
+    /// The undeformed reference: an image, or the consensus of the most alike shallow recordings.
     pub reference: String,
     /// Recordings (the reference excluded).
     pub recordings: usize,
