@@ -24,5 +24,5 @@ pub use column::Column;
 pub use error::{DataError, Result};
 pub use lab::{LabFolder, LabSample};
 pub use loader::{Dataset, Subset};
-pub use meta::{Meta, Shard};
+pub use meta::{Meta, PoseFrame, Shard};
 pub use row::{Kind, Row, Split};

@@ -146,7 +146,7 @@ pub struct Report {
     pub test_pairs: usize,
     /// Frame of the dataset's pose labels (`poses.frame` of its recipe: `scene` or `edge`).
     #[serde(default)]
-    pub label_frame: String,
+    pub label_frame: tacsim_data::PoseFrame,
     /// Whether each pose's contact point was drawn around the shape's whole contour
     /// (`poses.around_contour` of its recipe), with y = 0 on it: the edge frame then sits
     /// under the sensor, and x and yaw are what a tap shows.
@@ -375,8 +375,8 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
         .collect();
     let mut report = Report {
         dataset: corpus.dataset.dir.display().to_string(),
-        label_frame: label_frame(&corpus.dataset.meta.recipe),
-        around_contour: around_contour(&corpus.dataset.meta.recipe),
+        label_frame: corpus.dataset.meta.pose_frame()?,
+        around_contour: corpus.dataset.meta.around_contour(),
         size: side,
         test_pairs: pairs.len(),
         ms_ssim_scales: scales,
@@ -395,16 +395,6 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
         write_atomic(&out.join("poses.csv"), poses_csv(corpus, &slides, &pose_sets).as_bytes())?;
     }
     Ok(report)
-}
-
-/// The recipe's `poses.frame` (`scene` when the recipe does not say).
-fn label_frame(recipe: &serde_json::Value) -> String {
-    recipe.pointer("/poses/frame").and_then(|v| v.as_str()).unwrap_or("scene").to_owned()
-}
-
-/// The recipe's `poses.around_contour` (`false` when the recipe does not say).
-fn around_contour(recipe: &serde_json::Value) -> bool {
-    recipe.pointer("/poses/around_contour").and_then(|v| v.as_bool()).unwrap_or(false)
 }
 
 /// The semi-supervised model at the paper's 10% with the patch loss, if evaluated.
@@ -570,7 +560,7 @@ pub fn markdown(r: &Report) -> String {
     s.push_str("\n## Pose MAE (paper, Table I: tap 0.43 mm / 2.13 deg; sheared 2.72 / 22.20; unsheared supervised 0.64 / 4.38; unsheared semi-supervised 0.71 / 4.81)\n\n");
     s.push_str(if r.around_contour {
         "Horizontal x is the paper's tau_x: labels are in the edge frame at each pose's own contact point, drawn around the whole contour: x across the edge, yaw from its tangent, and y = 0 (its column measures nothing).\n\n"
-    } else if r.label_frame == "edge" {
+    } else if r.label_frame == tacsim_data::PoseFrame::Edge {
         "Horizontal x is the paper's tau_x: labels are in the edge frame, x across the edge at each pose's contact point; y, which the paper does not report, runs along the edge, and a locally straight edge does not reveal it.\n\n"
     } else {
         "Horizontal x is the paper's tau_x (across the edge of the disk and the clover at their contact locations); y, which the paper does not report, runs along those edges, and a locally straight edge does not reveal it.\n\n"

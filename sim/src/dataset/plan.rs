@@ -12,7 +12,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use tacsim_data::{Kind, Row, Split};
 
-use super::recipe::{Axes, Frame, Recipe};
+use super::recipe::{Axes, PoseFrame, Recipe};
 use crate::contact::pose::SensorPose;
 use crate::error::{Result, SimError};
 use crate::stimulus::Catalogue;
@@ -153,7 +153,7 @@ impl Plan {
                 .get(&s.name)
                 .map_err(|e| SimError::invalid(source_name, format!("shapes[{i}].name"), format!("{e}")))?;
             let contact = s.contact_mm.or(stim.entry.contact_mm).unwrap_or([0.0, 0.0]);
-            if recipe.poses.frame == Frame::Edge && stim.contour.loops.is_empty() {
+            if recipe.poses.frame == PoseFrame::Edge && stim.contour.loops.is_empty() {
                 return Err(SimError::invalid(
                     source_name,
                     format!("shapes[{i}].name"),
@@ -198,12 +198,14 @@ impl Plan {
                     draw(&mut rng, p.yaw_deg),
                 ];
                 let frame = match (p.frame, p.around_contour) {
-                    (Frame::Scene, _) => LabelFrame { origin_mm: shapes[shape].1, x_axis_deg: 0.0, yaw_zero_deg: 0.0 },
-                    (Frame::Edge, false) => {
+                    (PoseFrame::Scene, _) => {
+                        LabelFrame { origin_mm: shapes[shape].1, x_axis_deg: 0.0, yaw_zero_deg: 0.0 }
+                    }
+                    (PoseFrame::Edge, false) => {
                         let e = contours[shape].nearest(shapes[shape].1);
                         LabelFrame::edge(e.point, e.tangent)
                     }
-                    (Frame::Edge, true) => {
+                    (PoseFrame::Edge, true) => {
                         let mut rng = stream(recipe.seed, &[5, id as u64]);
                         let (point, tangent) = point_along(&contours[shape], rng.random::<f64>());
                         LabelFrame::edge(point, tangent)

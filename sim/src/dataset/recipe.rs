@@ -73,20 +73,9 @@ pub const MAX_PER_POSE: usize = 10_000;
 /// Most images one recipe may make (shapes x poses x samples per pose).
 pub const MAX_SAMPLES: usize = 10_000_000;
 
-/// The frame the pose labels (and the slides' touch-down offsets) are given in.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Frame {
-    /// Offsets along the scene's axes from the contact location; yaw from the scene's `x`.
-    #[default]
-    Scene,
-    /// The edge frame at the contact point (the pose's own point on the contour): `x` along
-    /// the edge's outward normal (positive off the material), `y` along its tangent (material
-    /// on the left), yaw of the sensor's `x` axis from the tangent. This is the pose relative
-    /// to the edge that contour following servoes on: lateral offset `x` and edge angle
-    /// `-yaw` (`tacsim run`'s `EdgeEstimate`).
-    Edge,
-}
+/// The frame the pose labels (and the slides' touch-down offsets) are given in: one type
+/// with the dataset's `meta.json` reader.
+pub use tacsim_data::PoseFrame;
 
 /// Pose ranges, relative to the contact location. Each range is `[low, high]`, drawn
 /// uniformly.
@@ -96,7 +85,7 @@ pub struct PoseSpec {
     /// Poses per shape.
     pub per_shape: usize,
     /// Frame of the labels.
-    pub frame: Frame,
+    pub frame: PoseFrame,
     /// Draw each pose's contact point uniformly along the shape's whole contour (by arc
     /// length) instead of taking the shape's contact location; edge frame only.
     pub around_contour: bool,
@@ -289,7 +278,7 @@ impl Default for PoseSpec {
     fn default() -> Self {
         Self {
             per_shape: 200,
-            frame: Frame::Scene,
+            frame: PoseFrame::Scene,
             around_contour: false,
             allow_no_contact: false,
             x_mm: [-5.0, 5.0],
@@ -425,7 +414,7 @@ impl Recipe {
             }
             Ok(())
         };
-        if p.around_contour && p.frame != Frame::Edge {
+        if p.around_contour && p.frame != PoseFrame::Edge {
             return bad("poses.around_contour", "needs frame = \"edge\" (a label frame per contact point)".into());
         }
         range("poses.x_mm", p.x_mm, -50.0, 50.0)?;
