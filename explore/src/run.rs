@@ -118,21 +118,67 @@ impl PerceptionError {
     }
 }
 
-/// Arc length along a closed polyline of the point nearest `p`.
-fn arc_position(outline: &[[f64; 2]], cumulative: &[f64], p: [f64; 2]) -> f64 {
-    let mut best = (f64::INFINITY, 0.0);
-    for (k, a) in outline.iter().enumerate() {
-        let b = outline[(k + 1) % outline.len()];
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let len2 = dx * dx + dy * dy;
-        let t = if len2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-        let q = [a[0] + t * dx, a[1] + t * dy];
-        let d2 = (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2);
-        if d2 < best.0 {
-            best = (d2, cumulative[k] + t * len2.sqrt());
+/// The stimulus's outline as a closed course: where along it (mm of arc) a point lies, and
+/// how far a move went along it.
+struct Course {
+    /// The outline (world mm), closed from its last point to its first.
+    outline: Vec<[f64; 2]>,
+    /// Arc length (mm) at each point, and the perimeter last.
+    cumulative: Vec<f64>,
+}
+
+impl Course {
+    fn new(outline: Vec<[f64; 2]>) -> Self {
+        let mut cumulative = vec![0.0; outline.len() + 1];
+        for k in 0..outline.len() {
+            let (a, b) = (outline[k], outline[(k + 1) % outline.len()]);
+            cumulative[k + 1] = cumulative[k] + (b[0] - a[0]).hypot(b[1] - a[1]);
+        }
+        Self { outline, cumulative }
+    }
+
+    /// The perimeter (mm).
+    fn perimeter(&self) -> f64 {
+        self.cumulative[self.outline.len()]
+    }
+
+    /// Arc length of the point of the outline nearest `p`.
+    fn arc_position(&self, p: [f64; 2]) -> f64 {
+        let mut best = (f64::INFINITY, 0.0);
+        for (k, a) in self.outline.iter().enumerate() {
+            let b = self.outline[(k + 1) % self.outline.len()];
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let len2 = dx * dx + dy * dy;
+            let t = if len2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            let q = [a[0] + t * dx, a[1] + t * dy];
+            let d2 = (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2);
+            if d2 < best.0 {
+                best = (d2, self.cumulative[k] + t * len2.sqrt());
+            }
+        }
+        best.1
+    }
+
+    /// The arc (mm) from arc position `from` to `to`, the short way round (signed).
+    fn advance(&self, from: f64, to: f64) -> f64 {
+        let perimeter = self.perimeter();
+        let ds = to - from;
+        if ds > 0.5 * perimeter {
+            ds - perimeter
+        } else if ds < -0.5 * perimeter {
+            ds + perimeter
+        } else {
+            ds
         }
     }
-    best.1
+
+    /// The outline's bounding box grown by `margin_mm`: `[x0, y0, x1, y1]` (mm).
+    fn bounds(&self, margin_mm: f64) -> [f64; 4] {
+        let (lo, hi) = self.outline.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), p| {
+            ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])])
+        });
+        [lo[0] - margin_mm, lo[1] - margin_mm, hi[0] + margin_mm, hi[1] + margin_mm]
+    }
 }
 
 /// The pins of the sensor of `model` pressed `depth_mm` straight onto a flat face (the top of
@@ -150,6 +196,11 @@ pub fn reference_press(model: &ContactModel, depth_mm: f64, friction: f64) -> Re
 /// Runs `scenario` with `sensor` on the stimuli of `catalogue`; `learned` builds the reader of
 /// `learned` and `learned-raw` perception (an error names the scenario where it is needed and
 /// missing).
+///
+/// The stages, each a named step: the scene and its course ([`setup`]), the start pose
+/// ([`start_pose`]), the perception ([`Perceivers::new`]), the touch-down ([`touch_down`]),
+/// then per servo step perceive, fuse the contact patch, servo and move, until the course
+/// closes or the step limit; last the footprints and the verdict ([`RunReport::judge`]).
 pub fn run(
     scenario: &Scenario,
     sensor: &SensorParams,
@@ -157,37 +208,9 @@ pub fn run(
     learned: Option<&dyn LearnedPerception>,
 ) -> Result<RunReport> {
     let wall = Instant::now();
-    let in_scenario = format!("scenario {}", scenario.name);
-    let stim = catalogue
-        .get(&scenario.shape)
-        .map_err(ExploreError::sim(format!("scenario {}: field `shape`", scenario.name)))?;
-    let stim = stim.with_friction(scenario.friction);
-    let (contact_mm, friction) = (stim.entry.contact_mm, stim.entry.friction);
-    let mut scene = Scene::new();
-    let object = scene.add(stim, ObjectPose::default())?;
-    let outline = scene.contour_world(object).into_iter().max_by_key(|l| l.len()).unwrap_or_default();
-    let mut cumulative = vec![0.0; outline.len() + 1];
-    for k in 0..outline.len() {
-        let (a, b) = (outline[k], outline[(k + 1) % outline.len()]);
-        cumulative[k + 1] = cumulative[k] + (b[0] - a[0]).hypot(b[1] - a[1]);
-    }
-    let perimeter = cumulative[outline.len()];
-
-    // Start on the edge nearest the start point, aligned with it, at the offset reference.
-    let start = scenario.start_mm.or(contact_mm).unwrap_or([1e3, 0.0]);
-    let e = scene.edge(object, start[0], start[1]);
-    let n = [e.tangent[1], -e.tangent[0]];
+    let (scene, object, friction, course) = setup(scenario, catalogue)?;
+    let pose0 = start_pose(scenario, sensor, &scene, object)?;
     let r = scenario.control.offset_ref_mm;
-    let pose0 = SensorPose {
-        x_mm: e.point[0] + r * n[0],
-        y_mm: e.point[1] + r * n[1],
-        depth_mm: scenario.depth_mm,
-        yaw_deg: e.tangent[1].atan2(e.tangent[0]).to_degrees(),
-        rx_deg: 0.0,
-        ry_deg: 0.0,
-    };
-    pose0.validate(&scenario.name, sensor.dome.outer_radius_mm)?;
-
     let model = ContactModel::new(sensor);
     let grid = contact_disk_grid(&model, scenario.depth_mm);
     let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
@@ -198,47 +221,11 @@ pub fn run(
     let mut robot = Robot::new(pose0, scenario.substep_mm);
     let mut servo = Servo::new(&scenario.control, scenario.step_mm);
     let mut corruption = Corruption::new(&scenario.noise, scenario.seed);
-    // Image-based perception reads the contact patch off the pins (Voronoi cells) whatever
-    // estimates the pose: `pins` tracks them frame to frame, and with `geometric` perception
-    // it also gives the estimate.
-    let mut pins = match scenario.perception {
-        PerceptionKind::Oracle => None,
-        _ => {
-            let press = reference_press(&model, scenario.depth_mm, friction)?;
-            Some(Geometric::new(sensor, scenario.image_size, &press).map_err(|e| e.within(&in_scenario))?)
-        }
-    };
-    let learned = match scenario.perception {
-        PerceptionKind::Learned | PerceptionKind::LearnedRaw => match learned {
-            Some(l) => Some(l.reader(scenario, sensor)?),
-            None => {
-                return Err(ExploreError::Perception {
-                    what: format!("{in_scenario}: field `perception`"),
-                    reason: "learned perception needs trained networks, which this caller does not supply: \
-                             run the scenario with `tacsim run`"
-                        .into(),
-                });
-            }
-        },
-        PerceptionKind::Oracle | PerceptionKind::Geometric => None,
-    };
+    let Perceivers { mut pins, learned } = Perceivers::new(scenario, sensor, &model, friction, learned)?;
     // Without contact the image-based estimates say "the edge is a contact radius inward".
     let searching =
         EdgeEstimate { offset_mm: (sensor.dome.outer_radius_mm * scenario.depth_mm).sqrt(), angle_deg: 0.0 };
-    // Touch down one step back along the edge and slide onto the start, so that the start's
-    // image (the tare of image-based perception) carries the drag of sliding like every
-    // later one.
-    let yaw = pose0.yaw_deg.to_radians();
-    let back = SensorPose {
-        x_mm: pose0.x_mm - scenario.step_mm * yaw.cos(),
-        y_mm: pose0.y_mm - scenario.step_mm * yaw.sin(),
-        ..pose0
-    };
-    sim.step(back)?;
-    let onto_start = Robot::new(back, scenario.substep_mm).move_to(pose0);
-    for p in &onto_start {
-        sim.step(*p)?;
-    }
+    let mut substeps = touch_down(&mut sim, scenario, pose0)?;
     let centres = grid.centres();
     // Each visited pose adds its contact patch: the contact engine's to `fusion`, and, with
     // image-based perception, the one read off the image's pins to `fusion_pins`.
@@ -258,11 +245,10 @@ pub fn run(
     if let Some(g) = &mut pins {
         g.tare(&sim.pins(), EdgeEstimate { offset_mm: r, angle_deg: 0.0 });
     }
-    let mut substeps = 1 + onto_start.len();
     let mut trajectory = vec![[pose0.x_mm, pose0.y_mm, pose0.yaw_deg]];
     let (mut deviations, mut yaw_errors) = (Vec::new(), Vec::new());
-    let s0 = arc_position(&outline, &cumulative, [pose0.x_mm, pose0.y_mm]);
-    let (mut last_s, mut progress) = (s0, 0.0f64);
+    let perimeter = course.perimeter();
+    let (mut last_s, mut progress) = (course.arc_position([pose0.x_mm, pose0.y_mm]), 0.0f64);
     let mut closed = false;
     let mut steps = 0;
     let mut perception_error = PerceptionError::default();
@@ -295,14 +281,8 @@ pub fn run(
         let now = oracle(&scene, object, &pose);
         deviations.push((now.offset_mm - r).abs());
         yaw_errors.push(wrap_deg(now.angle_deg).abs());
-        let s = arc_position(&outline, &cumulative, [pose.x_mm, pose.y_mm]);
-        let mut ds = s - last_s;
-        if ds > 0.5 * perimeter {
-            ds -= perimeter;
-        } else if ds < -0.5 * perimeter {
-            ds += perimeter;
-        }
-        progress += ds;
+        let s = course.arc_position([pose.x_mm, pose.y_mm]);
+        progress += course.advance(last_s, s);
         last_s = s;
         if progress >= perimeter - 0.5 * scenario.step_mm {
             closed = true;
@@ -314,17 +294,13 @@ pub fn run(
     }
     fuse(&mut fusion, &mut fusion_pins, &pins, &sim, &robot.pose);
     let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
-    let (lo, hi) = outline.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), p| {
-        ([lo[0].min(p[0]), lo[1].min(p[1])], [hi[0].max(p[0]), hi[1].max(p[1])])
-    });
-    let bounds = [lo[0] - 5.0, lo[1] - 5.0, hi[0] + 5.0, hi[1] + 5.0];
+    let bounds = course.bounds(5.0);
     let (fp, nx, ny) = fusion.footprint(bounds);
     let stimulus = &scene.objects()[object].stimulus;
     let inside = |x: f64, y: f64| stimulus.contour.contains([x, y]);
     let footprint_pins = pins.is_some().then(|| fusion_pins.footprint(bounds).0);
     let iou_pins = footprint_pins.as_ref().map(|fp| iou(fp, nx, bounds, inside));
     let iou = iou(&fp, nx, bounds, inside);
-    let c = &scenario.criteria;
     let mut report = RunReport {
         name: scenario.name.clone(),
         shape: scenario.shape.clone(),
@@ -347,35 +323,138 @@ pub fn run(
         pass: false,
         failures: Vec::new(),
         trajectory,
-        contour: outline,
+        contour: course.outline,
         footprint: (fp, nx, ny, bounds),
         footprint_pins,
     };
-    let checks = [
-        (
-            report.closed && report.completion >= c.completion,
-            format!("completion {:.3} (closed: {}) < {}", report.completion, report.closed, c.completion),
-        ),
-        (
-            report.mean_deviation_mm <= c.mean_deviation_mm,
-            format!("mean deviation {:.3} mm > {}", report.mean_deviation_mm, c.mean_deviation_mm),
-        ),
-        (
-            report.max_deviation_mm <= c.max_deviation_mm,
-            format!("max deviation {:.3} mm > {}", report.max_deviation_mm, c.max_deviation_mm),
-        ),
-        (
-            report.mean_yaw_error_deg <= c.yaw_error_deg,
-            format!("mean yaw error {:.2} deg > {}", report.mean_yaw_error_deg, c.yaw_error_deg),
-        ),
-        match report.iou_pins {
-            Some(v) => (v >= c.iou, format!("IoU from the pins {v:.3} < {}", c.iou)),
-            None => (report.iou >= c.iou, format!("IoU {:.3} < {}", report.iou, c.iou)),
-        },
-    ];
-    report.failures = checks.into_iter().filter(|(ok, _)| !ok).map(|(_, why)| why).collect();
-    report.pass = report.failures.is_empty();
+    report.judge(&scenario.criteria);
     report.wall_s = wall.elapsed().as_secs_f64();
     report.steps_per_s = steps as f64 / report.wall_s.max(1e-9);
     Ok(report)
+}
+
+/// The scene of `scenario`: its stimulus (with the scenario's friction) at the origin, the
+/// object's index, the friction, and the course along its longest outline.
+fn setup(scenario: &Scenario, catalogue: &Catalogue) -> Result<(Scene, usize, f64, Course)> {
+    let stim = catalogue
+        .get(&scenario.shape)
+        .map_err(ExploreError::sim(format!("scenario {}: field `shape`", scenario.name)))?;
+    let stim = stim.with_friction(scenario.friction);
+    let friction = stim.entry.friction;
+    let mut scene = Scene::new();
+    let object = scene.add(stim, ObjectPose::default())?;
+    let outline = scene.contour_world(object).into_iter().max_by_key(|l| l.len()).unwrap_or_default();
+    Ok((scene, object, friction, Course::new(outline)))
+}
+
+/// The start: on the edge nearest the scenario's start point (else the stimulus's contact
+/// location), aligned with it, at the servo's offset reference; checked against the dome.
+fn start_pose(scenario: &Scenario, sensor: &SensorParams, scene: &Scene, object: usize) -> Result<SensorPose> {
+    let contact_mm = scene.objects()[object].stimulus.entry.contact_mm;
+    let start = scenario.start_mm.or(contact_mm).unwrap_or([1e3, 0.0]);
+    let e = scene.edge(object, start[0], start[1]);
+    let n = [e.tangent[1], -e.tangent[0]];
+    let r = scenario.control.offset_ref_mm;
+    let pose0 = SensorPose {
+        x_mm: e.point[0] + r * n[0],
+        y_mm: e.point[1] + r * n[1],
+        depth_mm: scenario.depth_mm,
+        yaw_deg: e.tangent[1].atan2(e.tangent[0]).to_degrees(),
+        rx_deg: 0.0,
+        ry_deg: 0.0,
+    };
+    pose0.validate(&scenario.name, sensor.dome.outer_radius_mm)?;
+    Ok(pose0)
+}
+
+/// The perception a scenario asks for besides the oracle.
+struct Perceivers {
+    /// Image-based perception reads the contact patch off the pins (Voronoi cells) whatever
+    /// estimates the pose: it tracks them frame to frame, and with `geometric` perception it
+    /// also gives the estimate. `None` with the oracle.
+    pins: Option<Geometric>,
+    /// The learned reader of `learned` and `learned-raw` perception.
+    learned: Option<Box<dyn crate::learned::EdgeReader>>,
+}
+
+impl Perceivers {
+    fn new(
+        scenario: &Scenario,
+        sensor: &SensorParams,
+        model: &ContactModel,
+        friction: f64,
+        learned: Option<&dyn LearnedPerception>,
+    ) -> Result<Self> {
+        let in_scenario = format!("scenario {}", scenario.name);
+        let pins = match scenario.perception {
+            PerceptionKind::Oracle => None,
+            _ => {
+                let press = reference_press(model, scenario.depth_mm, friction)?;
+                Some(Geometric::new(sensor, scenario.image_size, &press).map_err(|e| e.within(&in_scenario))?)
+            }
+        };
+        let learned = match scenario.perception {
+            PerceptionKind::Learned | PerceptionKind::LearnedRaw => match learned {
+                Some(l) => Some(l.reader(scenario, sensor)?),
+                None => {
+                    return Err(ExploreError::Perception {
+                        what: format!("{in_scenario}: field `perception`"),
+                        reason: "learned perception needs trained networks, which this caller does not supply: \
+                                 run the scenario with `tacsim run`"
+                            .into(),
+                    });
+                }
+            },
+            PerceptionKind::Oracle | PerceptionKind::Geometric => None,
+        };
+        Ok(Self { pins, learned })
+    }
+}
+
+/// Touches down one step back along the edge from `pose0` and slides onto it, so that the
+/// start's image (the tare of image-based perception) carries the drag of sliding like every
+/// later one. Returns the sub-steps taken.
+fn touch_down(sim: &mut Simulation, scenario: &Scenario, pose0: SensorPose) -> Result<usize> {
+    let yaw = pose0.yaw_deg.to_radians();
+    let back = SensorPose {
+        x_mm: pose0.x_mm - scenario.step_mm * yaw.cos(),
+        y_mm: pose0.y_mm - scenario.step_mm * yaw.sin(),
+        ..pose0
+    };
+    sim.step(back)?;
+    let onto_start = Robot::new(back, scenario.substep_mm).move_to(pose0);
+    for p in &onto_start {
+        sim.step(*p)?;
+    }
+    Ok(1 + onto_start.len())
+}
+
+impl RunReport {
+    /// Sets the verdict: each criterion of `c` checked, the failures said in words.
+    fn judge(&mut self, c: &crate::scenario::Criteria) {
+        let checks = [
+            (
+                self.closed && self.completion >= c.completion,
+                format!("completion {:.3} (closed: {}) < {}", self.completion, self.closed, c.completion),
+            ),
+            (
+                self.mean_deviation_mm <= c.mean_deviation_mm,
+                format!("mean deviation {:.3} mm > {}", self.mean_deviation_mm, c.mean_deviation_mm),
+            ),
+            (
+                self.max_deviation_mm <= c.max_deviation_mm,
+                format!("max deviation {:.3} mm > {}", self.max_deviation_mm, c.max_deviation_mm),
+            ),
+            (
+                self.mean_yaw_error_deg <= c.yaw_error_deg,
+                format!("mean yaw error {:.2} deg > {}", self.mean_yaw_error_deg, c.yaw_error_deg),
+            ),
+            match self.iou_pins {
+                Some(v) => (v >= c.iou, format!("IoU from the pins {v:.3} < {}", c.iou)),
+                None => (self.iou >= c.iou, format!("IoU {:.3} < {}", self.iou, c.iou)),
+            },
+        ];
+        self.failures = checks.into_iter().filter(|(ok, _)| !ok).map(|(_, why)| why).collect();
+        self.pass = self.failures.is_empty();
+    }
 }
