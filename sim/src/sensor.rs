@@ -452,24 +452,37 @@ impl SensorParams {
     }
 
     /// Checks every field: finite, in range, and geometrically consistent. Errors name the
-    /// field and the allowed range.
+    /// field and the allowed range. One stage per table, in the file's order, then the
+    /// geometry that joins them.
     pub fn validate(&self, source_name: &str) -> Result<()> {
-        let bad = |field: &str, reason: String| Err(SimError::invalid(source_name, field, reason));
-        let finite = |field: &str, v: f64| -> Result<()> {
-            if v.is_finite() { Ok(()) } else { bad(field, format!("must be a finite number, got {v}")) }
-        };
+        let check = Check(source_name);
+        self.validate_dome(&check)?;
+        self.validate_pins(&check)?;
+        self.validate_camera(&check)?;
+        self.validate_framing(&check)?;
+        self.validate_skin(&check)?;
+        self.validate_geometry(&check)
+    }
+
+    /// The `[dome]` table.
+    fn validate_dome(&self, check: &Check) -> Result<()> {
         let d = &self.dome;
-        finite("dome.outer_radius_mm", d.outer_radius_mm)?;
-        finite("dome.skin_thickness_mm", d.skin_thickness_mm)?;
+        check.finite("dome.outer_radius_mm", d.outer_radius_mm)?;
+        check.finite("dome.skin_thickness_mm", d.skin_thickness_mm)?;
         if !(d.outer_radius_mm > 0.0 && d.outer_radius_mm <= 1000.0) {
-            return bad("dome.outer_radius_mm", format!("must be in (0, 1000] mm, got {}", d.outer_radius_mm));
+            return check.bad("dome.outer_radius_mm", format!("must be in (0, 1000] mm, got {}", d.outer_radius_mm));
         }
         if !(d.skin_thickness_mm > 0.0 && d.skin_thickness_mm < 0.5 * d.outer_radius_mm) {
-            return bad(
+            return check.bad(
                 "dome.skin_thickness_mm",
                 format!("must be in (0, outer_radius/2 = {}) mm, got {}", 0.5 * d.outer_radius_mm, d.skin_thickness_mm),
             );
         }
+        Ok(())
+    }
+
+    /// The `[pins]` table, and that the pin tips stay off the dome's centre.
+    fn validate_pins(&self, check: &Check) -> Result<()> {
         let p = &self.pins;
         for (field, v) in [
             ("pins.length_mm", p.length_mm),
@@ -478,26 +491,26 @@ impl SensorParams {
             ("pins.phase_deg", p.phase_deg),
             ("pins.patch_radius_mm", p.patch_radius_mm),
         ] {
-            finite(field, v)?;
+            check.finite(field, v)?;
         }
         if !(0.0..=MAX_PATCH_RADIUS_MM).contains(&p.patch_radius_mm) {
-            return bad(
+            return check.bad(
                 "pins.patch_radius_mm",
                 format!("must be in [0, {MAX_PATCH_RADIUS_MM}] mm, got {}", p.patch_radius_mm),
             );
         }
         if p.rings > MAX_RINGS {
-            return bad("pins.rings", format!("must be at most {MAX_RINGS}, got {}", p.rings));
+            return check.bad("pins.rings", format!("must be at most {MAX_RINGS}, got {}", p.rings));
         }
         if p.length_mm < 0.0 {
-            return bad("pins.length_mm", format!("must be >= 0 mm, got {}", p.length_mm));
+            return check.bad("pins.length_mm", format!("must be >= 0 mm, got {}", p.length_mm));
         }
         if p.tip_radius_mm <= 0.0 {
-            return bad("pins.tip_radius_mm", format!("must be > 0 mm, got {}", p.tip_radius_mm));
+            return check.bad("pins.tip_radius_mm", format!("must be > 0 mm, got {}", p.tip_radius_mm));
         }
         let rho = self.tip_radius_from_centre_mm();
         if rho <= p.tip_radius_mm {
-            return bad(
+            return check.bad(
                 "pins.length_mm",
                 format!(
                     "pin tips would reach the dome centre: outer_radius - skin_thickness - length = {rho:.3} mm must exceed tip_radius {} mm",
@@ -506,21 +519,21 @@ impl SensorParams {
             );
         }
         if p.phase_deg.abs() > 360.0 {
-            return bad("pins.phase_deg", format!("must be in [-360, 360] deg, got {}", p.phase_deg));
+            return check.bad("pins.phase_deg", format!("must be in [-360, 360] deg, got {}", p.phase_deg));
         }
         match &p.ring_polar_deg {
             Some(list) => {
                 if list.len() != p.rings as usize {
-                    return bad(
+                    return check.bad(
                         "pins.ring_polar_deg",
                         format!("must list {} angles (one per ring), got {}", p.rings, list.len()),
                     );
                 }
                 let mut prev = 0.0;
                 for (i, &a) in list.iter().enumerate() {
-                    finite(&format!("pins.ring_polar_deg[{i}]"), a)?;
+                    check.finite(&format!("pins.ring_polar_deg[{i}]"), a)?;
                     if !(a > prev && a < 90.0) {
-                        return bad(
+                        return check.bad(
                             &format!("pins.ring_polar_deg[{i}]"),
                             format!("ring angles must increase strictly within (0, 90) deg, got {a} after {prev}"),
                         );
@@ -530,7 +543,7 @@ impl SensorParams {
             }
             None => {
                 if p.rings > 0 && !(p.ring_pitch_deg > 0.0 && p.ring_pitch_deg * p.rings as f64 <= 89.0) {
-                    return bad(
+                    return check.bad(
                         "pins.ring_pitch_deg",
                         format!(
                             "must be > 0 with rings * pitch <= 89 deg (pins on the hemisphere), got {} x {}",
@@ -540,6 +553,11 @@ impl SensorParams {
                 }
             }
         }
+        Ok(())
+    }
+
+    /// The `[camera]` table.
+    fn validate_camera(&self, check: &Check) -> Result<()> {
         let c = &self.camera;
         for (field, v) in [
             ("camera.distance_mm", c.distance_mm),
@@ -549,31 +567,34 @@ impl SensorParams {
             ("camera.k1", c.k1),
             ("camera.k2", c.k2),
         ] {
-            finite(field, v)?;
+            check.finite(field, v)?;
         }
         if !(c.fov_deg > 1.0 && c.fov_deg < 179.0) {
-            return bad("camera.fov_deg", format!("must be in (1, 179) deg, got {}", c.fov_deg));
+            return check.bad("camera.fov_deg", format!("must be in (1, 179) deg, got {}", c.fov_deg));
         }
         for (i, o) in c.principal_offset.iter().enumerate() {
             if o.abs() > 0.5 {
-                return bad(
+                return check.bad(
                     &format!("camera.principal_offset[{i}]"),
                     format!("must be in [-0.5, 0.5] (fraction of the image size), got {o}"),
                 );
             }
         }
         if c.k1.abs() > 1.0 || c.k2.abs() > 1.0 {
-            return bad(
-                "camera.k1",
-                format!("distortion coefficients must be in [-1, 1], got k1 {} k2 {}", c.k1, c.k2),
-            );
+            return check
+                .bad("camera.k1", format!("distortion coefficients must be in [-1, 1], got k1 {} k2 {}", c.k1, c.k2));
         }
         if !(IMAGE_SIZE_RANGE.0..=IMAGE_SIZE_RANGE.1).contains(&c.image_size) {
-            return bad(
+            return check.bad(
                 "camera.image_size",
                 format!("must be in [{}, {}] px, got {}", IMAGE_SIZE_RANGE.0, IMAGE_SIZE_RANGE.1, c.image_size),
             );
         }
+        Ok(())
+    }
+
+    /// The `[framing]` table.
+    fn validate_framing(&self, check: &Check) -> Result<()> {
         let f = &self.framing;
         for (field, v, max) in [
             ("framing.rim_radius", f.rim_radius, FRAMING_RADIUS_MAX),
@@ -583,33 +604,39 @@ impl SensorParams {
             if let Some(v) = v
                 && !(v.is_finite() && v > 0.0 && v <= max)
             {
-                return bad(field, format!("must be in (0, {max}] (fraction of the image size), got {v}"));
+                return check.bad(field, format!("must be in (0, {max}] (fraction of the image size), got {v}"));
             }
         }
         if f.rim_radius.is_some() != f.rim_width.is_some() {
-            return bad(
+            return check.bad(
                 if f.rim_radius.is_some() { "framing.rim_width" } else { "framing.rim_radius" },
                 "the rim needs both framing.rim_radius and framing.rim_width (fractions of the image size)".to_owned(),
             );
         }
+        Ok(())
+    }
+
+    /// The `[skin]` table.
+    fn validate_skin(&self, check: &Check) -> Result<()> {
         let k = &self.skin;
-        finite("skin.youngs_modulus_mpa", k.youngs_modulus_mpa)?;
-        finite("skin.poisson", k.poisson)?;
+        check.finite("skin.youngs_modulus_mpa", k.youngs_modulus_mpa)?;
+        check.finite("skin.poisson", k.poisson)?;
         if !(k.youngs_modulus_mpa > 0.0 && k.youngs_modulus_mpa <= 1.0e6) {
-            return bad("skin.youngs_modulus_mpa", format!("must be in (0, 1e6] MPa, got {}", k.youngs_modulus_mpa));
+            return check
+                .bad("skin.youngs_modulus_mpa", format!("must be in (0, 1e6] MPa, got {}", k.youngs_modulus_mpa));
         }
         if !(0.0..=0.5).contains(&k.poisson) {
-            return bad("skin.poisson", format!("must be in [0, 0.5], got {}", k.poisson));
+            return check.bad("skin.poisson", format!("must be in [0, 0.5], got {}", k.poisson));
         }
         if !(5..=401).contains(&k.cells_across) || k.cells_across.is_multiple_of(2) {
-            return bad("skin.cells_across", format!("must be odd and in [5, 401], got {}", k.cells_across));
+            return check.bad("skin.cells_across", format!("must be odd and in [5, 401], got {}", k.cells_across));
         }
-        finite("skin.base_depth_mm", k.base_depth_mm)?;
-        finite("skin.gel_youngs_modulus_mpa", k.gel_youngs_modulus_mpa)?;
-        finite("skin.gel_poisson", k.gel_poisson)?;
+        check.finite("skin.base_depth_mm", k.base_depth_mm)?;
+        check.finite("skin.gel_youngs_modulus_mpa", k.gel_youngs_modulus_mpa)?;
+        check.finite("skin.gel_poisson", k.gel_poisson)?;
         let t = self.dome.skin_thickness_mm;
         if !(k.base_depth_mm > 2.0 * t && k.base_depth_mm <= 10.0 * self.dome.outer_radius_mm) {
-            return bad(
+            return check.bad(
                 "skin.base_depth_mm",
                 format!(
                     "must be in (2 skin_thickness = {}, 10 outer_radius = {}] mm, got {}",
@@ -620,23 +647,29 @@ impl SensorParams {
             );
         }
         if !(k.gel_youngs_modulus_mpa > 0.0 && k.gel_youngs_modulus_mpa <= 1.0e6) {
-            return bad(
+            return check.bad(
                 "skin.gel_youngs_modulus_mpa",
                 format!("must be in (0, 1e6] MPa, got {}", k.gel_youngs_modulus_mpa),
             );
         }
         if !(0.0..=0.5).contains(&k.gel_poisson) {
-            return bad("skin.gel_poisson", format!("must be in [0, 0.5], got {}", k.gel_poisson));
+            return check.bad("skin.gel_poisson", format!("must be in [0, 0.5], got {}", k.gel_poisson));
         }
         if !(0.0..=MAX_DOME_SLOPE).contains(&k.dome_slope) {
-            return bad("skin.dome_slope", format!("must be in [0, {MAX_DOME_SLOPE}], got {}", k.dome_slope));
+            return check.bad("skin.dome_slope", format!("must be in [0, {MAX_DOME_SLOPE}], got {}", k.dome_slope));
         }
-        // Every pin tip must be in front of the camera, and the distortion must stay monotonic
-        // over the part of the field the pins use (otherwise the image folds over).
+        Ok(())
+    }
+
+    /// The pins as the camera sees them: every tip in front of it, and the distortion monotonic
+    /// over the part of the field the pins use (otherwise the image folds over).
+    fn validate_geometry(&self, check: &Check) -> Result<()> {
+        let (c, p) = (&self.camera, &self.pins);
+        let rho = self.tip_radius_from_centre_mm();
         let theta_max = self.ring_polar_rad().last().copied().unwrap_or(0.0);
         let z_min = rho * theta_max.cos() + c.distance_mm - p.tip_radius_mm;
         if z_min <= 1e-3 {
-            return bad(
+            return check.bad(
                 "camera.distance_mm",
                 format!(
                     "the outer pins ({:.2} mm above the dome centre) would be behind the camera: increase distance_mm",
@@ -647,12 +680,27 @@ impl SensorParams {
         let r_max = rho * theta_max.sin() / (rho * theta_max.cos() + c.distance_mm);
         let slope = |r: f64| 1.0 + 3.0 * c.k1 * r * r + 5.0 * c.k2 * r.powi(4);
         if (0..=20).any(|i| slope(r_max * i as f64 / 20.0) <= 0.0) {
-            return bad(
+            return check.bad(
                 "camera.k1",
                 "radial distortion folds the image over within the pin field: reduce |k1|, |k2|".to_owned(),
             );
         }
         Ok(())
+    }
+}
+
+/// The range checks of one sensor file: each error names the file, the field and the range.
+struct Check<'a>(&'a str);
+
+impl Check<'_> {
+    /// An error for `field`.
+    fn bad(&self, field: &str, reason: String) -> Result<()> {
+        Err(SimError::invalid(self.0, field, reason))
+    }
+
+    /// `v` must be finite.
+    fn finite(&self, field: &str, v: f64) -> Result<()> {
+        if v.is_finite() { Ok(()) } else { self.bad(field, format!("must be a finite number, got {v}")) }
     }
 }
 
