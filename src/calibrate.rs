@@ -14,7 +14,7 @@ use tacsim_sim::atomic::write_atomic;
 use tacsim_sim::calibrate::camera::fit_camera_only;
 use tacsim_sim::calibrate::fitting::{FitOptions, Problem, Split, calibrate as fit};
 use tacsim_sim::calibrate::observe::Observations;
-use tacsim_sim::calibrate::reference::{Reference, ReferenceSource};
+use tacsim_sim::calibrate::reference::{ConsensusRule, Reference, ReferenceSource};
 use tacsim_sim::calibrate::report::{comparison_row, held_out, markdown};
 use tacsim_sim::calibration::ring_table;
 use tacsim_sim::sensor::{SensorParams, SkinModel};
@@ -37,10 +37,14 @@ pub struct CalibrateOptions {
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// The undeformed reference image under images/ (default: image_0.png where it exists,
-    /// else the pixel-wise majority of the shallowest 5% of the recordings, at least 30; 20 of
-    /// the surface recordings left a layout the ring grouping could not read).
+    /// else the consensus of the recordings by --consensus).
     #[arg(long)]
     pub reference: Option<String>,
+    /// Without a reference image, whose pixel-wise majority stands in for it: `alike`, the 30
+    /// most alike of the shallowest half (taps that touch nothing, where there are some), or
+    /// `shallowest`, the shallowest 5% (at least 30), pressed or not.
+    #[arg(long, default_value = "alike", value_name = "RULE")]
+    pub consensus: ConsensusRule,
     /// Fit the camera, ring layout and image framing (rim, mask) to the reference only: a
     /// preset at the recordings' image size, for a TacTip whose recordings are not of a flat
     /// surface.
@@ -91,7 +95,7 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     {
         crate::commands::ensure_writable(dir)?;
     }
-    let reference = Reference::of(&folder, o.reference.as_deref())?;
+    let reference = Reference::of(&folder, o.reference.as_deref(), o.consensus)?;
     // The edge's stimulus and contact point are checked before any tracking.
     let edge = o.edge.as_deref().map(|shape| crate::edge_fit::edge_stimulus(shape, o.edge_contact)).transpose()?;
     if o.camera_only {
@@ -159,10 +163,10 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         cells: opts.cells,
     };
     let calib = fit(&problem, &split, &opts, &progress).with_context(|| match &reference.source {
-        ReferenceSource::Consensus(names) => format!(
-            "the reference is the consensus of the {} most alike shallow recordings: where those presses move the pins too \
-             much for a clear layout, name an undeformed image with --reference or record a few shallow presses",
-            names.len()
+        ReferenceSource::Consensus(rule, names) => format!(
+            "the reference is the consensus of the {}: where those presses move the pins too much for a clear \
+             layout, name an undeformed image with --reference or record a few shallow presses",
+            rule.describe(names.len())
         ),
         ReferenceSource::Image(name) => format!("fitting against the reference {name}"),
     })?;

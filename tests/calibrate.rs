@@ -160,7 +160,7 @@ fn the_consensus_of_the_shallowest_presses_stands_in_for_the_undeformed_image() 
     let Some(real) = lab_folder("real-tactip-surface3d") else { return };
     let lab = tacsim_data::LabFolder::open(&real).expect("lab folder");
     let truth = pin_centres(&Reference::image(&lab, "image_0.png").expect("image_0").image);
-    let consensus = Reference::consensus(&lab).expect("consensus");
+    let consensus = Reference::consensus(&lab, Default::default()).expect("consensus");
     let found = pin_centres(&consensus.image);
     // Each true pin's nearest consensus pin, within half a spacing (17.5 px at 420).
     let near: Vec<f64> = truth
@@ -214,7 +214,8 @@ fn camera_only_recovers_a_simulated_sensor_from_framed_non_square_images_without
     // Rendered, the fitted sensor draws the same image (but for boundary pixels).
     let again = PinRenderer::new(&fitted, 136).expect("renderable").render_undeformed();
     let folder = tacsim_data::LabFolder::open(&lab).expect("lab folder");
-    let framed = tacsim_sim::calibrate::reference::Reference::of(&folder, None).expect("reference").image;
+    let framed =
+        tacsim_sim::calibrate::reference::Reference::of(&folder, None, Default::default()).expect("reference").image;
     let differ = again.as_raw().iter().zip(framed.as_raw()).filter(|(a, b)| a != b).count();
     assert!(differ < 400, "{differ} of {} pixels differ", 136 * 136);
     let md = std::fs::read_to_string(dir.join("fitted-report/report.md")).expect("report.md");
@@ -228,7 +229,19 @@ fn the_edge2d_preset_is_what_camera_only_makes_of_the_edge_recordings() {
     let dir = temp_dir("calibrate", "edge2d");
     let preset = dir.join("tactip-331-edge2d.toml");
     let base = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/calibration-edge2d/base.toml");
-    let o = tacsim(&["calibrate", "--real", s(&real), "--camera-only", "--sensor", s(&base), "-o", s(&preset), "-q"]);
+    let o = tacsim(&[
+        "calibrate",
+        "--real",
+        s(&real),
+        "--camera-only",
+        "--consensus",
+        "shallowest",
+        "--sensor",
+        s(&base),
+        "-o",
+        s(&preset),
+        "-q",
+    ]);
     assert!(o.status.success(), "calibrate failed: {}", String::from_utf8_lossy(&o.stderr));
     let fitted = SensorParams::load(&preset).expect("preset");
     assert_eq!(
@@ -245,6 +258,25 @@ fn the_edge2d_preset_is_what_camera_only_makes_of_the_edge_recordings() {
         .and_then(|v| v.parse().ok())
         .expect("RMS in the summary");
     assert!(rms < 0.5, "{summary}");
+}
+
+#[test]
+fn the_alike_consensus_of_the_edge_taps_is_of_taps_that_touch_nothing() {
+    // Regression: the shallowest 75 of the edge taps press the material, so their majority
+    // is a pressed layout; the most alike shallow taps are those beside the edge that touch
+    // nothing (lab lateral `pose_2` below -4 mm: the material lies on the positive side).
+    use tacsim_sim::calibrate::reference::{ConsensusRule, Reference, ReferenceSource};
+    let Some(real) = lab_folder("real-tactip-edge2d") else { return };
+    let lab = tacsim_data::LabFolder::open(&real).expect("lab folder");
+    let lateral: std::collections::HashMap<&str, f64> =
+        lab.samples.iter().map(|s| (s.image.as_str(), s.pose[1])).collect();
+    for (rule, off) in [(ConsensusRule::Alike, true), (ConsensusRule::Shallowest, false)] {
+        let r = Reference::consensus(&lab, rule).expect("consensus");
+        let ReferenceSource::Consensus(_, names) = &r.source else { panic!("{:?}", r.source) };
+        let beside = names.iter().filter(|n| lateral[n.as_str()] < -4.0).count();
+        eprintln!("{rule:?}: {beside} of {} taps more than 4 mm off the material", names.len());
+        assert_eq!(beside == names.len(), off, "{rule:?}: {beside} of {}", names.len());
+    }
 }
 
 /// `--edge`: taps simulated on the square's rounded edge with a known label map (lateral

@@ -292,7 +292,9 @@ pub const CAMERA_ONLY_PRESET: &str = include_str!("../presets/tactip-331-camera.
 
 /// The TacTip of the edge recordings (`../shared/data/real-tactip-edge2d/`): camera, ring
 /// layout and framing (128 px, rim visible) fitted by `tacsim calibrate --camera-only` to the
-/// consensus of its taps that touch nothing, from `docs/calibration-edge2d/base.toml`: the calibrated
+/// consensus of its 75 shallowest taps (`--consensus shallowest`: a pressed layout, which
+/// simulator-trained networks read the real taps far better with than with the layout of its
+/// taps that touch nothing, `docs/guide/sim2real.md`), from `docs/calibration-edge2d/base.toml`: the calibrated
 /// default's skin and pins, the dome's radius (40 mm, an effective contact radius) chosen by
 /// the edge taps (`docs/guide/sim2real.md`).
 pub const EDGE2D_PRESET: &str = include_str!("../presets/tactip-331-edge2d.toml");

@@ -278,7 +278,7 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
     use tacsim_sim::calibrate::observe::Observations;
     let dir = args.real.clone().unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d"));
     let lab = tacsim_data::LabFolder::open(&dir)?;
-    let reference = tacsim_sim::calibrate::reference::Reference::of(&lab, None)?;
+    let reference = tacsim_sim::calibrate::reference::Reference::of(&lab, None, Default::default())?;
     let obs = Observations::track(&lab, &reference)?;
     let n = obs.reference.len();
     let tracked: Vec<usize> = obs.samples.iter().map(|o| n - o.tracking.unmatched()).collect();

@@ -31,6 +31,40 @@ use crate::png_io::read_png;
 
 /// The conventional name of the undeformed reference in a lab folder's `images/`.
 pub const DEFAULT_REFERENCE: &str = "image_0.png";
+/// Which recordings a consensus reference is the majority of.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ConsensusRule {
+    /// The [`CONSENSUS_MIN`] most alike of the shallowest half ([`Reference::consensus`]):
+    /// taps that touch nothing, where the folder holds some.
+    #[default]
+    Alike,
+    /// The shallowest 5% (at least [`CONSENSUS_MIN`]), whatever they touch: the rule before
+    /// `Alike`. On the edge taps those press the material, so the layout is a pressed one.
+    Shallowest,
+}
+
+impl ConsensusRule {
+    /// The recordings a consensus of `n` by this rule takes, in words.
+    pub fn describe(self, n: usize) -> String {
+        match self {
+            Self::Alike => format!("{n} most alike shallow recordings"),
+            Self::Shallowest => format!("{n} shallowest recordings"),
+        }
+    }
+}
+
+impl std::str::FromStr for ConsensusRule {
+    type Err = String;
+
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "alike" => Ok(Self::Alike),
+            "shallowest" => Ok(Self::Shallowest),
+            _ => Err(format!("unknown consensus rule `{s}`: accepted `alike`, `shallowest`")),
+        }
+    }
+}
+
 /// How many recordings a consensus reference is built from (or all, when fewer).
 pub const CONSENSUS_MIN: usize = 30;
 /// Most recordings a consensus reference is chosen among (the shallowest).
@@ -139,8 +173,8 @@ impl SquareCrop {
 pub enum ReferenceSource {
     /// An undeformed image of the folder.
     Image(String),
-    /// The consensus of these recordings (image names, shallowest first).
-    Consensus(Vec<String>),
+    /// The consensus of these recordings (image names) by this rule.
+    Consensus(ConsensusRule, Vec<String>),
 }
 
 /// The undeformed reference of a lab folder, cut square.
@@ -158,13 +192,13 @@ pub struct Reference {
 
 impl Reference {
     /// The reference of `folder`: the image `name` under `images/`; without a name,
-    /// `image_0.png` where it exists, else the consensus of the shallowest recordings.
-    pub fn of(folder: &LabFolder, name: Option<&str>) -> Result<Self> {
+    /// `image_0.png` where it exists, else the consensus of the recordings by `rule`.
+    pub fn of(folder: &LabFolder, name: Option<&str>, rule: ConsensusRule) -> Result<Self> {
         let default = folder.dir.join("images").join(DEFAULT_REFERENCE);
         match name {
             Some(n) => Self::image(folder, n),
             None if default.is_file() => Self::image(folder, DEFAULT_REFERENCE),
-            None => Self::consensus(folder),
+            None => Self::consensus(folder, rule),
         }
     }
 
@@ -189,10 +223,16 @@ impl Reference {
     /// whose [`CONSENSUS_MIN`]-th nearest other (pixels that differ) is nearest, with those
     /// nearest others ([`CONSENSUS_MIN`] recordings in all, or every one when fewer). Ties go
     /// to the shallower recording, so the choice does not depend on the order of the rows.
-    pub fn consensus(folder: &LabFolder) -> Result<Self> {
+    /// With [`ConsensusRule::Shallowest`], the majority of the shallowest 5% (at least
+    /// [`CONSENSUS_MIN`]).
+    pub fn consensus(folder: &LabFolder, rule: ConsensusRule) -> Result<Self> {
         let mut order: Vec<&LabSample> = folder.samples.iter().collect();
         order.sort_by(|a, b| a.pose[2].total_cmp(&b.pose[2]).then_with(|| a.image.cmp(&b.image)));
-        order.truncate((order.len() / 2).clamp(CONSENSUS_MIN, CONSENSUS_POOL).min(order.len()));
+        let n = order.len();
+        order.truncate(match rule {
+            ConsensusRule::Alike => (n / 2).clamp(CONSENSUS_MIN, CONSENSUS_POOL).min(n),
+            ConsensusRule::Shallowest => (n / 20).max(CONSENSUS_MIN).min(n),
+        });
         let first = folder.image_path(order[0]);
         let mut size = None;
         let mut bits: Vec<Vec<u64>> = Vec::with_capacity(order.len());
@@ -214,7 +254,10 @@ impl Reference {
             bits.push(packed(&img));
         }
         let (w, h) = size.unwrap_or((0, 0));
-        let group = tightest_group(&bits, CONSENSUS_MIN);
+        let group = match rule {
+            ConsensusRule::Alike => tightest_group(&bits, CONSENSUS_MIN),
+            ConsensusRule::Shallowest => (0..bits.len()).collect(),
+        };
         let n = group.len();
         let raw = GrayImage::from_fn(w, h, |x, y| {
             let i = (y * w + x) as usize;
@@ -222,7 +265,7 @@ impl Reference {
             image::Luma([if 2 * votes > n { 255 } else { 0 }])
         });
         let names = group.iter().map(|&g| order[g].image.clone()).collect();
-        Self::framed(raw, &folder.dir.join("images"), ReferenceSource::Consensus(names))
+        Self::framed(raw, &folder.dir.join("images"), ReferenceSource::Consensus(rule, names))
     }
 
     fn framed(raw: GrayImage, path: &std::path::Path, source: ReferenceSource) -> Result<Self> {
@@ -241,7 +284,7 @@ impl Reference {
     pub fn image_name(&self) -> Option<&str> {
         match &self.source {
             ReferenceSource::Image(n) => Some(n),
-            ReferenceSource::Consensus(_) => None,
+            ReferenceSource::Consensus(..) => None,
         }
     }
 
@@ -264,8 +307,8 @@ impl Reference {
         };
         match &self.source {
             ReferenceSource::Image(n) => format!("undeformed image {n}{framing}"),
-            ReferenceSource::Consensus(names) => {
-                format!("consensus (pixel-wise majority) of the {} most alike shallow recordings{framing}", names.len())
+            ReferenceSource::Consensus(rule, names) => {
+                format!("consensus (pixel-wise majority) of the {}{framing}", rule.describe(names.len()))
             }
         }
     }
