@@ -35,19 +35,23 @@ def is_held_out(name):
     return h % 5 == 0
 
 
-def consensus(images, depth, k=30, pool=600):
-    """The pixel-wise majority of the k most alike of the shallowest half (at most `pool`), as
-    `tacsim calibrate` builds a folder's reference (`Reference::consensus`): the image whose
-    (k-1)-th nearest other is nearest, with those others. (Ties in depth here go by row order,
-    there by image name.)"""
+def alike_group(images, depth, k=30, pool=600):
+    """The indices of the k most alike of the shallowest half (at most `pool`), as `tacsim
+    calibrate` chooses a folder's reference (`Reference::consensus`): the image whose (k-1)-th
+    nearest other is nearest, with those others. (Ties in depth here go by row order, there by
+    image name.)"""
     order = np.argsort(depth, kind="stable")[: min(max(len(depth) // 2, k), pool)]
     packed = np.packbits(images[order].reshape(len(order), -1), axis=1)
     table = np.array([np.unpackbits(p ^ packed, axis=1).sum(1) for p in packed])
     np.fill_diagonal(table, np.iinfo(np.int64).max)
     near = np.sort(table, 1)[:, k - 2]
     best = int(np.argmin(near))
-    group = np.concatenate([[best], np.argsort(table[best], kind="stable")[: k - 1]])
-    return images[order[group]].mean(0) > 0.5
+    return order[np.concatenate([[best], np.argsort(table[best], kind="stable")[: k - 1]])]
+
+
+def consensus(images, depth, k=30, pool=600):
+    """The pixel-wise majority of the [`alike_group`]."""
+    return images[alike_group(images, depth, k, pool)].mean(0) > 0.5
 
 
 def changes(images, reference):

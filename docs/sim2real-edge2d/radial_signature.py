@@ -18,7 +18,7 @@ map's offset (lab = OFFSET - simulated x), and only its taps within the lab's -6
 used. Needs numpy, pillow, scipy.
 
     python3 docs/sim2real-edge2d/radial_signature.py real ../shared/data/real-tactip-edge2d [- REFERENCE]
-    python3 docs/sim2real-edge2d/radial_signature.py sim target/sim2real-edge2d/sim 2.74 [REFERENCE]
+    python3 docs/sim2real-edge2d/radial_signature.py sim target/sim2real-edge2d/sim 2.74 [REFERENCE [DEPTH_SHIFT]]
 """
 import csv
 import sys
@@ -29,7 +29,7 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from image_change_fit import consensus as majority  # noqa: E402
+from image_change_fit import alike_group  # noqa: E402
 
 CENTRE = np.array([64.4, 64.5])
 
@@ -57,13 +57,14 @@ def radial(found, reference, tree):
     return along[r > 30].mean(), along[(r > 10) & (r < 25)].mean()
 
 
-def main(kind, folder, offset="-", reference="alike"):
+def main(kind, folder, offset="-", reference="alike", depth_shift="0"):
     rows = list(csv.DictReader(open(f"{folder}/targets.csv")))
     if kind == "real":
         depth = np.array([float(r["pose_3"]) for r in rows])
         lateral = np.array([float(r["pose_2"]) for r in rows])
     else:
-        depth = np.array([float(r["pose_z"]) for r in rows])
+        # DEPTH_SHIFT (mm) puts labels that are the indentation into the lab's pose_3.
+        depth = np.array([float(r["pose_z"]) + float(depth_shift) for r in rows])
         lateral = float(offset) - np.array([float(r["pose_x"]) for r in rows])
         # The lab's range only, so that both consensus images come from the same span.
         keep = np.abs(lateral) <= 6.0
@@ -73,7 +74,19 @@ def main(kind, folder, offset="-", reference="alike"):
     if reference == "shallowest":
         consensus = np.array(images)[np.argsort(depth)[:75]].mean(0) > 0.5
     elif kind == "real":
-        consensus = majority(np.array(images), depth)
+        stack = np.array(images)
+        group = alike_group(stack, depth)
+        consensus = stack[group].mean(0) > 0.5
+        # How alike the chosen taps are, and how far the old rule's reference lies from them.
+        ring = np.hypot(*(np.mgrid[0:128, 0:128][::-1] - CENTRE[:, None, None] + 0.5)) < 46
+        pairs = [(stack[i] ^ stack[j])[ring].mean() for n, i in enumerate(group) for j in group[n + 1 :]]
+        old = stack[np.argsort(depth)[:75]].mean(0) > 0.5
+        print(
+            f"reference: the {len(group)} most alike of the shallowest half, lateral "
+            f"{lateral[group].min():+.1f}..{lateral[group].max():+.1f} mm, pose_3 <= {depth[group].max():.2f} mm; "
+            f"they differ from each other in {np.mean(pairs):.2%} of the pin field's pixels, "
+            f"from the majority of the 75 shallowest (the old rule) in {np.mean([(stack[i] ^ old)[ring].mean() for i in group]):.2%}"
+        )
     else:
         consensus = load(f"{folder}/images/image_0.png")
     reference = pins(consensus)

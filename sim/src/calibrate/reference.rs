@@ -8,7 +8,7 @@
 //! neighbours ([`Reference::consensus`]). Taps that touch nothing are alike whatever their yaw
 //! and lateral offset, so where a folder holds some they are the tightest group: on the edge
 //! taps (1,500, no undeformed image) the group is 30 taps 4.4-6 mm beside the edge (their
-//! images differ from each other by 0.5% of the pixels), where the 75 shallowest, which an
+//! images differ from each other in 0.8% of the pin field's pixels), where the 75 shallowest, which an
 //! earlier rule took, had pressed the material and moved the central pins by up to 0.4 px
 //! (`docs/guide/sim2real.md`). Where every recording presses, the tightest group is of the
 //! shallowest flat presses. Presses that all touch the same pins do not suit it: on the
@@ -219,9 +219,8 @@ impl Reference {
 
     /// The pixel-wise majority of the most alike shallow recordings: of the shallowest half
     /// (smallest `pose z`; ties by image name; at least [`CONSENSUS_MIN`], at most
-    /// [`CONSENSUS_POOL`]), the recording
-    /// whose [`CONSENSUS_MIN`]-th nearest other (pixels that differ) is nearest, with those
-    /// nearest others ([`CONSENSUS_MIN`] recordings in all, or every one when fewer). Ties go
+    /// [`CONSENSUS_POOL`]), the recording whose [`CONSENSUS_MIN`]-th nearest other (pixels
+    /// that differ) is nearest, with those nearest others ([`CONSENSUS_MIN`] recordings in all, or every one when fewer). Ties go
     /// to the shallower recording, so the choice does not depend on the order of the rows.
     /// With [`ConsensusRule::Shallowest`], the majority of the shallowest 5% (at least
     /// [`CONSENSUS_MIN`]).
