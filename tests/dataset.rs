@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use tacsim_data::loader::Subset;
+use tacsim_data::Subset;
 use tacsim_data::{Dataset, Kind, Split};
 
 mod common;

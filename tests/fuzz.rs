@@ -193,7 +193,7 @@ proptest! {
         let body = std::iter::once(header.to_owned()).chain(rows.iter().map(|r| r.join(","))).collect::<Vec<_>>().join("\n");
         for text in [t, body] {
             std::fs::write(dir.join("targets.csv"), text).expect("write");
-            let _ = tacsim_data::row::read_csv(&dir.join("targets.csv"));
+            let _ = tacsim_data::read_csv(&dir.join("targets.csv"));
             let _ = tacsim_data::LabFolder::open(&dir);
         }
         let _ = std::fs::remove_dir_all(&dir);

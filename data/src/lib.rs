@@ -12,17 +12,18 @@
 //! (depth `pose_z` below the stimulus's top face); `shear_*` is the touch-down offset of a
 //! slide (the sensor touched down at `pose + shear` and slid to `pose`), zero for taps.
 
-pub mod atomic;
-pub mod column;
-pub mod error;
-pub mod lab;
-pub mod loader;
-pub mod meta;
-pub mod row;
+mod atomic;
+mod column;
+mod error;
+mod lab;
+mod loader;
+mod meta;
+mod row;
 
+pub use atomic::{is_temp_name, temp_path, write_atomic, write_atomic_unsynced};
 pub use column::Column;
 pub use error::{DataError, Result};
 pub use lab::{LabFolder, LabSample};
 pub use loader::{Dataset, Subset};
 pub use meta::{Meta, PoseFrame, Shard};
-pub use row::{Kind, Row, Split};
+pub use row::{Kind, Row, Split, read_csv, to_csv};

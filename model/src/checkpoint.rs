@@ -23,7 +23,7 @@ use burn::tensor::Tensor;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
-use tacsim_data::atomic::temp_path;
+use tacsim_data::temp_path;
 
 use crate::error::{ModelError, Result};
 
@@ -41,9 +41,9 @@ pub fn canonical_ids<M: Module>(module: M) -> M {
     module.map(&mut Renumber(0))
 }
 
-/// Writes `bytes` to `path` atomically (`tacsim_data::atomic`: temporary file, fsync, rename).
+/// Writes `bytes` to `path` atomically (`tacsim_data::write_atomic`: temporary file, fsync, rename).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    Ok(tacsim_data::atomic::write_atomic(path, bytes)?)
+    Ok(tacsim_data::write_atomic(path, bytes)?)
 }
 
 /// Writes a value as pretty JSON, atomically.

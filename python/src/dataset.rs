@@ -6,7 +6,7 @@ use numpy::{PyArray1, PyArray2, PyArray3, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
-use tacsim_data::loader::Subset;
+use tacsim_data::Subset;
 use tacsim_data::{Dataset, Kind, Row, Split};
 
 use crate::data_err;

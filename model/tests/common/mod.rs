@@ -8,7 +8,7 @@
 use std::path::{Path, PathBuf};
 
 use image::{GrayImage, Luma};
-use tacsim_data::row::to_csv;
+use tacsim_data::to_csv;
 use tacsim_data::{Kind, Meta, Row, Split};
 
 /// A fresh scratch directory for a test.

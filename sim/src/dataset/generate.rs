@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 use serde::Serialize;
-use tacsim_data::row::to_csv;
+use tacsim_data::to_csv;
 use tacsim_data::{Kind, Meta, Row, Shard};
 
 use super::plan::{Plan, REFERENCE_IMAGE, Sample, image_name};

@@ -1,0 +1,50 @@
+#!/bin/sh
+# How far an edge contact reaches the pins, screened in seconds per candidate (issue 30): each
+# candidate is the edge preset (its camera and pressed layout kept) with one change, 1,500 taps
+# of the edge-2d recipe, compared with the real taps by ring_response.py at the sim2real map's
+# lateral offset (2.74 mm). With GEL=1 the candidates include a load-proportional dilation of
+# the pin field (`pins.gel_dilation_per_n`), which needs a binary built with
+# docs/sim2real-edge2d/spread.patch applied (`git apply`); the option is not in tacsim.
+#
+#   cargo build --release && sh docs/sim2real-edge2d/reach.sh target/reach
+set -eu
+W=$1
+REAL=${REAL:-../shared/data/real-tactip-edge2d}
+TACSIM=${TACSIM:-target/release/tacsim}
+PRESET=sim/presets/tactip-331-edge2d.toml
+mkdir -p "$W"
+W=$(cd "$W" && pwd)
+
+# name | sed expressions (;-separated) on the preset
+CANDIDATES="
+preset|
+skin-on-gel|s/^model = .*/model = \"skin-on-gel\"/
+skin-on-gel-0.02|s/^model = .*/model = \"skin-on-gel\"/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.02/
+skin-on-gel-0.002|s/^model = .*/model = \"skin-on-gel\"/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.002/
+layer|s/^model = .*/model = \"layer\"/
+patch-3|s/^patch_radius_mm = .*/patch_radius_mm = 3.0/
+patch-5|s/^patch_radius_mm = .*/patch_radius_mm = 5.0/
+lever-1.4|s/^length_mm = .*/length_mm = 1.4/
+poisson-0.30|s/^poisson = .*/poisson = 0.3/
+poisson-0.49|s/^poisson = .*/poisson = 0.49/
+"
+if [ "${GEL:-0}" = 1 ]; then
+    for k in 0.00002 0.0001 0.0002 0.001; do
+        CANDIDATES="$CANDIDATES
+gel-$k|s/^patch_radius_mm = 1.5/patch_radius_mm = 1.5\ngel_dilation_per_n = $k/"
+    done
+fi
+
+SETS=""
+for line in $(printf "%s\n" "$CANDIDATES" | sed 's/ /@/g'); do
+    name=${line%%|*}
+    expr=$(printf "%s" "${line#*|}" | sed 's/@/ /g')
+    sed "$expr" "$PRESET" > "$W/$name.toml"
+    sed -e "s/^per_shape = .*/per_shape = 1500/" -e "s|^sensor = .*|sensor = \"$W/$name.toml\"|" \
+        scenarios/datasets/edge-2d.toml > "$W/$name-recipe.toml"
+    rm -rf "$W/$name"
+    "$TACSIM" generate "$W/$name-recipe.toml" --out "$W/$name" -q > /dev/null
+    SETS="$SETS $W/$name"
+done
+python3 docs/sim2real-edge2d/ring_response.py "$REAL" 2.74 $SETS
+python3 docs/sim2real-edge2d/ring_response.py "$REAL" free "$W/preset"
