@@ -8,13 +8,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::{Context as _, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::de::DeserializeOwned;
-use tacsim_model::Backend;
-use tacsim_model::config::{Mode, PoseConfig, UnshearConfig};
-use tacsim_model::data::Corpus;
-use tacsim_model::eval;
-use tacsim_model::images::Preprocess;
-use tacsim_model::objective::StepLosses;
-use tacsim_model::train::{self, Progress, TrainState};
+use tacsim_model::{
+    Backend, Corpus, Mode, PoseConfig, Preprocess, Progress, StepLosses, TrainState, UnshearConfig, eval_markdown,
+    run_size, train_posenet, train_unshear,
+};
 
 /// Which network `tacsim train` trains.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -285,8 +282,7 @@ pub fn train(o: &TrainOptions) -> Result<String> {
         Network::Unshear | Network::Baseline => {
             let cfg = unshear_config(o)?;
             let corpus = o.lab.open(&o.data, cfg.size)?;
-            let (_, state) =
-                train::train_unshear(&corpus, &cfg, o.backend, &o.out, o.resume, o.init.as_deref(), &mut bar)?;
+            let (_, state) = train_unshear(&corpus, &cfg, o.backend, &o.out, o.resume, o.init.as_deref(), &mut bar)?;
             Ok(summary(&o.out, &state))
         }
         Network::Posenet => {
@@ -295,7 +291,7 @@ pub fn train(o: &TrainOptions) -> Result<String> {
             }
             let cfg = pose_config(o)?;
             let corpus = o.lab.open(&o.data, cfg.size)?;
-            let (_, state) = train::train_posenet(&corpus, &cfg, o.backend, &o.out, o.resume, &mut bar)?;
+            let (_, state) = train_posenet(&corpus, &cfg, o.backend, &o.out, o.resume, &mut bar)?;
             Ok(summary(&o.out, &state))
         }
     }
@@ -311,7 +307,7 @@ pub fn evaluate(
     lab: LabOptions,
 ) -> Result<String> {
     let first = runs.first().context("give at least one run directory of `tacsim train`")?;
-    let corpus = lab.open(data, eval::run_size(first)?)?;
-    let report = eval::evaluate(&corpus, runs, backend, max_pairs, out)?;
-    Ok(format!("{}\nreport: {}\n", eval::markdown(&report), out.join("report.md").display()))
+    let corpus = lab.open(data, run_size(first)?)?;
+    let report = tacsim_model::evaluate(&corpus, runs, backend, max_pairs, out)?;
+    Ok(format!("{}\nreport: {}\n", eval_markdown(&report), out.join("report.md").display()))
 }

@@ -24,15 +24,12 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, Result, bail};
 use image::GrayImage;
 use serde::Serialize;
+use tacsim_data::Column;
 use tacsim_data::Split;
-use tacsim_model::Backend;
-use tacsim_model::config::PoseConfig;
-use tacsim_model::data::Corpus;
-use tacsim_model::eval::{corpus_images, predict_poses};
-use tacsim_model::infer::load_posenet;
-use tacsim_model::posenet::{Column, Pose};
-use tacsim_model::train;
-use tacsim_model::transfer::{LabelMap, difference, label};
+use tacsim_model::{
+    Backend, Corpus, LabelMap, Pose, PoseConfig, corpus_images, label_difference, label_name, load_posenet,
+    predict_poses,
+};
 
 use crate::dataset::GenerateOptions;
 use crate::learn::{Bar, LabOptions};
@@ -186,7 +183,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let (sim_run, real_run) = train_both(o, [&sim_cfg, &real_cfg], &sim, &real)?;
     let (labels, map, nearest, predictions) =
         score(o, [&sim, &real], &real_labels, [&fitting, &held_out, &sim_rows], [&sim_run, &real_run])?;
-    tacsim_model::checkpoint::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
+    tacsim_model::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
     write_grid(&report_dir.join("grid.png"), &sim, &real, &held_out, &nearest)?;
 
     let report = Sim2RealReport {
@@ -203,9 +200,9 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         seconds: started.elapsed().as_secs_f64(),
     };
     let json = serde_json::to_string_pretty(&report)?;
-    tacsim_model::checkpoint::write_atomic(&report_dir.join("report.json"), json.as_bytes())?;
+    tacsim_model::write_atomic(&report_dir.join("report.json"), json.as_bytes())?;
     let md = markdown(&report);
-    tacsim_model::checkpoint::write_atomic(&report_dir.join("report.md"), md.as_bytes())?;
+    tacsim_model::write_atomic(&report_dir.join("report.md"), md.as_bytes())?;
     Ok(format!("{md}\nreport: {}\n", report_dir.join("report.md").display()))
 }
 
@@ -238,9 +235,9 @@ fn train_both(o: &Sim2RealOptions, cfg: [&PoseConfig; 2], sim: &Corpus, real: &C
         [("simulated", sim, o.out.join("sim-posenet"), cfg[0]), ("real", real, o.out.join("real-posenet"), cfg[1])];
     for (name, corpus, dir, cfg) in &runs {
         let resume = dir.join("config.json").is_file();
-        train::train_posenet(corpus, cfg, o.backend, dir, resume, &mut Bar::new(o.quiet)).with_context(|| {
-            format!("training the pose network on the {name} images into {} (rerun to resume)", dir.display())
-        })?;
+        tacsim_model::train_posenet(corpus, cfg, o.backend, dir, resume, &mut Bar::new(o.quiet)).with_context(
+            || format!("training the pose network on the {name} images into {} (rerun to resume)", dir.display()),
+        )?;
     }
     let [(_, _, s, _), (_, _, r, _)] = runs;
     Ok((s, r))
@@ -306,7 +303,7 @@ fn score(
                 slope(&pairs)
             });
             LabelScore {
-                label: label(l.real),
+                label: label_name(l.real),
                 sim_trained: sim_err[k],
                 real_trained: real_err[k],
                 ratio: sim_err[k] / real_err[k],
@@ -326,7 +323,7 @@ fn score(
                     .iter()
                     .map(|l| {
                         let unit = if l.sim.is_angle() { 10.0 } else { 1.0 };
-                        (difference(l.sim, p.get(l.sim), want.get(l.sim)) / unit).powi(2)
+                        (label_difference(l.sim, p.get(l.sim), want.get(l.sim)) / unit).powi(2)
                     })
                     .sum::<f64>()
             };
@@ -361,7 +358,7 @@ fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], near
     }
     let mut bytes = Vec::new();
     grid.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
-    tacsim_model::checkpoint::write_atomic(path, &bytes)?;
+    tacsim_model::write_atomic(path, &bytes)?;
     Ok(())
 }
 

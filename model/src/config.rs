@@ -77,7 +77,7 @@ pub struct UnshearConfig {
     pub l2: f64,
     /// Weight of the adversarial term in the self-supervised phase (not in the paper, which
     /// has no such term: default 0, off). Above 0 the model gets a critic that tells tap
-    /// images from `M`'s output ([`crate::objective`]).
+    /// images from `M`'s output (`objective.rs`).
     pub adversarial_weight: f64,
     /// Fraction of the training poses whose true pairs the supervised phase uses (paper:
     /// 0.1). The dataset's paired subset must hold at least that many poses; a smaller

@@ -162,7 +162,7 @@ pub struct Report {
     pub pose_tap: Option<PoseError>,
     /// Pose MAE on the sheared images `S_inp`.
     pub pose_sheared: Option<PoseError>,
-    /// Pose MAE of every set of images by band of press depth ([`pose_by_depth`]).
+    /// Pose MAE of every set of images by band of press depth (`pose_by_depth`).
     #[serde(default)]
     pub pose_by_depth: Vec<PoseByDepth>,
     /// The paper's claims checked on these numbers.

@@ -1,35 +1,58 @@
 //! tacsim-model: the learning half (DESIGN.md section 5). It reads datasets through
 //! `tacsim-data` and never depends on the simulator.
 //!
-//! - [`network`]: the paper's four networks (E_S, D_T, D_S, E_T) at 256, 128 and 64 px;
-//! - [`unshear`]: the shear-removal model and its mappings M, N, K;
-//! - [`objective`]: the losses and per-module objectives;
-//! - [`posenet`]: the pose network and its label encoding;
-//! - [`config`]: every hyperparameter, the paper's values as defaults;
-//! - [`data`], [`images`]: datasets in memory, batches, the lab's preprocessing;
-//! - [`infer`]: poses read from single images by trained runs (robot perception);
-//! - [`transfer`]: label maps from a simulated dataset's labels to a lab's (sim-to-real);
-//! - [`train`]: seeded, checkpointed, resumable training loops;
-//! - [`checkpoint`]: safetensors weights, optimizer state, run directories;
-//! - [`metrics`]: SSIM, MS-SSIM and MSE, checked against reference values;
-//! - [`backend`]: which burn device runs the networks.
+//! Modules are private; the surface is the list below, at the crate root (parry-style). In
+//! the order data flows:
+//! - `network.rs`: the paper's four networks (E_S, D_T, D_S, E_T) at 256, 128 and 64 px
+//!   ([`Size`]); `unshear.rs`: the shear-removal model ([`Unshear`]) and its mappings M, N, K;
+//!   `objective.rs`: the losses and per-module objectives ([`StepLosses`]);
+//! - `posenet.rs`: the pose network and its label encoding ([`Pose`], [`decode_batch`]);
+//! - `config.rs`: every hyperparameter, the paper's values as defaults ([`UnshearConfig`],
+//!   [`PoseConfig`], [`Mode`]);
+//! - `data.rs`, `images.rs`: datasets in memory ([`Corpus`]), batches, the lab's preprocessing
+//!   ([`Preprocess`], [`to_images`]);
+//! - `train.rs`: seeded, checkpointed, resumable training loops ([`train_unshear`],
+//!   [`train_posenet`], [`Progress`]);
+//! - `checkpoint.rs`: safetensors weights ([`load_weights`]), optimizer state, run
+//!   directories, atomic writes ([`write_atomic`]);
+//! - `infer.rs`: poses read from single images by trained runs ([`PoseReader`],
+//!   [`load_posenet`]);
+//! - `eval.rs`: the held-out scores of trained runs ([`evaluate`], [`EvalReport`]);
+//! - `transfer.rs`: label maps from a simulated dataset's labels to a lab's ([`LabelMap`]);
+//! - `metrics.rs`: SSIM, MS-SSIM and MSE, checked against reference values ([`ssim`]);
+//! - `bench.rs`: network throughput ([`measure_networks`]); `backend.rs`: which burn device
+//!   runs the networks ([`Backend`]).
 
-pub mod backend;
-pub mod bench;
-pub mod checkpoint;
-pub mod config;
-pub mod data;
-pub mod error;
-pub mod eval;
-pub mod images;
-pub mod infer;
-pub mod metrics;
-pub mod network;
-pub mod objective;
-pub mod posenet;
-pub mod train;
-pub mod transfer;
-pub mod unshear;
+mod backend;
+mod bench;
+mod checkpoint;
+mod config;
+mod data;
+mod error;
+mod eval;
+mod images;
+mod infer;
+mod metrics;
+mod network;
+mod objective;
+mod posenet;
+mod train;
+mod transfer;
+mod unshear;
 
 pub use backend::Backend;
+pub use bench::{BenchRow, measure as measure_networks};
+pub use checkpoint::{load_weights, write_atomic};
+pub use config::{Mode, PoseConfig, UnshearConfig};
+pub use data::Corpus;
 pub use error::{ModelError, Result};
+pub use eval::{Report as EvalReport, corpus_images, evaluate, markdown as eval_markdown, predict_poses, run_size};
+pub use images::{Preprocess, to_images};
+pub use infer::{PoseReader, load_posenet, load_unshear};
+pub use metrics::{MetricError, ms_ssim, mse, ssim};
+pub use network::Size;
+pub use objective::StepLosses;
+pub use posenet::{Pose, PoseNet, PoseScale, decode_batch};
+pub use train::{EpochLog, Progress, Silent, TrainState, train_posenet, train_unshear};
+pub use transfer::{LabelMap, difference as label_difference, label as label_name};
+pub use unshear::Unshear;

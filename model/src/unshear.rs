@@ -34,7 +34,7 @@ pub struct Unshear {
 
 impl Unshear {
     /// A freshly initialised model for `size` images, N(0, 0.02) weights. Its parameters
-    /// are materialised and numbered in module order ([`canonical_ids`]): the
+    /// are materialised and numbered in module order (`checkpoint::canonical_ids`): the
     /// self-supervised objective's no-gradient copy of D_S relies on the first, checkpoints
     /// on the second.
     pub fn new(size: Size, device: &Device) -> Self {

@@ -10,14 +10,10 @@ use std::path::Path;
 
 use burn::module::Module;
 use burn::tensor::Device;
-use tacsim_model::checkpoint::load_weights;
-use tacsim_model::config::{Mode, UnshearConfig};
-use tacsim_model::data::Corpus;
-use tacsim_model::images::to_images;
-use tacsim_model::network::Size;
-use tacsim_model::train::{Progress, Silent, train_unshear};
-use tacsim_model::unshear::Unshear;
-use tacsim_model::{Backend, ModelError};
+use tacsim_model::{
+    Backend, Corpus, Mode, ModelError, Progress, Silent, Size, Unshear, UnshearConfig, load_weights, to_images,
+    train_unshear,
+};
 
 /// Stops after a number of steps, like Ctrl-C.
 struct StopAfter {
@@ -25,7 +21,7 @@ struct StopAfter {
 }
 
 impl Progress for StopAfter {
-    fn step(&mut self, _: &tacsim_model::objective::StepLosses) {
+    fn step(&mut self, _: &tacsim_model::StepLosses) {
         self.left.set(self.left.get().saturating_sub(1));
     }
     fn stop(&self) -> bool {

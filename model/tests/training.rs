@@ -4,17 +4,10 @@ mod common;
 
 use burn::module::Module;
 use burn::tensor::{Device, Tensor};
-use tacsim_model::Backend;
-use tacsim_model::checkpoint::load_weights;
-use tacsim_model::config::{Mode, PoseConfig, UnshearConfig};
-use tacsim_model::data::Corpus;
-use tacsim_model::eval::evaluate;
-use tacsim_model::images::to_images;
-use tacsim_model::infer::{self, PoseReader};
-use tacsim_model::network::Size;
-use tacsim_model::posenet::decode_batch;
-use tacsim_model::train::{EpochLog, Silent, train_posenet, train_unshear};
-use tacsim_model::unshear::Unshear;
+use tacsim_model::{
+    Backend, Corpus, EpochLog, Mode, PoseConfig, PoseReader, Silent, Size, Unshear, UnshearConfig, decode_batch,
+    evaluate, load_posenet, load_unshear, load_weights, to_images, train_posenet, train_unshear,
+};
 
 fn corpus(name: &str) -> (std::path::PathBuf, Corpus) {
     let dir = common::scratch(name);
@@ -229,8 +222,8 @@ fn evaluation_writes_the_report_with_every_table() {
     // A robot's perception reads single images through the same networks as the evaluation:
     // unshear then pose network, deterministic, equal to the batched forward pass.
     let device = Backend::Flex.device();
-    let (net, _, scale) = infer::load_posenet(&dir.join("posenet"), &device).expect("posenet");
-    let (model, _) = infer::load_unshear(&dir.join("semi"), &device).expect("semi");
+    let (net, _, scale) = load_posenet(&dir.join("posenet"), &device).expect("posenet");
+    let (model, _) = load_unshear(&dir.join("semi"), &device).expect("semi");
     let rows = [0, 3, 7];
     let batch = corpus.batch(&rows, &[], &device);
     let want = decode_batch(&scale, net.forward(model.unshear(batch.clone())));

@@ -5,8 +5,7 @@
 //! angle. `learned-raw` skips the shear removal (the paper's Table I "sheared" row).
 
 use tacsim_explore::{EdgeEstimate, EdgeReader, ExploreError, LearnedPerception, Models, Scenario, wrap_deg};
-use tacsim_model::Backend;
-use tacsim_model::infer::PoseReader;
+use tacsim_model::{Backend, PoseReader};
 use tacsim_sim::SensorParams;
 
 /// The undeformed image and the trained networks.

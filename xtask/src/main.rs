@@ -410,11 +410,11 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
     Ok(())
 }
 
-/// `cargo xtask bench-model [--quick] [--pytorch PYTHON]`: throughput of the networks (`tacsim_model::bench`).
+/// `cargo xtask bench-model [--quick] [--pytorch PYTHON]`: throughput of the networks (`tacsim_model::measure_networks`).
 /// `--quick` measures 64 px on flex only.
 fn bench_model(quick: bool, python: Option<&str>) -> Result<()> {
     use tacsim_model::Backend;
-    use tacsim_model::bench::BenchRow;
+    use tacsim_model::BenchRow;
     if let Some(python) = python {
         // Checked before the burn measurements, which take minutes.
         let ok = Command::new(python)
@@ -448,7 +448,7 @@ fn bench_model(quick: bool, python: Option<&str>) -> Result<()> {
     };
     let mut rows = Vec::new();
     for (backend, size) in cases {
-        let r = tacsim_model::bench::measure(backend, size)?;
+        let r = tacsim_model::measure_networks(backend, size)?;
         print(&r);
         rows.push(r);
     }
