@@ -1,6 +1,6 @@
 """A sheet of pin displacement fields, real edge taps beside simulated ones at the same labels
-(issue 30): each pin's motion from the undeformed reference, drawn six times its length from
-its rest place. Rows: the real tap nearest each of lab lateral -4, -2, 0, 2, 4 mm at the given
+(issue 30): each pin's motion from the undeformed reference (tracked as in ring_response.py),
+drawn six times its length from its rest place. Rows: the real tap nearest each of lab lateral -4, -2, 0, 2, 4 mm at the given
 depth (`pose_3`, mm) and yaw near -120 deg; columns: the real tap, then for each OFFSET the
 simulated tap nearest its labels through lab lateral = OFFSET - simulated x and lab yaw =
 -(simulated yaw) - 175.6 deg (the sim2real map of the edge-2d recipe). References as in
@@ -18,6 +18,7 @@ from scipy.spatial import cKDTree
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
 from image_change_fit import alike_group  # noqa: E402
 from radial_signature import load, pins  # noqa: E402
+from ring_response import track  # noqa: E402
 
 SCALE = 4
 STRETCH = 6
@@ -25,13 +26,12 @@ STRETCH = 6
 
 def field(image, reference):
     rest_all = pins(reference)
-    found = pins(image)
-    distance, nearest = cKDTree(rest_all).query(found, distance_upper_bound=2.5)
-    ok = np.isfinite(distance)
+    moved = track(pins(image), rest_all, cKDTree(rest_all))
+    ok = np.isfinite(moved[:, 0])
     tile = Image.new("L", (128 * SCALE, 128 * SCALE))
     draw = ImageDraw.Draw(tile)
-    for rest, moved in zip(rest_all[nearest[ok]], found[ok]):
-        end = rest + (moved - rest) * STRETCH
+    for rest, motion in zip(rest_all[ok], moved[ok]):
+        end = rest + motion * STRETCH
         draw.line([tuple(rest * SCALE), tuple(end * SCALE)], fill=255, width=2)
         x, y = rest * SCALE
         draw.ellipse([x - 2, y - 2, x + 2, y + 2], fill=120)

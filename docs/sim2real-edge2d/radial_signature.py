@@ -32,6 +32,8 @@ sys.path.insert(0, __file__.rsplit("/", 1)[0])
 from image_change_fit import alike_group  # noqa: E402
 
 CENTRE = np.array([64.4, 64.5])
+# The pin field: pixels within 46 px of the centre at 128 px.
+FIELD = np.hypot(*(np.mgrid[0:128, 0:128][::-1] - CENTRE[:, None, None] + 0.5)) < 46
 
 
 def load(path):
@@ -78,14 +80,13 @@ def main(kind, folder, offset="-", reference="alike", depth_shift="0"):
         group = alike_group(stack, depth)
         consensus = stack[group].mean(0) > 0.5
         # How alike the chosen taps are, and how far the old rule's reference lies from them.
-        ring = np.hypot(*(np.mgrid[0:128, 0:128][::-1] - CENTRE[:, None, None] + 0.5)) < 46
-        pairs = [(stack[i] ^ stack[j])[ring].mean() for n, i in enumerate(group) for j in group[n + 1 :]]
+        pairs = [(stack[i] ^ stack[j])[FIELD].mean() for n, i in enumerate(group) for j in group[n + 1 :]]
         old = stack[np.argsort(depth)[:75]].mean(0) > 0.5
         print(
             f"reference: the {len(group)} most alike of the shallowest half, lateral "
             f"{lateral[group].min():+.1f}..{lateral[group].max():+.1f} mm, pose_3 <= {depth[group].max():.2f} mm; "
             f"they differ from each other in {np.mean(pairs):.2%} of the pin field's pixels, "
-            f"from the majority of the 75 shallowest (the old rule) in {np.mean([(stack[i] ^ old)[ring].mean() for i in group]):.2%}"
+            f"from the majority of the 75 shallowest (the old rule) in {np.mean([(stack[i] ^ old)[FIELD].mean() for i in group]):.2%}"
         )
     else:
         consensus = load(f"{folder}/images/image_0.png")
@@ -102,8 +103,7 @@ def main(kind, folder, offset="-", reference="alike", depth_shift="0"):
             cells.append(f"{moves[m, 0].mean():+.2f}/{moves[m, 1].mean():+.2f}" if m.any() else "   -   ")
         print(f"[{lo:+d}, {hi:+d})      " + "   ".join(cells))
     # The share of pin-field pixels (within 46 px) that differ from the consensus, shallow taps.
-    inner = np.hypot(*(np.mgrid[0:128, 0:128][::-1] - CENTRE[:, None, None] + 0.5)) < 46
-    change = np.array([(im ^ consensus)[inner].mean() for im in images])
+    change = np.array([(im ^ consensus)[FIELD].mean() for im in images])
     shallow = depth < 3.3
     if kind == "real":
         # Translation against contraction: the inner pins' mean displacement turned by minus

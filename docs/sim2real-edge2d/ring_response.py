@@ -26,10 +26,9 @@ from scipy.spatial import cKDTree
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
 from image_change_fit import alike_group  # noqa: E402
-from radial_signature import CENTRE, load, pins  # noqa: E402
+from radial_signature import CENTRE, FIELD, load, pins  # noqa: E402
 
 BANDS = [(4, 16), (16, 28), (28, 44)]
-FIELD = np.hypot(*(np.mgrid[0:128, 0:128][::-1] - CENTRE[:, None, None] + 0.5)) < 46
 NAMES = ["inner", "mid", "outer", "change"]
 
 

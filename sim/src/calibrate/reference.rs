@@ -350,8 +350,11 @@ fn tightest_group(images: &[Vec<u64>], k: usize) -> Vec<usize> {
         d.truncate(k - 1);
         d
     };
-    let best = (0..n).min_by_key(|&i| (nearest(i).last().map_or(0, |l| l.0), i)).unwrap_or(0);
-    std::iter::once(best).chain(nearest(best).into_iter().map(|(_, j)| j)).collect()
+    let (best, others) = (0..n)
+        .map(|i| (i, nearest(i)))
+        .min_by_key(|(i, d)| (d.last().map_or(0, |l| l.0), *i))
+        .unwrap_or((0, Vec::new()));
+    std::iter::once(best).chain(others.into_iter().map(|(_, j)| j)).collect()
 }
 
 /// Reads a PNG, refusing absurd sizes before any work.
