@@ -9,13 +9,9 @@ use anyhow::{Context, Result};
 use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::Serialize;
-use tacsim_sim::contact::engine::{ContactModel, Simulation};
-use tacsim_sim::contact::pose::SensorPose;
-use tacsim_sim::contact::trajectory::{self, Path as SensorPath};
 use tacsim_sim::contact::validate;
-use tacsim_sim::scene::{ObjectPose, Scene};
-use tacsim_sim::sensor::SkinModel;
-use tacsim_sim::{PinRenderer, SensorParams};
+use tacsim_sim::contact::{ContactModel, Simulation};
+use tacsim_sim::{ObjectPose, PinRenderer, Scene, SensorParams, SensorPath, SensorPose, SkinModel};
 
 /// Slide length of the paper's protocol (mm).
 pub const SLIDE_MM: f64 = 2.5;
@@ -134,7 +130,7 @@ pub struct BenchReport {
 }
 
 fn disk_scene() -> Result<Scene> {
-    let catalogue = crate::embedded::catalogue()?;
+    let catalogue = tacsim_sim::builtin_catalogue()?;
     let mut scene = Scene::new();
     scene.add(catalogue.get("disk")?, ObjectPose::default())?;
     Ok(scene)
@@ -165,8 +161,8 @@ fn captured(
     scene: &Scene,
     path: &SensorPath,
     renderer: &PinRenderer,
-) -> tacsim_sim::Result<Vec<trajectory::Frame>> {
-    let frames = trajectory::run(model, scene, path)?;
+) -> tacsim_sim::Result<Vec<tacsim_sim::Capture>> {
+    let frames = path.run(model, scene)?;
     for f in &frames {
         std::hint::black_box(renderer.render(&f.pins));
     }
@@ -286,10 +282,8 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
         });
     }
     let slides = &poses[..samples_n.min(8)];
-    let reference: Vec<_> = slides
-        .iter()
-        .map(|(p, f)| trajectory::run(&model, &scene, &SensorPath::slide(*p, *f, 0.025)?))
-        .collect::<Result<_, _>>()?;
+    let reference: Vec<_> =
+        slides.iter().map(|(p, f)| SensorPath::slide(*p, *f, 0.025)?.run(&model, &scene)).collect::<Result<_, _>>()?;
     for step in [2.5, 1.0, 0.5, 0.25, 0.1] {
         let mut err = 0.0f64;
         let ms = pool.install(|| {
@@ -398,7 +392,7 @@ fn measure_skips(sensor: &SensorParams, scene: &Scene, poses: &[(SensorPose, [f6
         slide += t.elapsed().as_secs_f64();
     }
     // Far stimuli: the same scene plus 48 disks on a 300 mm lattice.
-    let catalogue = crate::embedded::catalogue()?;
+    let catalogue = tacsim_sim::builtin_catalogue()?;
     let mut crowded = disk_scene()?;
     for i in 0..7i32 {
         for j in 0..7i32 {
@@ -459,7 +453,7 @@ fn measure_skips(sensor: &SensorParams, scene: &Scene, poses: &[(SensorPose, [f6
 fn draw(report: &BenchReport, path: &Path) -> Result<()> {
     let mut svg = String::new();
     draw_into(report, &mut svg)?;
-    tacsim_sim::atomic::write_atomic(path, svg.as_bytes())?;
+    tacsim_data::write_atomic(path, svg.as_bytes())?;
     Ok(())
 }
 

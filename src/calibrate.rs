@@ -10,14 +10,14 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use tacsim_data::LabFolder;
-use tacsim_sim::atomic::write_atomic;
-use tacsim_sim::calibrate::camera::fit_camera_only;
-use tacsim_sim::calibrate::fitting::{FitOptions, Problem, Split, calibrate as fit};
-use tacsim_sim::calibrate::observe::Observations;
-use tacsim_sim::calibrate::reference::{ConsensusRule, Reference, ReferenceSource};
-use tacsim_sim::calibrate::report::{comparison_row, held_out, markdown};
-use tacsim_sim::calibration::ring_table;
-use tacsim_sim::sensor::{SensorParams, SkinModel};
+use tacsim_data::write_atomic;
+use tacsim_sim::calibrate::Observations;
+use tacsim_sim::calibrate::fit_camera_only;
+use tacsim_sim::calibrate::ring_table;
+use tacsim_sim::calibrate::{ConsensusRule, Reference, ReferenceSource};
+use tacsim_sim::calibrate::{FitOptions, Problem, RecordingSplit, fit};
+use tacsim_sim::calibrate::{comparison_row, held_out, markdown};
+use tacsim_sim::{SensorParams, SkinModel};
 
 /// What `tacsim calibrate` was asked.
 #[derive(Clone, Debug, clap::Args)]
@@ -115,7 +115,7 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     };
     spinner.set_message(format!("tracking the pins of {} recordings", folder.samples.len()));
     let obs = Observations::track(&folder, &reference)?;
-    let split = Split::of(&obs);
+    let split = RecordingSplit::of(&obs);
     if let Some((stimulus, contact)) = edge {
         let summary = crate::edge_fit::edge_fit(&crate::edge_fit::EdgeFitJob {
             options: o,

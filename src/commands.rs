@@ -5,17 +5,12 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use clap::Args;
-use tacsim_sim::contact::engine::ContactModel;
-use tacsim_sim::contact::pose::SensorPose;
-use tacsim_sim::contact::trajectory::{self, Path as SensorPath};
-use tacsim_sim::detect::detect_blobs;
-use tacsim_sim::pins::{PinLayout, PinPose};
-use tacsim_sim::png_io::{PngDepth, write_png};
-use tacsim_sim::realism::Realism;
-use tacsim_sim::scene::{ObjectPose, Scene};
-use tacsim_sim::sensor::SkinModel;
+use tacsim_sim::contact::ContactModel;
 use tacsim_sim::stimulus::Catalogue;
-use tacsim_sim::{PinRenderer, SensorParams};
+use tacsim_sim::{
+    ObjectPose, PinLayout, PinPose, PinRenderer, PngDepth, Realism, Scene, SensorParams, SensorPath, SensorPose,
+    SkinModel, detect_blobs, write_png,
+};
 
 /// How `tacsim render` produces its image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -93,7 +88,7 @@ pub struct RenderOptions {
     /// Catalogue directory for --shape (default: the built-in shapes).
     #[arg(long)]
     pub shapes_dir: Option<PathBuf>,
-    /// Pose over the stimulus: x,y,depth,yaw[,rx,ry] (mm, deg); depth below the top face.
+    /// Pose over the stimulus: `x,y,depth,yaw[,rx,ry]` (mm, deg); depth below the top face.
     #[arg(long, value_parser = parse_pose, default_value = "0,0,2,0", allow_hyphen_values = true)]
     pub pose: SensorPose,
     /// Touch down at pose + dx,dy (mm) and slide to the pose; without it the sensor taps.
@@ -150,7 +145,7 @@ fn pressed_pins(sensor: &SensorParams, opts: &RenderOptions) -> Result<(Vec<PinP
         None => SensorPath::tap(opts.pose),
     };
     let model = ContactModel::new(sensor);
-    let frames = trajectory::run(&model, &scene, &path).context("solving the contact")?;
+    let frames = path.run(&model, &scene).context("solving the contact")?;
     let frame = frames.last().context("the path captured no frame")?;
     let r = &frame.report;
     let summary = if r.in_contact {
@@ -220,7 +215,7 @@ pub fn render(opts: &RenderOptions) -> Result<String> {
 pub fn load_catalogue(dir: Option<&Path>) -> Result<Catalogue> {
     match dir {
         Some(d) => Catalogue::load_dir(d).with_context(|| format!("loading the shape catalogue in {}", d.display())),
-        None => crate::embedded::catalogue().context("loading the built-in shapes"),
+        None => tacsim_sim::builtin_catalogue().context("loading the built-in shapes"),
     }
 }
 

@@ -5,9 +5,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use tacsim_sim::SensorParams;
-use tacsim_sim::dataset::generate::{self, Summary};
-use tacsim_sim::dataset::job::{self, Job};
-use tacsim_sim::dataset::recipe::Recipe;
+use tacsim_sim::dataset::Recipe;
+use tacsim_sim::dataset::{self, Job, Summary};
 
 use crate::commands::load_catalogue;
 
@@ -34,8 +33,8 @@ pub struct GenerateOptions {
     pub resume: bool,
     /// No progress bar.
     pub quiet: bool,
-    /// Write beyond [`tacsim_sim::dataset::job::MAX_UNFORCED_IMAGES`] images or
-    /// [`tacsim_sim::dataset::job::MAX_UNFORCED_BYTES`] bytes.
+    /// Write beyond [`tacsim_sim::dataset::MAX_UNFORCED_IMAGES`] images or
+    /// [`tacsim_sim::dataset::MAX_UNFORCED_BYTES`] bytes.
     pub force: bool,
 }
 
@@ -85,10 +84,12 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
 /// name, or a file beside the recipe), else the calibrated TacTip.
 pub fn recipe_base_sensor(recipe: &Recipe, opts: &GenerateOptions) -> Result<SensorParams> {
     let sensor = opts.sensor.as_deref().map(|p| p.to_string_lossy().into_owned());
-    job::base_sensor(recipe, opts.recipe.as_deref().map(Path::new), sensor.as_deref()).with_context(|| match &sensor {
-        Some(s) => format!("loading the sensor `{s}` (see sim/presets/tactip-331-calibrated.toml for the format)"),
-        None => format!("the sensor of recipe {} (its `sensor` field)", recipe.name),
-    })
+    dataset::base_sensor(recipe, opts.recipe.as_deref().map(Path::new), sensor.as_deref()).with_context(
+        || match &sensor {
+            Some(s) => format!("loading the sensor `{s}` (see sim/presets/tactip-331-calibrated.toml for the format)"),
+            None => format!("the sensor of recipe {} (its `sensor` field)", recipe.name),
+        },
+    )
 }
 
 fn report(recipe: &Recipe, out: &Path, total: usize, s: &Summary) -> String {
@@ -120,6 +121,6 @@ fn report(recipe: &Recipe, out: &Path, total: usize, s: &Summary) -> String {
 
 /// `tacsim merge`: joins shards into `out`.
 pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<String> {
-    let n = generate::merge(out, shards)?;
+    let n = dataset::merge(out, shards)?;
     Ok(format!("merged {} shards: {n} images in {}\n", shards.len(), out.display()))
 }

@@ -2,7 +2,7 @@
 //! depth and yaw) against the same taps simulated on a catalogue stimulus's edge. Fits the
 //! label map (which side of the edge is positive, where yaw 0 points, where depth 0 is) on the
 //! fitting 80% and compares candidate roundings of the edge and skin patches of the pins on the
-//! held-out 20%'s per-pin error ([`tacsim_sim::calibrate::edge`]). The rest of the sensor is
+//! held-out 20%'s per-pin error ([`tacsim_sim::calibrate::tap_errors`]). The rest of the sensor is
 //! held as given: its camera and framing come from `--camera-only`, its deformation from the
 //! surface fit.
 
@@ -11,15 +11,15 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use serde::Serialize;
-use tacsim_sim::atomic::write_atomic;
-use tacsim_sim::calibrate::edge::{EdgeLabels, edge_scene, fit_labels, pooled_error, start_labels, tap_errors};
-use tacsim_sim::calibrate::evaluate::Simulator;
-use tacsim_sim::calibrate::fitting::Split;
-use tacsim_sim::calibrate::model::Deformation;
-use tacsim_sim::calibrate::observe::Observations;
-use tacsim_sim::sensor::SensorParams;
+use tacsim_data::write_atomic;
+use tacsim_sim::SensorParams;
+use tacsim_sim::calibrate::Deformation;
+use tacsim_sim::calibrate::Observations;
+use tacsim_sim::calibrate::RecordingSplit;
+use tacsim_sim::calibrate::Simulator;
+use tacsim_sim::calibrate::{EdgeLabels, edge_scene, fit_labels, pooled_error, start_labels, tap_errors};
 use tacsim_sim::stimulus::Stimulus;
-use tacsim_sim::stimulus::catalogue::off_the_edge;
+use tacsim_sim::stimulus::off_the_edge;
 
 use crate::calibrate::CalibrateOptions;
 
@@ -70,7 +70,7 @@ pub struct EdgeFitJob<'a> {
     /// The tracked taps.
     pub obs: &'a Observations,
     /// Fitting and held-out taps.
-    pub split: &'a Split,
+    pub split: &'a RecordingSplit,
     /// The sensor (held).
     pub base: &'a SensorParams,
     /// Where the report goes.
@@ -109,7 +109,7 @@ pub struct EdgeReport {
     pub real: String,
     /// The stimulus.
     pub shape: String,
-    /// Taps the label map was fitted on (one fitting tap in [`FIT_STRIDE`]).
+    /// Taps the label map was fitted on (one fitting tap in `FIT_STRIDE`).
     pub fitted: usize,
     /// Held-out taps.
     pub held_out: usize,

@@ -1,9 +1,8 @@
 //! tacsim: the command line and pipeline glue over the simulator crate (`tacsim-sim`).
 //!
 //! [`calibrate`] fits the simulator to a lab's recordings (`calibrate`);
-//! [`embedded`] carries the built-in stimuli and recipes so the binary runs anywhere;
 //! [`commands`] holds one function per subcommand, called by the thin `main.rs`; [`dataset`]
-//! runs `generate` and `merge`; [`explore`] runs the closed loop of `tacsim-explore` with learned perception and reports it (`run`); [`validation`] and [`bench`] run the contact checks and
+//! runs `generate` and `merge`; [`explore`] runs the closed loop of `tacsim-explore` with learned perception and reports it (`run`); [`validation`] and [`mod@bench`] run the contact checks and
 //! benchmarks; [`learn`] trains and evaluates the networks of `tacsim-model`; [`sim2real`]
 //! measures how a network trained on simulated images reads a lab's real ones.
 
@@ -12,7 +11,6 @@ pub mod calibrate;
 pub mod commands;
 pub mod dataset;
 pub mod edge_fit;
-pub mod embedded;
 pub mod explore;
 pub mod learn;
 pub mod sim2real;

@@ -7,7 +7,7 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 use tacsim::commands::{self, RenderOptions};
 use tacsim::{bench, validation};
-use tacsim_sim::sensor::SkinModel;
+use tacsim_sim::SkinModel;
 
 #[derive(Parser)]
 #[command(name = "tacsim", version, about = "Physics-simulated TacTip data generator and test harness")]

@@ -2,10 +2,10 @@
 //!
 //! One pipeline, each stage a named step whose output lands under `--out`, so an interrupted
 //! run resumes where it stopped:
-//! 1. [`generate_sim`]: the recipe's dataset with the sensor (`sim/`), or `--sim`, one made before;
-//! 2. [`train_both`]: the pose network on the simulated images (`sim-posenet/`) and the same
+//! 1. `generate_sim`: the recipe's dataset with the sensor (`sim/`), or `--sim`, one made before;
+//! 2. `train_both`: the pose network on the simulated images (`sim-posenet/`) and the same
 //!    network, same settings, on the lab folder's fitting part (`real-posenet/`);
-//! 3. [`score`]: the label map (component, sign and offset, [`LabelMap::fit`]) from the
+//! 3. `score`: the label map (component, sign and offset, [`LabelMap::fit`]) from the
 //!    simulator-trained network's readings of the fitting part, then both networks on the
 //!    held-out part (the 20% `tacsim calibrate` never fits either);
 //! 4. `report.md`, `report.json`, `predictions.csv` (each held-out image's labels and both
@@ -183,7 +183,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let (sim_run, real_run) = train_both(o, [&sim_cfg, &real_cfg], &sim, &real)?;
     let (labels, map, nearest, predictions) =
         score(o, [&sim, &real], &real_labels, [&fitting, &held_out, &sim_rows], [&sim_run, &real_run])?;
-    tacsim_model::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
+    tacsim_data::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
     write_grid(&report_dir.join("grid.png"), &sim, &real, &held_out, &nearest)?;
 
     let report = Sim2RealReport {
@@ -200,9 +200,9 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         seconds: started.elapsed().as_secs_f64(),
     };
     let json = serde_json::to_string_pretty(&report)?;
-    tacsim_model::write_atomic(&report_dir.join("report.json"), json.as_bytes())?;
+    tacsim_data::write_atomic(&report_dir.join("report.json"), json.as_bytes())?;
     let md = markdown(&report);
-    tacsim_model::write_atomic(&report_dir.join("report.md"), md.as_bytes())?;
+    tacsim_data::write_atomic(&report_dir.join("report.md"), md.as_bytes())?;
     Ok(format!("{md}\nreport: {}\n", report_dir.join("report.md").display()))
 }
 
@@ -358,7 +358,7 @@ fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], near
     }
     let mut bytes = Vec::new();
     grid.write_to(&mut std::io::Cursor::new(&mut bytes), image::ImageFormat::Png)?;
-    tacsim_model::write_atomic(path, &bytes)?;
+    tacsim_data::write_atomic(path, &bytes)?;
     Ok(())
 }
 

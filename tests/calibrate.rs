@@ -3,8 +3,7 @@
 
 use std::path::Path;
 
-use tacsim_sim::render::PinRenderer;
-use tacsim_sim::sensor::{FramingParams, SensorParams};
+use tacsim_sim::{FramingParams, PinRenderer, SensorParams};
 
 mod common;
 use common::{err, lab_folder, s, tacsim, temp_dir};
@@ -155,8 +154,8 @@ fn a_lab_folder_with_non_square_images_calibrates() {
 
 #[test]
 fn the_consensus_of_the_shallowest_presses_stands_in_for_the_undeformed_image() {
-    use tacsim_sim::calibrate::reference::Reference;
-    use tacsim_sim::detect::pin_centres;
+    use tacsim_sim::calibrate::Reference;
+    use tacsim_sim::pin_centres;
     let Some(real) = lab_folder("real-tactip-surface3d") else { return };
     let lab = tacsim_data::LabFolder::open(&real).expect("lab folder");
     let truth = pin_centres(&Reference::image(&lab, "image_0.png").expect("image_0").image);
@@ -214,8 +213,7 @@ fn camera_only_recovers_a_simulated_sensor_from_framed_non_square_images_without
     // Rendered, the fitted sensor draws the same image (but for boundary pixels).
     let again = PinRenderer::new(&fitted, 136).expect("renderable").render_undeformed();
     let folder = tacsim_data::LabFolder::open(&lab).expect("lab folder");
-    let framed =
-        tacsim_sim::calibrate::reference::Reference::of(&folder, None, Default::default()).expect("reference").image;
+    let framed = tacsim_sim::calibrate::Reference::of(&folder, None, Default::default()).expect("reference").image;
     let differ = again.as_raw().iter().zip(framed.as_raw()).filter(|(a, b)| a != b).count();
     assert!(differ < 400, "{differ} of {} pixels differ", 136 * 136);
     let md = std::fs::read_to_string(dir.join("fitted-report/report.md")).expect("report.md");
@@ -265,7 +263,7 @@ fn the_alike_consensus_of_the_edge_taps_is_of_taps_that_touch_nothing() {
     // Regression: the shallowest 75 of the edge taps press the material, so their majority
     // is a pressed layout; the most alike shallow taps are those beside the edge that touch
     // nothing (lab lateral `pose_2` below -4 mm: the material lies on the positive side).
-    use tacsim_sim::calibrate::reference::{ConsensusRule, Reference, ReferenceSource};
+    use tacsim_sim::calibrate::{ConsensusRule, Reference, ReferenceSource};
     let Some(real) = lab_folder("real-tactip-edge2d") else { return };
     let lab = tacsim_data::LabFolder::open(&real).expect("lab folder");
     let lateral: std::collections::HashMap<&str, f64> =
@@ -285,8 +283,8 @@ fn the_alike_consensus_of_the_edge_taps_is_of_taps_that_touch_nothing() {
 /// map back, and the rounding they were made with fits the held-out taps best.
 #[test]
 fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with() {
-    use tacsim_sim::calibrate::edge::{edge_scene, sensor_pose};
-    use tacsim_sim::contact::engine::{ContactModel, Simulation};
+    use tacsim_sim::calibrate::{edge_scene, edge_sensor_pose};
+    use tacsim_sim::contact::{ContactModel, Simulation};
     use tacsim_sim::stimulus::Catalogue;
 
     let mut sensor = SensorParams::preset("tactip-331-edge2d").expect("preset");
@@ -308,7 +306,7 @@ fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with()
         let x = -3.0 + 0.25 * ((i * 7) % 24) as f64;
         let depth = 0.6 + 0.1 * ((i * 3) % 15) as f64;
         let yaw = -40.0 + 10.0 * ((i * 5) % 9) as f64;
-        let pose = sensor_pose(&frame, (x, depth, yaw));
+        let pose = edge_sensor_pose(&frame, (x, depth, yaw));
         let mut sim = Simulation::new(&model, &scene, &[pose]);
         sim.step(pose).expect("tap");
         renderer.render(&sim.pins()).save(lab.join(format!("images/image_{i}.png"))).expect("save");

@@ -2,8 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use tacsim_sim::detect::detect_blobs;
-use tacsim_sim::png_io::read_png;
+use tacsim_sim::{detect_blobs, read_png};
 
 mod common;
 use common::{err, s, tacsim, temp_dir};
@@ -115,10 +114,10 @@ fn embedded_shapes_match_the_shapes_directory() {
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .collect();
     on_disk.sort();
-    let mut embedded: Vec<String> = tacsim::embedded::SHAPE_FILES.iter().map(|(n, _)| (*n).to_owned()).collect();
+    let mut embedded: Vec<String> = tacsim_sim::SHAPE_FILES.iter().map(|(n, _)| (*n).to_owned()).collect();
     embedded.sort();
-    assert_eq!(embedded, on_disk, "update src/embedded.rs after adding or removing a shape");
-    assert_eq!(tacsim::embedded::catalogue().expect("loads").stimuli.len(), 7);
+    assert_eq!(embedded, on_disk, "update sim/src/embedded.rs after adding or removing a shape");
+    assert_eq!(tacsim_sim::builtin_catalogue().expect("loads").stimuli.len(), 7);
 }
 
 #[test]

@@ -289,8 +289,8 @@ fn randomised_recipes_keep_the_draws_record_the_variation_and_stay_deterministic
 /// `targets.csv` stay the lab's. Without a rig the labels are the sensor poses.
 #[test]
 fn a_rig_takes_the_labs_labels_where_its_robot_went() {
-    use tacsim_sim::dataset::plan::Plan;
-    use tacsim_sim::dataset::recipe::Recipe;
+    use tacsim_sim::dataset::Plan;
+    use tacsim_sim::dataset::Recipe;
     let text = "[[shapes]]\nname = \"disk\"\ncontact_mm = [0.0, 0.0]\n\
                 [poses]\nper_shape = 20\nx_mm = [0.0, 0.0]\ny_mm = [0.0, 0.0]\ndepth_mm = [1.0, 5.0]\n\
                 yaw_deg = [0.0, 0.0]\nrx_deg = [-25.0, 25.0]\nry_deg = [-25.0, 25.0]\n\

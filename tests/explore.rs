@@ -7,12 +7,10 @@ use std::process::Command;
 
 use rayon::prelude::*;
 use tacsim_explore::{PerceptionKind, RunReport, Scenario};
-use tacsim_sim::SensorParams;
-use tacsim_sim::contact::engine::{ContactModel, Simulation, contact_disk_grid};
-use tacsim_sim::contact::grid::Grid;
-use tacsim_sim::contact::pose::SensorPose;
-use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::contact::Grid;
+use tacsim_sim::contact::{ContactModel, Simulation, contact_disk_grid};
 use tacsim_sim::stimulus::Catalogue;
+use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPose};
 
 /// A scenario run as `tacsim run` does it, with the `tacsim-model` networks for learned
 /// perception.
@@ -221,8 +219,8 @@ fn the_pins_voronoi_patch_matches_the_contact_engines_patch() {
 #[test]
 fn edge_frame_labels_are_the_pose_relative_to_the_edge_that_the_servo_reads() {
     use tacsim_explore::{oracle, wrap_deg};
-    use tacsim_sim::dataset::plan::Plan;
-    use tacsim_sim::dataset::recipe::Recipe;
+    use tacsim_sim::dataset::Plan;
+    use tacsim_sim::dataset::Recipe;
     let text = "[poses]\nper_shape = 40\nframe = \"edge\"\naround_contour = true\nx_mm = [-3.0, 3.0]\n\
                 y_mm = [0.0, 0.0]\ndepth_mm = [1.0, 2.0]\nyaw_deg = [-45.0, 45.0]\n\
                 [taps]\nper_pose = 1\ndepth_jitter_mm = 0.0\n[slides]\nper_pose = 1\ntwist_deg = [-10.0, 10.0]\n";

@@ -9,12 +9,11 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use proptest::prelude::*;
-use tacsim_sim::SensorParams;
-use tacsim_sim::contact::engine::ContactModel;
-use tacsim_sim::dataset::plan::Plan;
-use tacsim_sim::dataset::recipe::Recipe;
-use tacsim_sim::render::PinRenderer;
+use tacsim_sim::contact::ContactModel;
+use tacsim_sim::dataset::Plan;
+use tacsim_sim::dataset::Recipe;
 use tacsim_sim::stimulus::{Catalogue, Mesh};
+use tacsim_sim::{PinRenderer, SensorParams};
 
 mod common;
 
@@ -165,14 +164,14 @@ proptest! {
 
     #[test]
     fn png_bytes_are_an_error_or_an_image(bytes in prop::collection::vec(any::<u8>(), 0..300), at in any::<usize>(), flip in any::<u8>()) {
-        let _ = tacsim_sim::png_io::decode_png(&bytes, Path::new("fuzz.png"));
+        let _ = tacsim_sim::decode_png(&bytes, Path::new("fuzz.png"));
         let mut valid = Vec::new();
         image::GrayImage::from_fn(9, 7, |x, y| image::Luma([((x * 31 + y * 7) % 256) as u8]))
             .write_to(&mut std::io::Cursor::new(&mut valid), image::ImageFormat::Png)
             .expect("encode");
         let k = at % valid.len();
         valid[k] ^= flip;
-        let _ = tacsim_sim::png_io::decode_png(&valid, Path::new("fuzz.png"));
+        let _ = tacsim_sim::decode_png(&valid, Path::new("fuzz.png"));
     }
 
     #[test]

@@ -223,7 +223,7 @@ fn sim2real_scores_slide_offsets_on_slid_recordings() {
 /// precision the recipe writes them. A recalibration must update the recipe too.
 #[test]
 fn the_surface_3d_recipe_carries_the_calibrated_rig() {
-    use tacsim_sim::dataset::recipe::Recipe;
+    use tacsim_sim::dataset::Recipe;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let recipe = Recipe::from_toml_str(
         &std::fs::read_to_string(root.join("scenarios/datasets/surface-3d.toml")).expect("recipe"),

@@ -66,7 +66,7 @@ pub struct Row {
     /// Whether the pose is in the paired (supervised) training subset.
     pub paired: bool,
     // The sample's domain randomisation draw (a recipe's `[randomise]`; see
-    // `tacsim_sim::variation::Variation`): columns present only when the recipe randomises.
+    // `tacsim_sim::Variation`): columns present only when the recipe randomises.
     /// Pin field shifted right (px); with `[randomise]` only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dr_shift_x_px: Option<f64>,

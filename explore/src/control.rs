@@ -2,7 +2,7 @@
 //! the estimated edge tangent, and corrects the lateral offset and the yaw toward their
 //! references with PI laws whose integral terms are clipped.
 
-use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::SensorPose;
 
 use crate::perception::EdgeEstimate;
 use crate::scenario::Control;

@@ -4,8 +4,7 @@ use std::collections::VecDeque;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use tacsim_sim::contact::pose::SensorPose;
-use tacsim_sim::scene::{ObjectId, Scene};
+use tacsim_sim::{ObjectId, Scene, SensorPose};
 
 use crate::scenario::Noise;
 
@@ -74,17 +73,17 @@ impl Corruption {
 /// At start-up the contact engine presses the sensor onto a flat face at the scenario's depth
 /// (the reference press, [`crate::run::reference_press`]); its image gives each pin's
 /// full-contact spread `D_i` (the template). Each image is then read in three stages:
-/// [`Geometric::track`] finds the pins (detection, then the tracker of `tacsim_sim::tracking`
+/// `Geometric::track` finds the pins (detection, then the tracker of `tacsim_sim::tracking`
 /// from the undeformed image, which follows presses and slides that move pins by most of a
-/// spacing); [`Geometric::spread`] takes each pin's local spread `m_i` (`det F - 1`, `F` the
+/// spacing); `Geometric::spread` takes each pin's local spread `m_i` (`det F - 1`, `F` the
 /// least-squares linear map of its six undeformed neighbours' offsets onto their tracked ones:
 /// pins pressed towards the camera spread apart, while a shear, as along the side of a dragged
-/// contact, keeps the area); [`fit_edge`] finds the straight edge, inward normal `n` and offset
+/// contact, keeps the area); `fit_edge` finds the straight edge, inward normal `n` and offset
 /// `h` (mm) with the material where `n . r > h` (`r` a pin's rest position), whose template
 /// best explains the spreads:
 ///
 /// `min over (n, h) of sum_i (m_i - D_i s((n . r_i - h) / w))^2`, `s` the logistic step and
-/// `w` = [`EDGE_WIDTH_MM`].
+/// `w` = `EDGE_WIDTH_MM`.
 ///
 /// The template carries what hand-chosen thresholds could not: how far this sensor's contact
 /// reaches at this depth and how much each pin spreads in it (a compressible skin with long
@@ -174,23 +173,19 @@ pub fn fit_edge(template: &[([f64; 2], f64, f64)], reach_mm: f64) -> ([f64; 2], 
 impl Geometric {
     /// Perception for `sensor` rendering at `size` px, with the pins of its reference press
     /// `press` (a flat face at the scenario's depth, [`crate::run::reference_press`]).
-    pub fn new(
-        sensor: &tacsim_sim::SensorParams,
-        size: u32,
-        press: &[tacsim_sim::pins::PinPose],
-    ) -> crate::Result<Self> {
-        use tacsim_sim::pins::PinLayout;
+    pub fn new(sensor: &tacsim_sim::SensorParams, size: u32, press: &[tacsim_sim::PinPose]) -> crate::Result<Self> {
+        use tacsim_sim::PinLayout;
         let renderer = tacsim_sim::PinRenderer::new(sensor, size)?;
         let layout = PinLayout::new(sensor);
-        let reference_px = tacsim_sim::detect::pin_centres(&renderer.render(&layout.poses()));
+        let reference_px = tacsim_sim::pin_centres(&renderer.render(&layout.poses()));
         let spacing_px = 17.5 * size as f64 / 420.0;
         // Rest positions: the layout pin whose projected tip is nearest each detected pin.
         let rest_mm: Vec<Option<[f64; 2]>> =
-            tacsim_sim::detect::match_reference(&renderer, &layout.poses(), &reference_px, spacing_px)
+            tacsim_sim::match_reference(&renderer, &layout.poses(), &reference_px, spacing_px)
                 .into_iter()
                 .map(|m| m.map(|i| [layout.pins[i].base.x, layout.pins[i].base.y]))
                 .collect();
-        let neighbours = tacsim_sim::tracking::nearest_neighbours(&reference_px, 6);
+        let neighbours = tacsim_sim::nearest_neighbours(&reference_px, 6);
         let last = reference_px.iter().map(|p| Some(*p)).collect();
         let geometry = crate::contact_geometry::ContactGeometry::new(&reference_px, spacing_px);
         let mut g = Self {
@@ -237,7 +232,7 @@ impl Geometric {
 
     /// The contact patch of the image of the latest estimate: whether the skin touches at
     /// each of `points` (contact-plane mm, sensor frame), from the tracked pins' Voronoi
-    /// cells ([`crate::contact_geometry`], thresholds `TOUCH_SHARE` and `FREE_SHARE`);
+    /// cells (`contact_geometry.rs`, thresholds `TOUCH_SHARE` and `FREE_SHARE`);
     /// `None` where undecided. Free skin on the material's side of the estimated edge is
     /// undecided too: with the dome wholly on the material the indentation fades towards the
     /// rim of the contact as it does towards an edge, and reading that rim as "no material"
@@ -266,12 +261,12 @@ impl Geometric {
     }
 
     /// The image of `pins` as this perception sees it.
-    pub fn render(&self, pins: &[tacsim_sim::pins::PinPose]) -> image::GrayImage {
+    pub fn render(&self, pins: &[tacsim_sim::PinPose]) -> image::GrayImage {
         self.renderer.render(pins)
     }
 
     /// The estimate from the current pins; `None` when no pin shows contact.
-    pub fn estimate(&mut self, pins: &[tacsim_sim::pins::PinPose]) -> Option<EdgeEstimate> {
+    pub fn estimate(&mut self, pins: &[tacsim_sim::PinPose]) -> Option<EdgeEstimate> {
         let img = self.render(pins);
         self.estimate_image(&img)
     }
@@ -281,8 +276,8 @@ impl Geometric {
     /// Only the pins of `self.watched` are tracked (all of them while it is empty); the others
     /// are `None`.
     fn track(&self, img: &image::GrayImage, start: [f64; 2]) -> (Vec<Option<[f64; 2]>>, [f64; 2]) {
-        use tacsim_sim::tracking::{Warp, track};
-        let detected = tacsim_sim::detect::pin_centres(img);
+        use tacsim_sim::{Warp, track};
+        let detected = tacsim_sim::pin_centres(img);
         let all: Vec<usize> = (0..self.reference_px.len()).collect();
         let which = if self.watched.is_empty() { &all } else { &self.watched };
         let reference: Vec<[f64; 2]> = which.iter().map(|&i| self.reference_px[i]).collect();
@@ -362,7 +357,7 @@ impl Geometric {
     /// robot would at a known start: the straight edge of the fit sits a little off where an
     /// edge's contact ends (the skin bends over it). Returns the tare (offset mm, angle deg);
     /// none where the pins show no contact.
-    pub fn tare(&mut self, pins: &[tacsim_sim::pins::PinPose], known: EdgeEstimate) -> (f64, f64) {
+    pub fn tare(&mut self, pins: &[tacsim_sim::PinPose], known: EdgeEstimate) -> (f64, f64) {
         self.zero = (0.0, 0.0);
         if let Some(e) = self.estimate(pins) {
             self.zero = (e.offset_mm - known.offset_mm, wrap_deg(e.angle_deg - known.angle_deg));

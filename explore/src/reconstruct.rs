@@ -6,8 +6,8 @@
 use std::collections::BTreeMap;
 
 use spade::{DelaunayTriangulation, Point2};
-use tacsim_sim::contact::grid::Grid;
-use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::SensorPose;
+use tacsim_sim::contact::Grid;
 
 use crate::contact_geometry::Sample;
 

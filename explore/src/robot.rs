@@ -2,7 +2,7 @@
 //! cut into contact-engine sub-steps so that it stays in contact and every step carries
 //! sliding history.
 
-use tacsim_sim::contact::pose::SensorPose;
+use tacsim_sim::SensorPose;
 
 /// The robot: where the sensor is and how far it has travelled.
 #[derive(Clone, Debug)]

@@ -5,11 +5,9 @@
 use std::time::Instant;
 
 use serde::Serialize;
-use tacsim_sim::SensorParams;
-use tacsim_sim::contact::engine::{ContactModel, Simulation, contact_disk_grid};
-use tacsim_sim::contact::pose::SensorPose;
-use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::contact::{ContactModel, Simulation, contact_disk_grid};
 use tacsim_sim::stimulus::Catalogue;
+use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPose};
 
 use crate::control::Servo;
 use crate::error::{ExploreError, Result};
@@ -44,7 +42,7 @@ pub struct RunReport {
     /// best the pins can do, and the criterion for `oracle` perception, which renders no image.
     pub iou: f64,
     /// Image-based perception: IoU of the footprint fused from the patches read off the
-    /// image's pins (Voronoi cells, [`crate::contact_geometry`]): the criterion.
+    /// image's pins (Voronoi cells, `contact_geometry.rs`): the criterion.
     pub iou_pins: Option<f64>,
     /// Image-based perception: its error against the oracle at the poses where it read a
     /// contact.
@@ -184,10 +182,10 @@ impl Course {
 /// The pins of the sensor of `model` pressed `depth_mm` straight onto a flat face (the top of
 /// the built-in `disk`, at its centre, with friction `friction`): image-based perception's
 /// template ([`Geometric`]).
-pub fn reference_press(model: &ContactModel, depth_mm: f64, friction: f64) -> Result<Vec<tacsim_sim::pins::PinPose>> {
+pub fn reference_press(model: &ContactModel, depth_mm: f64, friction: f64) -> Result<Vec<tacsim_sim::PinPose>> {
     let disk =
-        tacsim_sim::embedded::catalogue().map_err(ExploreError::sim("loading the built-in shapes"))?.get("disk")?;
-    let scene = tacsim_sim::scene::flat_scene(&disk, friction)?;
+        tacsim_sim::builtin_catalogue().map_err(ExploreError::sim("loading the built-in shapes"))?.get("disk")?;
+    let scene = tacsim_sim::flat_scene(&disk, friction)?;
     let mut sim = Simulation::with_grid(model, &scene, Some(contact_disk_grid(model, depth_mm)));
     sim.step(SensorPose::new(0.0, 0.0, depth_mm, 0.0))?;
     Ok(sim.pins())
@@ -197,10 +195,10 @@ pub fn reference_press(model: &ContactModel, depth_mm: f64, friction: f64) -> Re
 /// `learned` and `learned-raw` perception (an error names the scenario where it is needed and
 /// missing).
 ///
-/// The stages, each a named step: the scene and its course ([`setup`]), the start pose
-/// ([`start_pose`]), the perception ([`Perceivers::new`]), the touch-down ([`touch_down`]),
+/// The stages, each a named step: the scene and its course (`setup`), the start pose
+/// (`start_pose`), the perception (`Perceivers::new`), the touch-down (`touch_down`),
 /// then per servo step perceive, fuse the contact patch, servo and move, until the course
-/// closes or the step limit; last the footprints and the verdict ([`RunReport::judge`]).
+/// closes or the step limit; last the footprints and the verdict (`RunReport::judge`).
 pub fn run(
     scenario: &Scenario,
     sensor: &SensorParams,

@@ -14,7 +14,7 @@
 //! - `train.rs`: seeded, checkpointed, resumable training loops ([`train_unshear`],
 //!   [`train_posenet`], [`Progress`]);
 //! - `checkpoint.rs`: safetensors weights ([`load_weights`]), optimizer state, run
-//!   directories, atomic writes ([`write_atomic`]);
+//!   directories, atomic writes (`tacsim_data::write_atomic`);
 //! - `infer.rs`: poses read from single images by trained runs ([`PoseReader`],
 //!   [`load_posenet`]);
 //! - `eval.rs`: the held-out scores of trained runs ([`evaluate`], [`EvalReport`]);
@@ -42,7 +42,7 @@ mod unshear;
 
 pub use backend::Backend;
 pub use bench::{BenchRow, measure as measure_networks};
-pub use checkpoint::{load_weights, write_atomic};
+pub use checkpoint::load_weights;
 pub use config::{Mode, PoseConfig, UnshearConfig};
 pub use data::Corpus;
 pub use error::{ModelError, Result};

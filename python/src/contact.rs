@@ -6,11 +6,8 @@ use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use rayon::prelude::*;
-use tacsim_sim::PinRenderer;
-use tacsim_sim::contact::engine::{ContactModel, Simulation, StepReport, contact_disk_grid};
-use tacsim_sim::contact::pose::SensorPose;
-use tacsim_sim::contact::trajectory::Path as SensorPath;
-use tacsim_sim::scene::Scene;
+use tacsim_sim::contact::{ContactModel, Simulation, StepReport, contact_disk_grid};
+use tacsim_sim::{PinRenderer, Scene, SensorPath, SensorPose};
 
 use crate::scene::PyScene;
 use crate::sensor::{PySensor, image_array};

@@ -7,8 +7,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use tacsim_sim::dataset::job::{self, Job};
-use tacsim_sim::dataset::recipe::Recipe;
+use tacsim_sim::dataset::Recipe;
+use tacsim_sim::dataset::{self, Job};
 
 use crate::sim_err;
 
@@ -41,8 +41,8 @@ pub fn generate<'py>(
     if threads.is_some_and(|n| !(1..=1024).contains(&n)) {
         return Err(PyValueError::new_err(format!("threads must be in [1, 1024], got {threads:?}")));
     }
-    let base = job::base_sensor(&r, Some(Path::new(recipe)), sensor).map_err(sim_err)?;
-    let catalogue = tacsim_sim::embedded::catalogue().map_err(sim_err)?;
+    let base = dataset::base_sensor(&r, Some(Path::new(recipe)), sensor).map_err(sim_err)?;
+    let catalogue = tacsim_sim::builtin_catalogue().map_err(sim_err)?;
     let job = Job::new(&r, &source, &base, &catalogue, None).map_err(sim_err)?;
     job.estimate().map_err(sim_err)?.check(&source, force).map_err(sim_err)?;
     let total = job.images();

@@ -1,7 +1,7 @@
-//! `tacsim._tacsim`: the simulator from Python (pyo3). [`Sensor`](sensor::PySensor) loads a
-//! preset, [`Scene`](scene::PyScene) places stimuli, [`Contact`](contact::PyContact) presses
+//! `tacsim._tacsim`: the simulator from Python (pyo3). `Sensor` loads a
+//! preset, `Scene` places stimuli, `Contact` presses
 //! and slides the sensor over them with stick/slip history and returns images, pins, the
-//! pressure field and the force as numpy arrays; [`Dataset`](dataset::PyDataset) reads a
+//! pressure field and the force as numpy arrays; `Dataset` reads a
 //! generated dataset. The package `tacsim` (python/tacsim) re-exports them with docstrings and
 //! type stubs. Units: mm, deg, N, MPa; frames as in the Rust crates (sensor frame: `z` along
 //! the sensor's axis into the stimulus, image `u` right and `v` down in px).

@@ -6,8 +6,8 @@ use std::sync::Arc;
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use tacsim_sim::scene::{ObjectPose, Scene};
 use tacsim_sim::stimulus::{Contour, Mesh, ShapeEntry, Stimulus};
+use tacsim_sim::{ObjectPose, Scene};
 
 use crate::sim_err;
 
@@ -51,16 +51,16 @@ fn object_pose(pose: (f64, f64, f64)) -> PyResult<ObjectPose> {
 /// default: the catalogue's, 0.5 for a file).
 fn stimulus(shape: Option<&str>, obj_path: Option<&str>, friction: Option<f64>) -> PyResult<Arc<Stimulus>> {
     let loaded = match (shape, obj_path) {
-        (Some(name), None) => tacsim_sim::embedded::catalogue().and_then(|c| c.get(name)).map_err(sim_err)?,
+        (Some(name), None) => tacsim_sim::builtin_catalogue().and_then(|c| c.get(name)).map_err(sim_err)?,
         (None, Some(path)) => obj_stimulus(Path::new(path))?,
         _ => return Err(PyValueError::new_err("give exactly one of shape (a built-in name) and obj_path")),
     };
     if let Some(f) = friction
-        && !(f.is_finite() && (0.0..=tacsim_sim::stimulus::catalogue::MAX_FRICTION).contains(&f))
+        && !(f.is_finite() && (0.0..=tacsim_sim::stimulus::MAX_FRICTION).contains(&f))
     {
         return Err(PyValueError::new_err(format!(
             "friction must be in [0, {}], got {f}",
-            tacsim_sim::stimulus::catalogue::MAX_FRICTION
+            tacsim_sim::stimulus::MAX_FRICTION
         )));
     }
     Ok(loaded.with_friction(friction))
@@ -174,5 +174,5 @@ impl PyScene {
 /// The built-in stimuli's names.
 #[pyfunction]
 pub fn shapes() -> PyResult<Vec<String>> {
-    Ok(tacsim_sim::embedded::catalogue().map_err(sim_err)?.names())
+    Ok(tacsim_sim::builtin_catalogue().map_err(sim_err)?.names())
 }

@@ -3,8 +3,7 @@
 use numpy::{PyArray2, PyArrayMethods};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use tacsim_sim::sensor::PRESETS;
-use tacsim_sim::{PinRenderer, SensorParams};
+use tacsim_sim::{PRESETS, PinRenderer, SensorParams};
 
 use crate::sim_err;
 

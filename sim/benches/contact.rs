@@ -3,9 +3,9 @@
 //! `contact::normal::DENSE_MAX_CELLS`. Run with `cargo bench -p tacsim-sim --bench contact`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use tacsim_sim::contact::grid::Grid;
-use tacsim_sim::contact::kernel::Elastic;
-use tacsim_sim::contact::operator::{Component, HalfSpace, Operator, Pairing, Product};
+use tacsim_sim::contact::Elastic;
+use tacsim_sim::contact::Grid;
+use tacsim_sim::contact::{Component, HalfSpace, Operator, Pairing, Product};
 
 fn bench_products(c: &mut Criterion) {
     let model = HalfSpace { material: Elastic::from_young(1.0, 0.5), pairing: Pairing::RigidIndenter };

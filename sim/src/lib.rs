@@ -1,35 +1,57 @@
 //! tacsim-sim: the TacTip simulator.
 //!
-//! Data flows one way: [`sensor`] parameters -> [`pins`] layout -> [`camera`] projection ->
-//! [`raster`] discs -> binary image ([`render`]), optionally through [`realism`] and the lab's
-//! [`processing`]. Stimuli ([`stimulus`]) are placed in a [`scene`] that answers the geometric
-//! queries of contact and ground truth. [`detect`] and [`calibration`] read pins back from
-//! images (real or simulated). Frames of reference are defined once: the sensor frame in
-//! [`sensor`], image coordinates in [`camera`], the world frame in [`scene`].
+//! Data flows one way: [`SensorParams`] -> [`PinLayout`] -> the [`contact`] engine
+//! ([`SensorPath`]s of [`SensorPose`]s over a [`Scene`] of [`stimulus`] objects, giving
+//! [`PinPose`]s) -> [`Camera`] projection -> binary image ([`PinRenderer`]), optionally through
+//! [`Realism`] and the lab's [`LabProcessing`]. [`dataset`] strings it into recipes of taps and
+//! slides; [`detect_blobs`], [`track`] and [`calibrate`] read pins back from images (real or
+//! simulated) and fit the sensor to a lab's recordings.
+//!
+//! Modules are private; this list and the four namespaces ([`calibrate`], [`contact`],
+//! [`dataset`], [`stimulus`]) are the surface. Frames of reference are defined once: the sensor
+//! frame in [`SensorParams`], image coordinates in [`Camera`], the world frame in [`Scene`], the
+//! sensor pose in [`SensorPose`].
 
-pub mod atomic;
+mod atomic;
+mod camera;
+mod detect;
+mod embedded;
+mod error;
+mod fit;
+mod pins;
+mod png_io;
+mod processing;
+mod raster;
+mod realism;
+mod render;
+mod rig;
+mod scene;
+mod sensor;
+mod tracking;
+mod variation;
+
 pub mod calibrate;
-pub mod calibration;
-pub mod camera;
 pub mod contact;
 pub mod dataset;
-pub mod detect;
-pub mod embedded;
-pub mod error;
-pub mod fit;
-pub mod pins;
-pub mod png_io;
-pub mod processing;
-pub mod raster;
-pub mod realism;
-pub mod render;
-pub mod rig;
-pub mod scene;
-pub mod sensor;
 pub mod stimulus;
-pub mod tracking;
-pub mod variation;
 
+pub use camera::{Camera, Disc};
+pub use contact::pose::SensorPose;
+pub use contact::trajectory::{Capture, SensorPath};
+pub use detect::{Blob, PIN_AREA_RANGE_PX420, detect_blobs, detect_pins, match_reference, pin_area_range, pin_centres};
+pub use embedded::{RECIPES, SHAPE_FILES, catalogue as builtin_catalogue};
 pub use error::{Result, SimError};
+pub use fit::{FitResult, Minimum, levenberg_marquardt, nelder_mead};
+pub use pins::{Pin, PinLayout, PinPose};
+pub use png_io::{PngDepth, decode_png, encode_png, read_png, write_png};
+pub use processing::{LabProcessing, adaptive_threshold_mean, circle_mask};
+pub use realism::Realism;
 pub use render::PinRenderer;
-pub use sensor::SensorParams;
+pub use rig::{Press, RigFrame, yielded_depth_mm};
+pub use scene::{ObjectId, ObjectPose, Scene, SceneObject, SurfaceHit, flat_scene};
+pub use sensor::{
+    CALIBRATED_PRESET, CAMERA_ONLY_PRESET, CameraParams, DomeParams, EDGE2D_PRESET, FramingParams, PRESETS, PinParams,
+    SensorParams, SkinModel, SkinParams, pin_count,
+};
+pub use tracking::{Tracking, Warp, global_shift, global_warp, nearest_neighbours, track};
+pub use variation::Variation;

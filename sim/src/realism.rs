@@ -79,7 +79,7 @@ impl Realism {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calibration::ring_profile;
+    use crate::calibrate::rings::ring_profile;
     use crate::detect::detect_pins;
     use crate::detect::pin_area_range;
     use crate::sensor::SensorParams;

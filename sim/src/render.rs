@@ -275,13 +275,13 @@ mod tests {
         let field =
             r.undeformed_discs().iter().map(|d| (d.u - r.camera().principal[0]).hypot(d.v - r.camera().principal[1]));
         let field = field.fold(0.0, f64::max);
-        let f = crate::calibration::fit_framing(&r.render_undeformed(), r.camera().principal, field);
+        let f = crate::calibrate::rings::fit_framing(&r.render_undeformed(), r.camera().principal, field);
         let (radius, width) = (f.rim_radius.expect("rim"), f.rim_width.expect("rim"));
         // Within a pixel of 192 in radius, half a pixel in width.
         assert!((radius - 0.46).abs() < 1.0 / 192.0 && (width - 0.025).abs() < 0.5 / 192.0, "{f:?}");
         sensor.framing = FramingParams::default();
         let plain = PinRenderer::new(&sensor, 192).expect("renderable");
-        let none = crate::calibration::fit_framing(&plain.render_undeformed(), plain.camera().principal, field);
+        let none = crate::calibrate::rings::fit_framing(&plain.render_undeformed(), plain.camera().principal, field);
         assert_eq!(none, FramingParams::default());
     }
 

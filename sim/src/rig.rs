@@ -1,7 +1,7 @@
 //! A lab's rig: how the poses its recordings are labelled with became the sensor poses the
 //! robot reached. `tacsim calibrate` fits it from a lab folder ([`crate::calibrate`]); a
 //! recipe's `[rig]` replays it so that simulated images carry the lab's labels
-//! ([`crate::dataset::recipe::RigSpec`]).
+//! ([`crate::dataset::RigSpec`]).
 //!
 //! The labels live in the robot's frame; a [`RigFrame`] maps their lateral axes to the
 //! sensor's. Tilts are rotation vectors: under an orthogonal map `M` their lateral part maps
@@ -13,7 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::contact::pose::SensorPose;
+use crate::SensorPose;
 
 /// How the rig pressed: depth zero, tilt pivot and yield under load.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]

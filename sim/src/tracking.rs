@@ -288,24 +288,6 @@ pub fn nearest_neighbours(points: &[[f64; 2]], k: usize) -> Vec<Vec<usize>> {
     (0..points.len()).map(|i| others_by_distance(points, i).into_iter().take(k).map(|(_, j)| j).collect()).collect()
 }
 
-/// Fast tracking for small motions (every pin within `MATCH_FRACTION` of a spacing of its
-/// reference, as in shallow closed-loop contact): mutual nearest neighbours, one pass, no
-/// assignment. Per reference pin: displacement or `None`.
-pub fn track_nearest(reference: &[[f64; 2]], detected: &[[f64; 2]], spacing: f64) -> Vec<Option<[f64; 2]>> {
-    let radius = MATCH_FRACTION * spacing;
-    let det = Buckets::new(detected, spacing);
-    let refs = Buckets::new(reference, spacing);
-    reference
-        .iter()
-        .enumerate()
-        .map(|(i, r)| {
-            let (_, k) = det.nearest(detected, *r, radius)?;
-            let (_, back) = refs.nearest(reference, detected[k], radius)?;
-            (back == i).then(|| [detected[k][0] - r[0], detected[k][1] - r[1]])
-        })
-        .collect()
-}
-
 /// Minimum-cost assignment of `predicted` points to `detected` ones within `radius`.
 fn assign(predicted: &[[f64; 2]], detected: &[[f64; 2]], radius: f64) -> Vec<Option<usize>> {
     use pathfinding::kuhn_munkres::kuhn_munkres_min;

@@ -7,11 +7,8 @@ mod common;
 
 use std::path::PathBuf;
 
-use tacsim_sim::SensorParams;
-use tacsim_sim::calibration::{compare_sensor, ring_profile, ring_table};
-use tacsim_sim::png_io::read_png;
-use tacsim_sim::realism::Realism;
-use tacsim_sim::render::PinRenderer;
+use tacsim_sim::calibrate::{compare_sensor, ring_profile, ring_table};
+use tacsim_sim::{PinRenderer, Realism, SensorParams, read_png};
 
 fn reference() -> Option<PathBuf> {
     common::shared("data/real-tactip-surface3d/images/image_0.png")

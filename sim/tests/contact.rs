@@ -3,12 +3,9 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use tacsim_sim::SensorParams;
-use tacsim_sim::contact::engine::{ContactModel, Simulation};
-use tacsim_sim::contact::pose::SensorPose;
-use tacsim_sim::contact::trajectory::{self, Path};
-use tacsim_sim::scene::{ObjectPose, Scene};
+use tacsim_sim::contact::{ContactModel, Simulation};
 use tacsim_sim::stimulus::Catalogue;
+use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPath, SensorPose};
 
 fn scene_with(shape: &str) -> Scene {
     let cat = Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue");
@@ -17,7 +14,7 @@ fn scene_with(shape: &str) -> Scene {
     scene
 }
 
-fn max_pin_shift(a: &[tacsim_sim::pins::PinPose], b: &[tacsim_sim::pins::PinPose]) -> f64 {
+fn max_pin_shift(a: &[tacsim_sim::PinPose], b: &[tacsim_sim::PinPose]) -> f64 {
     a.iter().zip(b).map(|(p, q)| (p.tip - q.tip).norm()).fold(0.0, f64::max)
 }
 
@@ -27,11 +24,11 @@ fn tap_and_slide_differ_and_lift_off_restores_pins() {
     let model = ContactModel::new(&SensorParams::default());
     let target = SensorPose::new(0.0, 0.0, 2.0, 0.0);
     let t = Instant::now();
-    let tap = trajectory::run(&model, &scene, &Path::tap(target)).expect("tap");
+    let tap = SensorPath::tap(target).run(&model, &scene).expect("tap");
     let tap_time = t.elapsed();
     let t = Instant::now();
-    let slide = trajectory::run(&model, &scene, &Path::slide(target, [2.5, 0.0], 0.25).expect("path").then_lift(3.0))
-        .expect("slide");
+    let slide =
+        SensorPath::slide(target, [2.5, 0.0], 0.25).expect("path").then_lift(3.0).run(&model, &scene).expect("slide");
     let slide_time = t.elapsed();
     let tap = &tap[0];
     println!("tap: {:?} in {tap_time:?}", tap.report);
@@ -82,10 +79,9 @@ fn check_slide_history(sensor: &SensorParams, slipping: f64) {
     let scene = scene_with("disk");
     let model = ContactModel::new(sensor);
     let target = SensorPose::new(5.0, -3.0, 2.0, 30.0);
-    let tap = trajectory::run(&model, &scene, &Path::tap(target)).expect("tap");
+    let tap = SensorPath::tap(target).run(&model, &scene).expect("tap");
     let diff = |d: f64| {
-        let frames =
-            trajectory::run(&model, &scene, &Path::slide(target, [d, 0.0], 0.1).expect("path")).expect("slide");
+        let frames = SensorPath::slide(target, [d, 0.0], 0.1).expect("path").run(&model, &scene).expect("slide");
         (max_pin_shift(&tap[0].pins, &frames[0].pins), frames[0].report.slip_cells, frames[0].report.contact_cells)
     };
     let (short, short_slip, cells) = diff(0.1);
@@ -107,8 +103,8 @@ fn block_grouping_of_far_cells_matches_the_direct_sum() {
         [(SensorPose::new(0.0, 0.0, 3.0, 0.0), None), (SensorPose::new(30.0, 5.0, 4.0, 20.0), Some([2.5, 1.0]))]
     {
         let path = match from {
-            Some(f) => Path::slide(pose, f, 0.25).expect("path"),
-            None => Path::tap(pose),
+            Some(f) => SensorPath::slide(pose, f, 0.25).expect("path"),
+            None => SensorPath::tap(pose),
         };
         let mut sim = Simulation::new(&model, &scene, &path.poses());
         for s in &path.steps {
@@ -124,11 +120,7 @@ fn block_grouping_of_far_cells_matches_the_direct_sum() {
 
 /// Mean tip shift (mm) between two frames of the pins whose bases sit within 3 mm of the
 /// axis, and of those beyond 12 mm.
-fn centre_and_rim_shift(
-    model: &ContactModel,
-    a: &[tacsim_sim::pins::PinPose],
-    b: &[tacsim_sim::pins::PinPose],
-) -> [f64; 2] {
+fn centre_and_rim_shift(model: &ContactModel, a: &[tacsim_sim::PinPose], b: &[tacsim_sim::PinPose]) -> [f64; 2] {
     let mut sums = [(0.0, 0usize); 2];
     for ((p, q), pin) in a.iter().zip(b).zip(&model.layout.pins) {
         let r = pin.base.x.hypot(pin.base.y);
@@ -147,7 +139,7 @@ fn centre_and_rim_shift(
 
 #[test]
 fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
-    use tacsim_sim::sensor::SkinModel;
+    use tacsim_sim::SkinModel;
     let scene = scene_with("disk");
     let target = SensorPose::new(0.0, 0.0, 1.0, 0.0);
     let mut runs = Vec::new();
@@ -169,10 +161,12 @@ fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
         let model = ContactModel::new(&sensor);
         let build = t.elapsed();
         let t = Instant::now();
-        let tap = trajectory::run(&model, &scene, &Path::tap(target)).expect("tap");
-        let slide =
-            trajectory::run(&model, &scene, &Path::slide(target, [2.5, 0.0], 0.25).expect("path").then_lift(3.0))
-                .expect("slide");
+        let tap = SensorPath::tap(target).run(&model, &scene).expect("tap");
+        let slide = SensorPath::slide(target, [2.5, 0.0], 0.25)
+            .expect("path")
+            .then_lift(3.0)
+            .run(&model, &scene)
+            .expect("slide");
         let s = slide[0].report.clone();
         assert!(s.in_contact && s.force_n[2] > 0.0, "{skin:?}: {s:?}");
         assert!(s.force_n[0].hypot(s.force_n[1]) <= 0.5 * s.force_n[2] * (1.0 + 1e-9), "{skin:?}: {s:?}");
@@ -208,13 +202,13 @@ fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
 /// same indentation, along the surface normal.
 #[test]
 fn a_tilted_press_pushes_the_skin_along_the_surface_normal() {
-    use tacsim_sim::contact::frame::press_direction;
+    use tacsim_sim::contact::press_direction;
     let scene = scene_with("disk");
     let model = ContactModel::new(&SensorParams::default());
     let radius = model.sensor.dome.outer_radius_mm;
     let indentation = 1.5;
     let tip_motion = |pose: SensorPose, pin: usize| {
-        let frames = trajectory::run(&model, &scene, &Path::tap(pose)).expect("tap");
+        let frames = SensorPath::tap(pose).run(&model, &scene).expect("tap");
         frames[0].pins[pin].tip - model.layout.pins[pin].tip
     };
     // Untilted: the apex pin moves straight in along the axis.
@@ -247,9 +241,9 @@ fn a_tilted_press_pushes_the_skin_along_the_surface_normal() {
 /// the gap as the sharp edge's: vertical rays, so the gap grows by exactly that drop.
 #[test]
 fn a_rounded_edge_lowers_the_top_face_by_the_quarter_circle() {
-    use tacsim_sim::contact::engine::initial_gap;
-    use tacsim_sim::contact::frame::ContactFrame;
-    use tacsim_sim::contact::grid::Grid;
+    use tacsim_sim::contact::ContactFrame;
+    use tacsim_sim::contact::Grid;
+    use tacsim_sim::contact::initial_gap;
 
     let cat = Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue");
     let square = cat.get("square").expect("square");
@@ -280,8 +274,8 @@ fn a_rounded_edge_lowers_the_top_face_by_the_quarter_circle() {
 
 /// The largest growth (mm) of the lateral distance between neighbouring pin tips (within 1.3
 /// times the nearest spacing) from `rest` to `moved`.
-fn largest_split(rest: &[tacsim_sim::pins::PinPose], moved: &[tacsim_sim::pins::PinPose]) -> f64 {
-    let d = |a: &tacsim_sim::pins::PinPose, b: &tacsim_sim::pins::PinPose| (a.tip.x - b.tip.x).hypot(a.tip.y - b.tip.y);
+fn largest_split(rest: &[tacsim_sim::PinPose], moved: &[tacsim_sim::PinPose]) -> f64 {
+    let d = |a: &tacsim_sim::PinPose, b: &tacsim_sim::PinPose| (a.tip.x - b.tip.x).hypot(a.tip.y - b.tip.y);
     let spacing = (1..rest.len()).map(|j| d(&rest[0], &rest[j])).fold(f64::INFINITY, f64::min);
     let mut worst = 0.0_f64;
     for i in 0..rest.len() {
@@ -307,7 +301,7 @@ fn a_skin_patch_closes_the_split_of_the_pins_along_a_sharp_edge() {
         sensor.pins.patch_radius_mm = patch;
         let model = ContactModel::new(&sensor);
         let pose = SensorPose::new(x, 0.0, 1.5, 0.0);
-        let pins = trajectory::run(&model, &scene, &Path::tap(pose)).expect("tap")[0].pins.clone();
+        let pins = SensorPath::tap(pose).run(&model, &scene).expect("tap")[0].pins.clone();
         (model.layout.poses(), pins)
     };
     let (rest, sharp) = tap(0.0, 44.0);
@@ -318,7 +312,7 @@ fn a_skin_patch_closes_the_split_of_the_pins_along_a_sharp_edge() {
     let (_, flat) = tap(0.0, 0.0);
     let (_, flat_patched) = tap(1.5, 0.0);
     let moved =
-        |p: &[tacsim_sim::pins::PinPose]| p.iter().zip(&rest).map(|(a, b)| (a.tip - b.tip).norm()).fold(0.0, f64::max);
+        |p: &[tacsim_sim::PinPose]| p.iter().zip(&rest).map(|(a, b)| (a.tip - b.tip).norm()).fold(0.0, f64::max);
     let (m0, m1) = (moved(&flat), moved(&flat_patched));
     println!("largest pin motion in the middle of the face: {m0:.3} mm, {m1:.3} mm with the patch");
     assert!((m1 - m0).abs() < 0.15 * m0, "{m1} vs {m0}");
@@ -333,7 +327,7 @@ fn the_dome_slope_drags_the_skin_towards_a_contact_off_the_apex() {
         sensor.skin.dome_slope = slope;
         let model = ContactModel::new(&sensor);
         let pose = SensorPose::new(50.0, 0.0, 1.5, 0.0);
-        let pins = trajectory::run(&model, &scene, &Path::tap(pose)).expect("tap")[0].pins.clone();
+        let pins = SensorPath::tap(pose).run(&model, &scene).expect("tap")[0].pins.clone();
         let rest = model.layout.poses();
         let far: Vec<f64> =
             rest.iter().zip(&pins).filter(|(r, _)| r.tip.x > 3.0).map(|(r, p)| p.tip.x - r.tip.x).collect();

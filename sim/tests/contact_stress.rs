@@ -5,12 +5,9 @@
 use std::path::PathBuf;
 
 use proptest::prelude::*;
-use tacsim_sim::SensorParams;
-use tacsim_sim::contact::engine::{ContactModel, Simulation};
-use tacsim_sim::contact::pose::SensorPose;
-use tacsim_sim::scene::{ObjectPose, Scene};
-use tacsim_sim::sensor::SkinModel;
+use tacsim_sim::contact::{ContactModel, Simulation};
 use tacsim_sim::stimulus::Catalogue;
+use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPose, SkinModel};
 
 fn catalogue() -> Catalogue {
     Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue")

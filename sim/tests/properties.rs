@@ -4,9 +4,7 @@
 use image::GrayImage;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
-use tacsim_sim::SensorParams;
-use tacsim_sim::detect::detect_blobs;
-use tacsim_sim::render::PinRenderer;
+use tacsim_sim::{PinRenderer, SensorParams, detect_blobs};
 
 /// Sensors spread around the calibrated TacTip: every geometric and camera parameter varies;
 /// the field of view is chosen so the outer ring fills 55-90% of the half-image, and the tip

@@ -8,8 +8,8 @@ mod common;
 use std::path::PathBuf;
 
 use tacsim_data::LabFolder;
-use tacsim_sim::calibrate::observe::Observations;
-use tacsim_sim::calibrate::reference::Reference;
+use tacsim_sim::calibrate::Observations;
+use tacsim_sim::calibrate::Reference;
 
 fn folder() -> Option<PathBuf> {
     common::shared("data/real-tactip-surface3d")
@@ -70,7 +70,7 @@ fn real_pins_are_tracked_and_the_label_frame_is_found() {
     // A smooth skin moves neighbouring pins alike: tracked neighbours (within 1.3 spacings)
     // whose displacements differ by more than 0.6 spacing mark a patch matched one pin off
     // (measured: 130 such pairs over all recordings; 1,980 with the earlier tracker).
-    let spacing = tacsim_sim::calibrate::observe::SPACING_PX420 * obs.size as f64 / 420.0;
+    let spacing = tacsim_sim::calibrate::SPACING_PX420 * obs.size as f64 / 420.0;
     let near: Vec<(usize, usize)> = (0..n)
         .flat_map(|i| (i + 1..n).map(move |j| (i, j)))
         .filter(|&(i, j)| {
@@ -96,9 +96,9 @@ fn real_pins_are_tracked_and_the_label_frame_is_found() {
     let cat = tacsim_sim::stimulus::Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes"))
         .expect("catalogue");
     let base = tacsim_sim::SensorParams::default();
-    let d = tacsim_sim::calibrate::model::Deformation::of(&base, 0.5);
+    let d = tacsim_sim::calibrate::Deformation::of(&base, 0.5);
     let disk = cat.get("disk").expect("disk");
-    let sim = tacsim_sim::calibrate::evaluate::Simulator::new(&base, &d, 13, &obs, &disk).expect("simulator");
+    let sim = tacsim_sim::calibrate::Simulator::new(&base, &d, 13, &obs, &disk).expect("simulator");
     let (rms, matched) = sim.undeformed_rms(&obs);
     println!("undeformed: {matched} of {n} reference pins matched, RMS {rms:.2} px");
     assert_eq!(matched, n);

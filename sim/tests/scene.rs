@@ -3,8 +3,8 @@
 
 use std::path::PathBuf;
 
-use tacsim_sim::scene::{ObjectPose, Scene};
 use tacsim_sim::stimulus::Catalogue;
+use tacsim_sim::{ObjectPose, Scene};
 
 fn catalogue() -> Catalogue {
     Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue")

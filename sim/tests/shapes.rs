@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use tacsim_sim::stimulus::Catalogue;
-use tacsim_sim::stimulus::builtin::{builtin_shapes, shape_files};
+use tacsim_sim::stimulus::{builtin_shapes, shape_files};
 
 fn shapes_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")

@@ -83,7 +83,7 @@ pub fn run_files(
     }
     let summary = Summary { pass: runs.iter().all(|r| r.pass), runs };
     let text = serde_json::to_string_pretty(&summary)? + "\n";
-    tacsim_sim::atomic::write_atomic(&out.join("report.json"), text.as_bytes())?;
+    tacsim_data::write_atomic(&out.join("report.json"), text.as_bytes())?;
     let shown =
         if json { text } else { table(&summary.runs) + &format!("report: {}\n", out.join("report.json").display()) };
     Ok((shown, summary.pass))
@@ -177,7 +177,7 @@ pub fn plot(r: &RunReport, path: &Path) -> Result<()> {
         }
         root.present()?;
     }
-    tacsim_sim::atomic::write_atomic(path, svg.as_bytes())?;
+    tacsim_data::write_atomic(path, svg.as_bytes())?;
     Ok(())
 }
 

@@ -30,12 +30,11 @@ use std::process::Command;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
-use tacsim_sim::atomic::write_atomic;
-use tacsim_sim::calibration::{compare_sensor, fit_camera, fit_realism, ring_table};
-use tacsim_sim::realism::Realism;
+use tacsim_data::write_atomic;
+use tacsim_sim::calibrate::{compare_sensor, fit_camera, fit_realism, ring_table};
 use tacsim_sim::stimulus::Catalogue;
-use tacsim_sim::stimulus::builtin::shape_files;
-use tacsim_sim::{SensorParams, png_io};
+use tacsim_sim::stimulus::shape_files;
+use tacsim_sim::{Realism, SensorParams, read_png};
 
 fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).parent().map(Path::to_path_buf).unwrap_or_default()
@@ -205,8 +204,8 @@ fn shapes(check: bool) -> Result<()> {
 const CAMERA_PRESET: &str = "sim/presets/tactip-331-camera.toml";
 
 fn fit(real_path: &Path) -> Result<()> {
-    let real = png_io::read_png(real_path)
-        .with_context(|| format!("the real reference image is needed: {}", real_path.display()))?;
+    let real =
+        read_png(real_path).with_context(|| format!("the real reference image is needed: {}", real_path.display()))?;
     let name = real_path.display().to_string();
     let out = root().join(CAMERA_PRESET);
     let start = SensorParams::load(&out)?;
@@ -272,13 +271,14 @@ fn bench(extra: &[String]) -> Result<()> {
 }
 
 fn real_compare(args: &RealCompareArgs) -> Result<()> {
-    use tacsim_sim::calibrate::evaluate::Simulator;
-    use tacsim_sim::calibrate::frame::{ImageMap, best_frame, label_frame, shift_samples};
-    use tacsim_sim::calibrate::model::{Deformation, RigFrame};
-    use tacsim_sim::calibrate::observe::Observations;
+    use tacsim_sim::RigFrame;
+    use tacsim_sim::calibrate::Deformation;
+    use tacsim_sim::calibrate::Observations;
+    use tacsim_sim::calibrate::Simulator;
+    use tacsim_sim::calibrate::{ImageMap, best_frame, label_frame, shift_samples};
     let dir = args.real.clone().unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d"));
     let lab = tacsim_data::LabFolder::open(&dir)?;
-    let reference = tacsim_sim::calibrate::reference::Reference::of(&lab, None, Default::default())?;
+    let reference = tacsim_sim::calibrate::Reference::of(&lab, None, Default::default())?;
     let obs = Observations::track(&lab, &reference)?;
     let n = obs.reference.len();
     let tracked: Vec<usize> = obs.samples.iter().map(|o| n - o.tracking.unmatched()).collect();
@@ -294,7 +294,7 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
         None => SensorParams::default(),
     };
     if let Some(v) = args.camera_distance {
-        base = tacsim_sim::calibration::fit_camera_at(&base, &reference.image, &reference.describe(), Some(v))?;
+        base = tacsim_sim::calibrate::fit_camera_at(&base, &reference.image, &reference.describe(), Some(v))?;
         println!("camera refitted at {v} mm: {:?}", base.camera);
     }
     let mut d = Deformation::of(&base, 0.5);
@@ -396,7 +396,7 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
             .filter(|(_, o)| o.sample.pose[2] <= zmax && o.sample.pose[3].abs().max(o.sample.pose[4].abs()) < tmax)
             .map(|(e, _)| e)
             .collect();
-        let mean = |f: &dyn Fn(&&tacsim_sim::calibrate::model::SampleError) -> f64| {
+        let mean = |f: &dyn Fn(&&tacsim_sim::calibrate::SampleError) -> f64| {
             sel.iter().map(f).sum::<f64>() / sel.len().max(1) as f64
         };
         println!(

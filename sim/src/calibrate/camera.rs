@@ -8,7 +8,7 @@ use image::GrayImage;
 
 use super::observe::SPACING_PX420;
 use super::reference::Reference;
-use crate::calibration::{
+use crate::calibrate::rings::{
     Comparison, RingProfile, compare_sensor, fit_camera_at, fit_framing, fit_ring_angles, ring_profile,
 };
 use crate::detect::{match_reference, pin_centres, tip_pixels};

@@ -17,8 +17,8 @@ use tacsim_data::LabSample;
 use super::evaluate::Simulator;
 use super::model::SampleError;
 use super::observe::Observations;
-use crate::contact::pose::SensorPose;
-use crate::dataset::plan::LabelFrame;
+use crate::SensorPose;
+use crate::dataset::LabelFrame;
 use crate::error::{Result, SimError};
 use crate::rig::yielded_depth_mm;
 use crate::scene::{ObjectPose, Scene};
@@ -40,7 +40,7 @@ pub struct EdgeLabels {
     /// Added to the depth label (`pose_z`) to give the commanded indentation `c` (mm).
     pub depth_offset_mm: f64,
     /// The rig's yield (mm^-0.5): the indentation reached is `c - k c^1.5`
-    /// ([`yielded_depth_mm`]); 0 where the rig is stiff.
+    /// ([`crate::yielded_depth_mm`]); 0 where the rig is stiff.
     #[serde(default)]
     pub depth_compliance: f64,
 }
@@ -70,7 +70,7 @@ pub fn edge_scene(stimulus: Arc<Stimulus>, contact_mm: [f64; 2]) -> Result<(Scen
 }
 
 /// The scene-frame sensor pose of edge-frame pose `(x, depth, yaw)` in `frame`.
-pub fn sensor_pose(frame: &LabelFrame, (x, depth, yaw): (f64, f64, f64)) -> SensorPose {
+pub fn edge_sensor_pose(frame: &LabelFrame, (x, depth, yaw): (f64, f64, f64)) -> SensorPose {
     let [px, py] = frame.point(x, 0.0);
     SensorPose::new(px, py, depth, frame.yaw_zero_deg + yaw)
 }
@@ -87,7 +87,7 @@ pub fn tap_errors(
     which
         .par_iter()
         .map(|&k| {
-            let pose = sensor_pose(frame, labels.edge_pose(&obs.samples[k].sample));
+            let pose = edge_sensor_pose(frame, labels.edge_pose(&obs.samples[k].sample));
             let pins = sim.tap(pose)?;
             Ok(sim.error(obs, k, &sim.displacements_of(&pins)))
         })

@@ -5,8 +5,8 @@ use rayon::prelude::*;
 
 use super::model::{Deformation, RigFrame, SampleError, affine_residual, compare, displacements, simulate_pins};
 use super::observe::Observations;
-use crate::contact::engine::{ContactModel, Simulation};
-use crate::contact::pose::SensorPose;
+use crate::SensorPose;
+use crate::contact::{ContactModel, Simulation};
 use crate::detect::{match_reference, tip_pixels};
 use crate::error::Result;
 use crate::pins::PinPose;
@@ -51,7 +51,7 @@ impl Simulator {
     }
 
     /// The simulator of `deformation` on `base` for the reference pins of `obs`, pressing into
-    /// `scene` (a stimulus other than the flat surface: [`super::edge`]).
+    /// `scene` (a stimulus other than the flat surface: [`super::edge_scene`]).
     pub fn on_scene(
         base: &SensorParams,
         deformation: &Deformation,
@@ -148,7 +148,9 @@ impl Simulator {
         compare(field, &obs.samples[k].tracking.displacement, &self.reference_to_sim)
     }
 
-    /// [`super::model::affine_residual`] of recording `k` of `obs` given its simulated `field`.
+    /// The relative error of recording `k` of `obs` left after the best affine map of the
+    /// simulated `field` onto the real one (`d_real ~ A d_sim + c`, least squares): the
+    /// field's shape rather than a gain, a rotation or a global shift.
     pub fn affine_residual(&self, obs: &Observations, k: usize, field: &[Option<[f64; 2]>]) -> Option<f64> {
         affine_residual(field, &obs.samples[k].tracking.displacement, &self.reference_to_sim)
     }

@@ -1,7 +1,7 @@
 //! Fitting the deformation model to tracked real recordings.
 //!
 //! The recordings are split once, by a hash of their image names, into a training 80% and a
-//! held-out 20% that the fit never sees ([`Split`]). On the training part the label frame is
+//! held-out 20% that the fit never sees ([`RecordingSplit`]). On the training part the label frame is
 //! found from the data ([`super::frame::best_frame`]), then for each candidate elastic model
 //! Nelder-Mead minimises the mean relative error (mean over recordings of mean per-pin
 //! displacement error over mean real displacement) over the model's parameters
@@ -18,7 +18,7 @@ use super::frame::{FrameFit, ImageMap, best_frame, shift_samples};
 use super::model::{Deformation, RigFrame, SampleError};
 use super::observe::Observations;
 use super::reference::Reference;
-use crate::calibration::fit_camera_at;
+use crate::calibrate::rings::fit_camera_at;
 use crate::error::{Result, SimError};
 use crate::fit::nelder_mead;
 use crate::sensor::{SensorParams, SkinModel};
@@ -26,14 +26,14 @@ use crate::stimulus::Stimulus;
 
 /// The training and held-out recordings (indices into [`Observations::samples`]).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Split {
+pub struct RecordingSplit {
     /// Recordings the fit uses (about 80%).
     pub train: Vec<usize>,
     /// Recordings it never sees (about 20%).
     pub held_out: Vec<usize>,
 }
 
-impl Split {
+impl RecordingSplit {
     /// Holds out the recordings of [`tacsim_data::LabSample::is_held_out`].
     pub fn of(obs: &Observations) -> Self {
         let (mut train, mut held_out) = (Vec::new(), Vec::new());
@@ -296,7 +296,12 @@ pub fn start(base: &SensorParams, model: SkinModel) -> Deformation {
 
 /// Fits the deformation model to the training recordings of `split` (see the module docs);
 /// `progress` hears of every improvement.
-pub fn calibrate(problem: &Problem, split: &Split, opts: &FitOptions, progress: &dyn Fn(&str)) -> Result<Calibration> {
+pub fn calibrate(
+    problem: &Problem,
+    split: &RecordingSplit,
+    opts: &FitOptions,
+    progress: &dyn Fn(&str),
+) -> Result<Calibration> {
     if opts.models.is_empty() {
         return Err(SimError::invalid("calibration", "models", "name at least one candidate elastic model"));
     }

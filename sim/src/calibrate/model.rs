@@ -8,8 +8,8 @@
 use serde::{Deserialize, Serialize};
 use tacsim_data::LabSample;
 
-use crate::contact::engine::{ContactModel, Simulation};
-use crate::contact::trajectory::Path as SensorPath;
+use crate::SensorPath;
+use crate::contact::{ContactModel, Simulation};
 use crate::detect::tip_pixels;
 use crate::error::Result;
 use crate::pins::PinPose;
@@ -52,7 +52,7 @@ pub struct Deformation {
     #[serde(default)]
     pub pivot_offset_mm: [f64; 2],
     /// Camera distance behind the dome centre (mm) the camera is refitted at
-    /// ([`crate::calibration::fit_camera_at`]): the undeformed image hardly tells it, the
+    /// ([`crate::calibrate::rings::fit_camera_at`]): the undeformed image hardly tells it, the
     /// perspective of pins pressed towards the camera does.
     pub camera_distance_mm: f64,
     /// Poisson's ratio of the skin material (0.5: incompressible; below it, pressure pulls

@@ -6,7 +6,7 @@
 use image::{GrayImage, Rgb, RgbImage, imageops};
 use serde::Serialize;
 
-use super::fitting::{Calibration, Candidate, Problem, Split};
+use super::fitting::{Calibration, Candidate, Problem, RecordingSplit};
 use super::model::{Deformation, SampleError};
 use crate::error::Result;
 
@@ -188,7 +188,7 @@ fn means(rows: &[Row]) -> Means {
 pub fn held_out(
     problem: &Problem,
     calib: &Calibration,
-    split: &Split,
+    split: &RecordingSplit,
     command: &str,
     real_dir: &str,
     grid_name: &str,

@@ -619,7 +619,7 @@ impl<'a> Simulation<'a> {
     }
 
     /// Pin poses (sensor frame) for the current state: the undeformed layout without contact.
-    /// Far cells act on a pin in blocks (see [`super::pin_motion`]).
+    /// Far cells act on a pin in blocks (see `pin_motion.rs`).
     pub fn pins(&self) -> Vec<PinPose> {
         self.pins_with(false)
     }

@@ -180,7 +180,7 @@ impl<'a> Product<'a> {
 }
 
 /// The influence operator of a [`HalfSpace`] or of layers on a rigid base
-/// ([`super::layered`]) on a [`Grid`].
+/// (`layered.rs`) on a [`Grid`].
 #[derive(Debug, Clone)]
 pub struct Operator {
     grid: Grid,
@@ -409,7 +409,7 @@ impl Operator {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::kernel::point_load_displacement;
+    use crate::contact::point_load_displacement;
 
     fn op(nu: f64, pairing: Pairing, n: usize, h: f64) -> Operator {
         Operator::new(

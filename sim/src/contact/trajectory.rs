@@ -17,7 +17,7 @@ pub struct PathStep {
 
 /// A sequence of poses, solved in order with contact history.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct Path {
+pub struct SensorPath {
     /// The steps.
     pub steps: Vec<PathStep>,
 }
@@ -26,7 +26,7 @@ pub struct Path {
 /// a path's length is bounded before any work starts.
 pub const MAX_PATH_STEPS: usize = 2_000;
 
-impl Path {
+impl SensorPath {
     /// A tap: straight down onto `target` from out of contact, captured there.
     pub fn tap(target: SensorPose) -> Self {
         Self { steps: vec![PathStep { pose: target, capture: true }] }
@@ -94,7 +94,7 @@ impl Path {
 
 /// What was captured at a step.
 #[derive(Clone, Debug)]
-pub struct Frame {
+pub struct Capture {
     /// Index of the step in the path.
     pub step: usize,
     /// The pose.
@@ -105,16 +105,18 @@ pub struct Frame {
     pub pins: Vec<PinPose>,
 }
 
-/// Runs `path` over `scene`, returning the captured frames (their pins: rendering them is the
-/// image stage's, downstream).
-pub fn run(model: &ContactModel, scene: &Scene, path: &Path) -> Result<Vec<Frame>> {
-    let mut sim = Simulation::new(model, scene, &path.poses());
-    let mut frames = Vec::new();
-    for (i, s) in path.steps.iter().enumerate() {
-        let report = sim.step(s.pose)?.clone();
-        if s.capture {
-            frames.push(Frame { step: i, pose: s.pose, report, pins: sim.pins() });
+impl SensorPath {
+    /// Runs the path over `scene`, returning what was captured (the pins: rendering them is
+    /// the image stage's, downstream).
+    pub fn run(&self, model: &ContactModel, scene: &Scene) -> Result<Vec<Capture>> {
+        let mut sim = Simulation::new(model, scene, &self.poses());
+        let mut captures = Vec::new();
+        for (i, s) in self.steps.iter().enumerate() {
+            let report = sim.step(s.pose)?.clone();
+            if s.capture {
+                captures.push(Capture { step: i, pose: s.pose, report, pins: sim.pins() });
+            }
         }
+        Ok(captures)
     }
-    Ok(frames)
 }

@@ -16,10 +16,10 @@ use tacsim_data::to_csv;
 use tacsim_data::{Kind, Meta, Row, Shard};
 
 use super::plan::{Plan, REFERENCE_IMAGE, Sample, image_name};
+use crate::SensorPath;
 use crate::atomic::{is_temp_name, write_atomic, write_atomic_unsynced};
-use crate::contact::engine::{ContactModel, Simulation, footprint_grid};
-use crate::contact::frame::ContactFrame;
-use crate::contact::trajectory::Path as SensorPath;
+use crate::contact::ContactFrame;
+use crate::contact::{ContactModel, Simulation, footprint_grid};
 use crate::error::{Result, SimError};
 use crate::pins::PinLayout;
 use crate::png_io::{PngDepth, encode_png};

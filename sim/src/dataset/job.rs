@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use super::generate::{self, Context, Summary, Target};
 use super::plan::Plan;
 use super::recipe::Recipe;
-use crate::contact::engine::ContactModel;
+use crate::contact::ContactModel;
 use crate::error::{Result, SimError};
 use crate::png_io::{PngDepth, encode_png};
 use crate::scene::{ObjectPose, Scene};
@@ -98,7 +98,7 @@ pub struct Job {
 
 impl Job {
     /// Validates `recipe` (from `source`), plans it on the stimuli of `catalogue` and builds
-    /// `base` as the recipe asks (see [`generate::recipe_sensor`]).
+    /// `base` as the recipe asks (see [`super::recipe_sensor`]).
     pub fn new(
         recipe: &Recipe,
         source: &str,

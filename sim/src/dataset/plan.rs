@@ -13,10 +13,10 @@ use rand_chacha::ChaCha8Rng;
 use tacsim_data::{Kind, Row, Split};
 
 use super::recipe::{Axes, PoseFrame, Recipe};
-use crate::contact::pose::SensorPose;
+use crate::SensorPose;
 use crate::error::{Result, SimError};
 use crate::stimulus::Catalogue;
-use crate::stimulus::contour::Contour;
+use crate::stimulus::Contour;
 use crate::variation::Variation;
 
 /// Where a pose's labels are measured from: the label `(x, y)` is the point

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{Result, SimError};
 use crate::rig::{Press, RigFrame};
 use crate::sensor::SkinModel;
-use crate::stimulus::catalogue::MAX_FRICTION;
+use crate::stimulus::MAX_FRICTION;
 
 /// A dataset recipe (`scenarios/datasets/*.toml`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -29,7 +29,7 @@ pub struct Recipe {
     /// directory; default: the calibrated TacTip. `tacsim generate --sensor` overrides it.
     pub sensor: Option<String>,
     /// The stimuli, each pressed around its contact location.
-    pub shapes: Vec<ShapeSpec>,
+    pub shapes: Vec<RecipeShape>,
     /// Poses per shape and the ranges they are drawn from.
     pub poses: PoseSpec,
     /// Tap instances per pose.
@@ -49,7 +49,7 @@ pub struct Recipe {
 /// A stimulus of the recipe.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct ShapeSpec {
+pub struct RecipeShape {
     /// Catalogue name (`tacsim shapes`).
     pub name: String,
     /// Contact location (object frame, mm) the poses are relative to; default: the catalogue's
@@ -177,7 +177,7 @@ impl RandomiseSpec {
 }
 
 /// The lab rig a recipe's labels are written for, as `tacsim calibrate` fits it (its
-/// report's label frame and press; [`crate::rig`]): each sample's labels are drawn in the
+/// report's label frame and press; [`crate::RigFrame`]): each sample's labels are drawn in the
 /// lab's frame and the sensor goes where that rig would have taken it (offsets and tilts
 /// turned into the sensor's frame, the depth zero shifted, depth and tilt lost to the rig's
 /// yield, the apex lifted by a tilt about the pivot). Modelled for flat surfaces. The default
@@ -262,7 +262,7 @@ impl Default for Recipe {
             sensor: None,
             shapes: ["disk", "clover", "teardrop"]
                 .into_iter()
-                .map(|n| ShapeSpec { name: n.into(), contact_mm: None, friction: None, edge_radius_mm: None })
+                .map(|n| RecipeShape { name: n.into(), contact_mm: None, friction: None, edge_radius_mm: None })
                 .collect(),
             poses: PoseSpec::default(),
             taps: TapSpec::default(),
@@ -395,7 +395,7 @@ impl Recipe {
                 return bad(&format!("shapes[{i}].friction"), format!("must be in [0, {MAX_FRICTION}], got {f}"));
             }
             if let Some(r) = s.edge_radius_mm {
-                crate::stimulus::catalogue::check_edge_radius(r, src, &format!("shapes[{i}].edge_radius_mm"))?;
+                crate::stimulus::check_edge_radius(r, src, &format!("shapes[{i}].edge_radius_mm"))?;
             }
         }
         let p = &self.poses;

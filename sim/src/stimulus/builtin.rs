@@ -5,16 +5,16 @@
 //! silicone skin on printed ABS 0.5, on smooth acrylic 0.35 (lower, as the paper notes).
 
 use crate::error::Result;
-use crate::stimulus::catalogue::{Catalogue, ShapeEntry};
-use crate::stimulus::mesh::Mesh;
-use crate::stimulus::outline::Outline;
+use crate::stimulus::Mesh;
+use crate::stimulus::Outline;
+use crate::stimulus::{Catalogue, ShapeEntry};
 
 /// Maximum segment length (mm) of the committed OBJ tessellations.
 pub const SEGMENT_MM: f64 = 0.5;
 
 /// A built-in shape: outline, extrusion height and catalogue data.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ShapeSpec {
+pub struct BuiltinShape {
     /// Catalogue entry (name, file, material, friction, contact location).
     pub entry: ShapeEntry,
     /// Planar outline (mm, object frame).
@@ -31,8 +31,8 @@ fn spec(
     description: &str,
     outline: Outline,
     contact_mm: Option<[f64; 2]>,
-) -> ShapeSpec {
-    ShapeSpec {
+) -> BuiltinShape {
+    BuiltinShape {
         entry: ShapeEntry {
             name: name.to_owned(),
             file: format!("{name}.obj"),
@@ -49,7 +49,7 @@ fn spec(
 
 /// The seven built-in stimuli. Training shapes (disk, clover, teardrop) carry the contact
 /// location of the paper's data collection: a point on the edge where the sensor is tapped.
-pub fn builtin_shapes() -> Vec<ShapeSpec> {
+pub fn builtin_shapes() -> Vec<BuiltinShape> {
     const ABS: f64 = 0.5;
     const ACRYLIC: f64 = 0.35;
     let (big, small, dist) = (30.0, 6.0, 62.0);

@@ -17,8 +17,8 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, SimError};
-use crate::stimulus::contour::Contour;
-use crate::stimulus::mesh::Mesh;
+use crate::stimulus::Contour;
+use crate::stimulus::Mesh;
 
 /// Largest friction coefficient accepted.
 pub const MAX_FRICTION: f64 = 2.0;

@@ -8,8 +8,8 @@
 use std::collections::{HashMap, HashSet};
 
 use crate::error::{Result, SimError};
-use crate::stimulus::mesh::{Mesh, winding_number};
-use crate::stimulus::outline::{perimeter, signed_area};
+use crate::stimulus::{Mesh, winding_number};
+use crate::stimulus::{perimeter, signed_area};
 
 /// Boundary of the top face of a planar stimulus.
 #[derive(Clone, Debug, PartialEq)]
@@ -156,7 +156,7 @@ impl Contour {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::stimulus::outline::Outline;
+    use crate::stimulus::Outline;
 
     #[test]
     fn disk_contour_distance_and_tangent() {

@@ -338,11 +338,11 @@ pub fn fit_realism(
 /// Angular bins of [`fit_framing`]'s rim search (5 deg each).
 const RIM_BINS: usize = 72;
 
-/// Fits the rim ring and mask of a lab's framing ([`FramingParams`]) to a real undeformed
+/// Fits the rim ring and mask of a lab's framing ([`FramingParams`](crate::FramingParams)) to a real undeformed
 /// image, about the principal point `centre` (px), given the pin field's radius `field_px`
 /// (px, to the outermost pin centres). The white pixels beyond `1.08 field_px` are the rim's
 /// candidates; a rim is found when they fill a band at least 0.8 px thick in 60% of the
-/// [`RIM_BINS`] 5-degree sectors (specks and clutter near a masked edge do not). Its radius is the median candidate distance, its width the median over
+/// `RIM_BINS` 5-degree sectors (specks and clutter near a masked edge do not). Its radius is the median candidate distance, its width the median over
 /// sectors of the candidates' radial thickness (count over arc length), and the mask closes
 /// half a pixel past its outer edge. No rim (the surface recordings: the lab masked it off):
 /// the default framing, nothing drawn.
