@@ -286,6 +286,9 @@ fn rounding_mm(scene: &Scene, id: usize, origin: &[f64; 3], dir: Vector3<f64>, t
     stimulus.drop_below_top_mm(scene.edge(id, x, y).signed_distance_mm) / -dir.z
 }
 
+/// The dome slope's share of the skin's traction, `(p grad h, p_prev grad h)` per axis (MPa).
+type SlopeTractions = ([Vec<f64>; 2], [Vec<f64>; 2]);
+
 /// A sensor moving over a scene with contact history.
 #[derive(Debug)]
 pub struct Simulation<'a> {
@@ -407,44 +410,83 @@ impl<'a> Simulation<'a> {
     }
 
     /// Moves the sensor to `pose` and solves the contact there, given the history so far.
+    ///
+    /// The stages, each a named step: the initial gap and friction under the pose
+    /// ([`initial_gap`]; lift-off when nothing overlaps), the skin's rigid slip over the
+    /// stimulus since the previous pose (`rigid_slip`), the coupled solve
+    /// (`solve_coupled`: normal, then tangential, alternated until the tractions settle
+    /// for a coupled material), and the report turned into the sensor frame
+    /// (`finish_report`).
     pub fn step(&mut self, pose: SensorPose) -> Result<&StepReport> {
         pose.validate("trajectory", self.model.dome_radius())?;
         let previous = self.pose.replace(pose);
-        let Some(op) = self.op.as_ref() else {
+        let Some(op) = self.op.take() else {
             self.report = StepReport::default();
             return Ok(&self.report);
         };
+        let solved = self.solve_at(&op, pose, previous);
+        self.op = Some(op);
+        self.report = solved?;
+        Ok(&self.report)
+    }
+
+    /// [`Self::step`]'s stages on the path's operator `op`.
+    fn solve_at(&mut self, op: &Operator, pose: SensorPose, previous: Option<SensorPose>) -> Result<StepReport> {
         let grid = *op.grid();
-        let n = grid.len();
         let (g0, mu): (Vec<f64>, Vec<f64>) =
             initial_gap(self.model, self.scene, &pose, &self.frame, &grid).into_iter().unzip();
         self.friction.clone_from(&mu);
         self.gap.clone_from(&g0);
         if g0.iter().all(|g| *g >= 0.0) {
-            // Lift-off: no contact, no solve, no state.
-            self.pressure.iter_mut().for_each(|v| *v = 0.0);
-            self.qx.iter_mut().for_each(|v| *v = 0.0);
-            self.qy.iter_mut().for_each(|v| *v = 0.0);
-            self.closure.iter_mut().for_each(|v| *v = 0.0);
-            self.report = StepReport::default();
-            return Ok(&self.report);
+            // Lift-off: no contact, no solve, no tractions.
+            self.pressure.fill(0.0);
+            self.qx.fill(0.0);
+            self.qy.fill(0.0);
+            self.closure.fill(0.0);
+            return Ok(StepReport::default());
         }
         let had_contact = self.pressure.iter().any(|p| *p > 0.0);
-        // Rigid slip increment of the skin over the stimulus since the previous pose, per cell
-        // (contact frame); zero when the contact is new.
+        let slip = match previous {
+            Some(previous) if had_contact => self.rigid_slip(&grid, &pose, &previous),
+            // A new contact has no slip yet.
+            _ => (vec![0.0; grid.len()], vec![0.0; grid.len()]),
+        };
+        let mut report = self.solve_coupled(op, &g0, &mu, slip)?;
+        self.finish_report(&mut report)?;
+        Ok(report)
+    }
+
+    /// Rigid slip increment (mm) of the skin over the stimulus per cell (contact frame), from
+    /// `previous` to `pose`: each cell's dome point `x` (sensor frame) moves by
+    /// `x - R_new^T (R_old x + o_old - o_new)` relative to the stimulus.
+    fn rigid_slip(&self, grid: &Grid, pose: &SensorPose, previous: &SensorPose) -> (Vec<f64>, Vec<f64>) {
+        let n = grid.len();
         let (mut wx, mut wy) = (vec![0.0; n], vec![0.0; n]);
-        if let (Some(prev), true) = (previous, had_contact) {
-            let top = self.scene.top_height_mm().unwrap_or(0.0);
-            let radius = self.model.dome_radius();
-            let (r_new, r_old) = (pose.rotation(), prev.rotation());
-            let (o_new, o_old) = (pose.origin_world(radius, top), prev.origin_world(radius, top));
-            for (k, c) in grid.centres().into_iter().enumerate() {
-                let x = self.frame.to_sensor(dome_point(radius, c));
-                let w = self.frame.to_contact(x - r_new.transpose() * (r_old * x + o_old - o_new));
-                wx[k] = w.x;
-                wy[k] = w.y;
-            }
+        let top = self.scene.top_height_mm().unwrap_or(0.0);
+        let radius = self.model.dome_radius();
+        let (r_new, r_old) = (pose.rotation(), previous.rotation());
+        let (o_new, o_old) = (pose.origin_world(radius, top), previous.origin_world(radius, top));
+        for (k, c) in grid.centres().into_iter().enumerate() {
+            let x = self.frame.to_sensor(dome_point(radius, c));
+            let w = self.frame.to_contact(x - r_new.transpose() * (r_old * x + o_old - o_new));
+            wx[k] = w.x;
+            wy[k] = w.y;
         }
+        (wx, wy)
+    }
+
+    /// The normal and tangential solves of one step from the initial gap `g0`, friction `mu`
+    /// and rigid slip `(wx, wy)`: once for an uncoupled material, else alternated (the shear's
+    /// normal displacement fed to the next normal solve) until the shear changes by less than
+    /// 1e-9 of the pressure's sum or `coupling_iterations` rounds.
+    fn solve_coupled(
+        &mut self,
+        op: &Operator,
+        g0: &[f64],
+        mu: &[f64],
+        (wx, wy): (Vec<f64>, Vec<f64>),
+    ) -> Result<StepReport> {
+        let n = g0.len();
         let moving = wx.iter().chain(&wy).any(|w| *w != 0.0);
         let frictional = mu.iter().any(|m| *m > 0.0);
         let (p_prev, qx_prev, qy_prev) = (self.pressure.clone(), self.qx.clone(), self.qy.clone());
@@ -453,125 +495,33 @@ impl<'a> Simulation<'a> {
         let mut extra: Option<Vec<f64>> = None;
         let rounds = if op.uncoupled() { 1 } else { self.model.coupling_iterations.max(1) };
         for _ in 0..rounds {
-            let sol = normal::solve(
-                op,
-                &g0,
-                extra.as_deref(),
-                Control::Indentation,
-                Some(&self.pressure),
-                &self.model.normal,
-            )?;
-            report.normal_iterations += sol.iterations;
-            report.force_n[2] = sol.force_n;
-            self.pressure = sol.pressure;
-            for (k, g) in sol.gap.iter().enumerate() {
-                if g.is_finite() {
-                    self.gap[k] = *g;
-                }
-            }
+            self.solve_normal(op, g0, extra.as_deref(), &mut report)?;
             // How far each cell was pressed in: needed (and kept) only with a dome slope.
             let closure: Option<Vec<f64>> = self
                 .slope
                 .as_ref()
-                .map(|_| self.gap.iter().zip(&g0).map(|(g, g0)| if g0.is_finite() { g - g0 } else { 0.0 }).collect());
+                .map(|_| self.gap.iter().zip(g0).map(|(g, g0)| if g0.is_finite() { g - g0 } else { 0.0 }).collect());
             let needs_tangential =
                 self.slope.is_some() || frictional && (moving || !op.uncoupled() || qx_prev.iter().any(|q| *q != 0.0));
             if !needs_tangential {
-                self.qx.iter_mut().for_each(|v| *v = 0.0);
-                self.qy.iter_mut().for_each(|v| *v = 0.0);
+                self.qx.fill(0.0);
+                self.qy.fill(0.0);
                 break;
             }
-            // Slip from the change of pressure through the coupling terms.
             let (mut cx, mut cy) = (wx.clone(), wy.clone());
             if !op.uncoupled() {
-                let dp: Vec<f64> = self.pressure.iter().zip(&p_prev).map(|(a, b)| a - b).collect();
-                let src: Vec<usize> = (0..n).filter(|&k| dp[k] != 0.0).collect();
-                let dst: Vec<usize> = (0..n).filter(|&k| self.pressure[k] > 0.0).collect();
-                let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
-                let choice = Product::by_size(dst.len(), self.model.tangential.dense_max_cells, &src, &dst);
-                op.apply(&[(Component::Xz, &dp)], &mut ux, choice);
-                op.apply(&[(Component::Yz, &dp)], &mut uy, choice);
-                for &k in &dst {
-                    cx[k] += ux[k];
-                    cy[k] += uy[k];
-                }
+                self.add_coupling_slip(op, &p_prev, &mut cx, &mut cy);
             }
-            // The dome's slope: the skin's traction is the solved (stimulus-plane) one plus
-            // `p grad h`, and its stuck cells move `du_n grad h` along the skin.
-            // `(p grad h, p_prev grad h)` per axis, with a slope only.
-            let offsets = self.slope.as_ref().map(|(hx, hy)| {
-                let times = |p: &[f64], h: &[f64]| -> Vec<f64> { p.iter().zip(h).map(|(p, h)| p * h).collect() };
-                ([times(&self.pressure, hx), times(&self.pressure, hy)], [times(&p_prev, hx), times(&p_prev, hy)])
-            });
-            if let (Some(([ox, oy], [ox_prev, oy_prev])), Some((hx, hy)), Some(closure)) =
-                (&offsets, &self.slope, &closure)
-            {
-                let dq: [Vec<f64>; 2] = [(ox, ox_prev), (oy, oy_prev)]
-                    .map(|(o, o_prev)| o.iter().zip(o_prev).map(|(a, b)| a - b).collect());
-                let src: Vec<usize> = (0..n).filter(|&k| dq[0][k] != 0.0 || dq[1][k] != 0.0).collect();
-                let dst: Vec<usize> = (0..n).filter(|&k| self.pressure[k] > 0.0).collect();
-                let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
-                let choice = Product::by_size(dst.len(), self.model.tangential.dense_max_cells, &src, &dst);
-                op.apply(&[(Component::Xx, &dq[0]), (Component::Xy, &dq[1])], &mut ux, choice);
-                op.apply(&[(Component::Xy, &dq[0]), (Component::Yy, &dq[1])], &mut uy, choice);
-                for &k in &dst {
-                    let du_n = closure[k] - closure_prev[k];
-                    cx[k] += ux[k] - du_n * hx[k];
-                    cy[k] += uy[k] - du_n * hy[k];
-                }
+            let offsets = self.slope_tractions(&p_prev);
+            if let (Some(offsets), Some(closure)) = (&offsets, &closure) {
+                self.add_slope_slip(op, offsets, closure, &closure_prev, &mut cx, &mut cy);
             }
-            let minus = |q: &[f64], o: &[f64]| -> Vec<f64> { q.iter().zip(o).map(|(q, o)| q - o).collect() };
-            // The solver works on the stimulus-plane tractions: the skin's less `p grad h`
-            // (no copies without a slope).
-            let shifted = offsets.as_ref().map(|([ox, oy], [ox_prev, oy_prev])| {
-                [minus(&qx_prev, ox_prev), minus(&qy_prev, oy_prev), minus(&self.qx, ox), minus(&self.qy, oy)]
-            });
-            let (prev_x, prev_y, warm_x, warm_y) = match &shifted {
-                Some([a, b, c, d]) => (a.as_slice(), b.as_slice(), c.as_slice(), d.as_slice()),
-                None => (qx_prev.as_slice(), qy_prev.as_slice(), self.qx.as_slice(), self.qy.as_slice()),
-            };
-            let (qx, qy) = if !frictional {
+            let (qx, qy) = if frictional {
+                self.solve_tangential(op, mu, (&qx_prev, &qy_prev), (&cx, &cy), offsets.as_ref(), &mut report)?
+            } else {
                 // Frictionless (reached only with a slope): the stimulus-plane traction is
                 // zero; the skin's is `p grad h`.
-                let [ox, oy] = offsets.map(|(o, _)| o).unwrap_or_else(|| [vec![0.0; n], vec![0.0; n]]);
-                (ox, oy)
-            } else {
-                // The eigenvalue bound on all cells seen in contact serves every step inside them.
-                let mut grown = false;
-                for (k, p) in self.pressure.iter().enumerate() {
-                    if *p > 0.0 && !self.seen[k] {
-                        self.seen[k] = true;
-                        grown = true;
-                    }
-                }
-                if grown || self.lipschitz.is_none() {
-                    let cells: Vec<usize> = (0..n).filter(|&k| self.seen[k]).collect();
-                    self.lipschitz =
-                        Some(tangential::largest_eigenvalue(op, &cells, self.model.tangential.dense_max_cells));
-                }
-                let t = tangential::solve_step(
-                    op,
-                    &self.pressure,
-                    &mu,
-                    (prev_x, prev_y),
-                    (&cx, &cy),
-                    Some((warm_x, warm_y)),
-                    self.lipschitz,
-                    &self.model.tangential,
-                )?;
-                report.tangential_solved = true;
-                report.tangential_iterations += t.iterations;
-                report.force_n[0] = t.force_n[0];
-                report.force_n[1] = t.force_n[1];
-                report.slip_cells = t.slipping.iter().filter(|s| **s).count();
-                report.dissipation_nmm = t.dissipation_nmm;
-                match &offsets {
-                    Some(([ox, oy], _)) => (
-                        t.qx.iter().zip(ox).map(|(q, o)| q + o).collect::<Vec<f64>>(),
-                        t.qy.iter().zip(oy).map(|(q, o)| q + o).collect::<Vec<f64>>(),
-                    ),
-                    None => (t.qx, t.qy),
-                }
+                offsets.map(|([ox, oy], _)| (ox, oy)).unwrap_or_else(|| (vec![0.0; n], vec![0.0; n]))
             };
             let change: f64 = qx.iter().zip(&self.qx).map(|(a, b)| (a - b).abs()).sum::<f64>()
                 + qy.iter().zip(&self.qy).map(|(a, b)| (a - b).abs()).sum::<f64>();
@@ -584,8 +534,146 @@ impl<'a> Simulation<'a> {
             if op.uncoupled() || change / scale < 1e-9 {
                 break;
             }
-            extra = Some(self.normal_from_shear(op, &g0));
+            extra = Some(self.normal_from_shear(op, g0));
         }
+        Ok(report)
+    }
+
+    /// The normal solve (Polonsky-Keer, warm-started from the last pressure) with the extra
+    /// normal displacement `extra` of a coupled material's shear; updates pressure and gap.
+    fn solve_normal(
+        &mut self,
+        op: &Operator,
+        g0: &[f64],
+        extra: Option<&[f64]>,
+        report: &mut StepReport,
+    ) -> Result<()> {
+        let sol = normal::solve(op, g0, extra, Control::Indentation, Some(&self.pressure), &self.model.normal)?;
+        report.normal_iterations += sol.iterations;
+        report.force_n[2] = sol.force_n;
+        self.pressure = sol.pressure;
+        for (k, g) in sol.gap.iter().enumerate() {
+            if g.is_finite() {
+                self.gap[k] = *g;
+            }
+        }
+        Ok(())
+    }
+
+    /// Adds to the slip `(cx, cy)` of the cells in contact the tangential displacement that
+    /// the change of pressure since `p_prev` makes through the coupling terms.
+    fn add_coupling_slip(&self, op: &Operator, p_prev: &[f64], cx: &mut [f64], cy: &mut [f64]) {
+        let n = cx.len();
+        let dp: Vec<f64> = self.pressure.iter().zip(p_prev).map(|(a, b)| a - b).collect();
+        let src: Vec<usize> = (0..n).filter(|&k| dp[k] != 0.0).collect();
+        let dst: Vec<usize> = (0..n).filter(|&k| self.pressure[k] > 0.0).collect();
+        let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
+        let choice = Product::by_size(dst.len(), self.model.tangential.dense_max_cells, &src, &dst);
+        op.apply(&[(Component::Xz, &dp)], &mut ux, choice);
+        op.apply(&[(Component::Yz, &dp)], &mut uy, choice);
+        for &k in &dst {
+            cx[k] += ux[k];
+            cy[k] += uy[k];
+        }
+    }
+
+    /// The dome's slope: the skin's traction is the solved (stimulus-plane) one plus
+    /// `p grad h`. Returns `(p grad h, p_prev grad h)` per axis; `None` without a slope.
+    fn slope_tractions(&self, p_prev: &[f64]) -> Option<SlopeTractions> {
+        self.slope.as_ref().map(|(hx, hy)| {
+            let times = |p: &[f64], h: &[f64]| -> Vec<f64> { p.iter().zip(h).map(|(p, h)| p * h).collect() };
+            ([times(&self.pressure, hx), times(&self.pressure, hy)], [times(p_prev, hx), times(p_prev, hy)])
+        })
+    }
+
+    /// Adds to the slip `(cx, cy)` what the slope's traction change displaces, and the
+    /// `du_n grad h` along the skin that stuck cells move as they are pressed in further.
+    fn add_slope_slip(
+        &self,
+        op: &Operator,
+        ([ox, oy], [ox_prev, oy_prev]): &SlopeTractions,
+        closure: &[f64],
+        closure_prev: &[f64],
+        cx: &mut [f64],
+        cy: &mut [f64],
+    ) {
+        let Some((hx, hy)) = &self.slope else { return };
+        let n = cx.len();
+        let dq: [Vec<f64>; 2] =
+            [(ox, ox_prev), (oy, oy_prev)].map(|(o, o_prev)| o.iter().zip(o_prev).map(|(a, b)| a - b).collect());
+        let src: Vec<usize> = (0..n).filter(|&k| dq[0][k] != 0.0 || dq[1][k] != 0.0).collect();
+        let dst: Vec<usize> = (0..n).filter(|&k| self.pressure[k] > 0.0).collect();
+        let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
+        let choice = Product::by_size(dst.len(), self.model.tangential.dense_max_cells, &src, &dst);
+        op.apply(&[(Component::Xx, &dq[0]), (Component::Xy, &dq[1])], &mut ux, choice);
+        op.apply(&[(Component::Xy, &dq[0]), (Component::Yy, &dq[1])], &mut uy, choice);
+        for &k in &dst {
+            let du_n = closure[k] - closure_prev[k];
+            cx[k] += ux[k] - du_n * hx[k];
+            cy[k] += uy[k] - du_n * hy[k];
+        }
+    }
+
+    /// One Kalker step of the tangential problem (stick/slip, `|q| <= mu p`) from the
+    /// previous step's shear `q_prev` and the slip `(cx, cy)`, warm-started from the current
+    /// shear; with a slope the solver works on the stimulus-plane tractions (the skin's less
+    /// `p grad h`) and the skin's are returned.
+    fn solve_tangential(
+        &mut self,
+        op: &Operator,
+        mu: &[f64],
+        (qx_prev, qy_prev): (&[f64], &[f64]),
+        slip: (&[f64], &[f64]),
+        offsets: Option<&SlopeTractions>,
+        report: &mut StepReport,
+    ) -> Result<(Vec<f64>, Vec<f64>)> {
+        // The eigenvalue bound on all cells seen in contact serves every step inside them.
+        let mut grown = false;
+        for (k, p) in self.pressure.iter().enumerate() {
+            if *p > 0.0 && !self.seen[k] {
+                self.seen[k] = true;
+                grown = true;
+            }
+        }
+        if grown || self.lipschitz.is_none() {
+            let cells: Vec<usize> = (0..self.seen.len()).filter(|&k| self.seen[k]).collect();
+            self.lipschitz = Some(tangential::largest_eigenvalue(op, &cells, self.model.tangential.dense_max_cells));
+        }
+        let minus = |q: &[f64], o: &[f64]| -> Vec<f64> { q.iter().zip(o).map(|(q, o)| q - o).collect() };
+        let shifted = offsets.map(|([ox, oy], [ox_prev, oy_prev])| {
+            [minus(qx_prev, ox_prev), minus(qy_prev, oy_prev), minus(&self.qx, ox), minus(&self.qy, oy)]
+        });
+        let (prev_x, prev_y, warm_x, warm_y) = match &shifted {
+            Some([a, b, c, d]) => (a.as_slice(), b.as_slice(), c.as_slice(), d.as_slice()),
+            None => (qx_prev, qy_prev, self.qx.as_slice(), self.qy.as_slice()),
+        };
+        let t = tangential::solve_step(
+            op,
+            &self.pressure,
+            mu,
+            (prev_x, prev_y),
+            slip,
+            Some((warm_x, warm_y)),
+            self.lipschitz,
+            &self.model.tangential,
+        )?;
+        report.tangential_solved = true;
+        report.tangential_iterations += t.iterations;
+        report.force_n[0] = t.force_n[0];
+        report.force_n[1] = t.force_n[1];
+        report.slip_cells = t.slipping.iter().filter(|s| **s).count();
+        report.dissipation_nmm = t.dissipation_nmm;
+        Ok(match offsets {
+            Some(([ox, oy], _)) => {
+                (t.qx.iter().zip(ox).map(|(q, o)| q + o).collect(), t.qy.iter().zip(oy).map(|(q, o)| q + o).collect())
+            }
+            None => (t.qx, t.qy),
+        })
+    }
+
+    /// The report's force turned into the sensor frame, its contact cells counted; an error
+    /// when a solve left a non-finite traction.
+    fn finish_report(&self, report: &mut StepReport) -> Result<()> {
         report.contact_force_n = report.force_n;
         if !self.frame.is_sensor() {
             // The force on the skin, (fx, fy, -pressing), turned into the sensor frame.
@@ -599,8 +687,7 @@ impl<'a> Simulation<'a> {
         if !self.pressure.iter().chain(&self.qx).chain(&self.qy).all(|v| v.is_finite()) {
             return Err(SimError::NoConvergence { solver: "contact", iterations: 0, residual: f64::NAN });
         }
-        self.report = report;
-        Ok(&self.report)
+        Ok(())
     }
 
     /// Normal displacement (mm) of the cells with a finite gap from the shear tractions, for
