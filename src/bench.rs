@@ -199,6 +199,36 @@ const PIN_REFERENCE_CELLS: usize = 65;
 /// returns the text to print.
 pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json: bool, plot: &Path) -> Result<String> {
     anyhow::ensure!(samples_n >= 4, "--samples must be at least 4");
+    let sensor = bench_sensor(cells, skin)?;
+    let scene = disk_scene()?;
+    let model = ContactModel::new(&sensor);
+    let renderer = PinRenderer::new(&sensor, 256)?;
+    let poses = samples(samples_n, 1);
+    let (tap_fps, mean_cells) = tap_rate(&model, &scene, &renderer, &poses)?;
+    let slide_sps = slide_rate(&model, &scene, &renderer, &poses, STEP_MM)?;
+    let few = &poses[..samples_n.min(40)];
+    let single = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    let tap_breakdown = single.install(|| tap_breakdown(&model, &scene, &renderer, few))?;
+    let skips = single.install(|| measure_skips(&sensor, &scene, few))?;
+    let mut curve = grid_curve(&sensor, &scene, &renderer, few, &single)?;
+    curve.extend(step_curve(&model, &scene, &renderer, &poses[..samples_n.min(8)], &single)?);
+    let report = BenchReport {
+        threads: rayon::current_num_threads(),
+        cells_across: sensor.skin.cells_across,
+        tap_frames_per_s: tap_fps,
+        slide_samples_per_s: slide_sps,
+        mean_contact_cells: mean_cells,
+        hertz_force_rel_err: validate::hertz(sensor.skin.cells_across)?.force_rel_err,
+        tap_breakdown,
+        skips,
+        curve,
+    };
+    draw(&report, plot).with_context(|| format!("writing the plot {}", plot.display()))?;
+    Ok(if json { serde_json::to_string_pretty(&report)? + "\n" } else { report.table(plot) })
+}
+
+/// The calibrated sensor with the bench's `--cells` and `--skin`.
+fn bench_sensor(cells: Option<usize>, skin: Option<SkinModel>) -> Result<SensorParams> {
     let mut sensor = SensorParams::default();
     if let Some(n) = cells {
         sensor.skin.cells_across = n;
@@ -207,67 +237,67 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
     if let Some(m) = skin {
         sensor.skin.model = m;
     }
-    let scene = disk_scene()?;
-    let model = ContactModel::new(&sensor);
-    let renderer = PinRenderer::new(&sensor, 256)?;
-    let poses = samples(samples_n, 1);
-    let (tap_fps, mean_cells) = tap_rate(&model, &scene, &renderer, &poses)?;
-    let slide_sps = slide_rate(&model, &scene, &renderer, &poses, STEP_MM)?;
+    Ok(sensor)
+}
 
-    // Where a tap's time goes, single thread.
-    let few = &poses[..samples_n.min(40)];
+/// Where a tap's time goes (ms per tap, in the calling thread's pool): footprint grid, gap
+/// and solve, pins, render.
+fn tap_breakdown(
+    model: &ContactModel,
+    scene: &Scene,
+    renderer: &PinRenderer,
+    taps: &[(SensorPose, [f64; 2])],
+) -> Result<Breakdown> {
     let (mut footprint, mut solve, mut pins_t, mut render_t) = (0.0, 0.0, 0.0, 0.0);
-    rayon::ThreadPoolBuilder::new().num_threads(1).build()?.install(|| -> Result<()> {
-        for (pose, _) in few {
-            let t = Instant::now();
-            let mut sim = Simulation::new(&model, &scene, &[*pose]);
-            footprint += t.elapsed().as_secs_f64();
-            let t = Instant::now();
-            sim.step(*pose)?;
-            solve += t.elapsed().as_secs_f64();
-            let t = Instant::now();
-            let pins = sim.pins();
-            pins_t += t.elapsed().as_secs_f64();
-            let t = Instant::now();
-            std::hint::black_box(renderer.render(&pins));
-            render_t += t.elapsed().as_secs_f64();
-        }
-        Ok(())
-    })?;
-    let per = |s: f64| s * 1e3 / few.len() as f64;
-    let breakdown = Breakdown {
-        footprint_ms: per(footprint),
-        solve_ms: per(solve),
-        pins_ms: per(pins_t),
-        render_ms: per(render_t),
-    };
+    for (pose, _) in taps {
+        let t = Instant::now();
+        let mut sim = Simulation::new(model, scene, &[*pose]);
+        footprint += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        sim.step(*pose)?;
+        solve += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        let pins = sim.pins();
+        pins_t += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        std::hint::black_box(renderer.render(&pins));
+        render_t += t.elapsed().as_secs_f64();
+    }
+    let per = |s: f64| s * 1e3 / taps.len() as f64;
+    Ok(Breakdown { footprint_ms: per(footprint), solve_ms: per(solve), pins_ms: per(pins_t), render_ms: per(render_t) })
+}
 
-    let skips =
-        rayon::ThreadPoolBuilder::new().num_threads(1).build()?.install(|| measure_skips(&sensor, &scene, few))?;
-
-    // Run time against error.
-    let mut curve = Vec::new();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    // Pin reference for the grid rows: the same taps on a fine grid, every cell on every pin.
+/// Run time against error over the grid: per grid size, one thread's ms per tap (solve, pins,
+/// render), the Hertz and Cattaneo errors of `tacsim validate` at that grid, and the largest
+/// pin error of the taps against the same taps on the fine reference grid.
+fn grid_curve(
+    sensor: &SensorParams,
+    scene: &Scene,
+    renderer: &PinRenderer,
+    taps: &[(SensorPose, [f64; 2])],
+    single: &rayon::ThreadPool,
+) -> Result<Vec<CurvePoint>> {
+    // Pin reference: the same taps on a fine grid, every cell on every pin.
     let fine = {
         let mut s = sensor.clone();
         s.skin.cells_across = PIN_REFERENCE_CELLS;
         ContactModel::new(&s)
     };
     let tap_pins = |m: &ContactModel, pose: SensorPose, exact: bool| -> Result<Vec<_>> {
-        let mut sim = Simulation::new(m, &scene, &[pose]);
+        let mut sim = Simulation::new(m, scene, &[pose]);
         sim.step(pose)?;
         Ok(if exact { sim.pins_exact() } else { sim.pins() })
     };
-    let reference: Vec<_> = few.par_iter().map(|(p, _)| tap_pins(&fine, *p, true)).collect::<Result<_>>()?;
+    let reference: Vec<_> = taps.par_iter().map(|(p, _)| tap_pins(&fine, *p, true)).collect::<Result<_>>()?;
+    let mut curve = Vec::new();
     for cells in [9usize, 13, 17, 25, 33] {
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
         let m = ContactModel::new(&s);
-        let ms = pool
-            .install(|| ms_single(few.len(), |i| Ok(captured(&m, &scene, &SensorPath::tap(few[i].0), &renderer)?)))?;
+        let ms = single
+            .install(|| ms_single(taps.len(), |i| Ok(captured(&m, scene, &SensorPath::tap(taps[i].0), renderer)?)))?;
         let mut err = 0.0f64;
-        for ((p, _), r) in few.iter().zip(&reference) {
+        for ((p, _), r) in taps.iter().zip(&reference) {
             for (a, b) in tap_pins(&m, *p, false)?.iter().zip(r) {
                 err = err.max((a.tip - b.tip).norm());
             }
@@ -281,15 +311,27 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
             pin_err_mm: Some(err),
         });
     }
-    let slides = &poses[..samples_n.min(8)];
+    Ok(curve)
+}
+
+/// Run time against error over the slide step: per step (mm), one thread's ms per slide and
+/// the largest pin error at the slide's end against 0.025 mm steps.
+fn step_curve(
+    model: &ContactModel,
+    scene: &Scene,
+    renderer: &PinRenderer,
+    slides: &[(SensorPose, [f64; 2])],
+    single: &rayon::ThreadPool,
+) -> Result<Vec<CurvePoint>> {
     let reference: Vec<_> =
-        slides.iter().map(|(p, f)| SensorPath::slide(*p, *f, 0.025)?.run(&model, &scene)).collect::<Result<_, _>>()?;
+        slides.iter().map(|(p, f)| SensorPath::slide(*p, *f, 0.025)?.run(model, scene)).collect::<Result<_, _>>()?;
+    let mut curve = Vec::new();
     for step in [2.5, 1.0, 0.5, 0.25, 0.1] {
         let mut err = 0.0f64;
-        let ms = pool.install(|| {
+        let ms = single.install(|| {
             ms_single(slides.len(), |i| {
                 let (p, f) = slides[i];
-                let frames = captured(&model, &scene, &SensorPath::slide(p, f, step)?, &renderer)?;
+                let frames = captured(model, scene, &SensorPath::slide(p, f, step)?, renderer)?;
                 for (a, b) in frames[0].pins.iter().zip(&reference[i][0].pins) {
                     err = err.max((a.tip - b.tip).norm());
                 }
@@ -305,71 +347,63 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
             pin_err_mm: Some(err),
         });
     }
-    let report = BenchReport {
-        threads: rayon::current_num_threads(),
-        cells_across: sensor.skin.cells_across,
-        tap_frames_per_s: tap_fps,
-        slide_samples_per_s: slide_sps,
-        mean_contact_cells: mean_cells,
-        hertz_force_rel_err: validate::hertz(sensor.skin.cells_across)?.force_rel_err,
-        tap_breakdown: breakdown,
-        skips,
-        curve,
-    };
-    draw(&report, plot).with_context(|| format!("writing the plot {}", plot.display()))?;
-    if json {
-        return Ok(serde_json::to_string_pretty(&report)? + "\n");
-    }
-    let b = &report.tap_breakdown;
-    let mut out = format!(
-        "{} threads, {} cells across the footprint (mean {:.0} in contact)\n\
-         taps:   {:>9.1} frames/s  (solve + pins + 256x256 render)\n\
-         slides: {:>9.1} samples/s (touch down {SLIDE_MM} mm away, {STEP_MM} mm steps, capture)\n\
-         a tap, one thread: footprint {:.3} ms, gap + solve {:.3} ms, pins {:.3} ms, render {:.3} ms\n",
-        report.threads,
-        report.cells_across,
-        report.mean_contact_cells,
-        report.tap_frames_per_s,
-        report.slide_samples_per_s,
-        b.footprint_ms,
-        b.solve_ms,
-        b.pins_ms,
-        b.render_ms,
-    );
-    let k = &report.skips;
-    out.push_str(&format!(
-        "skips (with / without, ms, one thread): no contact {:.3} / {:.3}; tap without tangential {:.3} / {:.3}; \
-         48 far stimuli {:.3} / {:.3} (probe + gap, without = with them); footprint grid {:.3} / {:.3}; \
-         no render {:.3} / {:.3}\n\n",
-        k.no_contact_step_ms[0],
-        k.no_contact_step_ms[1],
-        k.tap_without_tangential_ms[0],
-        k.tap_without_tangential_ms[1],
-        k.far_stimuli_ms[0],
-        k.far_stimuli_ms[1],
-        k.footprint_grid_ms[0],
-        k.footprint_grid_ms[1],
-        k.no_render_ms[0],
-        k.no_render_ms[1],
-    ));
-    out.push_str(&format!(
-        "{:<6} {:>7} {:>12} {:>12} {:>12} {:>12}\n",
-        "knob", "value", "ms/sample", "hertz force", "cattaneo", "pin err mm"
-    ));
-    let opt = |v: Option<f64>| v.map_or("-".to_owned(), |x| format!("{x:.2e}"));
-    for p in &report.curve {
+    Ok(curve)
+}
+
+impl BenchReport {
+    /// The report as the text table `tacsim bench` prints, naming the plot written.
+    fn table(&self, plot: &Path) -> String {
+        let b = &self.tap_breakdown;
+        let mut out = format!(
+            "{} threads, {} cells across the footprint (mean {:.0} in contact)\n\
+             taps:   {:>9.1} frames/s  (solve + pins + 256x256 render)\n\
+             slides: {:>9.1} samples/s (touch down {SLIDE_MM} mm away, {STEP_MM} mm steps, capture)\n\
+             a tap, one thread: footprint {:.3} ms, gap + solve {:.3} ms, pins {:.3} ms, render {:.3} ms\n",
+            self.threads,
+            self.cells_across,
+            self.mean_contact_cells,
+            self.tap_frames_per_s,
+            self.slide_samples_per_s,
+            b.footprint_ms,
+            b.solve_ms,
+            b.pins_ms,
+            b.render_ms,
+        );
+        let k = &self.skips;
         out.push_str(&format!(
-            "{:<6} {:>7} {:>12.3} {:>12} {:>12} {:>12}\n",
-            p.knob,
-            p.value,
-            p.ms_per_sample,
-            opt(p.hertz_force_rel_err),
-            opt(p.cattaneo_shift_rel_err),
-            opt(p.pin_err_mm)
+            "skips (with / without, ms, one thread): no contact {:.3} / {:.3}; tap without tangential {:.3} / {:.3}; \
+             48 far stimuli {:.3} / {:.3} (probe + gap, without = with them); footprint grid {:.3} / {:.3}; \
+             no render {:.3} / {:.3}\n\n",
+            k.no_contact_step_ms[0],
+            k.no_contact_step_ms[1],
+            k.tap_without_tangential_ms[0],
+            k.tap_without_tangential_ms[1],
+            k.far_stimuli_ms[0],
+            k.far_stimuli_ms[1],
+            k.footprint_grid_ms[0],
+            k.footprint_grid_ms[1],
+            k.no_render_ms[0],
+            k.no_render_ms[1],
         ));
+        out.push_str(&format!(
+            "{:<6} {:>7} {:>12} {:>12} {:>12} {:>12}\n",
+            "knob", "value", "ms/sample", "hertz force", "cattaneo", "pin err mm"
+        ));
+        let opt = |v: Option<f64>| v.map_or("-".to_owned(), |x| format!("{x:.2e}"));
+        for p in &self.curve {
+            out.push_str(&format!(
+                "{:<6} {:>7} {:>12.3} {:>12} {:>12} {:>12}\n",
+                p.knob,
+                p.value,
+                p.ms_per_sample,
+                opt(p.hertz_force_rel_err),
+                opt(p.cattaneo_shift_rel_err),
+                opt(p.pin_err_mm)
+            ));
+        }
+        out.push_str(&format!("plot: {}\n", plot.display()));
+        out
     }
-    out.push_str(&format!("plot: {}\n", plot.display()));
-    Ok(out)
 }
 
 fn measure_skips(sensor: &SensorParams, scene: &Scene, poses: &[(SensorPose, [f64; 2])]) -> Result<Skips> {

@@ -14,6 +14,7 @@
 
 mod atomic;
 mod camera;
+mod check;
 mod detect;
 mod embedded;
 mod error;

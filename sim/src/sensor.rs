@@ -17,6 +17,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::{Check, Validate, load_toml};
 use crate::error::{Result, SimError};
 
 /// Complete description of a TacTip sensor. Load with [`SensorParams::from_toml_str`] or
@@ -372,20 +373,7 @@ impl SensorParams {
     /// Parses and validates a sensor TOML. `source_name` (a file name) is used in errors.
     /// Missing fields take the defaults; unknown fields are errors.
     pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self> {
-        let toml_error =
-            |e: toml::de::Error| SimError::Toml { source_name: source_name.to_owned(), message: e.to_string() };
-        // A file that sets nothing is a mistake (an empty or truncated file), not the default.
-        if toml::from_str::<toml::Table>(text).map_err(toml_error)?.is_empty() {
-            return Err(SimError::invalid(
-                source_name,
-                "(file)",
-                "sets no field: write the fields that differ from the default (see \
-                 sim/presets/tactip-331-calibrated.toml), or leave out the sensor for the default",
-            ));
-        }
-        let params: SensorParams = toml::from_str(text).map_err(toml_error)?;
-        params.validate(source_name)?;
-        Ok(params)
+        load_toml(text, source_name)
     }
 
     /// Reads, parses and validates a sensor TOML file.
@@ -691,18 +679,15 @@ impl SensorParams {
     }
 }
 
-/// The range checks of one sensor file: each error names the file, the field and the range.
-struct Check<'a>(&'a str);
+impl Validate for SensorParams {
+    const EMPTY: (&'static str, &'static str) = (
+        "(file)",
+        "sets no field: write the fields that differ from the default (see \
+         sim/presets/tactip-331-calibrated.toml), or leave out the sensor for the default",
+    );
 
-impl Check<'_> {
-    /// An error for `field`.
-    fn bad(&self, field: &str, reason: String) -> Result<()> {
-        Err(SimError::invalid(self.0, field, reason))
-    }
-
-    /// `v` must be finite.
-    fn finite(&self, field: &str, v: f64) -> Result<()> {
-        if v.is_finite() { Ok(()) } else { self.bad(field, format!("must be a finite number, got {v}")) }
+    fn validate(&self, source_name: &str) -> Result<()> {
+        SensorParams::validate(self, source_name)
     }
 }
 

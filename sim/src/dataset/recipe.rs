@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::{Check, Validate, load_toml};
 use crate::error::{Result, SimError};
 use crate::rig::{Press, RigFrame};
 use crate::sensor::SkinModel;
@@ -320,18 +321,7 @@ impl Recipe {
     /// Parses and validates a recipe; `source_name` names it in errors. A recipe that sets
     /// nothing is an error (it would silently be the 120,000-image `paper` recipe).
     pub fn from_toml_str(text: &str, source_name: &str) -> Result<Self> {
-        let r: Recipe = toml::from_str(text)
-            .map_err(|e| SimError::Toml { source_name: source_name.into(), message: e.to_string() })?;
-        if toml::from_str::<toml::Table>(text).is_ok_and(|t| t.is_empty()) {
-            return Err(SimError::invalid(
-                source_name,
-                "recipe",
-                "sets nothing: write the fields that differ from the defaults, or name a built-in recipe (paper, \
-                 quick, ...) instead of a file",
-            ));
-        }
-        r.validate(source_name)?;
-        Ok(r)
+        load_toml(text, source_name)
     }
 
     /// The recipe file `arg`, else the built-in recipe of that name
@@ -369,64 +359,69 @@ impl Recipe {
     }
 
     /// Checks every value, naming the field of the first bad one. Shape names are checked
-    /// against the catalogue when the plan is made. `dome_radius_mm` bounds the depth.
+    /// against the catalogue when the plan is made. One stage per table, in the file's order.
     pub fn validate(&self, src: &str) -> Result<()> {
-        let bad = |field: &str, reason: String| Err(SimError::invalid(src, field, reason));
-        if !(16..=2048).contains(&self.image_size) {
-            return bad("image_size", format!("must be in [16, 2048] px, got {}", self.image_size));
-        }
+        let check = Check(src);
+        self.validate_image(&check)?;
+        self.validate_shapes(&check)?;
+        self.validate_poses(&check)?;
+        self.validate_slides(&check)?;
+        self.validate_randomise(&check)?;
+        self.validate_rig(&check)?;
+        self.validate_split(&check)
+    }
+
+    /// `image_size` and `cells_across`.
+    fn validate_image(&self, check: &Check) -> Result<()> {
+        check.within("image_size", f64::from(self.image_size), 16.0, 2048.0, " px")?;
         if let Some(n) = self.cells_across
             && (!(5..=401).contains(&n) || n % 2 == 0)
         {
-            return bad("cells_across", format!("must be odd and in [5, 401], got {n}"));
+            return check.bad("cells_across", format!("must be odd and in [5, 401], got {n}"));
         }
+        Ok(())
+    }
+
+    /// The `[[shapes]]`: at least one, each override in range.
+    fn validate_shapes(&self, check: &Check) -> Result<()> {
         if self.shapes.is_empty() {
-            return bad("shapes", "must list at least one shape".into());
+            return check.bad("shapes", "must list at least one shape".into());
         }
         for (i, s) in self.shapes.iter().enumerate() {
             if let Some(c) = s.contact_mm
                 && !c.iter().all(|v| v.is_finite())
             {
-                return bad(&format!("shapes[{i}].contact_mm"), format!("must be finite, got {c:?}"));
+                return check.bad(&format!("shapes[{i}].contact_mm"), format!("must be finite, got {c:?}"));
             }
-            if let Some(f) = s.friction
-                && !(f.is_finite() && (0.0..=MAX_FRICTION).contains(&f))
-            {
-                return bad(&format!("shapes[{i}].friction"), format!("must be in [0, {MAX_FRICTION}], got {f}"));
+            if let Some(f) = s.friction {
+                check.within(&format!("shapes[{i}].friction"), f, 0.0, MAX_FRICTION, "")?;
             }
             if let Some(r) = s.edge_radius_mm {
-                crate::stimulus::check_edge_radius(r, src, &format!("shapes[{i}].edge_radius_mm"))?;
+                crate::stimulus::check_edge_radius(r, check.0, &format!("shapes[{i}].edge_radius_mm"))?;
             }
         }
-        let p = &self.poses;
+        Ok(())
+    }
+
+    /// `[poses]` and `[taps]`, and the total the recipe makes.
+    fn validate_poses(&self, check: &Check) -> Result<()> {
+        let (p, t, s) = (&self.poses, &self.taps, &self.slides);
         if p.per_shape == 0 || p.per_shape > MAX_PER_SHAPE {
-            return bad("poses.per_shape", format!("must be in [1, {MAX_PER_SHAPE}], got {}", p.per_shape));
+            return check.bad("poses.per_shape", format!("must be in [1, {MAX_PER_SHAPE}], got {}", p.per_shape));
         }
-        let range = |field: &str, r: [f64; 2], lo: f64, hi: f64| -> Result<()> {
-            if !r.iter().all(|v| v.is_finite()) {
-                return bad(field, format!("must be finite, got {r:?}"));
-            }
-            if r[0] > r[1] {
-                return bad(field, format!("is inverted: [{}, {}] has low above high", r[0], r[1]));
-            }
-            if r[0] < lo || r[1] > hi {
-                return bad(field, format!("must lie within [{lo}, {hi}], got {r:?}"));
-            }
-            Ok(())
-        };
         if p.around_contour && p.frame != PoseFrame::Edge {
-            return bad("poses.around_contour", "needs frame = \"edge\" (a label frame per contact point)".into());
+            return check
+                .bad("poses.around_contour", "needs frame = \"edge\" (a label frame per contact point)".into());
         }
-        range("poses.x_mm", p.x_mm, -50.0, 50.0)?;
-        range("poses.y_mm", p.y_mm, -50.0, 50.0)?;
-        range("poses.yaw_deg", p.yaw_deg, -360.0, 360.0)?;
-        range("poses.rx_deg", p.rx_deg, -45.0, 45.0)?;
-        range("poses.ry_deg", p.ry_deg, -45.0, 45.0)?;
-        let t = &self.taps;
+        check.range("poses.x_mm", p.x_mm, -50.0, 50.0)?;
+        check.range("poses.y_mm", p.y_mm, -50.0, 50.0)?;
+        check.range("poses.yaw_deg", p.yaw_deg, -360.0, 360.0)?;
+        check.range("poses.rx_deg", p.rx_deg, -45.0, 45.0)?;
+        check.range("poses.ry_deg", p.ry_deg, -45.0, 45.0)?;
         if !(t.depth_jitter_mm.is_finite() && t.depth_jitter_mm >= 0.0) {
-            return bad("taps.depth_jitter_mm", format!("must be >= 0 mm, got {}", t.depth_jitter_mm));
+            return check.bad("taps.depth_jitter_mm", format!("must be >= 0 mm, got {}", t.depth_jitter_mm));
         }
-        range("poses.depth_mm", p.depth_mm, 0.5 * t.depth_jitter_mm, f64::INFINITY).map_err(|e| match e {
+        check.range("poses.depth_mm", p.depth_mm, 0.5 * t.depth_jitter_mm, f64::INFINITY).map_err(|e| match e {
             SimError::Invalid { source_name, reason, .. } => SimError::Invalid {
                 source_name,
                 field: "poses.depth_mm".into(),
@@ -435,20 +430,19 @@ impl Recipe {
             other => other,
         })?;
         if p.depth_mm[0] <= 0.0 {
-            return bad("poses.depth_mm", format!("must be above 0 mm (in contact), got {:?}", p.depth_mm));
+            return check.bad("poses.depth_mm", format!("must be above 0 mm (in contact), got {:?}", p.depth_mm));
         }
-        let s = &self.slides;
         if t.per_pose == 0 && s.per_pose == 0 {
-            return bad("taps.per_pose", "taps.per_pose and slides.per_pose cannot both be 0".into());
+            return check.bad("taps.per_pose", "taps.per_pose and slides.per_pose cannot both be 0".into());
         }
         for (field, n) in [("taps.per_pose", t.per_pose), ("slides.per_pose", s.per_pose)] {
             if n > MAX_PER_POSE {
-                return bad(field, format!("must be at most {MAX_PER_POSE}, got {n}"));
+                return check.bad(field, format!("must be at most {MAX_PER_POSE}, got {n}"));
             }
         }
         let total = self.shapes.len() * p.per_shape * (t.per_pose + s.per_pose);
         if total > MAX_SAMPLES {
-            return bad(
+            return check.bad(
                 "poses.per_shape",
                 format!(
                     "{} shapes x {} poses x {} samples per pose = {total} images, more than the {MAX_SAMPLES} a \
@@ -459,33 +453,37 @@ impl Recipe {
                 ),
             );
         }
-        range("slides.offset_mm", s.offset_mm, -20.0, 20.0)?;
-        range("slides.twist_deg", s.twist_deg, -90.0, 90.0)?;
+        Ok(())
+    }
+
+    /// `[slides]`.
+    fn validate_slides(&self, check: &Check) -> Result<()> {
+        let s = &self.slides;
+        check.range("slides.offset_mm", s.offset_mm, -20.0, 20.0)?;
+        check.range("slides.twist_deg", s.twist_deg, -90.0, 90.0)?;
         if s.axes.is_empty() {
-            return bad("slides.axes", "must list at least one of \"x\", \"y\", \"both\"".into());
+            return check.bad("slides.axes", "must list at least one of \"x\", \"y\", \"both\"".into());
         }
-        if !(s.step_mm.is_finite() && (0.01..=10.0).contains(&s.step_mm)) {
-            return bad("slides.step_mm", format!("must be in [0.01, 10] mm, got {}", s.step_mm));
-        }
-        if !(s.step_deg.is_finite() && (0.01..=45.0).contains(&s.step_deg)) {
-            return bad("slides.step_deg", format!("must be in [0.01, 45] deg, got {}", s.step_deg));
-        }
-        let d = &self.randomise;
+        check.within("slides.step_mm", s.step_mm, 0.01, 10.0, " mm")?;
+        check.within("slides.step_deg", s.step_deg, 0.01, 45.0, " deg")
+    }
+
+    /// `[randomise]`: each draw's range, and that no depth offset lifts a tap off.
+    fn validate_randomise(&self, check: &Check) -> Result<()> {
+        let (d, p, t) = (&self.randomise, &self.poses, &self.taps);
         let side = f64::from(self.image_size);
-        range("randomise.camera_shift_px", d.camera_shift_px, -side / 8.0, side / 8.0)?;
-        range("randomise.camera_roll_deg", d.camera_roll_deg, -180.0, 180.0)?;
-        range("randomise.pin_scale", d.pin_scale, 0.25, 4.0)?;
-        range("randomise.depth_offset_mm", d.depth_offset_mm, -5.0, 5.0)?;
-        range("randomise.blur_px", d.blur_px, 0.0, side / 16.0)?;
-        range("randomise.threshold", d.threshold, 0.01, 0.99)?;
+        check.range("randomise.camera_shift_px", d.camera_shift_px, -side / 8.0, side / 8.0)?;
+        check.range("randomise.camera_roll_deg", d.camera_roll_deg, -180.0, 180.0)?;
+        check.range("randomise.pin_scale", d.pin_scale, 0.25, 4.0)?;
+        check.range("randomise.depth_offset_mm", d.depth_offset_mm, -5.0, 5.0)?;
+        check.range("randomise.blur_px", d.blur_px, 0.0, side / 16.0)?;
+        check.range("randomise.threshold", d.threshold, 0.01, 0.99)?;
         if d.specks[0] > d.specks[1] || d.specks[1] > 1000 {
-            return bad(
-                "randomise.specks",
-                format!("must be [low, high] with low <= high <= 1000, got {:?}", d.specks),
-            );
+            return check
+                .bad("randomise.specks", format!("must be [low, high] with low <= high <= 1000, got {:?}", d.specks));
         }
         if p.depth_mm[0] - 0.5 * t.depth_jitter_mm + d.depth_offset_mm[0] <= 0.0 {
-            return bad(
+            return check.bad(
                 "randomise.depth_offset_mm",
                 format!(
                     "has its low end at {} mm, which lifts the shallowest press ({} mm, less half the jitter) out of contact: keep depth + offset above 0",
@@ -493,33 +491,50 @@ impl Recipe {
                 ),
             );
         }
+        Ok(())
+    }
+
+    /// `[rig]`.
+    fn validate_rig(&self, check: &Check) -> Result<()> {
         let r = &self.rig;
-        let one = |field: &str, v: f64, lo: f64, hi: f64| range(field, [v, v], lo, hi);
+        let one = |field: &str, v: f64, lo: f64, hi: f64| check.range(field, [v, v], lo, hi);
         one("rig.rotation_deg", r.rotation_deg, -360.0, 360.0)?;
         one("rig.depth_offset_mm", r.depth_offset_mm, -5.0, 5.0)?;
         one("rig.pivot_mm", r.pivot_mm, 0.0, 200.0)?;
         one("rig.depth_compliance", r.depth_compliance, 0.0, 1.0)?;
         one("rig.tilt_relaxation_per_mm", r.tilt_relaxation_per_mm, 0.0, 0.2)?;
         one("rig.pivot_offset_mm[0]", r.pivot_offset_mm[0], -10.0, 10.0)?;
-        one("rig.pivot_offset_mm[1]", r.pivot_offset_mm[1], -10.0, 10.0)?;
+        one("rig.pivot_offset_mm[1]", r.pivot_offset_mm[1], -10.0, 10.0)
+    }
+
+    /// `[split]`: fractions summing to 1.
+    fn validate_split(&self, check: &Check) -> Result<()> {
         let sp = &self.split;
         for (field, v) in [("split.train", sp.train), ("split.val", sp.val), ("split.test", sp.test)] {
-            if !(v.is_finite() && (0.0..=1.0).contains(&v)) {
-                return bad(field, format!("must be a fraction in [0, 1], got {v}"));
-            }
+            check.fraction(field, v)?;
         }
         if ((sp.train + sp.val + sp.test) - 1.0).abs() > 1e-9 {
-            return bad("split", format!("train + val + test must be 1, got {} + {} + {}", sp.train, sp.val, sp.test));
+            return check
+                .bad("split", format!("train + val + test must be 1, got {} + {} + {}", sp.train, sp.val, sp.test));
         }
-        if !(sp.paired_fraction.is_finite() && (0.0..=1.0).contains(&sp.paired_fraction)) {
-            return bad("split.paired_fraction", format!("must be a fraction in [0, 1], got {}", sp.paired_fraction));
-        }
-        Ok(())
+        check.fraction("split.paired_fraction", sp.paired_fraction)
     }
 
     /// Samples per pose.
     pub fn per_pose(&self) -> usize {
         self.taps.per_pose + self.slides.per_pose
+    }
+}
+
+impl Validate for Recipe {
+    const EMPTY: (&'static str, &'static str) = (
+        "recipe",
+        "sets nothing: write the fields that differ from the defaults, or name a built-in recipe (paper, \
+         quick, ...) instead of a file",
+    );
+
+    fn validate(&self, source_name: &str) -> Result<()> {
+        Recipe::validate(self, source_name)
     }
 }
 
