@@ -31,7 +31,11 @@ use std::process::Command;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use tacsim_data::write_atomic;
-use tacsim_sim::calibrate::{compare_sensor, fit_camera, fit_realism, ring_table};
+use tacsim_sim::RigFrame;
+use tacsim_sim::calibrate::{
+    Deformation, ImageMap, Observations, Reference, SampleError, Simulator, best_frame, compare_sensor, fit_camera,
+    fit_realism, label_frame, ring_table, shift_samples,
+};
 use tacsim_sim::stimulus::Catalogue;
 use tacsim_sim::stimulus::shape_files;
 use tacsim_sim::{Realism, SensorParams, read_png};
@@ -271,14 +275,9 @@ fn bench(extra: &[String]) -> Result<()> {
 }
 
 fn real_compare(args: &RealCompareArgs) -> Result<()> {
-    use tacsim_sim::RigFrame;
-    use tacsim_sim::calibrate::Deformation;
-    use tacsim_sim::calibrate::Observations;
-    use tacsim_sim::calibrate::Simulator;
-    use tacsim_sim::calibrate::{ImageMap, best_frame, label_frame, shift_samples};
     let dir = args.real.clone().unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d"));
     let lab = tacsim_data::LabFolder::open(&dir)?;
-    let reference = tacsim_sim::calibrate::Reference::of(&lab, None, Default::default())?;
+    let reference = Reference::of(&lab, None, Default::default())?;
     let obs = Observations::track(&lab, &reference)?;
     let n = obs.reference.len();
     let tracked: Vec<usize> = obs.samples.iter().map(|o| n - o.tracking.unmatched()).collect();
@@ -289,6 +288,48 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
         tracked.iter().sum::<usize>() as f64 / tracked.len().max(1) as f64,
         tracked.iter().min().copied().unwrap_or(0)
     );
+    let (base, d) = compared_model(args, &reference)?;
+    let cat = Catalogue::load_dir(&root().join("shapes"))?;
+    let disk = cat.get("disk")?;
+    // 17 cells across the footprint, as `tacsim calibrate` fits; `--cells` for a finer grid.
+    let sim = Simulator::new(&base, &d, args.cells, &obs, &disk)?;
+    let (rms, matched) = sim.undeformed_rms(&obs);
+    println!("{d:?}\nundeformed: {matched} pins matched, RMS {rms:.2} px from the real reference");
+    println!("radial displacement (px, outward), real / simulated untilted tap, recordings tilted < 8 deg:");
+    println!("depth      r 0-25%        25-50%        50-75%        75-100%");
+    for (band, row) in sim.radial_profiles(&obs, 8.0)?.iter().enumerate() {
+        let cells: Vec<String> = row.iter().map(|(re, si, _)| format!("{re:5.1} / {si:5.1}")).collect();
+        println!("{}-{} mm   {}", band + 1, band + 2, cells.join("   "));
+    }
+    let found = found_frame(&sim, &obs)?;
+    let frame = chosen_frame(args.frame.as_deref(), found)?;
+    // One simulation per recording serves the errors, the affine residual and the dump.
+    let all: Vec<usize> = (0..obs.samples.len()).collect();
+    let fields = sim.fields(&obs, &all, &frame)?;
+    let errs: Vec<_> = fields.iter().enumerate().map(|(k, f)| sim.error(&obs, k, f)).collect();
+    let affine: Vec<f64> = fields.iter().enumerate().filter_map(|(k, f)| sim.affine_residual(&obs, k, f)).collect();
+    println!(
+        "all recordings, mean relative error left after the best affine map of each simulated field onto the real one: {:.2}",
+        affine.iter().sum::<f64>() / affine.len().max(1) as f64
+    );
+    if let Some(path) = &args.dump {
+        let rows: Vec<serde_json::Value> = fields
+            .iter()
+            .zip(&obs.samples)
+            .map(|(d, o)| {
+                let simd: Vec<Option<[f64; 2]>> = sim.reference_to_sim().iter().map(|m| m.and_then(|i| d[i])).collect();
+                serde_json::json!({"pose": o.sample.pose, "shear": o.sample.shear, "real": o.tracking.displacement, "sim": simd})
+            })
+            .collect();
+        write_atomic(path, &serde_json::to_vec(&serde_json::json!({"reference": obs.reference, "samples": rows}))?)?;
+    }
+    print_errors(&errs, &obs);
+    Ok(())
+}
+
+/// The sensor (`--sensor`, its camera refitted at `--camera-distance`) and the deformation
+/// with `--skin` and every parameter flag given.
+fn compared_model(args: &RealCompareArgs, reference: &Reference) -> Result<(SensorParams, Deformation)> {
     let mut base = match &args.sensor {
         Some(p) => SensorParams::load(p)?,
         None => SensorParams::default(),
@@ -316,22 +357,14 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
             *field = v;
         }
     }
-    let cat = Catalogue::load_dir(&root().join("shapes"))?;
-    let disk = cat.get("disk")?;
-    // 17 cells across the footprint, as `tacsim calibrate` fits; `--cells` for a finer grid.
-    let sim = Simulator::new(&base, &d, args.cells, &obs, &disk)?;
-    let (rms, matched) = sim.undeformed_rms(&obs);
-    println!("{d:?}\nundeformed: {matched} pins matched, RMS {rms:.2} px from the real reference");
-    println!("radial displacement (px, outward), real / simulated untilted tap, recordings tilted < 8 deg:");
-    println!("depth      r 0-25%        25-50%        50-75%        75-100%");
-    for (band, row) in sim.radial_profiles(&obs, 8.0)?.iter().enumerate() {
-        let cells: Vec<String> = row.iter().map(|(re, si, _)| format!("{re:5.1} / {si:5.1}")).collect();
-        println!("{}-{} mm   {}", band + 1, band + 2, cells.join("   "));
-    }
+    Ok((base, d))
+}
+
+/// The label frame found from the data (the real and the simulated, identity-frame global
+/// shifts regressed on the labels), printed.
+fn found_frame(sim: &Simulator, obs: &Observations) -> Result<RigFrame> {
     let all: Vec<usize> = (0..obs.samples.len()).collect();
-    // The label frame from the data: the real and the simulated (identity frame) global
-    // shifts regressed on the labels.
-    let identity = sim.errors(&obs, &all, &RigFrame::IDENTITY)?;
+    let identity = sim.errors(obs, &all, &RigFrame::IDENTITY)?;
     let [real_samples, sim_samples] = shift_samples(obs.samples.iter().map(|o| &o.sample), &identity);
     let too_few = "too few recordings to find the label frame";
     let (real_map, sim_map) =
@@ -356,37 +389,26 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
         fit.rms_px,
         label_frame(&real_map, &sim_map).m
     );
-    // `--frame DEG`, `DEGm`, `DEGmr`: labels rotated by DEG (mirrored first with `m`, tilts
-    // reversed with `r`);
-    // `--frame auto`: the frame found from the data; by default the identity.
-    let frame = match args.frame.as_deref() {
-        Some("auto") => fit.frame,
+    Ok(fit.frame)
+}
+
+/// The label frame `--frame` asks for: `DEG`, `DEGm`, `DEGmr` (labels rotated by DEG,
+/// mirrored first with `m`, tilts reversed with `r`), `auto` (the one `found` from the data);
+/// by default the identity.
+fn chosen_frame(flag: Option<&str>, found: RigFrame) -> Result<RigFrame> {
+    Ok(match flag {
+        Some("auto") => found,
         Some(f) => {
             let reversed = f.ends_with('r');
             let f = f.trim_end_matches('r');
             RigFrame::new(f.trim_end_matches('m').parse()?, f.ends_with('m')).with_tilts_reversed(reversed)
         }
         None => RigFrame::IDENTITY,
-    };
-    // One simulation per recording serves the errors, the affine residual and the dump.
-    let fields = sim.fields(&obs, &all, &frame)?;
-    let errs: Vec<_> = fields.iter().enumerate().map(|(k, f)| sim.error(&obs, k, f)).collect();
-    let affine: Vec<f64> = fields.iter().enumerate().filter_map(|(k, f)| sim.affine_residual(&obs, k, f)).collect();
-    println!(
-        "all recordings, mean relative error left after the best affine map of each simulated field onto the real one: {:.2}",
-        affine.iter().sum::<f64>() / affine.len().max(1) as f64
-    );
-    if let Some(path) = &args.dump {
-        let rows: Vec<serde_json::Value> = fields
-            .iter()
-            .zip(&obs.samples)
-            .map(|(d, o)| {
-                let simd: Vec<Option<[f64; 2]>> = sim.reference_to_sim().iter().map(|m| m.and_then(|i| d[i])).collect();
-                serde_json::json!({"pose": o.sample.pose, "shear": o.sample.shear, "real": o.tracking.displacement, "sim": simd})
-            })
-            .collect();
-        write_atomic(path, &serde_json::to_vec(&serde_json::json!({"reference": obs.reference, "samples": rows}))?)?;
-    }
+    })
+}
+
+/// Mean errors of the shallow untilted, the shallow and all recordings.
+fn print_errors(errs: &[SampleError], obs: &Observations) {
     for (name, zmax, tmax) in
         [("depth <= 2.5 mm, tilt < 8 deg", 2.5, 8.0), ("depth <= 2.5 mm", 2.5, 90.0), ("all", f64::INFINITY, 90.0)]
     {
@@ -396,9 +418,7 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
             .filter(|(_, o)| o.sample.pose[2] <= zmax && o.sample.pose[3].abs().max(o.sample.pose[4].abs()) < tmax)
             .map(|(e, _)| e)
             .collect();
-        let mean = |f: &dyn Fn(&&tacsim_sim::calibrate::SampleError) -> f64| {
-            sel.iter().map(f).sum::<f64>() / sel.len().max(1) as f64
-        };
+        let mean = |f: &dyn Fn(&&SampleError) -> f64| sel.iter().map(f).sum::<f64>() / sel.len().max(1) as f64;
         println!(
             "{name}: {} recordings, mean error {:.2} px against mean real motion {:.2} px, mean relative error {:.2}",
             sel.len(),
@@ -407,7 +427,6 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
             mean(&|e| e.relative())
         );
     }
-    Ok(())
 }
 
 /// `cargo xtask bench-model [--quick] [--pytorch PYTHON]`: throughput of the networks (`tacsim_model::measure_networks`).
