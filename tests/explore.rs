@@ -218,7 +218,8 @@ fn the_pins_voronoi_patch_matches_the_contact_engines_patch() {
 
 #[test]
 fn edge_frame_labels_are_the_pose_relative_to_the_edge_that_the_servo_reads() {
-    use tacsim_explore::{oracle, wrap_deg};
+    use tacsim_data::wrap_deg;
+    use tacsim_explore::oracle;
     use tacsim_sim::dataset::Plan;
     use tacsim_sim::dataset::Recipe;
     let text = "[poses]\nper_shape = 40\nframe = \"edge\"\naround_contour = true\nx_mm = [-3.0, 3.0]\n\
@@ -349,7 +350,8 @@ fn geometric_perception_keeps_the_edge_pins_through_a_slide() {
     // missing the disk run left the contour (completion 0.285, read error 3.3 mm / 63 deg).
     // Now the tracker follows them from the undeformed image and the fitted edge stays within
     // half a millimetre and a few degrees of the truth along a slide on the disk's edge.
-    use tacsim_explore::{EdgeEstimate, Geometric, oracle, wrap_deg};
+    use tacsim_data::wrap_deg;
+    use tacsim_explore::{EdgeEstimate, Geometric, oracle};
     let (scene, sensor, model, grid) = on_the_disk(DEPTH_MM);
     let press = tacsim_explore::reference_press(&model, DEPTH_MM, 0.5).expect("reference press");
     let mut g = Geometric::new(&sensor, 256, &press).expect("perception");

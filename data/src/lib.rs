@@ -12,6 +12,7 @@
 //! (depth `pose_z` below the stimulus's top face); `shear_*` is the touch-down offset of a
 //! slide (the sensor touched down at `pose + shear` and slid to `pose`), zero for taps.
 
+mod angle;
 mod atomic;
 mod column;
 mod error;
@@ -20,6 +21,7 @@ mod loader;
 mod meta;
 mod row;
 
+pub use angle::wrap_deg;
 pub use atomic::{is_temp_name, temp_path, write_atomic, write_atomic_unsynced};
 pub use column::Column;
 pub use error::{DataError, Result};

@@ -25,6 +25,6 @@ mod scenario;
 
 pub use error::{ExploreError, Result};
 pub use learned::{EdgeReader, LearnedPerception};
-pub use perception::{EdgeEstimate, Geometric, oracle, wrap_deg};
+pub use perception::{EdgeEstimate, Geometric, oracle};
 pub use run::{PerceptionError, RunReport, reference_press, run};
 pub use scenario::{Control, Criteria, MAX_SUBSTEPS, Models, Noise, PerceptionKind, Scenario};

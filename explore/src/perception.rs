@@ -4,6 +4,7 @@ use std::collections::VecDeque;
 
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use tacsim_data::wrap_deg;
 use tacsim_sim::{ObjectId, Scene, SensorPose};
 
 use crate::scenario::Noise;
@@ -17,12 +18,6 @@ pub struct EdgeEstimate {
     /// Angle of the edge tangent (material on its left) from the sensor's `x` axis (deg, in
     /// `(-180, 180]`).
     pub angle_deg: f64,
-}
-
-/// Wraps an angle into `(-180, 180]` degrees.
-pub fn wrap_deg(a: f64) -> f64 {
-    let w = (a + 180.0).rem_euclid(360.0) - 180.0;
-    if w == -180.0 { 180.0 } else { w }
 }
 
 /// The true pose relative to the edge of `object`, from the shape's geometry.

@@ -12,10 +12,11 @@ use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPose};
 use crate::control::Servo;
 use crate::error::{ExploreError, Result};
 use crate::learned::LearnedPerception;
-use crate::perception::{Corruption, EdgeEstimate, Geometric, oracle, wrap_deg};
+use crate::perception::{Corruption, EdgeEstimate, Geometric, oracle};
 use crate::reconstruct::{Fusion, iou};
 use crate::robot::Robot;
 use crate::scenario::{PerceptionKind, Scenario};
+use tacsim_data::wrap_deg;
 
 /// What a run achieved, with the pass/fail verdict per criterion.
 #[derive(Clone, Debug, Serialize)]

@@ -13,6 +13,7 @@
 //! `real = sign * sim + offset` (mm, or deg modulo 360 for a rotation).
 
 use serde::{Deserialize, Serialize};
+use tacsim_data::wrap_deg;
 
 use crate::error::{ModelError, Result};
 use crate::eval::yaw_difference_deg;
@@ -206,12 +207,6 @@ fn mean_error(link: &Link, predicted: &[Pose], real: &[Pose]) -> f64 {
     let sum: f64 =
         predicted.iter().zip(real).map(|(p, t)| difference(link.real, link.apply(p), t.get(link.real))).sum();
     sum / real.len().max(1) as f64
-}
-
-/// Angle in `(-180, 180]` (deg).
-fn wrap_deg(v: f64) -> f64 {
-    let w = v.rem_euclid(360.0);
-    if w > 180.0 { w - 360.0 } else { w }
 }
 
 /// The offset of least mean absolute error: the median of the differences for a length; for an

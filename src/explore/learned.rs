@@ -4,7 +4,8 @@
 //! edge frame (`scenarios/datasets/explore.toml`), regresses the lateral offset and the edge
 //! angle. `learned-raw` skips the shear removal (the paper's Table I "sheared" row).
 
-use tacsim_explore::{EdgeEstimate, EdgeReader, ExploreError, LearnedPerception, Models, Scenario, wrap_deg};
+use tacsim_data::wrap_deg;
+use tacsim_explore::{EdgeEstimate, EdgeReader, ExploreError, LearnedPerception, Models, Scenario};
 use tacsim_model::{Backend, PoseReader};
 use tacsim_sim::SensorParams;
 
