@@ -647,16 +647,15 @@ impl<'a> Simulation<'a> {
             Some([a, b, c, d]) => (a.as_slice(), b.as_slice(), c.as_slice(), d.as_slice()),
             None => (qx_prev, qy_prev, self.qx.as_slice(), self.qy.as_slice()),
         };
-        let t = tangential::solve_step(
-            op,
-            &self.pressure,
+        let input = tangential::StepInput {
+            pressure: &self.pressure,
             mu,
-            (prev_x, prev_y),
+            prev: (prev_x, prev_y),
             slip,
-            Some((warm_x, warm_y)),
-            self.lipschitz,
-            &self.model.tangential,
-        )?;
+            warm: Some((warm_x, warm_y)),
+            lipschitz: self.lipschitz,
+        };
+        let t = tangential::solve_step(op, &input, &self.model.tangential)?;
         report.tangential_solved = true;
         report.tangential_iterations += t.iterations;
         report.force_n[0] = t.force_n[0];

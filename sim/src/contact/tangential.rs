@@ -103,81 +103,123 @@ fn project(x: f64, y: f64, r: f64) -> (f64, f64) {
     }
 }
 
-/// Solves one step. `pressure` (MPa) and `mu` give the traction bound per cell, `prev` the
-/// previous tractions `(q'_x, q'_y)`, `w` the rigid slip increment per cell (mm). The iteration
-/// starts from `warm` when given, else from `prev`. `lipschitz` is an upper bound of the
-/// largest eigenvalue of `A_t` on the contact cells (mm/MPa), e.g. [`largest_eigenvalue`] on a
-/// superset of them; `None` computes it.
-#[allow(clippy::too_many_arguments)]
-pub fn solve_step(
-    op: &Operator,
-    pressure: &[f64],
-    mu: &[f64],
-    prev: (&[f64], &[f64]),
-    w: (&[f64], &[f64]),
-    warm: Option<(&[f64], &[f64])>,
-    lipschitz: Option<f64>,
-    settings: &TangentialSettings,
-) -> Result<TangentialSolution> {
-    let n = op.grid().len();
-    let area = op.grid().cell_area_mm2();
-    let contact: Vec<usize> = (0..n).filter(|&k| pressure[k] > 0.0).collect();
-    let bound: Vec<f64> = (0..n).map(|k| if pressure[k] > 0.0 { mu[k] * pressure[k] } else { 0.0 }).collect();
-    let mut sol = TangentialSolution {
-        qx: vec![0.0; n],
-        qy: vec![0.0; n],
-        slip_x: vec![0.0; n],
-        slip_y: vec![0.0; n],
-        slipping: vec![false; n],
-        force_n: [0.0; 2],
-        dissipation_nmm: 0.0,
-        iterations: 0,
-    };
-    if contact.is_empty() {
-        return Ok(sol);
+/// A pair of grid fields, `x` and `y` (tractions in MPa or slips in mm).
+type Pair = (Vec<f64>, Vec<f64>);
+
+/// One step's inputs, grid fields on the operator's grid.
+#[derive(Clone, Copy, Debug)]
+pub struct StepInput<'a> {
+    /// Contact pressure `p` (MPa); with `mu` it bounds the traction per cell.
+    pub pressure: &'a [f64],
+    /// Friction coefficient per cell.
+    pub mu: &'a [f64],
+    /// The previous step's tractions `(q'_x, q'_y)` (MPa).
+    pub prev: (&'a [f64], &'a [f64]),
+    /// The rigid slip increment `(w_x, w_y)` per cell (mm).
+    pub slip: (&'a [f64], &'a [f64]),
+    /// Where the iteration starts (else `prev`).
+    pub warm: Option<(&'a [f64], &'a [f64])>,
+    /// An upper bound of the largest eigenvalue of `A_t` on the contact cells (mm/MPa), e.g.
+    /// [`largest_eigenvalue`] on a superset of them; `None` computes it.
+    pub lipschitz: Option<f64>,
+}
+
+/// `u = A_t q` at the contact cells, from tractions on chosen source cells.
+struct ContactProduct<'a> {
+    op: &'a Operator,
+    contact: &'a [usize],
+    dense_max_cells: usize,
+}
+
+impl ContactProduct<'_> {
+    fn apply(&self, src: &[usize], qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]) {
+        let product = Product::by_size(self.contact.len(), self.dense_max_cells, src, self.contact);
+        self.op.apply(&[(Component::Xx, qx), (Component::Xy, qy)], ux, product);
+        self.op.apply(&[(Component::Xy, qx), (Component::Yy, qy)], uy, product);
     }
-    // u = A_t q at the contact cells, from tractions on `src`.
-    let displacement = |src: &[usize], qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]| {
-        let product = Product::by_size(contact.len(), settings.dense_max_cells, src, &contact);
-        op.apply(&[(Component::Xx, qx), (Component::Xy, qy)], ux, product);
-        op.apply(&[(Component::Xy, qx), (Component::Yy, qy)], uy, product);
-    };
-    // b = w - A_t q' on the contact cells.
+}
+
+/// Solves one step: the tractions within the bound `mu p` that minimise the step's energy
+/// (the module's problem). The stages: the slip offset `b = w - A_t q'`
+/// ([`slip_offset`]), the accelerated projected gradient from the warm start
+/// ([`minimise`]), and the slip, force and dissipation of the converged tractions
+/// ([`settle`]).
+pub fn solve_step(op: &Operator, input: &StepInput<'_>, settings: &TangentialSettings) -> Result<TangentialSolution> {
+    let n = op.grid().len();
+    let contact: Vec<usize> = (0..n).filter(|&k| input.pressure[k] > 0.0).collect();
+    if contact.is_empty() {
+        return Ok(TangentialSolution {
+            qx: vec![0.0; n],
+            qy: vec![0.0; n],
+            slip_x: vec![0.0; n],
+            slip_y: vec![0.0; n],
+            slipping: vec![false; n],
+            force_n: [0.0; 2],
+            dissipation_nmm: 0.0,
+            iterations: 0,
+        });
+    }
+    let bound: Vec<f64> =
+        (0..n).map(|k| if input.pressure[k] > 0.0 { input.mu[k] * input.pressure[k] } else { 0.0 }).collect();
+    let product = ContactProduct { op, contact: &contact, dense_max_cells: settings.dense_max_cells };
+    let b = slip_offset(&product, input);
+    let (q, iterations) = minimise(&product, input, &b, &bound, settings)?;
+    Ok(settle(&product, &b, &bound, q, iterations))
+}
+
+/// `b = w - A_t q'` on the contact cells (mm): the slip each cell would have with the
+/// previous tractions kept.
+fn slip_offset(product: &ContactProduct<'_>, input: &StepInput<'_>) -> Pair {
+    let n = input.pressure.len();
+    let (prev, w) = (input.prev, input.slip);
     let prev_cells: Vec<usize> = (0..n).filter(|&k| prev.0[k] != 0.0 || prev.1[k] != 0.0).collect();
     let (mut bx, mut by) = (vec![0.0; n], vec![0.0; n]);
     if !prev_cells.is_empty() {
-        displacement(&prev_cells, prev.0, prev.1, &mut bx, &mut by);
+        product.apply(&prev_cells, prev.0, prev.1, &mut bx, &mut by);
     }
-    for &k in &contact {
+    for &k in product.contact {
         bx[k] = w.0[k] - bx[k];
         by[k] = w.1[k] - by[k];
     }
+    (bx, by)
+}
+
+/// Projected gradient with Nesterov momentum and adaptive restart on the step's problem
+/// (gradient `A_t q + b`, the slip), from the warm start projected on the bounds, until the
+/// projected Jacobi step (local scale `1/A_t(0,0)`) summed over the cells falls below the
+/// tolerance relative to `mu sum p`. Returns the tractions and the iterations used.
+fn minimise(
+    product: &ContactProduct<'_>,
+    input: &StepInput<'_>,
+    (bx, by): &Pair,
+    bound: &[f64],
+    settings: &TangentialSettings,
+) -> Result<(Pair, usize)> {
+    let (op, contact) = (product.op, product.contact);
+    let n = bound.len();
     let total_bound: f64 = contact.iter().map(|&k| bound[k]).sum();
-    let lipschitz = match lipschitz {
+    let lipschitz = match input.lipschitz {
         Some(l) => l,
-        None => largest_eigenvalue(op, &contact, settings.dense_max_cells),
+        None => largest_eigenvalue(op, contact, settings.dense_max_cells),
     };
     let step = 1.0 / lipschitz;
-    // Optimality is measured with the local scale 1/A_t(0,0): the residual is the size of the
-    // projected Jacobi step, relative to mu sum p.
     let local = 1.0 / op.diagonal(Component::Xx).max(op.diagonal(Component::Yy));
-    // Start from the warm (else previous) tractions, projected on the new bounds.
-    let start = warm.unwrap_or(prev);
+    let start = input.warm.unwrap_or(input.prev);
     let (mut qx, mut qy) = (vec![0.0; n], vec![0.0; n]);
-    for &k in &contact {
+    for &k in contact {
         (qx[k], qy[k]) = project(start.0[k], start.1[k], bound[k]);
     }
     let (mut yx, mut yy) = (qx.clone(), qy.clone());
     let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
     let mut theta = 1.0f64;
     for iteration in 1..=settings.max_iterations {
-        displacement(&contact, &yx, &yy, &mut ux, &mut uy);
+        product.apply(contact, &yx, &yy, &mut ux, &mut uy);
         let mut kkt = 0.0;
         let mut restart = 0.0;
         let theta_next = 0.5 * (1.0 + (1.0 + 4.0 * theta * theta).sqrt());
         let beta = (theta - 1.0) / theta_next;
         let mut next = Vec::with_capacity(contact.len());
-        for &k in &contact {
+        for &k in contact {
             let (gx, gy) = (ux[k] + bx[k], uy[k] + by[k]);
             let (nx, ny) = project(yx[k] - step * gx, yy[k] - step * gy, bound[k]);
             let (jx, jy) = project(yx[k] - local * gx, yy[k] - local * gy, bound[k]);
@@ -196,38 +238,49 @@ pub fn solve_step(
             qy[k] = ny;
         }
         if momentum > 0.0 {
-            for &k in &contact {
+            for &k in contact {
                 (yx[k], yy[k]) = project(yx[k], yy[k], bound[k]);
             }
         }
         if residual < settings.tolerance {
-            sol.iterations = iteration;
-            break;
+            return Ok(((qx, qy), iteration));
         }
         if !residual.is_finite() || iteration == settings.max_iterations {
             return Err(SimError::NoConvergence { solver: "tangential", iterations: iteration, residual });
         }
     }
-    // Final slip and bookkeeping from the converged tractions.
-    displacement(&contact, &qx, &qy, &mut ux, &mut uy);
+    // Only with `max_iterations` = 0: the projected start, no iteration.
+    Ok(((qx, qy), 0))
+}
+
+/// The step's slip, force and dissipation from the converged tractions `q`: slip cells are
+/// those on the bound whose slip opposes the traction; stick cells report exact zeros.
+fn settle(
+    product: &ContactProduct<'_>,
+    (bx, by): &Pair,
+    bound: &[f64],
+    (qx, qy): Pair,
+    iterations: usize,
+) -> TangentialSolution {
+    let n = bound.len();
+    let area = product.op.grid().cell_area_mm2();
+    let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
+    product.apply(product.contact, &qx, &qy, &mut ux, &mut uy);
+    let (mut slip_x, mut slip_y, mut slipping) = (vec![0.0; n], vec![0.0; n], vec![false; n]);
     let mut force = [0.0; 2];
     let mut dissipation = 0.0;
-    for &k in &contact {
+    for &k in product.contact {
         let (sx, sy) = (ux[k] + bx[k], uy[k] + by[k]);
         let on_bound = qx[k].hypot(qy[k]) >= bound[k] * (1.0 - 1e-9);
         // Stick cells have zero slip up to the solver tolerance; report exact zeros there.
         if on_bound && sx.hypot(sy) > 0.0 && qx[k] * sx + qy[k] * sy < 0.0 {
-            sol.slip_x[k] = sx;
-            sol.slip_y[k] = sy;
-            sol.slipping[k] = true;
+            slip_x[k] = sx;
+            slip_y[k] = sy;
+            slipping[k] = true;
             dissipation -= (qx[k] * sx + qy[k] * sy) * area;
         }
         force[0] += qx[k] * area;
         force[1] += qy[k] * area;
     }
-    sol.qx = qx;
-    sol.qy = qy;
-    sol.force_n = force;
-    sol.dissipation_nmm = dissipation;
-    Ok(sol)
+    TangentialSolution { qx, qy, slip_x, slip_y, slipping, force_n: force, dissipation_nmm: dissipation, iterations }
 }

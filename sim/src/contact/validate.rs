@@ -176,16 +176,15 @@ pub fn cattaneo_with(n: usize, poisson: f64) -> Result<CattaneoReport> {
         |shift: f64, warm: &mut Option<(Vec<f64>, Vec<f64>)>| -> Result<tangential::TangentialSolution> {
             solves += 1;
             let w = vec![shift; grid.len()];
-            let sol = tangential::solve_step(
-                &op,
-                &normal.pressure,
-                &mu,
-                (&zero, &zero),
-                (&w, &zero),
-                warm.as_ref().map(|(x, y)| (x.as_slice(), y.as_slice())),
-                Some(lipschitz),
-                &settings,
-            )?;
+            let input = tangential::StepInput {
+                pressure: &normal.pressure,
+                mu: &mu,
+                prev: (&zero, &zero),
+                slip: (&w, &zero),
+                warm: warm.as_ref().map(|(x, y)| (x.as_slice(), y.as_slice())),
+                lipschitz: Some(lipschitz),
+            };
+            let sol = tangential::solve_step(&op, &input, &settings)?;
             *warm = Some((sol.qx.clone(), sol.qy.clone()));
             Ok(sol)
         };
