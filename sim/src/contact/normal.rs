@@ -81,7 +81,9 @@ impl NormalSolution {
 
 /// Solves for the pressures. `g0` is the gap per cell (mm, `+inf` where nothing can touch),
 /// `extra` an additional normal displacement (mm, e.g. from tangential tractions), `warm` a
-/// starting pressure field (MPa).
+/// starting pressure field (MPa). The stages: the candidate cells ([`Problem::new`]), the
+/// start (warm or a Jacobi guess, [`Problem::start`]), then the constrained conjugate
+/// gradient to convergence ([`Problem::conjugate_gradient`]).
 pub fn solve(
     op: &Operator,
     g0: &[f64],
@@ -90,123 +92,185 @@ pub fn solve(
     warm: Option<&[f64]>,
     settings: &NormalSettings,
 ) -> Result<NormalSolution> {
-    let n = op.grid().len();
-    let area = op.grid().cell_area_mm2();
-    let base: Vec<f64> = (0..n).map(|k| g0[k] + extra.map_or(0.0, |e| e[k])).collect();
-    let candidates: Vec<usize> = match control {
-        Control::Indentation => (0..n).filter(|&k| base[k] < 0.0).collect(),
-        Control::Load(_) => (0..n).filter(|&k| base[k].is_finite()).collect(),
-    };
-    let mut pressure = vec![0.0; n];
-    let mut gap = vec![f64::INFINITY; n];
-    if candidates.is_empty() || matches!(control, Control::Load(l) if l <= 0.0) {
-        for &k in &candidates {
-            gap[k] = base[k];
-        }
-        return Ok(NormalSolution { pressure, gap, approach_mm: 0.0, force_n: 0.0, iterations: 0 });
+    let problem = Problem::new(op, g0, extra, control, settings);
+    if problem.candidates.is_empty() || matches!(control, Control::Load(l) if l <= 0.0) {
+        return Ok(problem.unloaded());
     }
-    let product = |src: &[usize], v: &[f64], out: &mut [f64]| {
-        let choice = Product::by_size(candidates.len(), settings.products.dense_max_cells, src, &candidates);
-        op.apply(&[(Component::Zz, v)], out, choice);
-    };
-    // Start: the warm pressures on the candidates, else a Jacobi guess.
-    let diag = op.diagonal(Component::Zz);
-    if let Some(w) = warm {
-        for &k in &candidates {
-            pressure[k] = w[k].max(0.0);
-        }
+    let pressure = problem.start(warm);
+    problem.conjugate_gradient(pressure)
+}
+
+/// One normal solve's fixed data.
+struct Problem<'a> {
+    op: &'a Operator,
+    control: Control,
+    settings: &'a NormalSettings,
+    /// `g0 + extra` per cell (mm).
+    base: Vec<f64>,
+    /// The cells solved for: where `base < 0` under indentation control, every finite one
+    /// under load control.
+    candidates: Vec<usize>,
+    /// Cell area (mm^2).
+    area: f64,
+}
+
+impl<'a> Problem<'a> {
+    fn new(
+        op: &'a Operator,
+        g0: &[f64],
+        extra: Option<&[f64]>,
+        control: Control,
+        settings: &'a NormalSettings,
+    ) -> Self {
+        let n = op.grid().len();
+        let base: Vec<f64> = (0..n).map(|k| g0[k] + extra.map_or(0.0, |e| e[k])).collect();
+        let candidates: Vec<usize> = match control {
+            Control::Indentation => (0..n).filter(|&k| base[k] < 0.0).collect(),
+            Control::Load(_) => (0..n).filter(|&k| base[k].is_finite()).collect(),
+        };
+        Self { op, control, settings, base, candidates, area: op.grid().cell_area_mm2() }
     }
-    if candidates.iter().all(|&k| pressure[k] <= 0.0) {
-        for &k in &candidates {
-            pressure[k] = match control {
-                Control::Indentation => (-base[k]).max(0.0) / diag * 0.5,
-                Control::Load(_) => 1.0,
-            };
+
+    /// No load: zero pressure, the gap as it is.
+    fn unloaded(&self) -> NormalSolution {
+        let n = self.base.len();
+        let mut gap = vec![f64::INFINITY; n];
+        for &k in &self.candidates {
+            gap[k] = self.base[k];
         }
+        NormalSolution { pressure: vec![0.0; n], gap, approach_mm: 0.0, force_n: 0.0, iterations: 0 }
     }
-    if let Control::Load(load) = control {
-        let total: f64 = candidates.iter().map(|&k| pressure[k]).sum::<f64>() * area;
-        for &k in &candidates {
-            pressure[k] *= load / total;
-        }
+
+    /// `out = A_zz v` at the candidates, from `v` on `src`.
+    fn product(&self, src: &[usize], v: &[f64], out: &mut [f64]) {
+        let choice =
+            Product::by_size(self.candidates.len(), self.settings.products.dense_max_cells, src, &self.candidates);
+        self.op.apply(&[(Component::Zz, v)], out, choice);
     }
-    let mut u = vec![0.0; n];
-    let mut r = vec![0.0; n];
-    let mut t = vec![0.0; n];
-    let mut g = vec![0.0; n];
-    let (mut delta, mut g_old) = (0.0, 1.0);
-    let mut residual = f64::INFINITY;
-    for iteration in 1..=settings.max_iterations {
-        let active: Vec<usize> = candidates.iter().copied().filter(|&k| pressure[k] > 0.0).collect();
-        product(&active, &pressure, &mut u);
-        for &k in &candidates {
-            g[k] = u[k] + base[k];
-        }
-        if matches!(control, Control::Load(_)) && !active.is_empty() {
-            let g_mean = active.iter().map(|&k| g[k]).sum::<f64>() / active.len() as f64;
-            for &k in &candidates {
-                g[k] -= g_mean;
-            }
-        }
-        let gg: f64 = active.iter().map(|&k| g[k] * g[k]).sum();
-        for &k in &candidates {
-            t[k] = if pressure[k] > 0.0 { g[k] + delta * (gg / g_old) * t[k] } else { 0.0 };
-        }
-        g_old = gg;
-        product(&active, &t, &mut r);
-        if matches!(control, Control::Load(_)) && !active.is_empty() {
-            let r_mean = active.iter().map(|&k| r[k]).sum::<f64>() / active.len() as f64;
-            for &k in &active {
-                r[k] -= r_mean;
-            }
-        }
-        let num: f64 = active.iter().map(|&k| g[k] * t[k]).sum();
-        let den: f64 = active.iter().map(|&k| r[k] * t[k]).sum();
-        let tau = if den > 0.0 { num / den } else { 0.0 };
-        let mut change = 0.0;
-        let mut overlap = false;
-        for &k in &candidates {
-            let old = pressure[k];
-            let mut p = old;
-            if old > 0.0 {
-                p = (old - tau * t[k]).max(0.0);
-            } else if g[k] < 0.0 {
-                p = -tau.max(diag.recip() * 1e-3) * g[k];
-                overlap = true;
-            }
-            pressure[k] = p;
-            change += (p - old).abs();
-        }
-        delta = if overlap { 0.0 } else { 1.0 };
-        if let Control::Load(load) = control {
-            let total: f64 = candidates.iter().map(|&k| pressure[k]).sum::<f64>() * area;
+
+    /// Under load control, scales the candidates' pressures to the load.
+    fn rescale_to_load(&self, pressure: &mut [f64]) {
+        if let Control::Load(load) = self.control {
+            let total: f64 = self.candidates.iter().map(|&k| pressure[k]).sum::<f64>() * self.area;
             if total > 0.0 {
-                for &k in &candidates {
+                for &k in &self.candidates {
                     pressure[k] *= load / total;
                 }
             }
         }
-        let total: f64 = candidates.iter().map(|&k| pressure[k]).sum();
-        residual = if total > 0.0 { change / total } else { 0.0 };
-        if !residual.is_finite() {
-            break;
-        }
-        if residual < settings.tolerance {
-            let active: Vec<usize> = candidates.iter().copied().filter(|&k| pressure[k] > 0.0).collect();
-            product(&active, &pressure, &mut u);
-            // Under load control the final rescaling changed the pressures slightly: take the
-            // approach from the contact cells again.
-            let approach = if matches!(control, Control::Load(_)) && !active.is_empty() {
-                active.iter().map(|&k| u[k] + base[k]).sum::<f64>() / active.len() as f64
-            } else {
-                0.0
-            };
-            for &k in &candidates {
-                gap[k] = u[k] + base[k] - approach;
-            }
-            let force_n = total * area;
-            return Ok(NormalSolution { pressure, gap, approach_mm: approach, force_n, iterations: iteration });
-        }
     }
-    Err(SimError::NoConvergence { solver: "normal", iterations: settings.max_iterations, residual })
+
+    /// The starting pressures: the warm ones on the candidates, else a Jacobi guess (half the
+    /// overlap over the diagonal; uniform under load control), scaled to the load.
+    fn start(&self, warm: Option<&[f64]>) -> Vec<f64> {
+        let mut pressure = vec![0.0; self.base.len()];
+        if let Some(w) = warm {
+            for &k in &self.candidates {
+                pressure[k] = w[k].max(0.0);
+            }
+        }
+        if self.candidates.iter().all(|&k| pressure[k] <= 0.0) {
+            let diag = self.op.diagonal(Component::Zz);
+            for &k in &self.candidates {
+                pressure[k] = match self.control {
+                    Control::Indentation => (-self.base[k]).max(0.0) / diag * 0.5,
+                    Control::Load(_) => 1.0,
+                };
+            }
+        }
+        if let Control::Load(load) = self.control {
+            let total: f64 = self.candidates.iter().map(|&k| pressure[k]).sum::<f64>() * self.area;
+            for &k in &self.candidates {
+                pressure[k] *= load / total;
+            }
+        }
+        pressure
+    }
+
+    /// Polonsky-Keer iterations from `pressure` until the relative pressure change falls
+    /// below the tolerance: conjugate directions on the cells in contact, cells that overlap
+    /// while unloaded re-entered (resetting the conjugacy), the mean gap removed under load
+    /// control.
+    fn conjugate_gradient(&self, mut pressure: Vec<f64>) -> Result<NormalSolution> {
+        let (candidates, base) = (&self.candidates, &self.base);
+        let n = base.len();
+        let load_control = matches!(self.control, Control::Load(_));
+        let diag = self.op.diagonal(Component::Zz);
+        let (mut u, mut r, mut t, mut g) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let (mut delta, mut g_old) = (0.0, 1.0);
+        let mut residual = f64::INFINITY;
+        for iteration in 1..=self.settings.max_iterations {
+            let active: Vec<usize> = candidates.iter().copied().filter(|&k| pressure[k] > 0.0).collect();
+            self.product(&active, &pressure, &mut u);
+            for &k in candidates {
+                g[k] = u[k] + base[k];
+            }
+            if load_control && !active.is_empty() {
+                let g_mean = active.iter().map(|&k| g[k]).sum::<f64>() / active.len() as f64;
+                for &k in candidates {
+                    g[k] -= g_mean;
+                }
+            }
+            let gg: f64 = active.iter().map(|&k| g[k] * g[k]).sum();
+            for &k in candidates {
+                t[k] = if pressure[k] > 0.0 { g[k] + delta * (gg / g_old) * t[k] } else { 0.0 };
+            }
+            g_old = gg;
+            self.product(&active, &t, &mut r);
+            if load_control && !active.is_empty() {
+                let r_mean = active.iter().map(|&k| r[k]).sum::<f64>() / active.len() as f64;
+                for &k in &active {
+                    r[k] -= r_mean;
+                }
+            }
+            let num: f64 = active.iter().map(|&k| g[k] * t[k]).sum();
+            let den: f64 = active.iter().map(|&k| r[k] * t[k]).sum();
+            let tau = if den > 0.0 { num / den } else { 0.0 };
+            let mut change = 0.0;
+            let mut overlap = false;
+            for &k in candidates {
+                let old = pressure[k];
+                let mut p = old;
+                if old > 0.0 {
+                    p = (old - tau * t[k]).max(0.0);
+                } else if g[k] < 0.0 {
+                    p = -tau.max(diag.recip() * 1e-3) * g[k];
+                    overlap = true;
+                }
+                pressure[k] = p;
+                change += (p - old).abs();
+            }
+            delta = if overlap { 0.0 } else { 1.0 };
+            self.rescale_to_load(&mut pressure);
+            let total: f64 = candidates.iter().map(|&k| pressure[k]).sum();
+            residual = if total > 0.0 { change / total } else { 0.0 };
+            if !residual.is_finite() {
+                break;
+            }
+            if residual < self.settings.tolerance {
+                return Ok(self.finish(pressure, total, iteration));
+            }
+        }
+        Err(SimError::NoConvergence { solver: "normal", iterations: self.settings.max_iterations, residual })
+    }
+
+    /// The solution from converged pressures (their sum `total`, MPa): the gaps and, under load
+    /// control, the approach taken again from the contact cells (the final rescaling changed
+    /// the pressures slightly).
+    fn finish(&self, pressure: Vec<f64>, total: f64, iterations: usize) -> NormalSolution {
+        let n = self.base.len();
+        let mut u = vec![0.0; n];
+        let active: Vec<usize> = self.candidates.iter().copied().filter(|&k| pressure[k] > 0.0).collect();
+        self.product(&active, &pressure, &mut u);
+        let approach = if matches!(self.control, Control::Load(_)) && !active.is_empty() {
+            active.iter().map(|&k| u[k] + self.base[k]).sum::<f64>() / active.len() as f64
+        } else {
+            0.0
+        };
+        let mut gap = vec![f64::INFINITY; n];
+        for &k in &self.candidates {
+            gap[k] = u[k] + self.base[k] - approach;
+        }
+        NormalSolution { pressure, gap, approach_mm: approach, force_n: total * self.area, iterations }
+    }
 }
