@@ -303,75 +303,29 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
     let taps: Vec<usize> = pairs.iter().map(|p| p.0).collect();
     let slides: Vec<usize> = pairs.iter().map(|p| p.1).collect();
     let (gt, input) = (corpus_images(corpus, &taps), corpus_images(corpus, &slides));
-
-    let mut posenet = None;
-    let mut unshear = Vec::new();
-    for dir in runs {
-        match find_run(dir)? {
-            Run::Pose(cfg, dir) => {
-                if cfg.size != side {
-                    return Err(ModelError::config(
-                        "size",
-                        format!("{} was trained at {} px, the data is {side} px", dir.display(), cfg.size),
-                    ));
-                }
-                let (net, _, scale) = infer::load_posenet(&dir, &device)?;
-                scale.require(&[Column::PoseX, Column::PoseY, Column::PoseRz], &dir, "the paper's scores")?;
-                posenet = Some((net, scale));
-            }
-            Run::Unshear(name, cfg, dir) => unshear.push((name, cfg, dir)),
-        }
-    }
-    let truth: Vec<Pose> = slides.iter().map(|&r| corpus.pose(r)).collect();
-    let mut pose_sets: Vec<(String, Vec<Pose>)> = Vec::new();
-    let mut pose_of = |name: &str, images: &[Vec<f32>]| {
-        posenet.as_ref().map(|(n, s)| {
-            let predicted = predict_poses(n, s, images, side, &device);
-            let e = pose_error(&predicted, &truth);
-            pose_sets.push((name.to_owned(), predicted));
-            e
-        })
+    let (posenet, unshear) = load_runs(runs, side, &device)?;
+    let mut poses = PoseScorer {
+        posenet,
+        truth: slides.iter().map(|&r| corpus.pose(r)).collect(),
+        side,
+        device: &device,
+        sets: Vec::new(),
     };
-    let (pose_tap, pose_sheared) = (pose_of("tap", &gt), pose_of("sheared", &input));
-
+    let (pose_tap, pose_sheared) = (poses.score("tap", &gt), poses.score("sheared", &input));
     let mut models = Vec::new();
     let mut grid_columns: Vec<(String, Vec<Vec<f32>>)> = vec![("S_inp".into(), input.clone())];
     for (name, cfg, dir) in &unshear {
-        if cfg.size != side {
-            return Err(ModelError::config(
-                "size",
-                format!("{} was trained at {} px, the data is {side} px", dir.display(), cfg.size),
-            ));
-        }
-        let (model, _) = infer::load_unshear(dir, &device)?;
-        let rec = map_images(&input, side, &device, |x| model.unshear(x));
-        let srec = map_images(&input, side, &device, |x| model.reconstruct(x));
-        let u_shear = map_images(&input, side, &device, |x| model.unshear_from_shear_code(x));
-        let s_pose = map_images(&input, side, &device, |x| model.reconstruct_from_pose_code(x));
-        models.push(UnshearScores {
-            run: name.clone(),
-            mode: cfg.mode,
-            label_fraction: match cfg.mode {
-                Mode::SemiSupervised => cfg.label_fraction,
-                Mode::Baseline => 1.0,
-                Mode::SelfSupervised => 0.0,
-            },
-            patch_weight: cfg.patch_weight,
-            rec_vs_gt: similarity(&rec, &gt, side)?,
-            rec_vs_input: similarity(&rec, &input, side)?,
-            sheared_reconstruction: similarity(&srec, &input, side)?,
-            unsheared_from_shear_code: similarity(&u_shear, &gt, side)?,
-            sheared_from_pose_code: similarity(&s_pose, &input, side)?,
-            pose: pose_of(&format!("unsheared {name}"), &rec),
-        });
+        let (scores, rec) = score_unshear(name, cfg, dir, &gt, &input, &mut poses)?;
+        models.push(scores);
         grid_columns.push((format!("U_rec {name}"), rec));
     }
     grid_columns.push(("U_GT".into(), gt.clone()));
     let (_, scales) = metrics::ms_ssim(&gt[0], &gt[0], side, side)?;
     let depth_mm: Vec<f64> = slides.iter().map(|&r| corpus.dataset.rows[r].pose_z).collect();
-    let pose_by_depth = pose_sets
+    let pose_by_depth = poses
+        .sets
         .iter()
-        .flat_map(|(name, predicted)| self::pose_by_depth(name, predicted, &truth, &depth_mm))
+        .flat_map(|(name, predicted)| self::pose_by_depth(name, predicted, &poses.truth, &depth_mm))
         .collect();
     let mut report = Report {
         dataset: corpus.dataset.dir.display().to_string(),
@@ -391,10 +345,103 @@ pub fn evaluate(corpus: &Corpus, runs: &[PathBuf], backend: Backend, max_pairs: 
     write_json(&out.join("report.json"), &report)?;
     write_atomic(&out.join("report.md"), markdown(&report).as_bytes())?;
     write_grid(&out.join("grid.png"), &grid_columns, side, 12)?;
-    if !pose_sets.is_empty() {
-        write_atomic(&out.join("poses.csv"), poses_csv(corpus, &slides, &pose_sets).as_bytes())?;
+    if !poses.sets.is_empty() {
+        write_atomic(&out.join("poses.csv"), poses_csv(corpus, &slides, &poses.sets).as_bytes())?;
     }
     Ok(report)
+}
+
+/// A loaded pose network and its label scale.
+type LoadedPoseNet = (PoseNet, PoseScale);
+
+/// A shear-removal run: its name, config and directory.
+type UnshearRun = (String, UnshearConfig, PathBuf);
+
+/// The runs to evaluate, sorted: at most one pose network (it must read x, y and yaw), and
+/// the shear-removal models with their names and configs; each trained at the data's `side`.
+fn load_runs(runs: &[PathBuf], side: usize, device: &Device) -> Result<(Option<LoadedPoseNet>, Vec<UnshearRun>)> {
+    let mut posenet = None;
+    let mut unshear = Vec::new();
+    for dir in runs {
+        match find_run(dir)? {
+            Run::Pose(cfg, dir) => {
+                check_size(cfg.size, side, &dir)?;
+                let (net, _, scale) = infer::load_posenet(&dir, device)?;
+                scale.require(&[Column::PoseX, Column::PoseY, Column::PoseRz], &dir, "the paper's scores")?;
+                posenet = Some((net, scale));
+            }
+            Run::Unshear(name, cfg, dir) => unshear.push((name, cfg, dir)),
+        }
+    }
+    Ok((posenet, unshear))
+}
+
+/// A run trained at `trained` px cannot read `side` px data.
+fn check_size(trained: usize, side: usize, dir: &Path) -> Result<()> {
+    if trained != side {
+        return Err(ModelError::config(
+            "size",
+            format!("{} was trained at {trained} px, the data is {side} px", dir.display()),
+        ));
+    }
+    Ok(())
+}
+
+/// The pose network's readings of image sets against the slides' poses, each set kept under
+/// its name for poses.csv and the depth bands.
+struct PoseScorer<'a> {
+    posenet: Option<LoadedPoseNet>,
+    truth: Vec<Pose>,
+    side: usize,
+    device: &'a Device,
+    sets: Vec<(String, Vec<Pose>)>,
+}
+
+impl PoseScorer<'_> {
+    /// The pose error of the network reading `images` (none without a pose network).
+    fn score(&mut self, name: &str, images: &[Vec<f32>]) -> Option<PoseError> {
+        let (net, scale) = self.posenet.as_ref()?;
+        let predicted = predict_poses(net, scale, images, self.side, self.device);
+        let e = pose_error(&predicted, &self.truth);
+        self.sets.push((name.to_owned(), predicted));
+        Some(e)
+    }
+}
+
+/// One shear-removal model's scores on the test pairs (`gt` taps, `input` slides) and its
+/// unsheared images `U_rec`.
+fn score_unshear(
+    name: &str,
+    cfg: &UnshearConfig,
+    dir: &Path,
+    gt: &[Vec<f32>],
+    input: &[Vec<f32>],
+    poses: &mut PoseScorer<'_>,
+) -> Result<(UnshearScores, Vec<Vec<f32>>)> {
+    let (side, device) = (poses.side, poses.device);
+    check_size(cfg.size, side, dir)?;
+    let (model, _) = infer::load_unshear(dir, device)?;
+    let rec = map_images(input, side, device, |x| model.unshear(x));
+    let srec = map_images(input, side, device, |x| model.reconstruct(x));
+    let u_shear = map_images(input, side, device, |x| model.unshear_from_shear_code(x));
+    let s_pose = map_images(input, side, device, |x| model.reconstruct_from_pose_code(x));
+    let scores = UnshearScores {
+        run: name.to_owned(),
+        mode: cfg.mode,
+        label_fraction: match cfg.mode {
+            Mode::SemiSupervised => cfg.label_fraction,
+            Mode::Baseline => 1.0,
+            Mode::SelfSupervised => 0.0,
+        },
+        patch_weight: cfg.patch_weight,
+        rec_vs_gt: similarity(&rec, gt, side)?,
+        rec_vs_input: similarity(&rec, input, side)?,
+        sheared_reconstruction: similarity(&srec, input, side)?,
+        unsheared_from_shear_code: similarity(&u_shear, gt, side)?,
+        sheared_from_pose_code: similarity(&s_pose, input, side)?,
+        pose: poses.score(&format!("unsheared {name}"), &rec),
+    };
+    Ok((scores, rec))
 }
 
 /// The semi-supervised model at the paper's 10% with the patch loss, if evaluated.

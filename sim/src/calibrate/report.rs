@@ -265,8 +265,12 @@ pub fn comparison_row(real: &GrayImage, simulated: &GrayImage, tile_px: u32) -> 
 
 /// The report as markdown.
 pub fn markdown(r: &Report) -> String {
+    [held_out_section(r), fitted_model_section(r), rig_section(r), recordings_section(r)].concat()
+}
+
+/// The title, the data and the held-out result against the targets.
+fn held_out_section(r: &Report) -> String {
     let m = &r.held_out_means;
-    let d = &r.deformation;
     let yes = |b: bool| if b { "met" } else { "NOT met" };
     let direction_line = format!(
         "| global shift direction error, mean over real shifts > {DIRECTION_MIN_SHIFT_PX420} px | {:.1} deg ({} of {} \
@@ -276,7 +280,7 @@ pub fn markdown(r: &Report) -> String {
         m.direction_samples,
         yes(r.direction_target_met)
     );
-    let mut s = format!(
+    format!(
         "# Calibration against real TacTip recordings\n\nMade by `{}` from `{}`. Reference: {}.\n\n\
          {} recordings ({} reference pins, {:.1} tracked per recording): {} fitted, {} held out \
          (never used in the fit). Pixels are given at 420 px; 1 px at the pin tips is {:.3} mm.\n\n\
@@ -309,8 +313,13 @@ pub fn markdown(r: &Report) -> String {
         r.undeformed_rms_px420,
         yes(r.undeformed_rms_px420 <= 1.0),
         r.train_relative_error,
-    );
-    s += &format!(
+    )
+}
+
+/// The fitted deformation model, the label frame and the candidate models.
+fn fitted_model_section(r: &Report) -> String {
+    let d = &r.deformation;
+    let mut s = format!(
         "## Fitted model\n\n\
          | parameter | value |\n|---|---|\n\
          | elastic model | {:?} |\n| depth offset (added to the labelled depth) | {:.3} mm |\n\
@@ -344,7 +353,13 @@ pub fn markdown(r: &Report) -> String {
     for c in &r.candidates {
         s += &format!("| {:?} | {:.3} | {} |\n", c.deformation.model, c.relative_error, c.evaluations);
     }
-    s += &format!(
+    s
+}
+
+/// The `[rig]` a dataset recipe needs to replay the lab's rig.
+fn rig_section(r: &Report) -> String {
+    let d = &r.deformation;
+    format!(
         "\nA dataset recipe replays this rig (labels in the lab's frame, the sensor where the rig took it) with:\n\n```toml\n[[shapes]]\nname = \"disk\"\nfriction = {:.3}\n\n[rig]\nrotation_deg = {:.1}\nmirrored = {}\ntilts_reversed = {}\ndepth_offset_mm = {:.3}\npivot_mm = {:.2}\ndepth_compliance = {:.4}\ntilt_relaxation_per_mm = {:.4}\npivot_offset_mm = [{:.3}, {:.3}]\n```\n",
         d.friction,
         r.frame.rotation_deg,
@@ -356,8 +371,12 @@ pub fn markdown(r: &Report) -> String {
         d.tilt_relaxation_per_mm,
         d.pivot_offset_mm[0],
         d.pivot_offset_mm[1],
-    );
-    s += &format!(
+    )
+}
+
+/// The image grid and the table of held-out recordings.
+fn recordings_section(r: &Report) -> String {
+    let mut s = format!(
         "\n## Images\n\n![held-out recordings: real, simulated, difference (red: real only, cyan: \
          simulated only)]({})\n\nRows: {GRID_SAMPLES} held-out recordings from shallow to deep; columns: real, \
          simulated, difference (red: real only, cyan: simulated only).\n\n## Held-out recordings\n\n\
