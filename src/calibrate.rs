@@ -11,12 +11,10 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use tacsim_data::LabFolder;
 use tacsim_data::write_atomic;
-use tacsim_sim::calibrate::Observations;
-use tacsim_sim::calibrate::fit_camera_only;
-use tacsim_sim::calibrate::ring_table;
-use tacsim_sim::calibrate::{ConsensusRule, Reference, ReferenceSource};
-use tacsim_sim::calibrate::{FitOptions, Problem, RecordingSplit, fit};
-use tacsim_sim::calibrate::{comparison_row, held_out, markdown};
+use tacsim_sim::calibrate::{
+    Calibration, ConsensusRule, FitOptions, Observations, Problem, RecordingSplit, Reference, ReferenceSource, Report,
+    comparison_row, fit, fit_camera_only, held_out, markdown, ring_table,
+};
 use tacsim_sim::{SensorParams, SkinModel};
 
 /// What `tacsim calibrate` was asked.
@@ -131,6 +129,38 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         spinner.finish_and_clear();
         return Ok(summary);
     }
+    surface_fit(
+        o,
+        &SurfaceFit { folder: &folder, base: &base, reference: &reference, obs: &obs, split: &split },
+        &report_dir,
+        command,
+        &progress,
+        &spinner,
+    )
+}
+
+/// What a surface fit works on: the lab folder, the sensor to start from, the undeformed
+/// reference, the tracked recordings and their split.
+struct SurfaceFit<'a> {
+    folder: &'a LabFolder,
+    base: &'a SensorParams,
+    reference: &'a Reference,
+    obs: &'a Observations,
+    split: &'a RecordingSplit,
+}
+
+/// The surface fit (`tacsim calibrate` without `--camera-only` or `--edge`): the deformation
+/// fitted on the fitting part, the held-out report written to `report_dir`, the sensor to
+/// `-o`; returns the summary to print.
+fn surface_fit(
+    o: &CalibrateOptions,
+    job: &SurfaceFit<'_>,
+    report_dir: &Path,
+    command: &str,
+    progress: &dyn Fn(&str),
+    spinner: &ProgressBar,
+) -> Result<String> {
+    let (obs, split) = (job.obs, job.split);
     if split.train.len() < 8 || split.held_out.is_empty() {
         bail!(
             "{}: {} recordings besides the reference give {} to fit and {} to hold out; record at least 10",
@@ -155,14 +185,14 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         FitOptions { rig_only: o.rig_only, ..FitOptions::default() }
     };
     let problem = Problem {
-        folder: &folder,
-        base: &base,
-        reference: &reference,
-        obs: &obs,
+        folder: job.folder,
+        base: job.base,
+        reference: job.reference,
+        obs,
         surface: &surface,
         cells: opts.cells,
     };
-    let calib = fit(&problem, &split, &opts, &progress).with_context(|| match &reference.source {
+    let calib = fit(&problem, split, &opts, progress).with_context(|| match &job.reference.source {
         ReferenceSource::Consensus(rule, names) => format!(
             "the reference is the consensus of the {}: where those presses move the pins too much for a clear \
              layout, name an undeformed image with --reference or record a few shallow presses",
@@ -171,16 +201,47 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         ReferenceSource::Image(name) => format!("fitting against the reference {name}"),
     })?;
     spinner.set_message("held-out report");
-    let (report, grid) = held_out(&problem, &calib, &split, command, &o.real.display().to_string(), "grid.png")?;
+    let (report, grid) = held_out(&problem, &calib, split, command, &o.real.display().to_string(), "grid.png")?;
     spinner.finish_and_clear();
     let mut png = Vec::new();
     grid.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
     write_atomic(&report_dir.join("grid.png"), &png)?;
     write_atomic(&report_dir.join("report.json"), &serde_json::to_vec_pretty(&report)?)?;
     write_atomic(&report_dir.join("report.md"), markdown(&report).as_bytes())?;
-    // The rig alone leaves the sensor as it was given.
+    write_calibrated_sensor(o, job.base, &calib, &report, report_dir, command)?;
+    let m = &report.held_out_means;
+    Ok(format!(
+        "{} recordings: {} fitted, {} held out; model {:?}\nheld out: mean relative error {:.3} (target <= 0.25), \
+         shift direction within 20 deg on {} of {}, per-pin error {:.2} px at 420 = {:.3} mm, undeformed RMS {:.2} px\n\
+         wrote {} and {}\n",
+        report.recordings,
+        report.train,
+        report.held_out,
+        calib.deformation.model,
+        m.relative_error,
+        m.direction_within_target,
+        m.direction_samples,
+        m.error_px420,
+        m.error_mm,
+        report.undeformed_rms_px420,
+        o.output.display(),
+        report_dir.join("report.md").display()
+    ))
+}
+
+/// Writes the calibrated sensor (`-o`) with a header naming the data, the command, the
+/// held-out error and the recordings' press (not part of the sensor). The rig alone
+/// (`--rig-only`) leaves the sensor as it was given; recalibrating a calibrated sensor keeps
+/// its name.
+fn write_calibrated_sensor(
+    o: &CalibrateOptions,
+    base: &SensorParams,
+    calib: &Calibration,
+    report: &Report,
+    report_dir: &Path,
+    command: &str,
+) -> Result<()> {
     let mut sensor = if o.rig_only { base.clone() } else { calib.sensor.clone() };
-    // Recalibrating a calibrated sensor (the default) keeps its name.
     sensor.name =
         if base.name.ends_with("-calibrated") { base.name.clone() } else { format!("{}-calibrated", base.name) };
     let header = format!(
@@ -200,24 +261,7 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
         calib.deformation.tilt_relaxation_per_mm,
     );
     write_atomic(&o.output, format!("{header}{}", sensor.to_toml()).as_bytes())?;
-    let m = &report.held_out_means;
-    Ok(format!(
-        "{} recordings: {} fitted, {} held out; model {:?}\nheld out: mean relative error {:.3} (target <= 0.25), \
-         shift direction within 20 deg on {} of {}, per-pin error {:.2} px at 420 = {:.3} mm, undeformed RMS {:.2} px\n\
-         wrote {} and {}\n",
-        report.recordings,
-        report.train,
-        report.held_out,
-        calib.deformation.model,
-        m.relative_error,
-        m.direction_within_target,
-        m.direction_samples,
-        m.error_px420,
-        m.error_mm,
-        report.undeformed_rms_px420,
-        o.output.display(),
-        report_dir.join("report.md").display()
-    ))
+    Ok(())
 }
 
 /// Side of each tile of the camera-only grid (px).
