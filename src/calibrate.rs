@@ -13,7 +13,7 @@ use tacsim_data::LabFolder;
 use tacsim_data::write_atomic;
 use tacsim_sim::calibrate::{
     Calibration, ConsensusRule, FitOptions, Observations, Problem, RecordingSplit, Reference, ReferenceSource, Report,
-    comparison_row, fit, fit_camera_only, held_out, markdown, ring_table,
+    comparison_row, fit, fit_camera_only, fit_pin_offsets, held_out, markdown, ring_table,
 };
 use tacsim_sim::{SensorParams, SkinModel};
 
@@ -48,6 +48,12 @@ pub struct CalibrateOptions {
     /// surface.
     #[arg(long, conflicts_with = "quick")]
     pub camera_only: bool,
+    /// Fit each pin's offset in the image (`pins.image_offsets`) to the reference, the
+    /// sensor's camera, rings and framing held as given: simulated undeformed pins on the real
+    /// ones, pin by pin ([`tacsim_sim::calibrate::fit_pin_offsets`]). Written and reported as
+    /// --camera-only.
+    #[arg(long, conflicts_with_all = ["quick", "camera_only", "rig_only", "edge"])]
+    pub pin_offsets: bool,
     /// Fit the rig alone (depth offset, friction, the tilt pivot's height and its offset off
     /// the axis, yield, tilt relaxation), the sensor held as given ([`FitOptions::rig_only`]):
     /// for a preset already calibrated. The preset written is the sensor unchanged.
@@ -96,7 +102,7 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     let reference = Reference::of(&folder, o.reference.as_deref(), o.consensus)?;
     // The edge's stimulus and contact point are checked before any tracking.
     let edge = o.edge.as_deref().map(|shape| crate::edge_fit::edge_stimulus(shape, o.edge_contact)).transpose()?;
-    if o.camera_only {
+    if o.camera_only || o.pin_offsets {
         return camera_only(o, &reference, &base, &report_dir, command);
     }
     let started = std::time::Instant::now();
@@ -267,8 +273,9 @@ fn write_calibrated_sensor(
 /// Side of each tile of the camera-only grid (px).
 const TILE_PX: u32 = 256;
 
-/// `--camera-only` ([`fit_camera_only`]): writes the preset, named after its file, and a
-/// report (`report.md`, `grid.png`: real reference, simulated, difference).
+/// `--camera-only` ([`fit_camera_only`]) or `--pin-offsets` ([`fit_pin_offsets`]): writes
+/// the preset, named after its file, and a report (`report.md`, `grid.png`: real reference,
+/// simulated, difference).
 fn camera_only(
     o: &CalibrateOptions,
     reference: &Reference,
@@ -277,8 +284,15 @@ fn camera_only(
     command: &str,
 ) -> Result<String> {
     let name = reference.describe();
-    let fit =
-        fit_camera_only(base, reference).with_context(|| format!("fitting the camera to the reference ({name})"))?;
+    let (fit, (title, what)) = if o.pin_offsets {
+        let fit = fit_pin_offsets(base, reference)
+            .with_context(|| format!("fitting the pins' image offsets to the reference ({name})"))?;
+        (fit, ("Pin offsets fit", "pins' image offsets"))
+    } else {
+        let fit = fit_camera_only(base, reference)
+            .with_context(|| format!("fitting the camera to the reference ({name})"))?;
+        (fit, ("Camera fit", "camera, ring layout and framing"))
+    };
     let mut sensor = fit.sensor.clone();
     sensor.name = o.output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| base.name.clone());
     let summary = fit.summary();
@@ -287,7 +301,7 @@ fn camera_only(
         .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
     write_atomic(&report_dir.join("grid.png"), &png)?;
     let md = format!(
-        "# Camera fit against real TacTip recordings\n\nMade by `{command}` from `{}`.\n\nReference: {name}.\n\n\
+        "# {title} against real TacTip recordings\n\nMade by `{command}` from `{}`.\n\nReference: {name}.\n\n\
          {summary}.\n\nThe camera distance ({:.2} mm), the dome, the skin and the pins' length are the starting \
          sensor's: an undeformed image does not tell them.\n\n```\n{}```\n\n`grid.png`: the reference, the \
          simulated undeformed image, their difference (real only red, simulated only cyan).\n",
@@ -297,7 +311,7 @@ fn camera_only(
     );
     write_atomic(&report_dir.join("report.md"), md.as_bytes())?;
     let header = format!(
-        "# {} camera, ring layout and framing fitted to {} by `{command}`.\n# Reference: {name}.\n# {summary}.\n\n",
+        "# {} {what} fitted to {} by `{command}`.\n# Reference: {name}.\n# {summary}.\n\n",
         base.name,
         o.real.display()
     );

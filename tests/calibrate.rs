@@ -221,6 +221,57 @@ fn camera_only_recovers_a_simulated_sensor_from_framed_non_square_images_without
 }
 
 #[test]
+fn pin_offsets_recover_a_simulated_sensors_irregular_pins() {
+    // The truth: the default sensor at 128 px, each pin off its ring place by up to 0.4 px
+    // (a fixed pseudo-random pattern), with an undeformed reference image.
+    let mut truth = SensorParams::default();
+    truth.camera.image_size = 128;
+    let wobble = |i: usize, k: f64| ((i as f64 * 12.9898 + k * 78.233).sin() * 43758.5453).fract() * 0.4 / 128.0;
+    truth.pins.image_offsets = (0..truth.pin_count()).map(|i| [wobble(i, 1.0), wobble(i, 2.0)]).collect();
+    truth.validate("truth").expect("valid offsets");
+    let img = PinRenderer::new(&truth, 128).expect("renderable").render_undeformed();
+    let dir = temp_dir("calibrate", "pin-offsets");
+    let lab = dir.join("lab");
+    std::fs::create_dir_all(lab.join("images")).expect("lab dir");
+    let mut csv = String::from(
+        "sensor_image,pose_1,pose_2,pose_3,pose_4,pose_5,pose_6,move_1,move_2,move_3,move_4,move_5,move_6\n",
+    );
+    for i in 0..4 {
+        img.save(lab.join(format!("images/image_{i}.png"))).expect("save");
+        csv.push_str(&format!("image_{i}.png,0,0,{},0,0,0,0,0,0,0,0,0\n", 1.0 + i as f64));
+    }
+    std::fs::write(lab.join("targets.csv"), csv).expect("csv");
+    let mut base = truth.clone();
+    base.pins.image_offsets.clear();
+    let base_file = dir.join("base.toml");
+    std::fs::write(&base_file, base.to_toml()).expect("base");
+    let preset = dir.join("fitted.toml");
+    let o =
+        tacsim(&["calibrate", "--real", s(&lab), "--sensor", s(&base_file), "--pin-offsets", "-o", s(&preset), "-q"]);
+    assert!(o.status.success(), "calibrate failed: {}", String::from_utf8_lossy(&o.stderr));
+    let fitted = SensorParams::load(&preset).expect("preset");
+    assert_eq!((fitted.camera.clone(), fitted.pins.rings), (base.camera.clone(), base.pins.rings), "the rest is held");
+    // Each pin's offset recovered to within half its size on average (a binary image does not
+    // tell a disc's place closer than its boundary pixels do).
+    let error = |o: &[[f64; 2]]| {
+        let n = truth.pins.image_offsets.len() as f64;
+        truth.pins.image_offsets.iter().zip(o).map(|(t, f)| (t[0] - f[0]).hypot(t[1] - f[1]) * 128.0).sum::<f64>() / n
+    };
+    let before = error(&vec![[0.0; 2]; truth.pin_count()]);
+    let after = error(&fitted.pins.image_offsets);
+    assert!(before > 0.2 && after < 0.5 * before, "mean offset error {before:.3} px before, {after:.3} px after");
+    // Rendered, the fitted sensor draws the reference again (but for a few boundary pixels).
+    let again = PinRenderer::new(&fitted, 128).expect("renderable").render_undeformed();
+    let differ = again.as_raw().iter().zip(img.as_raw()).filter(|(a, b)| a != b).count();
+    let plain = PinRenderer::new(&base, 128).expect("renderable").render_undeformed();
+    let differ_before = plain.as_raw().iter().zip(img.as_raw()).filter(|(a, b)| a != b).count();
+    eprintln!("pin offsets: mean error {before:.3} -> {after:.3} px, {differ_before} -> {differ} pixels differ");
+    assert!(differ < differ_before / 4, "{differ} pixels differ ({differ_before} without offsets)");
+    let md = std::fs::read_to_string(dir.join("fitted-report/report.md")).expect("report.md");
+    assert!(md.starts_with("# Pin offsets fit"), "{md}");
+}
+
+#[test]
 fn the_edge2d_preset_is_what_camera_only_makes_of_the_edge_recordings() {
     let Some(real) = lab_folder("real-tactip-edge2d") else { return };
     // The command in the preset's header (no reference image, the older column names).

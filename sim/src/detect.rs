@@ -75,10 +75,20 @@ pub fn pin_centres(img: &GrayImage) -> Vec<[f64; 2]> {
     detect_pins(img, lo, hi).iter().map(|b| b.centroid).collect()
 }
 
-/// Image positions (px) of the pin tips of `pins` as `renderer`'s camera sees them (`None`
+/// Image positions (px) of the pin tips of `pins` as `renderer`'s camera sees them, with each
+/// layout pin's image offset (`pins.image_offsets`) when `pins` are the layout's (`None`
 /// where a tip leaves the view).
 pub fn tip_pixels(renderer: &PinRenderer, pins: &[PinPose]) -> Vec<Option<[f64; 2]>> {
-    pins.iter().map(|p| renderer.camera().project(&p.tip)).collect()
+    pins.iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let t = renderer.camera().project(&p.tip)?;
+            Some(match renderer.image_offset(i, pins.len()) {
+                Some(o) => [t[0] + o[0], t[1] + o[1]],
+                None => t,
+            })
+        })
+        .collect()
 }
 
 /// For each real reference pin, the sensor pin whose undeformed image lies nearest, within

@@ -51,8 +51,8 @@ pub use render::PinRenderer;
 pub use rig::{Press, RigFrame, yielded_depth_mm};
 pub use scene::{ObjectId, ObjectPose, Scene, SceneObject, SurfaceHit, flat_scene};
 pub use sensor::{
-    CALIBRATED_PRESET, CAMERA_ONLY_PRESET, CameraParams, DomeParams, EDGE2D_PRESET, FramingParams, PRESETS, PinParams,
-    SensorParams, SkinModel, SkinParams, pin_count,
+    CALIBRATED_PRESET, CAMERA_ONLY_PRESET, CameraParams, DomeParams, EDGE2D_PRESET, FramingParams, MAX_IMAGE_OFFSET,
+    PRESETS, PinParams, SensorParams, SkinModel, SkinParams, pin_count,
 };
 pub use tracking::{Tracking, Warp, global_shift, global_warp, nearest_neighbours, track};
 pub use variation::Variation;

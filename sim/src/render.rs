@@ -22,6 +22,11 @@ pub const MIN_PIN_RADIUS_PX: f64 = 0.8;
 /// 128 px: its outer rings' pins are 1.44 px apart there, and separate in the real images.)
 pub const MIN_PIN_GAP_PX: f64 = std::f64::consts::SQRT_2;
 
+/// Smallest gap between two undeformed pins' discs with their image offsets
+/// (`pins.image_offsets`, px): real pins fitted at the pixel may sit closer than the ring
+/// layout's [`MIN_PIN_GAP_PX`] and still image apart.
+pub const MIN_OFFSET_GAP_PX: f64 = 0.5;
+
 /// Renders one sensor at one image size. Building it checks that the undeformed pins are
 /// separate, large enough and inside the image, so every undeformed render shows exactly
 /// `pin_count` blobs.
@@ -30,6 +35,8 @@ pub struct PinRenderer {
     camera: Camera,
     layout: PinLayout,
     undeformed: Vec<Disc>,
+    /// Each layout pin's image offset (px at this size; `pins.image_offsets`), or none.
+    offsets_px: Vec<[f64; 2]>,
     /// The framing's pixels as runs `(first, end, value)` of raster indices, found once.
     framing: Vec<(usize, usize, u8)>,
 }
@@ -47,10 +54,13 @@ impl PinRenderer {
         }
         let camera = Camera::new(&sensor.camera, size);
         let layout = PinLayout::new(sensor);
+        let s = size as f64;
+        let offsets_px: Vec<[f64; 2]> = sensor.pins.image_offsets.iter().map(|o| [o[0] * s, o[1] * s]).collect();
         let mut undeformed = Vec::with_capacity(layout.pins.len());
-        for pin in &layout.pins {
+        for (i, pin) in layout.pins.iter().enumerate() {
             let disc = camera
                 .project_disc(&pin.tip, &pin.normal, layout.tip_radius_mm)
+                .map(|d| offset_disc(d, offsets_px.get(i)))
                 .ok_or_else(|| fail(format!("pin ring {} is behind the camera", pin.ring)))?;
             if disc.r < MIN_PIN_RADIUS_PX {
                 return Err(fail(format!(
@@ -58,7 +68,6 @@ impl PinRenderer {
                     pin.ring, disc.r
                 )));
             }
-            let s = size as f64;
             if disc.u - disc.r < 0.0 || disc.v - disc.r < 0.0 || disc.u + disc.r > s || disc.v + disc.r > s {
                 return Err(fail(format!(
                     "pin ring {} leaves the image: widen camera.fov_deg or reduce the ring pitch",
@@ -67,18 +76,29 @@ impl PinRenderer {
             }
             undeformed.push(disc);
         }
+        // The ring layout keeps its pins apart; measured image offsets may bring two a little
+        // closer, as the real pins they were fitted to are.
+        let offset = |i: usize| offsets_px.get(i).copied().unwrap_or([0.0; 2]);
         for (i, a) in undeformed.iter().enumerate() {
-            for b in &undeformed[i + 1..] {
-                let gap = ((a.u - b.u).powi(2) + (a.v - b.v).powi(2)).sqrt() - a.r - b.r;
-                if gap < MIN_PIN_GAP_PX {
+            for (j, b) in undeformed.iter().enumerate().skip(i + 1) {
+                let (oa, ob) = (offset(i), offset(j));
+                let nominal =
+                    ((a.u - oa[0] - b.u + ob[0]).powi(2) + (a.v - oa[1] - b.v + ob[1]).powi(2)).sqrt() - a.r - b.r;
+                if nominal < MIN_PIN_GAP_PX {
                     return Err(fail(format!(
-                        "neighbouring pins are {gap:.2} px apart (< {MIN_PIN_GAP_PX:.3}): they would merge; use a larger image, smaller tips or a wider ring pitch"
+                        "neighbouring pins are {nominal:.2} px apart (< {MIN_PIN_GAP_PX:.3}): they would merge; use a larger image, smaller tips or a wider ring pitch"
+                    )));
+                }
+                let gap = ((a.u - b.u).powi(2) + (a.v - b.v).powi(2)).sqrt() - a.r - b.r;
+                if gap < MIN_OFFSET_GAP_PX {
+                    return Err(fail(format!(
+                        "pins {i} and {j} are {gap:.2} px apart with their image offsets (< {MIN_OFFSET_GAP_PX}): smaller pins.image_offsets"
                     )));
                 }
             }
         }
         let framing = framing_runs(&sensor.framing, camera.principal, size);
-        Ok(Self { camera, layout, undeformed, framing })
+        Ok(Self { camera, layout, undeformed, offsets_px, framing })
     }
 
     /// The camera in use.
@@ -101,10 +121,23 @@ impl PinRenderer {
         &self.undeformed
     }
 
-    /// Projects pins (tip centre and axis in the sensor frame, any count) to discs; pins
-    /// behind the camera are dropped.
+    /// Projects pins (tip centre and axis in the sensor frame, any count) to discs, each moved
+    /// by its image offset when `pins` are the layout's (`pins.image_offsets`); pins behind the
+    /// camera are dropped.
     pub fn discs(&self, pins: &[PinPose]) -> Vec<Disc> {
-        pins.iter().filter_map(|p| self.camera.project_disc(&p.tip, &p.axis, self.layout.tip_radius_mm)).collect()
+        pins.iter()
+            .enumerate()
+            .filter_map(|(i, p)| {
+                let d = self.camera.project_disc(&p.tip, &p.axis, self.layout.tip_radius_mm)?;
+                Some(offset_disc(d, self.image_offset(i, pins.len())))
+            })
+            .collect()
+    }
+
+    /// The image offset (px) of pin `i` of a set of `count` pins: its `pins.image_offsets`
+    /// entry when the set is the layout's, else none.
+    pub(crate) fn image_offset(&self, i: usize, count: usize) -> Option<&[f64; 2]> {
+        if count == self.layout.pins.len() { self.offsets_px.get(i) } else { None }
     }
 
     /// Renders the binary image of pins at `pins` into `out`, framed as the sensor's
@@ -143,12 +176,19 @@ impl PinRenderer {
         let size = self.camera.size;
         let mut discs: Vec<Disc> = pins
             .iter()
-            .filter_map(|p| {
+            .enumerate()
+            .filter_map(|(i, p)| {
                 let (tx, ty) = roll(p.tip.x, p.tip.y);
                 let (ax, ay) = roll(p.axis.x, p.axis.y);
                 let tip = nalgebra::Point3::new(tx, ty, p.tip.z);
                 let axis = nalgebra::Vector3::new(ax, ay, p.axis.z);
-                self.camera.project_disc(&tip, &axis, self.layout.tip_radius_mm * v.pin_scale)
+                let d = self.camera.project_disc(&tip, &axis, self.layout.tip_radius_mm * v.pin_scale)?;
+                // A pin's offset turns with the roll, as the pins do.
+                let offset = self.image_offset(i, pins.len()).map(|o| {
+                    let (du, dv) = roll(o[0], o[1]);
+                    [du, dv]
+                });
+                Some(offset_disc(d, offset.as_ref()))
             })
             .map(|d| Disc { u: d.u + v.shift_px[0], v: d.v + v.shift_px[1], ..d })
             .collect();
@@ -190,6 +230,14 @@ impl PinRenderer {
         let mut out = GrayImage::new(self.camera.size, self.camera.size);
         self.render_undeformed_into(&mut out);
         out
+    }
+}
+
+/// `d` moved by `offset` (px), if any.
+fn offset_disc(d: Disc, offset: Option<&[f64; 2]>) -> Disc {
+    match offset {
+        Some(o) => Disc { u: d.u + o[0], v: d.v + o[1], ..d },
+        None => d,
     }
 }
 
@@ -317,6 +365,29 @@ mod tests {
         let rolled = Variation { roll_deg: 7.0, ..Variation::NOMINAL };
         assert_ne!(r.render_varied(&pins, &rolled), nominal);
         assert_eq!(r.render_varied(&pins, &rolled), r.render_varied(&pins, &rolled));
+    }
+
+    #[test]
+    fn image_offsets_move_each_layout_pin_and_nothing_else() {
+        let plain = SensorParams::default();
+        let mut offset = plain.clone();
+        let n = offset.pin_count();
+        offset.pins.image_offsets = (0..n).map(|i| [0.002 * (i % 3) as f64, -0.001 * (i % 2) as f64]).collect();
+        let (a, b) = (PinRenderer::new(&plain, 200).expect("plain"), PinRenderer::new(&offset, 200).expect("offset"));
+        for (i, (p, q)) in a.undeformed_discs().iter().zip(b.undeformed_discs()).enumerate() {
+            let o = offset.pins.image_offsets[i];
+            assert!((q.u - p.u - 200.0 * o[0]).abs() < 1e-12 && (q.v - p.v - 200.0 * o[1]).abs() < 1e-12, "pin {i}");
+        }
+        // The layout's pins, moved, carry their offsets; any other set of pins does not.
+        let pins = a.layout().poses();
+        assert_eq!(b.discs(&pins), b.undeformed_discs());
+        assert_eq!(b.discs(&pins[..5]), a.discs(&pins[..5]));
+        // Too close with their offsets: a clear error naming the pins.
+        offset.pins.image_offsets = vec![[0.0; 2]; n];
+        offset.pins.image_offsets[1] = [-0.02, 0.0];
+        offset.pins.image_offsets[0] = [0.02, 0.0];
+        let e = PinRenderer::new(&offset, 200).expect_err("overlapping").to_string();
+        assert!(e.contains("image offsets"), "{e}");
     }
 
     #[test]

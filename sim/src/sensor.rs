@@ -208,7 +208,19 @@ pub struct PinParams {
     /// apart along the edge. Fitted on edge taps (`tacsim calibrate --edge`).
     #[serde(skip_serializing_if = "is_zero")]
     pub patch_radius_mm: f64,
+    /// Each pin's offset in the image from where the rings put it, `[du, dv]` as fractions
+    /// of the image size (right, down), one per pin in layout order (ring by ring, the centre
+    /// pin first), or none: a real TacTip's pins sit off a perfect ring layout by a fraction of
+    /// a pixel, and a network trained on simulated images reads that pattern too. Fitted to a
+    /// lab's undeformed reference by `tacsim calibrate --pin-offsets`; at most
+    /// [`MAX_IMAGE_OFFSET`] each.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub image_offsets: Vec<[f64; 2]>,
 }
+
+/// Largest per-pin image offset (fraction of the image size, either axis): 6.4 px at 128 px,
+/// more than half a pin spacing.
+pub const MAX_IMAGE_OFFSET: f64 = 0.05;
 
 /// Whether `v` is zero (serde: fields left out of a file when 0).
 pub(crate) fn is_zero(v: &f64) -> bool {
@@ -268,6 +280,7 @@ impl Default for PinParams {
             ring_polar_deg: None,
             phase_deg: -0.3577987694874839,
             patch_radius_mm: 0.0,
+            image_offsets: Vec::new(),
         }
     }
 }
@@ -419,6 +432,8 @@ impl SensorParams {
         let mut out = self.clone();
         let outer = *self.ring_polar_rad().last().unwrap_or(&0.0);
         out.pins.rings = rings;
+        // Per-pin offsets belong to one layout's pins.
+        out.pins.image_offsets.clear();
         if self.pins.rings > 0 {
             let old = self.ring_polar_rad();
             out.pins.ring_pitch_deg = self.pins.ring_pitch_deg * self.pins.rings as f64 / rings as f64;
@@ -507,6 +522,24 @@ impl SensorParams {
                     p.tip_radius_mm
                 ),
             );
+        }
+        let count = self.pin_count();
+        if !p.image_offsets.is_empty() && p.image_offsets.len() != count {
+            return check.bad(
+                "pins.image_offsets",
+                format!("must list one [du, dv] per pin ({count}), got {}", p.image_offsets.len()),
+            );
+        }
+        for (i, o) in p.image_offsets.iter().enumerate() {
+            for (axis, v) in o.iter().enumerate() {
+                check.within(
+                    &format!("pins.image_offsets[{i}][{axis}]"),
+                    *v,
+                    -MAX_IMAGE_OFFSET,
+                    MAX_IMAGE_OFFSET,
+                    " (fraction of the image size)",
+                )?;
+            }
         }
         if p.phase_deg.abs() > 360.0 {
             return check.bad("pins.phase_deg", format!("must be in [-360, 360] deg, got {}", p.phase_deg));
@@ -737,6 +770,15 @@ mod tests {
             ("[skin]\ndome_slope = 4.0\n", "skin.dome_slope"),
             ("[skin]\ndome_slope = -0.5\n", "skin.dome_slope"),
             ("[skin]\ndome_slope = nan\n", "skin.dome_slope"),
+            ("[pins]\nimage_offsets = [[0.0, 0.0]]\n", "pins.image_offsets"),
+            (
+                "[pins]\nrings = 1\nimage_offsets = [[0, 0], [0, 0], [0, 0], [0, 0.2], [0, 0], [0, 0], [0, 0]]\n",
+                "pins.image_offsets[3][1]",
+            ),
+            (
+                "[pins]\nrings = 1\nimage_offsets = [[0, 0], [0, 0], [0, 0], [0, 0], [0, 0], [0, 0], [nan, 0]]\n",
+                "pins.image_offsets[6][0]",
+            ),
             // An empty file silently meant the default sensor (issue 32).
             ("", "sets no field"),
             ("# only a comment\n", "sets no field"),

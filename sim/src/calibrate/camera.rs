@@ -13,8 +13,8 @@ use crate::calibrate::rings::{
 };
 use crate::detect::{match_reference, pin_centres, tip_pixels};
 use crate::error::Result;
-use crate::render::PinRenderer;
-use crate::sensor::SensorParams;
+use crate::render::{MIN_OFFSET_GAP_PX, PinRenderer};
+use crate::sensor::{MAX_IMAGE_OFFSET, SensorParams};
 
 /// The result of [`fit_camera_only`].
 #[derive(Clone, Debug)]
@@ -77,9 +77,94 @@ pub fn fit_camera_only(base: &SensorParams, reference: &Reference) -> Result<Cam
         unframed.undeformed_discs().iter().map(|d| (d.u - principal[0]).hypot(d.v - principal[1])).fold(0.0, f64::max);
     sensor.framing = fit_framing(&reference.image, principal, field);
     sensor.validate("camera fit")?;
+    measure(sensor, reference)
+}
+
+/// Fits each pin's image offset (`pins.image_offsets`) to `reference`, keeping `base`'s
+/// camera, rings and framing: three rounds of moving each simulated pin's blob onto the real
+/// pin matched to it, measured blob to blob as the real pins are seen (so the binary discs'
+/// quantisation is fitted away too). A pin moves only where both blobs lie within a third of
+/// a spacing of each other and clear of the mask (the mask cuts blobs at the rim, which moves
+/// their centres); the others keep their offset.
+pub fn fit_pin_offsets(base: &SensorParams, reference: &Reference) -> Result<CameraFit> {
+    let side = reference.image.width();
+    let mut sensor = base.clone();
+    sensor.camera.image_size = side;
+    let n = sensor.pin_count();
+    let mut offsets =
+        if sensor.pins.image_offsets.len() == n { sensor.pins.image_offsets.clone() } else { vec![[0.0; 2]; n] };
+    let found = pin_centres(&reference.image);
+    let spacing = SPACING_PX420 * side as f64 / 420.0;
+    let radius = 0.5 * spacing;
+    for _ in 0..3 {
+        sensor.pins.image_offsets.clone_from(&offsets);
+        let renderer = PinRenderer::new(&sensor, side)?;
+        let layout = renderer.layout().poses();
+        let by_pin = |points: &[[f64; 2]]| {
+            let mut out = vec![None; n];
+            for (p, m) in points.iter().zip(match_reference(&renderer, &layout, points, radius)) {
+                if let Some(i) = m {
+                    out[i] = Some(*p);
+                }
+            }
+            out
+        };
+        let (real, sim) = (by_pin(&found), by_pin(&pin_centres(&renderer.render_undeformed())));
+        let principal = renderer.camera().principal;
+        let clear = |d: &crate::camera::Disc| match sensor.framing.mask_radius {
+            Some(m) => (d.u - principal[0]).hypot(d.v - principal[1]) + d.r + 1.0 < m * side as f64,
+            None => true,
+        };
+        let discs = renderer.undeformed_discs();
+        let mut next = offsets.clone();
+        for (i, (r, s)) in real.iter().zip(&sim).enumerate() {
+            if let (Some(r), Some(s)) = (r, s)
+                && (r[0] - s[0]).hypot(r[1] - s[1]) < spacing / 3.0
+                && clear(&discs[i])
+            {
+                for k in 0..2 {
+                    next[i][k] =
+                        (offsets[i][k] + (r[k] - s[k]) / side as f64).clamp(-MAX_IMAGE_OFFSET, MAX_IMAGE_OFFSET);
+                }
+            }
+        }
+        // Pins keep the renderer's smallest gap with offsets: the pins of a pair
+        // the round would bring closer keep their offsets, until no pair is too close.
+        let at = |i: usize, o: &[f64; 2]| {
+            let d = &discs[i];
+            (d.u + (o[0] - offsets[i][0]) * side as f64, d.v + (o[1] - offsets[i][1]) * side as f64, d.r)
+        };
+        loop {
+            let mut too_close = Vec::new();
+            for i in 0..n {
+                for j in i + 1..n {
+                    let (a, b) = (at(i, &next[i]), at(j, &next[j]));
+                    if (a.0 - b.0).hypot(a.1 - b.1) - a.2 - b.2 < MIN_OFFSET_GAP_PX {
+                        too_close.extend([i, j]);
+                    }
+                }
+            }
+            let reverted: Vec<usize> = too_close.into_iter().filter(|&i| next[i] != offsets[i]).collect();
+            if reverted.is_empty() {
+                break;
+            }
+            for i in reverted {
+                next[i] = offsets[i];
+            }
+        }
+        offsets = next;
+    }
+    sensor.pins.image_offsets = offsets;
+    sensor.validate("pin offsets")?;
+    measure(sensor, reference)
+}
+
+/// `sensor` against `reference`: ring profiles, and pin by pin each real pin's nearest
+/// simulated pin within half a spacing.
+fn measure(sensor: SensorParams, reference: &Reference) -> Result<CameraFit> {
+    let (name, side) = (reference.describe(), reference.image.width());
     let renderer = PinRenderer::new(&sensor, side)?;
     let (comparison, sim, real) = compare_sensor(&sensor, &reference.image, &name)?;
-    // Pin by pin: each real pin's nearest simulated pin, within half a spacing.
     let found = pin_centres(&reference.image);
     let layout = renderer.layout().poses();
     let tips = tip_pixels(&renderer, &layout);

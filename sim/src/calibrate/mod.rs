@@ -21,7 +21,7 @@ mod reference;
 mod report;
 pub(crate) mod rings;
 
-pub use camera::{CameraFit, fit_camera_only};
+pub use camera::{CameraFit, fit_camera_only, fit_pin_offsets};
 pub use edge::{
     EdgeLabels, MAX_DEPTH_COMPLIANCE, edge_scene, edge_sensor_pose, fit_labels, pooled_error, start_labels, tap_errors,
 };
