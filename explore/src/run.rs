@@ -220,7 +220,7 @@ pub fn run(
     let mut robot = Robot::new(pose0, scenario.substep_mm);
     let mut servo = Servo::new(&scenario.control, scenario.step_mm);
     let mut corruption = Corruption::new(&scenario.noise, scenario.seed);
-    let Perceivers { mut pins, learned } = Perceivers::new(scenario, sensor, &model, friction, learned)?;
+    let mut perceivers = Perceivers::new(scenario, sensor, &model, friction, learned)?;
     // Without contact the image-based estimates say "the edge is a contact radius inward".
     let searching =
         EdgeEstimate { offset_mm: (sensor.dome.outer_radius_mm * scenario.depth_mm).sqrt(), angle_deg: 0.0 };
@@ -241,25 +241,16 @@ pub fn run(
     };
     // The robot starts on the edge, aligned with it: image-based perception takes its first
     // estimate there as its zero (a tare), as a robot would at a known start.
-    if let Some(g) = &mut pins {
+    if let Some(g) = &mut perceivers.pins {
         g.tare(&sim.pins(), EdgeEstimate { offset_mm: r, angle_deg: 0.0 });
     }
-    let mut trajectory = vec![[pose0.x_mm, pose0.y_mm, pose0.yaw_deg]];
-    let (mut deviations, mut yaw_errors) = (Vec::new(), Vec::new());
+    let mut tally = Tally::new(&course, &pose0);
     let perimeter = course.perimeter();
-    let (mut last_s, mut progress) = (course.arc_position([pose0.x_mm, pose0.y_mm]), 0.0f64);
     let mut closed = false;
     let mut steps = 0;
     let mut perception_error = PerceptionError::default();
     while steps < scenario.max_steps {
-        // One image per step, for the pins' patch and whichever perception reads it.
-        let img = pins.as_ref().map(|g| g.render(&sim.pins()));
-        let from_pins = pins.as_mut().zip(img.as_ref()).and_then(|(g, img)| g.estimate_image(img));
-        let read = match (&learned, &img) {
-            (Some(l), Some(img)) => l.estimate(img)?,
-            _ => from_pins,
-        };
-        let fresh = match read {
+        let fresh = match perceivers.read(&sim)? {
             Some(e) => {
                 perception_error.add(&e, &oracle(&scene, object, &robot.pose));
                 e
@@ -267,7 +258,7 @@ pub fn run(
             None if scenario.perception == PerceptionKind::Oracle => oracle(&scene, object, &robot.pose),
             None => searching,
         };
-        fuse(&mut fusion, &mut fusion_pins, &pins, &sim, &robot.pose);
+        fuse(&mut fusion, &mut fusion_pins, &perceivers.pins, &sim, &robot.pose);
         let estimate = corruption.apply(fresh);
         let target = servo.next(&robot.pose, &estimate);
         for p in robot.move_to(target) {
@@ -275,23 +266,19 @@ pub fn run(
             substeps += 1;
         }
         steps += 1;
-        let pose = robot.pose;
-        trajectory.push([pose.x_mm, pose.y_mm, pose.yaw_deg]);
-        let now = oracle(&scene, object, &pose);
-        deviations.push((now.offset_mm - r).abs());
-        yaw_errors.push(wrap_deg(now.angle_deg).abs());
-        let s = course.arc_position([pose.x_mm, pose.y_mm]);
-        progress += course.advance(last_s, s);
-        last_s = s;
-        if progress >= perimeter - 0.5 * scenario.step_mm {
+        let now = oracle(&scene, object, &robot.pose);
+        tally.record(&course, &robot.pose, &now, r);
+        if tally.progress >= perimeter - 0.5 * scenario.step_mm {
             closed = true;
             break;
         }
     }
-    if let Some(g) = &mut pins {
+    if let Some(g) = &mut perceivers.pins {
         g.estimate(&sim.pins());
     }
-    fuse(&mut fusion, &mut fusion_pins, &pins, &sim, &robot.pose);
+    fuse(&mut fusion, &mut fusion_pins, &perceivers.pins, &sim, &robot.pose);
+    let Tally { trajectory, deviations, yaw_errors, progress, .. } = tally;
+    let pins = perceivers.pins;
     let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
     let bounds = course.bounds(5.0);
     let (fp, nx, ny) = fusion.footprint(bounds);
@@ -367,6 +354,40 @@ fn start_pose(scenario: &Scenario, sensor: &SensorParams, scene: &Scene, object:
 }
 
 /// The perception a scenario asks for besides the oracle.
+/// The run's record, step by step: the trajectory, the true offset's deviation from the
+/// reference and the true yaw error, and the arc (mm) travelled along the course.
+struct Tally {
+    trajectory: Vec<[f64; 3]>,
+    deviations: Vec<f64>,
+    yaw_errors: Vec<f64>,
+    /// Arc position of the last pose.
+    last_s: f64,
+    /// Arc travelled (signed, the short way round each step).
+    progress: f64,
+}
+
+impl Tally {
+    fn new(course: &Course, start: &SensorPose) -> Self {
+        Self {
+            trajectory: vec![[start.x_mm, start.y_mm, start.yaw_deg]],
+            deviations: Vec::new(),
+            yaw_errors: Vec::new(),
+            last_s: course.arc_position([start.x_mm, start.y_mm]),
+            progress: 0.0,
+        }
+    }
+
+    /// Records `pose`, whose true edge is `now`, against the offset reference `offset_ref_mm`.
+    fn record(&mut self, course: &Course, pose: &SensorPose, now: &EdgeEstimate, offset_ref_mm: f64) {
+        self.trajectory.push([pose.x_mm, pose.y_mm, pose.yaw_deg]);
+        self.deviations.push((now.offset_mm - offset_ref_mm).abs());
+        self.yaw_errors.push(wrap_deg(now.angle_deg).abs());
+        let s = course.arc_position([pose.x_mm, pose.y_mm]);
+        self.progress += course.advance(self.last_s, s);
+        self.last_s = s;
+    }
+}
+
 struct Perceivers {
     /// Image-based perception reads the contact patch off the pins (Voronoi cells) whatever
     /// estimates the pose: it tracks them frame to frame, and with `geometric` perception it
@@ -377,6 +398,18 @@ struct Perceivers {
 }
 
 impl Perceivers {
+    /// One image of the pins per step, for their patch and whichever perception reads it:
+    /// the learned reader's estimate where there is one, else the pins' (none with the
+    /// oracle, or when the pins find no edge).
+    fn read(&mut self, sim: &Simulation) -> Result<Option<EdgeEstimate>> {
+        let img = self.pins.as_ref().map(|g| g.render(&sim.pins()));
+        let from_pins = self.pins.as_mut().zip(img.as_ref()).and_then(|(g, img)| g.estimate_image(img));
+        Ok(match (&self.learned, &img) {
+            (Some(l), Some(img)) => l.estimate(img)?,
+            _ => from_pins,
+        })
+    }
+
     fn new(
         scenario: &Scenario,
         sensor: &SensorParams,
