@@ -18,26 +18,19 @@ pub const SLIDE_MM: f64 = 2.5;
 /// Default slide step (mm).
 pub const STEP_MM: f64 = 0.25;
 
-/// Deterministic generator (splitmix64) for the sample poses.
-struct Rng(u64);
+/// Deterministic generator (SplitMix64) for the sample poses.
+struct Rng(tacsim_data::SplitMix64);
 
 impl Rng {
-    fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
-    }
     fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.next()
+        lo + (hi - lo) * self.0.next_f64()
     }
 }
 
 /// Sample poses over the disk: the paper's tap ranges (depth 1-5 mm, any yaw), centre within
 /// 20 mm of the disk's centre, and a slide direction.
 fn samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
-    let mut rng = Rng(seed);
+    let mut rng = Rng(tacsim_data::SplitMix64(seed));
     (0..n)
         .map(|_| {
             let pose = SensorPose::new(

@@ -145,13 +145,8 @@ impl LabSample {
     /// calibrate`'s report, `tacsim sim2real`'s test): its image name hashes into one bucket of
     /// five, so a recording lands on the same side however the folder is ordered or grown.
     pub fn is_held_out(&self) -> bool {
-        fnv1a(&self.image).is_multiple_of(HELD_OUT_EVERY)
+        crate::hash::fnv1a(self.image.as_bytes()).is_multiple_of(HELD_OUT_EVERY)
     }
-}
-
-/// FNV-1a hash of a name: stable across platforms and releases.
-fn fnv1a(name: &str) -> u64 {
-    name.bytes().fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
 }
 
 #[cfg(test)]

@@ -115,17 +115,12 @@ impl Corpus {
     /// image's pixels as loaded: a training run records it, and a resume with other data
     /// is refused.
     pub fn fingerprint(&self) -> u64 {
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |bytes: &[u8]| {
-            for b in bytes {
-                h = (h ^ u64::from(*b)).wrapping_mul(0x0000_0100_0000_01b3);
-            }
-        };
+        let mut h = tacsim_data::Fnv1a::default();
         for (k, row) in self.dataset.rows.iter().enumerate() {
-            eat(serde_json::to_string(row).unwrap_or_default().as_bytes());
-            eat(self.images.image(k));
+            h.write(serde_json::to_string(row).unwrap_or_default().as_bytes());
+            h.write(self.images.image(k));
         }
-        h
+        h.finish()
     }
 
     /// A batch of the images of `rows`, shifted by `shifts` (px).

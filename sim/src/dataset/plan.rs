@@ -128,13 +128,7 @@ pub struct Plan {
 /// A ChaCha8 stream for the item with the given indices.
 fn stream(seed: u64, parts: &[u64]) -> ChaCha8Rng {
     // SplitMix64 over the parts: distinct tuples give unrelated seeds.
-    let mut h = seed;
-    for &p in parts {
-        h = h.wrapping_add(p.wrapping_add(0x9E37_79B9_7F4A_7C15));
-        h = (h ^ (h >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        h = (h ^ (h >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        h ^= h >> 31;
-    }
+    let h = parts.iter().fold(seed, |h, &p| tacsim_data::splitmix64(h.wrapping_add(p)));
     ChaCha8Rng::seed_from_u64(h)
 }
 
