@@ -270,12 +270,13 @@ fn grid_curve(
     taps: &[(SensorPose, [f64; 2])],
     single: &rayon::ThreadPool,
 ) -> Result<Vec<CurvePoint>> {
-    // Pin reference: the same taps on a fine grid, every cell on every pin.
-    let fine = {
+    let at_grid = |cells: usize| {
         let mut s = sensor.clone();
-        s.skin.cells_across = PIN_REFERENCE_CELLS;
+        s.skin.cells_across = cells;
         ContactModel::new(&s)
     };
+    // Pin reference: the same taps on a fine grid, every cell on every pin.
+    let fine = at_grid(PIN_REFERENCE_CELLS);
     let tap_pins = |m: &ContactModel, pose: SensorPose, exact: bool| -> Result<Vec<_>> {
         let mut sim = Simulation::new(m, scene, &[pose]);
         sim.step(pose)?;
@@ -284,9 +285,7 @@ fn grid_curve(
     let reference: Vec<_> = taps.par_iter().map(|(p, _)| tap_pins(&fine, *p, true)).collect::<Result<_>>()?;
     let mut curve = Vec::new();
     for cells in [9usize, 13, 17, 25, 33] {
-        let mut s = sensor.clone();
-        s.skin.cells_across = cells;
-        let m = ContactModel::new(&s);
+        let m = at_grid(cells);
         let ms = single
             .install(|| ms_single(taps.len(), |i| Ok(captured(&m, scene, &SensorPath::tap(taps[i].0), renderer)?)))?;
         let mut err = 0.0f64;

@@ -69,7 +69,7 @@ pub fn pin_area_range(size: u32) -> (u32, u32) {
     ((PIN_AREA_RANGE_PX420.0 * k).floor().max(1.0) as u32, (PIN_AREA_RANGE_PX420.1 * k).ceil() as u32)
 }
 
-/// Pin centres of a binary image (px): its blobs of a pin's area ([`pin_area_range`]).
+/// Pin centres of a binary image (px): its blobs of a pin's area (`pin_area_range`: about a pin's size at this image size).
 pub fn pin_centres(img: &GrayImage) -> Vec<[f64; 2]> {
     let (lo, hi) = pin_area_range(img.width());
     detect_pins(img, lo, hi).iter().map(|b| b.centroid).collect()

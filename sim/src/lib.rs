@@ -39,20 +39,19 @@ pub mod stimulus;
 pub use camera::{Camera, Disc};
 pub use contact::pose::SensorPose;
 pub use contact::trajectory::{Capture, SensorPath};
-pub use detect::{Blob, PIN_AREA_RANGE_PX420, detect_blobs, detect_pins, match_reference, pin_area_range, pin_centres};
+pub use detect::{Blob, detect_blobs, match_reference, pin_centres};
 pub use embedded::{RECIPES, SHAPE_FILES, catalogue as builtin_catalogue};
 pub use error::{Result, SimError};
-pub use fit::{FitResult, Minimum, levenberg_marquardt, nelder_mead};
 pub use pins::{Pin, PinLayout, PinPose};
-pub use png_io::{PngDepth, decode_png, encode_png, read_png, write_png};
-pub use processing::{LabProcessing, adaptive_threshold_mean, circle_mask};
+pub use png_io::{PngDepth, decode_png, read_png, write_png};
+pub use processing::LabProcessing;
 pub use realism::Realism;
 pub use render::PinRenderer;
-pub use rig::{Press, RigFrame, yielded_depth_mm};
+pub use rig::{Press, RigFrame};
 pub use scene::{ObjectId, ObjectPose, Scene, SceneObject, SurfaceHit, flat_scene};
 pub use sensor::{
-    CALIBRATED_PRESET, CAMERA_ONLY_PRESET, CameraParams, DomeParams, EDGE2D_PRESET, FramingParams, MAX_IMAGE_OFFSET,
-    PRESETS, PinParams, SensorParams, SkinModel, SkinParams, pin_count,
+    CameraParams, DomeParams, FramingParams, MAX_IMAGE_OFFSET, PRESETS, PinParams, SensorParams, SkinModel, SkinParams,
+    pin_count,
 };
 pub use tracking::{Tracking, Warp, global_shift, global_warp, nearest_neighbours, track};
 pub use variation::Variation;

@@ -54,13 +54,10 @@ impl PinRenderer {
         }
         let camera = Camera::new(&sensor.camera, size);
         let layout = PinLayout::new(sensor);
-        let s = size as f64;
-        let offsets_px: Vec<[f64; 2]> = sensor.pins.image_offsets.iter().map(|o| [o[0] * s, o[1] * s]).collect();
         let mut undeformed = Vec::with_capacity(layout.pins.len());
-        for (i, pin) in layout.pins.iter().enumerate() {
+        for pin in &layout.pins {
             let disc = camera
                 .project_disc(&pin.tip, &pin.normal, layout.tip_radius_mm)
-                .map(|d| offset_disc(d, offsets_px.get(i)))
                 .ok_or_else(|| fail(format!("pin ring {} is behind the camera", pin.ring)))?;
             if disc.r < MIN_PIN_RADIUS_PX {
                 return Err(fail(format!(
@@ -68,6 +65,7 @@ impl PinRenderer {
                     pin.ring, disc.r
                 )));
             }
+            let s = size as f64;
             if disc.u - disc.r < 0.0 || disc.v - disc.r < 0.0 || disc.u + disc.r > s || disc.v + disc.r > s {
                 return Err(fail(format!(
                     "pin ring {} leaves the image: widen camera.fov_deg or reduce the ring pitch",
@@ -76,25 +74,23 @@ impl PinRenderer {
             }
             undeformed.push(disc);
         }
-        // The ring layout keeps its pins apart; measured image offsets may bring two a little
-        // closer, as the real pins they were fitted to are.
-        let offset = |i: usize| offsets_px.get(i).copied().unwrap_or([0.0; 2]);
-        for (i, a) in undeformed.iter().enumerate() {
-            for (j, b) in undeformed.iter().enumerate().skip(i + 1) {
-                let (oa, ob) = (offset(i), offset(j));
-                let nominal =
-                    ((a.u - oa[0] - b.u + ob[0]).powi(2) + (a.v - oa[1] - b.v + ob[1]).powi(2)).sqrt() - a.r - b.r;
-                if nominal < MIN_PIN_GAP_PX {
-                    return Err(fail(format!(
-                        "neighbouring pins are {nominal:.2} px apart (< {MIN_PIN_GAP_PX:.3}): they would merge; use a larger image, smaller tips or a wider ring pitch"
-                    )));
-                }
-                let gap = ((a.u - b.u).powi(2) + (a.v - b.v).powi(2)).sqrt() - a.r - b.r;
-                if gap < MIN_OFFSET_GAP_PX {
-                    return Err(fail(format!(
-                        "pins {i} and {j} are {gap:.2} px apart with their image offsets (< {MIN_OFFSET_GAP_PX}): smaller pins.image_offsets"
-                    )));
-                }
+        if let Some((a, b, gap)) = closest_pair(&undeformed).filter(|c| c.2 < MIN_PIN_GAP_PX) {
+            return Err(fail(format!(
+                "neighbouring pins {a} and {b} are {gap:.2} px apart (< {MIN_PIN_GAP_PX:.3}): they would merge; use a larger image, smaller tips or a wider ring pitch"
+            )));
+        }
+        // Measured image offsets may bring two pins a little closer than the ring layout does,
+        // as the real pins they were fitted to are.
+        let s = size as f64;
+        let offsets_px: Vec<[f64; 2]> = sensor.pins.image_offsets.iter().map(|o| [o[0] * s, o[1] * s]).collect();
+        if !offsets_px.is_empty() {
+            for (d, o) in undeformed.iter_mut().zip(&offsets_px) {
+                *d = offset_disc(*d, Some(o));
+            }
+            if let Some((a, b, gap)) = closest_pair(&undeformed).filter(|c| c.2 < MIN_OFFSET_GAP_PX) {
+                return Err(fail(format!(
+                    "pins {a} and {b} are {gap:.2} px apart with their image offsets (< {MIN_OFFSET_GAP_PX}): smaller pins.image_offsets"
+                )));
             }
         }
         let framing = framing_runs(&sensor.framing, camera.principal, size);
@@ -231,6 +227,20 @@ impl PinRenderer {
         self.render_undeformed_into(&mut out);
         out
     }
+}
+
+/// The two discs with the smallest gap between their edges (px), and that gap.
+pub(crate) fn closest_pair(discs: &[Disc]) -> Option<(usize, usize, f64)> {
+    let mut best: Option<(usize, usize, f64)> = None;
+    for (i, a) in discs.iter().enumerate() {
+        for (j, b) in discs.iter().enumerate().skip(i + 1) {
+            let gap = (a.u - b.u).hypot(a.v - b.v) - a.r - b.r;
+            if best.is_none_or(|c| gap < c.2) {
+                best = Some((i, j, gap));
+            }
+        }
+    }
+    best
 }
 
 /// `d` moved by `offset` (px), if any.

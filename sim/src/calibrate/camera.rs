@@ -11,9 +11,10 @@ use super::reference::Reference;
 use crate::calibrate::rings::{
     Comparison, RingProfile, compare_sensor, fit_camera_at, fit_framing, fit_ring_angles, ring_profile,
 };
+use crate::camera::Disc;
 use crate::detect::{match_reference, pin_centres, tip_pixels};
 use crate::error::Result;
-use crate::render::{MIN_OFFSET_GAP_PX, PinRenderer};
+use crate::render::{MIN_OFFSET_GAP_PX, PinRenderer, closest_pair};
 use crate::sensor::{MAX_IMAGE_OFFSET, SensorParams};
 
 /// The result of [`fit_camera_only`].
@@ -111,7 +112,7 @@ pub fn fit_pin_offsets(base: &SensorParams, reference: &Reference) -> Result<Cam
         };
         let (real, sim) = (by_pin(&found), by_pin(&pin_centres(&renderer.render_undeformed())));
         let principal = renderer.camera().principal;
-        let clear = |d: &crate::camera::Disc| match sensor.framing.mask_radius {
+        let clear = |d: &Disc| match sensor.framing.mask_radius {
             Some(m) => (d.u - principal[0]).hypot(d.v - principal[1]) + d.r + 1.0 < m * side as f64,
             None => true,
         };
@@ -128,29 +129,22 @@ pub fn fit_pin_offsets(base: &SensorParams, reference: &Reference) -> Result<Cam
                 }
             }
         }
-        // Pins keep the renderer's smallest gap with offsets: the pins of a pair
-        // the round would bring closer keep their offsets, until no pair is too close.
-        let at = |i: usize, o: &[f64; 2]| {
-            let d = &discs[i];
-            (d.u + (o[0] - offsets[i][0]) * side as f64, d.v + (o[1] - offsets[i][1]) * side as f64, d.r)
+        // Pins keep the renderer's smallest gap with offsets: the pins of the closest pair, when
+        // too close, keep their offsets (one at least moved this round: the round started apart).
+        let moved = |next: &[[f64; 2]]| -> Vec<Disc> {
+            discs
+                .iter()
+                .zip(next.iter().zip(&offsets))
+                .map(|(d, (o, old))| Disc {
+                    u: d.u + (o[0] - old[0]) * side as f64,
+                    v: d.v + (o[1] - old[1]) * side as f64,
+                    ..*d
+                })
+                .collect()
         };
-        loop {
-            let mut too_close = Vec::new();
-            for i in 0..n {
-                for j in i + 1..n {
-                    let (a, b) = (at(i, &next[i]), at(j, &next[j]));
-                    if (a.0 - b.0).hypot(a.1 - b.1) - a.2 - b.2 < MIN_OFFSET_GAP_PX {
-                        too_close.extend([i, j]);
-                    }
-                }
-            }
-            let reverted: Vec<usize> = too_close.into_iter().filter(|&i| next[i] != offsets[i]).collect();
-            if reverted.is_empty() {
-                break;
-            }
-            for i in reverted {
-                next[i] = offsets[i];
-            }
+        while let Some((i, j, _)) = closest_pair(&moved(&next)).filter(|c| c.2 < MIN_OFFSET_GAP_PX) {
+            next[i] = offsets[i];
+            next[j] = offsets[j];
         }
         offsets = next;
     }

@@ -40,7 +40,7 @@ pub struct EdgeLabels {
     /// Added to the depth label (`pose_z`) to give the commanded indentation `c` (mm).
     pub depth_offset_mm: f64,
     /// The rig's yield (mm^-0.5): the indentation reached is `c - k c^1.5`
-    /// ([`crate::yielded_depth_mm`]); 0 where the rig is stiff.
+    /// (`yielded_depth_mm`, rig.rs); 0 where the rig is stiff.
     #[serde(default)]
     pub depth_compliance: f64,
 }

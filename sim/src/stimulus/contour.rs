@@ -7,8 +7,9 @@
 
 use std::collections::{HashMap, HashSet};
 
+use super::mesh::winding_number;
 use crate::error::{Result, SimError};
-use crate::stimulus::{Mesh, winding_number};
+use crate::stimulus::Mesh;
 use crate::stimulus::{perimeter, signed_area};
 
 /// Boundary of the top face of a planar stimulus.
