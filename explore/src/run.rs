@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 use tacsim_sim::contact::{ContactModel, Simulation, contact_disk_grid};
-use tacsim_sim::stimulus::Catalogue;
+use tacsim_sim::stimulus::{Catalogue, project_on_segment};
 use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPose};
 
 use crate::control::Servo;
@@ -144,15 +144,12 @@ impl Course {
     /// Arc length of the point of the outline nearest `p`.
     fn arc_position(&self, p: [f64; 2]) -> f64 {
         let mut best = (f64::INFINITY, 0.0);
-        for (k, a) in self.outline.iter().enumerate() {
+        for (k, &a) in self.outline.iter().enumerate() {
             let b = self.outline[(k + 1) % self.outline.len()];
-            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-            let len2 = dx * dx + dy * dy;
-            let t = if len2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-            let q = [a[0] + t * dx, a[1] + t * dy];
-            let d2 = (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2);
-            if d2 < best.0 {
-                best = (d2, self.cumulative[k] + t * len2.sqrt());
+            if let Some(s) = project_on_segment(a, b, p)
+                && s.distance2 < best.0
+            {
+                best = (s.distance2, self.cumulative[k] + s.t * s.length);
             }
         }
         best.1

@@ -118,16 +118,11 @@ impl Contour {
             let n = lp.len();
             for i in 0..n {
                 let (a, b) = (lp[i], lp[(i + 1) % n]);
-                let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
-                let len2 = ex * ex + ey * ey;
-                if len2 == 0.0 {
+                let Some(SegmentPoint { t, point: q, distance2: d2, length: len }) = project_on_segment(a, b, p) else {
                     continue;
-                }
-                let t = (((p[0] - a[0]) * ex + (p[1] - a[1]) * ey) / len2).clamp(0.0, 1.0);
-                let q = [a[0] + t * ex, a[1] + t * ey];
-                let d2 = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
+                };
                 if d2 < best.0 {
-                    let len = len2.sqrt();
+                    let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
                     let dir = [ex / len, ey / len];
                     let tangent = if t == 0.0 || t == 1.0 {
                         // Vertex: average with the neighbouring edge.
@@ -154,10 +149,48 @@ impl Contour {
     }
 }
 
+/// The point of segment `a`-`b` nearest `p` (mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SegmentPoint {
+    /// Where along the segment, 0 at `a` to 1 at `b`.
+    pub t: f64,
+    /// The point.
+    pub point: [f64; 2],
+    /// Its squared distance from `p` (mm^2).
+    pub distance2: f64,
+    /// The segment's length (mm).
+    pub length: f64,
+}
+
+/// The point of segment `a`-`b` nearest `p`: `a + t (b - a)` with `t` the projection clamped
+/// to `[0, 1]`; `None` for a segment of zero length. Every walk over a polyline that asks
+/// "where on it is `p`" ([`Contour::nearest`], the closed loop's progress) projects here.
+pub fn project_on_segment(a: [f64; 2], b: [f64; 2], p: [f64; 2]) -> Option<SegmentPoint> {
+    let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
+    let len2 = ex * ex + ey * ey;
+    if len2 == 0.0 {
+        return None;
+    }
+    let t = (((p[0] - a[0]) * ex + (p[1] - a[1]) * ey) / len2).clamp(0.0, 1.0);
+    let point = [a[0] + t * ex, a[1] + t * ey];
+    let distance2 = (p[0] - point[0]).powi(2) + (p[1] - point[1]).powi(2);
+    Some(SegmentPoint { t, point, distance2, length: len2.sqrt() })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::stimulus::Outline;
+
+    #[test]
+    fn a_point_projects_inside_a_segment_or_onto_its_nearer_end() {
+        let (a, b) = ([0.0, 0.0], [4.0, 0.0]);
+        let inside = project_on_segment(a, b, [1.0, 3.0]).unwrap();
+        assert_eq!((inside.t, inside.point, inside.distance2, inside.length), (0.25, [1.0, 0.0], 9.0, 4.0));
+        let past = project_on_segment(a, b, [7.0, -4.0]).unwrap();
+        assert_eq!((past.t, past.point, past.distance2), (1.0, b, 25.0));
+        assert_eq!(project_on_segment(a, a, [1.0, 1.0]), None);
+    }
 
     #[test]
     fn disk_contour_distance_and_tangent() {
