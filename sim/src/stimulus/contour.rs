@@ -185,9 +185,9 @@ mod tests {
     #[test]
     fn a_point_projects_inside_a_segment_or_onto_its_nearer_end() {
         let (a, b) = ([0.0, 0.0], [4.0, 0.0]);
-        let inside = project_on_segment(a, b, [1.0, 3.0]).unwrap();
+        let inside = project_on_segment(a, b, [1.0, 3.0]).expect("a segment of length 4 mm");
         assert_eq!((inside.t, inside.point, inside.distance2, inside.length), (0.25, [1.0, 0.0], 9.0, 4.0));
-        let past = project_on_segment(a, b, [7.0, -4.0]).unwrap();
+        let past = project_on_segment(a, b, [7.0, -4.0]).expect("a segment of length 4 mm");
         assert_eq!((past.t, past.point, past.distance2), (1.0, b, 25.0));
         assert_eq!(project_on_segment(a, a, [1.0, 1.0]), None);
     }
