@@ -25,7 +25,7 @@ from PIL import Image
 from scipy.spatial import cKDTree
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from image_change_fit import alike_group  # noqa: E402
+from image_change_fit import consensus  # noqa: E402
 from radial_signature import load, pins  # noqa: E402
 from ring_response import track  # noqa: E402
 
@@ -49,7 +49,7 @@ def main(src, dst, kind):
     names = [r["sensor_image"] for r in rows]
     if kind == "real":
         images = np.array([load(f"{src}/images/{n}") for n in names])
-        reference = images[alike_group(images, np.array([float(r["pose_3"]) for r in rows]))].mean(0) > 0.5
+        reference = consensus(images, np.array([float(r["pose_3"]) for r in rows]))
     elif kind == "sim":
         reference_name = json.load(open(f"{src}/meta.json"))["reference_image"]
         reference = load(f"{src}/images/{reference_name}")
