@@ -10,8 +10,8 @@ use plotters::prelude::*;
 use rayon::prelude::*;
 use serde::Serialize;
 use tacsim_sim::contact::validate;
-use tacsim_sim::contact::{ContactModel, Simulation};
-use tacsim_sim::{ObjectPose, PinRenderer, Scene, SensorParams, SensorPath, SensorPose, SkinModel};
+use tacsim_sim::contact::{ContactModel, PIN_SUBSQUARES, Simulation};
+use tacsim_sim::{ObjectPose, PinPose, PinRenderer, Scene, SensorParams, SensorPath, SensorPose, SkinModel};
 
 /// Slide length of the paper's protocol (mm).
 pub const SLIDE_MM: f64 = 2.5;
@@ -41,6 +41,23 @@ fn samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
             );
             let a = rng.range(0.0, std::f64::consts::TAU);
             (pose, [SLIDE_MM * a.cos(), SLIDE_MM * a.sin()])
+        })
+        .collect()
+}
+
+/// Taps across the disk's rim (its edge at x = 50 mm): centre 44-54 mm from the disk's centre
+/// (the edge 6 mm inside to 4 mm outside the apex), depth 1-5 mm, any yaw.
+fn rim_samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
+    let mut rng = Rng(tacsim_data::SplitMix64(seed));
+    (0..n)
+        .map(|_| {
+            let pose = SensorPose::new(
+                rng.range(44.0, 54.0),
+                rng.range(-5.0, 5.0),
+                rng.range(1.0, 5.0),
+                rng.range(-180.0, 180.0),
+            );
+            (pose, [0.0, 0.0])
         })
         .collect()
 }
@@ -96,6 +113,14 @@ pub struct CurvePoint {
     /// points from taps on a 65-cell grid summing every cell on every pin.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub pin_err_mm: Option<f64>,
+    /// Grid points: the same for taps across the disk's rim (an edge through the contact).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edge_pin_err_mm: Option<f64>,
+    /// Grid points: both pin errors (top, rim) with one point force per cell in the pin
+    /// product, reference included (`ContactModel::pin_subsquares` = 1: the product before
+    /// the sub-squares).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub point_force_pin_err_mm: Option<[f64; 2]>,
 }
 
 /// The answer of `tacsim bench --json`.
@@ -203,7 +228,8 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
     let single = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let tap_breakdown = single.install(|| tap_breakdown(&model, &scene, &renderer, few))?;
     let skips = single.install(|| measure_skips(&sensor, &scene, few))?;
-    let mut curve = grid_curve(&sensor, &scene, &renderer, few, &single)?;
+    let rim = rim_samples(few.len(), 2);
+    let mut curve = grid_curve(&sensor, &scene, &renderer, few, &rim, &single)?;
     curve.extend(step_curve(&model, &scene, &renderer, &poses[..samples_n.min(8)], &single)?);
     let report = BenchReport {
         threads: rayon::current_num_threads(),
@@ -262,37 +288,54 @@ fn tap_breakdown(
 
 /// Run time against error over the grid: per grid size, one thread's ms per tap (solve, pins,
 /// render), the Hertz and Cattaneo errors of `tacsim validate` at that grid, and the largest
-/// pin error of the taps against the same taps on the fine reference grid.
+/// pin error of the taps (`taps` on the disk's top, `rim` across its edge) against the same
+/// taps on the fine reference grid.
 fn grid_curve(
     sensor: &SensorParams,
     scene: &Scene,
     renderer: &PinRenderer,
     taps: &[(SensorPose, [f64; 2])],
+    rim: &[(SensorPose, [f64; 2])],
     single: &rayon::ThreadPool,
 ) -> Result<Vec<CurvePoint>> {
-    let at_grid = |cells: usize| {
+    let at_grid = |cells: usize, subsquares: usize| {
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
-        ContactModel::new(&s)
+        ContactModel { pin_subsquares: subsquares, ..ContactModel::new(&s) }
     };
-    // Pin reference: the same taps on a fine grid, every cell on every pin.
-    let fine = at_grid(PIN_REFERENCE_CELLS);
     let tap_pins = |m: &ContactModel, pose: SensorPose, exact: bool| -> Result<Vec<_>> {
         let mut sim = Simulation::new(m, scene, &[pose]);
         sim.step(pose)?;
         Ok(if exact { sim.pins_exact() } else { sim.pins() })
     };
-    let reference: Vec<_> = taps.par_iter().map(|(p, _)| tap_pins(&fine, *p, true)).collect::<Result<_>>()?;
+    // Pin reference: the same taps on a fine grid, every cell on every pin, with the same
+    // pin product (sub-squares near the pins, or one point force per cell).
+    let reference = |subsquares: usize, poses: &[(SensorPose, [f64; 2])]| -> Result<Vec<Vec<PinPose>>> {
+        let fine = at_grid(PIN_REFERENCE_CELLS, subsquares);
+        poses.par_iter().map(|(p, _)| tap_pins(&fine, *p, true)).collect()
+    };
+    let largest_error =
+        |m: &ContactModel, poses: &[(SensorPose, [f64; 2])], reference: &[Vec<PinPose>]| -> Result<f64> {
+            let mut err = 0.0f64;
+            for ((p, _), r) in poses.iter().zip(reference) {
+                for (a, b) in tap_pins(m, *p, false)?.iter().zip(r) {
+                    err = err.max((a.tip - b.tip).norm());
+                }
+            }
+            Ok(err)
+        };
+    let products = [PIN_SUBSQUARES, 1];
+    let references: Vec<_> =
+        products.iter().map(|&s| Ok((reference(s, taps)?, reference(s, rim)?))).collect::<Result<_>>()?;
     let mut curve = Vec::new();
     for cells in [9usize, 13, 17, 25, 33] {
-        let m = at_grid(cells);
+        let m = at_grid(cells, PIN_SUBSQUARES);
         let ms = single
             .install(|| ms_single(taps.len(), |i| Ok(captured(&m, scene, &SensorPath::tap(taps[i].0), renderer)?)))?;
-        let mut err = 0.0f64;
-        for ((p, _), r) in taps.iter().zip(&reference) {
-            for (a, b) in tap_pins(&m, *p, false)?.iter().zip(r) {
-                err = err.max((a.tip - b.tip).norm());
-            }
+        let mut errors = [[0.0; 2]; 2];
+        for ((e, &s), (flat, edge)) in errors.iter_mut().zip(&products).zip(&references) {
+            let m = at_grid(cells, s);
+            *e = [largest_error(&m, taps, flat)?, largest_error(&m, rim, edge)?];
         }
         curve.push(CurvePoint {
             knob: "grid",
@@ -300,7 +343,9 @@ fn grid_curve(
             ms_per_sample: ms,
             hertz_force_rel_err: Some(validate::hertz(cells)?.force_rel_err.abs()),
             cattaneo_shift_rel_err: Some(validate::cattaneo_with(cells, 0.0)?.shift_rel_err.abs()),
-            pin_err_mm: Some(err),
+            pin_err_mm: Some(errors[0][0]),
+            edge_pin_err_mm: Some(errors[0][1]),
+            point_force_pin_err_mm: Some(errors[1]),
         });
     }
     Ok(curve)
@@ -337,6 +382,8 @@ fn step_curve(
             hertz_force_rel_err: None,
             cattaneo_shift_rel_err: None,
             pin_err_mm: Some(err),
+            edge_pin_err_mm: None,
+            point_force_pin_err_mm: None,
         });
     }
     Ok(curve)
@@ -378,19 +425,21 @@ impl BenchReport {
             k.no_render_ms[1],
         ));
         out.push_str(&format!(
-            "{:<6} {:>7} {:>12} {:>12} {:>12} {:>12}\n",
-            "knob", "value", "ms/sample", "hertz force", "cattaneo", "pin err mm"
+            "{:<6} {:>7} {:>12} {:>12} {:>12} {:>12} {:>12} {:>18}\n",
+            "knob", "value", "ms/sample", "hertz force", "cattaneo", "pin err mm", "on edge mm", "point forces mm"
         ));
         let opt = |v: Option<f64>| v.map_or("-".to_owned(), |x| format!("{x:.2e}"));
         for p in &self.curve {
             out.push_str(&format!(
-                "{:<6} {:>7} {:>12.3} {:>12} {:>12} {:>12}\n",
+                "{:<6} {:>7} {:>12.3} {:>12} {:>12} {:>12} {:>12} {:>18}\n",
                 p.knob,
                 p.value,
                 p.ms_per_sample,
                 opt(p.hertz_force_rel_err),
                 opt(p.cattaneo_shift_rel_err),
-                opt(p.pin_err_mm)
+                opt(p.pin_err_mm),
+                opt(p.edge_pin_err_mm),
+                p.point_force_pin_err_mm.map_or("-".to_owned(), |[a, b]| format!("{a:.2e} / {b:.2e}"))
             ));
         }
         out.push_str(&format!("plot: {}\n", plot.display()));
@@ -503,6 +552,7 @@ fn draw_into(report: &BenchReport, svg: &mut String) -> Result<()> {
                 ("Hertz force", series("grid", |p| p.hertz_force_rel_err), BLUE),
                 ("Cattaneo shift (nu=0)", series("grid", |p| p.cattaneo_shift_rel_err), RED),
                 ("pin error (mm)", series("grid", |p| p.pin_err_mm), GREEN),
+                ("pin error on an edge (mm)", series("grid", |p| p.edge_pin_err_mm), MAGENTA),
             ],
         ),
         (

@@ -264,7 +264,7 @@ fn fit(real_path: &Path) -> Result<()> {
 fn bench(extra: &[String]) -> Result<()> {
     let status = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
         .current_dir(root())
-        .args(["bench", "-p", "tacsim-sim", "--bench", "render", "--bench", "contact", "--"])
+        .args(["bench", "-p", "tacsim-sim", "--bench", "render", "--bench", "contact", "--bench", "tap", "--"])
         .args(extra)
         .status()
         .context("running cargo bench")?;

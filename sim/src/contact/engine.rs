@@ -23,7 +23,7 @@ use super::kernel::{DepthKernel, Elastic};
 use super::layered::{Layer, LayeredBody, LayeredKernels};
 use super::normal::{self, Control, NormalSettings};
 use super::operator::{Component, HalfSpace, Operator, Pairing, Product};
-use super::pin_motion::{CellForces, PinKernel, displaced_pins};
+use super::pin_motion::{CellForces, PIN_SUBSQUARES, PinKernel, displaced_pins};
 use super::pose::SensorPose;
 use super::tangential::{self, TangentialSettings};
 use crate::error::{Result, SimError};
@@ -55,6 +55,9 @@ pub struct ContactModel {
     /// Alternations of normal and tangential solves on coupled materials (1 = Goodman's
     /// approximation: no coupling).
     pub coupling_iterations: usize,
+    /// Sub-squares per side of the cells near a pin in the pin product (`pin_motion.rs`;
+    /// 1: one point force per cell).
+    pub pin_subsquares: usize,
 }
 
 impl ContactModel {
@@ -90,6 +93,7 @@ impl ContactModel {
             normal: NormalSettings { tolerance: 1e-5, ..NormalSettings::default() },
             tangential: TangentialSettings { tolerance: 1e-4, ..TangentialSettings::default() },
             coupling_iterations: 4,
+            pin_subsquares: PIN_SUBSQUARES,
         }
     }
 
@@ -719,7 +723,7 @@ impl<'a> Simulation<'a> {
         let Some(op) = self.op.as_ref() else {
             return self.model.layout.poses();
         };
-        let forces = CellForces::new(op.grid(), &self.pressure, &self.qx, &self.qy);
+        let forces = CellForces::new(op.grid(), &self.pressure, &self.qx, &self.qy, self.model.pin_subsquares);
         if forces.is_empty() {
             // Unloaded: the undeformed pins exactly, without the frame's round trip.
             return self.model.layout.poses();

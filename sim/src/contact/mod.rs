@@ -33,5 +33,6 @@ pub use frame::{ContactFrame, press_direction};
 pub use grid::Grid;
 pub use kernel::{Elastic, Kernel, point_load_displacement};
 pub use operator::{Component, HalfSpace, Operator, Pairing, Product};
+pub use pin_motion::PIN_SUBSQUARES;
 pub use pose::MAX_TILT_DEG;
 pub use trajectory::{MAX_PATH_STEPS, PathStep};

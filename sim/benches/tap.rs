@@ -1,0 +1,61 @@
+//! The two hot kernels of a tap on the default sensor, one thread: the coupled contact solve
+//! (initial gap, then normal and tangential solves alternated until the tractions settle) and
+//! the pin product (every pin's tip from the solved tractions), on the sensor's grid and on
+//! finer ones, for a press on the disk's flat top and a tap across its rim. Run with
+//! `cargo bench -p tacsim-sim --bench tap`; `tacsim bench` gives the same stages' means over
+//! many poses.
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use tacsim_sim::contact::{ContactModel, Simulation};
+use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPose};
+
+fn bench_tap(c: &mut Criterion) {
+    let catalogue = tacsim_sim::builtin_catalogue().expect("built-in shapes");
+    let mut scene = Scene::new();
+    scene.add(catalogue.get("disk").expect("the disk"), ObjectPose::default()).expect("one shape");
+    let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
+    // The disk (100 mm across) centred at the origin: a press on its top, a tap across its rim.
+    let taps = [("flat", SensorPose::new(5.0, -3.0, 3.0, 30.0)), ("rim", SensorPose::new(48.0, 0.0, 3.0, 0.0))];
+    let default_cells = SensorParams::default().skin.cells_across;
+    // 13 cells: pins within 0.03 mm of the 65-cell reference on flat contacts (`tacsim bench`).
+    let mut grids = vec![13, default_cells, 33];
+    grids.sort_unstable();
+    grids.dedup();
+    let models: Vec<(usize, ContactModel)> = grids
+        .iter()
+        .map(|&cells| {
+            let mut sensor = SensorParams::default();
+            sensor.skin.cells_across = cells;
+            (cells, ContactModel::new(&sensor))
+        })
+        .collect();
+    let mut solve = c.benchmark_group("tap-solve");
+    for (cells, model) in &models {
+        for (name, pose) in taps {
+            let mut sim = Simulation::new(model, &scene, &[pose]);
+            solve.bench_function(format!("{name}/{cells}-cells"), |b| {
+                b.iter(|| {
+                    sim.lift();
+                    single.install(|| sim.step(pose).map(|r| r.normal_iterations).expect("a tap solves"))
+                })
+            });
+        }
+    }
+    solve.finish();
+    let mut pins = c.benchmark_group("tap-pins");
+    for (cells, model) in &models {
+        for (name, pose) in taps {
+            let mut sim = Simulation::new(model, &scene, &[pose]);
+            sim.step(pose).expect("a tap solves");
+            pins.bench_function(format!("{name}/{cells}-cells"), |b| b.iter(|| single.install(|| sim.pins())));
+        }
+    }
+    pins.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(20).measurement_time(std::time::Duration::from_secs(2));
+    targets = bench_tap
+}
+criterion_main!(benches);
