@@ -19,7 +19,7 @@
 //!   the networks on flex at 256, 128 and 64 px and on ndarray at 64 px, and with `--pytorch`
 //!   the same networks in PyTorch (`model/pytorch/bench.py` under that interpreter) on one
 //!   thread and on every core, with the ratio to flex; writes `docs/model-bench.json`;
-//! - `bench`: run the benchmarks (criterion: renderer, contact operator products) and print
+//! - `bench`: run the benchmarks (criterion: renderer, contact operator products, a tap's solve and pin product) and print
 //!   their figures; `tacsim bench` times whole taps and slides.
 
 mod explore;
@@ -67,7 +67,7 @@ enum Task {
         #[arg(long)]
         real: Option<PathBuf>,
     },
-    /// Run the criterion benchmarks (renderer, contact operator products).
+    /// Run the criterion benchmarks (renderer, contact operator products, a tap's solve and pin product).
     Bench {
         /// Arguments passed on to criterion.
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
