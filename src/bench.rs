@@ -145,6 +145,72 @@ pub struct BenchReport {
     pub skips: Skips,
     /// Run time against error.
     pub curve: Vec<CurvePoint>,
+    /// The GPU raster against the CPU's (`--device gpu` or `auto` with a GPU adapter).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gpu_raster: Option<GpuRasterBench>,
+}
+
+/// The batched GPU raster (`--device gpu`, feature `wgpu`) against the CPU's on the same
+/// frames: 256 px images of the bench's taps.
+#[derive(Debug, Serialize)]
+pub struct GpuRasterBench {
+    /// The adapter: name, type and backend. A `Cpu` type is a software driver (lavapipe), whose
+    /// figures say nothing of a GPU's speed.
+    pub adapter: String,
+    /// Frames in the batch.
+    pub frames: usize,
+    /// The CPU's render (discs, raster, framing), one thread (ms per frame): the work per frame
+    /// the GPU path takes off the CPU threads.
+    pub cpu_ms_per_frame: f64,
+    /// The GPU batch's wall time per frame, upload, dispatch, readback and framing included
+    /// (ms per frame; after one warm-up batch).
+    pub gpu_ms_per_frame: f64,
+    /// Pixels where the GPU's images differ from the CPU's (only where a pixel's coverage is
+    /// within f32 rounding of 1/2, `gpu_raster.rs`).
+    pub differing_pixels: usize,
+}
+
+/// Frames per GPU batch in the bench.
+#[cfg(feature = "wgpu")]
+const GPU_FRAMES: usize = 256;
+
+/// [`GpuRasterBench`] on `gpu` for the pins of `taps`, cycled to [`GPU_FRAMES`] frames.
+#[cfg(feature = "wgpu")]
+fn gpu_raster_bench(
+    gpu: &tacsim_sim::GpuRaster,
+    model: &ContactModel,
+    scene: &Scene,
+    renderer: &PinRenderer,
+    taps: &[(SensorPose, [f64; 2])],
+    single: &rayon::ThreadPool,
+) -> Result<GpuRasterBench> {
+    let pins: Vec<Vec<PinPose>> = taps
+        .iter()
+        .map(|(pose, _)| -> Result<_> {
+            let mut sim = Simulation::new(model, scene, &[*pose]);
+            sim.step(*pose)?;
+            Ok(sim.pins())
+        })
+        .collect::<Result<_>>()?;
+    let nominal = tacsim_sim::Variation::NOMINAL;
+    let batch: Vec<(&[PinPose], &tacsim_sim::Variation)> =
+        (0..GPU_FRAMES).map(|k| (pins[k % pins.len()].as_slice(), &nominal)).collect();
+    let t = Instant::now();
+    let cpu: Vec<_> = single.install(|| batch.iter().map(|(p, _)| renderer.render(p)).collect());
+    let cpu_ms = t.elapsed().as_secs_f64() * 1e3 / GPU_FRAMES as f64;
+    renderer.render_batch(gpu, &batch)?;
+    let t = Instant::now();
+    let drawn = renderer.render_batch(gpu, &batch)?;
+    let gpu_ms = t.elapsed().as_secs_f64() * 1e3 / GPU_FRAMES as f64;
+    let differing_pixels =
+        cpu.iter().zip(&drawn).map(|(a, b)| a.as_raw().iter().zip(b.as_raw()).filter(|(x, y)| x != y).count()).sum();
+    Ok(GpuRasterBench {
+        adapter: gpu.adapter().to_owned(),
+        frames: GPU_FRAMES,
+        cpu_ms_per_frame: cpu_ms,
+        gpu_ms_per_frame: gpu_ms,
+        differing_pixels,
+    })
 }
 
 fn disk_scene() -> Result<Scene> {
@@ -215,8 +281,19 @@ const PIN_REFERENCE_CELLS: usize = 65;
 
 /// Runs the benchmark with `cells` across the footprint (`None`: the sensor's default);
 /// returns the text to print.
-pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json: bool, plot: &Path) -> Result<String> {
+pub fn run(
+    samples_n: usize,
+    cells: Option<usize>,
+    skin: Option<SkinModel>,
+    json: bool,
+    plot: &Path,
+    device: crate::device::DeviceChoice,
+) -> Result<String> {
     anyhow::ensure!(samples_n >= 4, "--samples must be at least 4");
+    #[cfg(feature = "wgpu")]
+    let gpu = crate::device::gpu_raster(device)?;
+    #[cfg(not(feature = "wgpu"))]
+    crate::device::check(device)?;
     let sensor = bench_sensor(cells, skin)?;
     let scene = disk_scene()?;
     let model = ContactModel::new(&sensor);
@@ -231,6 +308,13 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
     let rim = rim_samples(few.len(), 2);
     let mut curve = grid_curve(&sensor, &scene, &renderer, few, &rim, &single)?;
     curve.extend(step_curve(&model, &scene, &renderer, &poses[..samples_n.min(8)], &single)?);
+    #[cfg(feature = "wgpu")]
+    let gpu_raster = match &gpu {
+        Some(gpu) => Some(gpu_raster_bench(gpu, &model, &scene, &renderer, few, &single)?),
+        None => None,
+    };
+    #[cfg(not(feature = "wgpu"))]
+    let gpu_raster = None;
     let report = BenchReport {
         threads: rayon::current_num_threads(),
         cells_across: sensor.skin.cells_across,
@@ -241,6 +325,7 @@ pub fn run(samples_n: usize, cells: Option<usize>, skin: Option<SkinModel>, json
         tap_breakdown,
         skips,
         curve,
+        gpu_raster,
     };
     draw(&report, plot).with_context(|| format!("writing the plot {}", plot.display()))?;
     Ok(if json { serde_json::to_string_pretty(&report)? + "\n" } else { report.table(plot) })
@@ -441,6 +526,12 @@ impl BenchReport {
                 opt(p.pin_err_mm),
                 opt(p.edge_pin_err_mm),
                 p.point_force_pin_err_mm.map_or("-".to_owned(), |[a, b]| format!("{a:.2e} / {b:.2e}"))
+            ));
+        }
+        if let Some(g) = &self.gpu_raster {
+            out.push_str(&format!(
+                "GPU raster on {}: {} frames of 256 px, {:.3} ms a frame (CPU, one thread: {:.3} ms); {} pixels differ\n",
+                g.adapter, g.frames, g.gpu_ms_per_frame, g.cpu_ms_per_frame, g.differing_pixels
             ));
         }
         out.push_str(&format!("plot: {}\n", plot.display()));

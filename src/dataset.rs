@@ -36,6 +36,8 @@ pub struct GenerateOptions {
     /// Write beyond [`tacsim_sim::dataset::MAX_UNFORCED_IMAGES`] images or
     /// [`tacsim_sim::dataset::MAX_UNFORCED_BYTES`] bytes.
     pub force: bool,
+    /// Where the images are rasterised.
+    pub device: crate::device::DeviceChoice,
 }
 
 /// Parses `i/n`.
@@ -60,8 +62,15 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
     let (recipe, source) = load_recipe(opts.recipe.as_deref())?;
     let recipe = recipe.with_overrides(opts.seed, opts.size, opts.cells);
     let base = recipe_base_sensor(&recipe, opts)?;
-    let job = Job::new(&recipe, &source, &base, &load_catalogue(None)?, opts.shard)?;
+    #[cfg_attr(not(feature = "wgpu"), allow(unused_mut))]
+    let mut job = Job::new(&recipe, &source, &base, &load_catalogue(None)?, opts.shard)?;
     job.estimate()?.check(&source, opts.force)?;
+    #[cfg(feature = "wgpu")]
+    {
+        job.gpu = crate::device::gpu_raster(opts.device)?;
+    }
+    #[cfg(not(feature = "wgpu"))]
+    crate::device::check(opts.device)?;
     let total = job.images();
     let bar = if opts.quiet { ProgressBar::hidden() } else { ProgressBar::new(total as u64) };
     bar.set_style(

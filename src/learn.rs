@@ -286,12 +286,12 @@ pub fn train(o: &TrainOptions) -> Result<String> {
             Ok(summary(&o.out, &state))
         }
         Network::Posenet => {
-            if o.init.is_some() || o.no_labels || o.no_patch || o.label_fraction.is_some() {
-                bail!("--init, --no-labels, --no-patch and --label-fraction apply to the unshear model, not posenet");
+            if o.no_labels || o.no_patch || o.label_fraction.is_some() {
+                bail!("--no-labels, --no-patch and --label-fraction apply to the unshear model, not posenet");
             }
             let cfg = pose_config(o)?;
             let corpus = o.lab.open(&o.data, cfg.size)?;
-            let (_, state) = train_posenet(&corpus, &cfg, o.backend, &o.out, o.resume, &mut bar)?;
+            let (_, state) = train_posenet(&corpus, &cfg, o.backend, &o.out, o.resume, o.init.as_deref(), &mut bar)?;
             Ok(summary(&o.out, &state))
         }
     }

@@ -10,6 +10,7 @@ pub mod bench;
 pub mod calibrate;
 pub mod commands;
 pub mod dataset;
+pub mod device;
 pub mod edge_fit;
 pub mod explore;
 pub mod learn;

@@ -51,6 +51,11 @@ enum Command {
         /// skin-on-gel (default: the sensor's).
         #[arg(long)]
         skin: Option<SkinModel>,
+        /// Also time the batched GPU raster against the CPU's: gpu (a build with `--features
+        /// wgpu` and a GPU adapter; a software one's figures say nothing of a GPU's speed) or
+        /// auto.
+        #[arg(long, value_enum, default_value = "cpu")]
+        device: tacsim::device::DeviceChoice,
     },
     /// Generate a dataset from a recipe (default: the built-in `quick`): images, targets.csv,
     /// meta.json. Deterministic for a seed, whatever the threads or shards.
@@ -85,6 +90,10 @@ enum Command {
         /// Write more than 1,000,000 images or about 16 GiB (refused without it).
         #[arg(long)]
         force: bool,
+        /// Where the images are rasterised: cpu, gpu (batched; a build with `--features wgpu`
+        /// and a GPU adapter) or auto (the GPU where there is one).
+        #[arg(long, value_enum, default_value = "cpu")]
+        device: tacsim::device::DeviceChoice,
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
@@ -184,10 +193,10 @@ fn main() -> Result<ExitCode> {
             print!("{text}");
             return Ok(exit_code(pass));
         }
-        Command::Bench { json, samples, plot, cells, skin } => {
-            print!("{}", bench::run(samples, cells, skin, json, &plot)?);
+        Command::Bench { json, samples, plot, cells, skin, device } => {
+            print!("{}", bench::run(samples, cells, skin, json, &plot, device)?);
         }
-        Command::Generate { recipe, out, sensor, size, seed, cells, threads, shard, resume, force, quiet } => {
+        Command::Generate { recipe, out, sensor, size, seed, cells, threads, shard, resume, force, device, quiet } => {
             let opts = tacsim::dataset::GenerateOptions {
                 recipe,
                 out,
@@ -200,6 +209,7 @@ fn main() -> Result<ExitCode> {
                 resume,
                 quiet,
                 force,
+                device,
             };
             print!("{}", tacsim::dataset::generate(&opts)?);
         }

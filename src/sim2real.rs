@@ -235,7 +235,7 @@ fn train_both(o: &Sim2RealOptions, cfg: [&PoseConfig; 2], sim: &Corpus, real: &C
         [("simulated", sim, o.out.join("sim-posenet"), cfg[0]), ("real", real, o.out.join("real-posenet"), cfg[1])];
     for (name, corpus, dir, cfg) in &runs {
         let resume = dir.join("config.json").is_file();
-        tacsim_model::train_posenet(corpus, cfg, o.backend, dir, resume, &mut Bar::new(o.quiet)).with_context(
+        tacsim_model::train_posenet(corpus, cfg, o.backend, dir, resume, None, &mut Bar::new(o.quiet)).with_context(
             || format!("training the pose network on the {name} images into {} (rerun to resume)", dir.display()),
         )?;
     }

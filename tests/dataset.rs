@@ -357,3 +357,37 @@ fn a_nan_label_or_an_image_of_another_size_or_colour_is_refused_with_file_and_ro
     }
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// `--device gpu` rasterises the images in batches on the GPU (feature `wgpu`; lavapipe on a
+/// machine without one): the same bytes as the CPU's, with a recipe's variations too.
+#[cfg(feature = "wgpu")]
+#[test]
+fn the_gpu_raster_writes_the_cpus_bytes() {
+    if tacsim_sim::gpu_for_tests().is_none() {
+        return;
+    }
+    let root = fresh_path("data", "gpu");
+    let (cpu, gpu, auto) = (root.join("cpu"), root.join("gpu"), root.join("auto"));
+    generate(&cpu, &["--threads", "2"]);
+    generate(&gpu, &["--device", "gpu"]);
+    generate(&auto, &["--device", "auto", "--threads", "1"]);
+    let fc = files(&cpu);
+    assert!(fc == files(&gpu), "--device gpu wrote other bytes than the CPU");
+    assert!(fc == files(&auto), "--device auto wrote other bytes than the CPU");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Without the GPU path `--device gpu` stops before any work and says how to build it;
+/// `--device auto` renders on the CPU.
+#[cfg(not(feature = "wgpu"))]
+#[test]
+fn device_gpu_without_the_gpu_path_says_how_to_build_it() {
+    let root = fresh_path("data", "no-gpu");
+    let out = root.join("gpu");
+    let o = tacsim(&["generate", "quick", "--quiet", "--out", s(&out), "--device", "gpu"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--features wgpu"), "{err}");
+    assert!(!out.join("images").exists(), "nothing written before the check");
+    generate(&root.join("auto"), &["--device", "auto"]);
+    let _ = std::fs::remove_dir_all(&root);
+}

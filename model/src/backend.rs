@@ -67,7 +67,10 @@ impl FromStr for Backend {
             "wgpu" => Ok(Backend::Wgpu),
             #[cfg(feature = "cuda")]
             "cuda" => Ok(Backend::Cuda),
-            "wgpu" | "cuda" => Err(format!("backend `{s}` needs the `{s}` feature: rebuild with --features {s}")),
+            #[cfg(not(feature = "wgpu"))]
+            "wgpu" => Err(format!("backend `{s}` needs the `{s}` feature: rebuild with --features {s}")),
+            #[cfg(not(feature = "cuda"))]
+            "cuda" => Err(format!("backend `{s}` needs the `{s}` feature: rebuild with --features {s}")),
             _ => Err(format!("unknown backend `{s}`: use one of {}", Backend::names().join(", "))),
         }
     }

@@ -388,12 +388,17 @@ pub fn train_unshear(
 /// Trains the pose network to read `cfg.labels` from the training rows of `corpus`
 /// ([`Corpus::pose_rows`]: the taps, or the slides for slide offsets or where there are no
 /// taps) into `out`.
+///
+/// `init` starts from saved weights of the same network (fine-tuning a simulator-trained
+/// network on a lab's images; the same start on two backends). With `resume` an interrupted
+/// run continues from its newest checkpoint.
 pub fn train_posenet(
     corpus: &Corpus,
     cfg: &PoseConfig,
     backend: Backend,
     out: &std::path::Path,
     resume: bool,
+    init: Option<&std::path::Path>,
     progress: &mut dyn Progress,
 ) -> Result<(PoseNet, TrainState)> {
     cfg.validate()?;
@@ -407,7 +412,10 @@ pub fn train_posenet(
         )));
     }
     let scale = corpus.pose_scale(&cfg.labels, &rows);
-    let model = canonical_ids(PoseNet::new(cfg.net_size()?, cfg.hidden, scale.width(), &device));
+    let mut model = canonical_ids(PoseNet::new(cfg.net_size()?, cfg.hidden, scale.width(), &device));
+    if let Some(path) = init {
+        model = load_weights(model, path)?;
+    }
     let settings = LoopSettings {
         batch: cfg.batch,
         max_batches: cfg.max_batches_per_epoch,

@@ -145,14 +145,36 @@ fn baseline_and_posenet_losses_fall() {
 
     let pcfg = PoseConfig { size: 64, batch: 4, epochs: 6, lr: 1e-3, hidden: 32, ..PoseConfig::default() };
     let (_, state) =
-        train_posenet(&corpus, &pcfg, Backend::Flex, &dir.join("pose"), false, &mut Silent).expect("posenet");
+        train_posenet(&corpus, &pcfg, Backend::Flex, &dir.join("pose"), false, None, &mut Silent).expect("posenet");
     let h = &state.history;
     assert!(h[5].mean.total < 0.7 * h[0].mean.total, "posenet {} -> {}", h[0].mean.total, h[5].mean.total);
 }
 
+/// What was missing: `--init` started only the shear-removal models; a pose network trained on
+/// simulated images could not be fine-tuned on a lab's (nor two backends given one start).
+#[test]
+fn a_pose_network_run_from_init_starts_from_those_weights() {
+    let (dir, corpus) = corpus("pose-init");
+    let cfg = PoseConfig { size: 64, batch: 4, epochs: 6, lr: 1e-3, hidden: 32, ..PoseConfig::default() };
+    let first = dir.join("first");
+    let (_, a) = train_posenet(&corpus, &cfg, Backend::Flex, &first, false, None, &mut Silent).expect("first");
+    let weights = first.join("model.safetensors");
+    let one = PoseConfig { epochs: 1, ..cfg.clone() };
+    let (_, b) = train_posenet(&corpus, &one, Backend::Flex, &dir.join("again"), false, Some(&weights), &mut Silent)
+        .expect("init");
+    let (a0, a5, b0) = (a.history[0].mean.total, a.history[5].mean.total, b.history[0].mean.total);
+    // From the trained weights the first epoch is already near where the first run ended.
+    assert!(b0 < 0.5 * (a0 + a5), "first run {a0} -> {a5}, from its weights {b0}");
+    // Weights of another network are refused, naming the file.
+    let wide = PoseConfig { hidden: 16, ..one };
+    let err = train_posenet(&corpus, &wide, Backend::Flex, &dir.join("wide"), false, Some(&weights), &mut Silent)
+        .expect_err("another width");
+    assert!(err.to_string().contains("model.safetensors"), "{err}");
+}
+
 /// The pose network's outputs on a few training images after a short run.
 fn posenet_outputs(corpus: &Corpus, cfg: &PoseConfig, out: &std::path::Path) -> Vec<f32> {
-    let (net, _) = train_posenet(corpus, cfg, Backend::Flex, out, false, &mut Silent).expect("posenet");
+    let (net, _) = train_posenet(corpus, cfg, Backend::Flex, out, false, None, &mut Silent).expect("posenet");
     let x = corpus.batch(&[0, 1, 2, 3], &[], &Device::flex());
     net.valid().forward(x).into_data().try_to_vec::<f32>().expect("outputs")
 }
@@ -174,7 +196,7 @@ fn posenet_y_weight_0_ignores_the_y_labels_and_l2_is_logged() {
     assert_ne!(c, d, "with y_weight 1 the y labels must matter");
 
     let l2 = PoseConfig { l2: 1e-4, ..cfg1 };
-    let (_, state) = train_posenet(&corpus, &l2, Backend::Flex, &dir.join("l2"), false, &mut Silent).expect("l2");
+    let (_, state) = train_posenet(&corpus, &l2, Backend::Flex, &dir.join("l2"), false, None, &mut Silent).expect("l2");
     let h = &state.history;
     assert!(h.iter().all(|e| e.mean.regularisation > 0.0), "{h:?}");
     assert!((h[0].mean.total - h[0].mean.supervised - h[0].mean.regularisation).abs() < 1e-9, "{:?}", h[0].mean);
@@ -188,7 +210,7 @@ fn evaluation_writes_the_report_with_every_table() {
     train_unshear(&corpus, &semi, Backend::Flex, &dir.join("semi"), false, None, &mut Silent).expect("semi");
     train_unshear(&corpus, &base, Backend::Flex, &dir.join("baseline"), false, None, &mut Silent).expect("baseline");
     let pcfg = PoseConfig { size: 64, batch: 4, epochs: 2, hidden: 16, ..PoseConfig::default() };
-    train_posenet(&corpus, &pcfg, Backend::Flex, &dir.join("posenet"), false, &mut Silent).expect("posenet");
+    train_posenet(&corpus, &pcfg, Backend::Flex, &dir.join("posenet"), false, None, &mut Silent).expect("posenet");
     let out = dir.join("report");
     let runs = [dir.join("semi"), dir.join("baseline"), dir.join("posenet")];
     let report = evaluate(&corpus, &runs, Backend::Flex, 0, &out).expect("evaluate");

@@ -94,6 +94,9 @@ pub enum SimError {
         /// Last relative residual.
         residual: f64,
     },
+    /// The GPU path (feature `wgpu`) has no device or failed on it.
+    #[error("GPU: {0}")]
+    Gpu(String),
 }
 
 /// Result alias of this crate.

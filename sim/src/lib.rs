@@ -19,6 +19,8 @@ mod detect;
 mod embedded;
 mod error;
 mod fit;
+#[cfg(feature = "wgpu")]
+mod gpu_raster;
 mod pins;
 mod png_io;
 mod processing;
@@ -42,6 +44,11 @@ pub use contact::trajectory::{Capture, SensorPath};
 pub use detect::{Blob, detect_blobs, match_reference, pin_centres};
 pub use embedded::{RECIPES, SHAPE_FILES, catalogue as builtin_catalogue};
 pub use error::{Result, SimError};
+#[cfg(feature = "wgpu")]
+pub use gpu_raster::GpuRaster;
+#[cfg(feature = "wgpu")]
+#[doc(hidden)]
+pub use gpu_raster::for_tests as gpu_for_tests;
 pub use pins::{Pin, PinLayout, PinPose};
 pub use png_io::{PngDepth, decode_png, read_png, write_png};
 pub use processing::LabProcessing;

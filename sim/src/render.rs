@@ -167,6 +167,32 @@ impl PinRenderer {
         if *v == Variation::NOMINAL {
             return self.render(pins);
         }
+        let discs = self.varied_discs(pins, v);
+        let size = self.camera.size;
+        let mut out = GrayImage::new(size, size);
+        if v.needs_coverage() {
+            let cov = raster::draw_coverage(&discs, size);
+            let grey: Vec<u8> = cov.iter().map(|&c| (255.0 * c).round() as u8).collect();
+            let mut img = GrayImage::from_raw(size, size, grey).unwrap_or_else(|| GrayImage::new(size, size));
+            if v.blur_px > 0.0 {
+                img = imageproc::filter::gaussian_blur_f32(&img, v.blur_px as f32);
+            }
+            let cut = (255.0 * v.threshold).round().clamp(1.0, 255.0) as u8;
+            for (o, g) in out.pixels_mut().zip(img.pixels()) {
+                o.0[0] = if g.0[0] >= cut { 255 } else { 0 };
+            }
+        } else {
+            raster::draw_binary(&discs, size, &mut out);
+        }
+        self.frame(&mut out);
+        out
+    }
+
+    /// The discs of [`Self::render_varied`]: pins rolled, scaled and shifted, specks added.
+    fn varied_discs(&self, pins: &[PinPose], v: &Variation) -> Vec<Disc> {
+        if *v == Variation::NOMINAL {
+            return self.discs(pins);
+        }
         let (sin, cos) = v.roll_deg.to_radians().sin_cos();
         let roll = |x: f64, y: f64| (cos * x - sin * y, sin * x + cos * y);
         let size = self.camera.size;
@@ -196,23 +222,34 @@ impl PinRenderer {
                 .fold(0.0, f64::max);
             discs.extend(v.speck_discs(self.camera.principal, field_px, size));
         }
-        let mut out = GrayImage::new(size, size);
-        if v.needs_coverage() {
-            let cov = raster::draw_coverage(&discs, size);
-            let grey: Vec<u8> = cov.iter().map(|&c| (255.0 * c).round() as u8).collect();
-            let mut img = GrayImage::from_raw(size, size, grey).unwrap_or_else(|| GrayImage::new(size, size));
-            if v.blur_px > 0.0 {
-                img = imageproc::filter::gaussian_blur_f32(&img, v.blur_px as f32);
+        discs
+    }
+
+    /// [`Self::render_varied`] for a batch of samples (pins and variation each), the binary
+    /// ones rasterised on the GPU in one dispatch (feature `wgpu`; `gpu_raster.rs`), those
+    /// whose variation blurs or thresholds otherwise on the CPU; framed on the CPU.
+    #[cfg(feature = "wgpu")]
+    pub fn render_batch(
+        &self,
+        gpu: &crate::gpu_raster::GpuRaster,
+        batch: &[(&[PinPose], &Variation)],
+    ) -> Result<Vec<GrayImage>> {
+        let binary: Vec<usize> = (0..batch.len()).filter(|&k| !batch[k].1.needs_coverage()).collect();
+        let discs: Vec<Vec<Disc>> = binary.iter().map(|&k| self.varied_discs(batch[k].0, batch[k].1)).collect();
+        let mut drawn = gpu.draw_binary_batch(&discs, self.camera.size)?.into_iter();
+        let mut out = Vec::with_capacity(batch.len());
+        for (pins, v) in batch {
+            if v.needs_coverage() {
+                out.push(self.render_varied(pins, v));
+                continue;
             }
-            let cut = (255.0 * v.threshold).round().clamp(1.0, 255.0) as u8;
-            for (o, g) in out.pixels_mut().zip(img.pixels()) {
-                o.0[0] = if g.0[0] >= cut { 255 } else { 0 };
-            }
-        } else {
-            raster::draw_binary(&discs, size, &mut out);
+            let Some(mut image) = drawn.next() else {
+                return Err(SimError::Gpu("the raster returned fewer images than it was given".into()));
+            };
+            self.frame(&mut image);
+            out.push(image);
         }
-        self.frame(&mut out);
-        out
+        Ok(out)
     }
 
     /// Renders the undeformed sensor into `out` (reusing its buffer).

@@ -174,7 +174,15 @@ pub struct Context<'a> {
     pub renderer: &'a PinRenderer,
     /// Where the recipe came from (a file, or a built-in's name), for errors.
     pub source: &'a str,
+    /// The GPU that rasterises the images in batches (`--device gpu`), else the CPU per image.
+    #[cfg(feature = "wgpu")]
+    pub gpu: Option<&'a crate::gpu_raster::GpuRaster>,
 }
+
+/// Samples per GPU dispatch (`--device gpu`): their pins are solved on the CPU threads, then
+/// rasterised together.
+#[cfg(feature = "wgpu")]
+const GPU_BATCH: usize = 256;
 
 /// Every sample of `range` checked before any work: its sensor poses within the sensor's
 /// range and its path bounded; a sample that touches nothing is an error unless the recipe
@@ -232,6 +240,17 @@ pub fn check_samples(ctx: &Context<'_>, range: std::ops::Range<usize>) -> Result
 /// `[solve, render, encode]` (s).
 pub fn sample_png(ctx: &Context<'_>, s: &Sample) -> Result<(Vec<u8>, [f64; 3])> {
     let t0 = Instant::now();
+    let pins = sample_pins(ctx, s)?;
+    let t1 = Instant::now();
+    let img = ctx.renderer.render_varied(&pins, &s.variation);
+    let t2 = Instant::now();
+    let png = encode_png(&img, PngDepth::Grey8)?;
+    let t3 = Instant::now();
+    Ok((png, [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()]))
+}
+
+/// The pins of one sample at the end of its path.
+fn sample_pins(ctx: &Context<'_>, s: &Sample) -> Result<Vec<crate::pins::PinPose>> {
     let (start, target) = ctx.plan.sensor_poses(s);
     let path = match s.kind {
         Kind::Tap => SensorPath::tap(target),
@@ -245,13 +264,7 @@ pub fn sample_png(ctx: &Context<'_>, s: &Sample) -> Result<(Vec<u8>, [f64; 3])> 
     for step in &path.steps {
         sim.step(step.pose)?;
     }
-    let pins = sim.pins();
-    let t1 = Instant::now();
-    let img = ctx.renderer.render_varied(&pins, &s.variation);
-    let t2 = Instant::now();
-    let png = encode_png(&img, PngDepth::Grey8)?;
-    let t3 = Instant::now();
-    Ok((png, [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()]))
+    Ok(sim.pins())
 }
 
 /// Generates `target` (the whole plan or a shard) into its directory. `progress` is called
@@ -297,33 +310,64 @@ pub fn generate(
     let nanos: [AtomicU64; 6] = Default::default(); // solve, render, encode, write, tap, slide
     let add = |k: usize, s: f64| nanos[k].fetch_add((s * 1e9) as u64, Ordering::Relaxed);
     let taps = std::sync::atomic::AtomicUsize::new(0);
-    todo.par_iter().try_for_each(|&i| -> Result<()> {
-        let t = Instant::now();
-        let s = plan.sample(i);
-        let (png, [solve, render, encode]) = sample_png(ctx, &s)?;
+    let written = todo.len();
+    // Sample `i`'s PNG written and its times counted (s: its solve, render and encode; the
+    // render a GPU batch's share).
+    let record = |i: usize, s: &Sample, png: &[u8], [solve, render, encode]: [f64; 3]| -> Result<()> {
         let tw = Instant::now();
-        write_atomic_unsynced(&images.join(image_name(i)), &png)?;
+        write_atomic_unsynced(&images.join(image_name(i)), png)?;
+        let write = tw.elapsed().as_secs_f64();
         add(0, solve);
         add(1, render);
         add(2, encode);
-        add(3, tw.elapsed().as_secs_f64());
+        add(3, write);
         if s.kind == Kind::Tap {
-            add(4, t.elapsed().as_secs_f64());
+            add(4, solve + render + encode + write);
             taps.fetch_add(1, Ordering::Relaxed);
         } else {
-            add(5, t.elapsed().as_secs_f64());
+            add(5, solve + render + encode + write);
         }
         progress(done.fetch_add(1, Ordering::Relaxed) + 1);
         Ok(())
+    };
+    #[cfg(feature = "wgpu")]
+    if let Some(gpu) = ctx.gpu {
+        for chunk in todo.chunks(GPU_BATCH) {
+            let staged: Vec<(Sample, Vec<crate::pins::PinPose>, f64)> = chunk
+                .par_iter()
+                .map(|&i| {
+                    let t = Instant::now();
+                    let s = plan.sample(i);
+                    let pins = sample_pins(ctx, &s)?;
+                    Ok((s, pins, t.elapsed().as_secs_f64()))
+                })
+                .collect::<Result<_>>()?;
+            let t = Instant::now();
+            let batch: Vec<_> = staged.iter().map(|(s, pins, _)| (pins.as_slice(), &s.variation)).collect();
+            let drawn = ctx.renderer.render_batch(gpu, &batch)?;
+            let render = t.elapsed().as_secs_f64() / chunk.len() as f64;
+            chunk.par_iter().zip(&staged).zip(&drawn).try_for_each(|((&i, (s, _, solve)), img)| {
+                let t = Instant::now();
+                let png = encode_png(img, PngDepth::Grey8)?;
+                record(i, s, &png, [*solve, render, t.elapsed().as_secs_f64()])
+            })?;
+        }
+    }
+    #[cfg(feature = "wgpu")]
+    let todo = if ctx.gpu.is_some() { Vec::new() } else { todo };
+    todo.par_iter().try_for_each(|&i| -> Result<()> {
+        let s = plan.sample(i);
+        let (png, times) = sample_png(ctx, &s)?;
+        record(i, &s, &png, times)
     })?;
     let secs = |k: usize| nanos[k].load(Ordering::Relaxed) as f64 * 1e-9;
     let taps = taps.into_inner();
     Ok(Summary {
-        written: todo.len(),
+        written,
         skipped,
         no_contact,
         taps,
-        slides: todo.len() - taps,
+        slides: written - taps,
         wall_s: wall.elapsed().as_secs_f64(),
         tap_s: secs(4),
         slide_s: secs(5),

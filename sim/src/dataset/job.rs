@@ -91,6 +91,10 @@ pub struct Job {
     pub sensor: SensorParams,
     /// Shard `(i, n)` of the plan, or all of it.
     pub shard: Option<(usize, usize)>,
+    /// The GPU that rasterises the images in batches (`tacsim generate --device gpu`); `None`
+    /// (as [`Job::new`] leaves it): the CPU per image.
+    #[cfg(feature = "wgpu")]
+    pub gpu: Option<crate::gpu_raster::GpuRaster>,
     model: ContactModel,
     renderer: PinRenderer,
     scenes: Vec<Scene>,
@@ -122,7 +126,17 @@ impl Job {
                 Ok(scene)
             })
             .collect::<Result<Vec<_>>>()?;
-        Ok(Self { plan, source: source.to_owned(), sensor, shard, model, renderer, scenes })
+        Ok(Self {
+            plan,
+            source: source.to_owned(),
+            sensor,
+            shard,
+            #[cfg(feature = "wgpu")]
+            gpu: None,
+            model,
+            renderer,
+            scenes,
+        })
     }
 
     /// Images this run makes (its shard's).
@@ -148,6 +162,8 @@ impl Job {
             scenes: &self.scenes,
             renderer: &self.renderer,
             source: &self.source,
+            #[cfg(feature = "wgpu")]
+            gpu: self.gpu.as_ref(),
         };
         let target = Target { out: PathBuf::from(out), shard: self.shard, resume };
         generate::generate(&ctx, &self.sensor, &target, progress)

@@ -1,0 +1,155 @@
+//! The wgpu backend against flex (feature `wgpu`; `cargo test -p tacsim-model --features wgpu
+//! --test wgpu`). On a machine without a GPU wgpu runs on a software Vulkan driver (Debian's
+//! `mesa-vulkan-drivers`, lavapipe, which `.ci/run` installs): these tests check that the
+//! GPU route computes what the CPU does, never how fast.
+//!
+//! Both backends start from the same weights (`--init`: a device's seeded initialisation is
+//! its own), draw every batch, shift and crop from the same CPU streams, and run the same
+//! steps; they differ only in float rounding (f32 sums in another order). Tolerances below
+//! state how far that may carry.
+#![cfg(feature = "wgpu")]
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use burn::tensor::Device;
+use tacsim_model::{
+    Backend, Corpus, EpochLog, Mode, PoseConfig, Silent, UnshearConfig, load_posenet, load_unshear, to_images,
+    train_posenet, train_unshear,
+};
+
+/// Whether wgpu has a device here: a GPU, or a software Vulkan driver (lavapipe). Without one
+/// the tests skip with a message; with `TACSIM_REQUIRE_GPU=1` (as `.ci/run` sets) they fail.
+fn wgpu_available() -> bool {
+    let probe = std::panic::catch_unwind(|| {
+        let device = Backend::Wgpu.device();
+        burn::tensor::Tensor::<1>::from_floats([1.0, 2.0], &device).sum().into_scalar::<f32>()
+    });
+    match probe {
+        Ok(3.0) => true,
+        other => {
+            let why = format!("no wgpu device ({})", if other.is_ok() { "wrong sum" } else { "it panicked" });
+            assert!(!std::env::var("TACSIM_REQUIRE_GPU").is_ok_and(|v| v == "1"), "TACSIM_REQUIRE_GPU=1 but {why}");
+            eprintln!("skipped: {why}; install a software Vulkan driver (Debian: mesa-vulkan-drivers)");
+            false
+        }
+    }
+}
+
+fn corpus(name: &str) -> (PathBuf, Corpus) {
+    let dir = common::scratch(name);
+    let data = dir.join("data");
+    // 12 poses: 8 train (2 paired), 2 val, 2 test; 2 taps and 4 slides each.
+    common::write_dataset(&data, 64, 12, 2, 4, 2);
+    let corpus = Corpus::open(&data, 64).expect("open synthetic dataset");
+    (dir, corpus)
+}
+
+/// Largest difference of two equally long sequences over the largest magnitude of the first.
+fn relative_gap(a: &[f32], b: &[f32]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let scale = a.iter().fold(0.0f64, |m, v| m.max(f64::from(v.abs()))).max(1e-12);
+    a.iter().zip(b).map(|(x, y)| f64::from((x - y).abs())).fold(0.0, f64::max) / scale
+}
+
+/// Per-epoch mean total losses.
+fn totals(history: &[EpochLog]) -> Vec<f32> {
+    history.iter().map(|e| e.mean.total as f32).collect()
+}
+
+fn weights(run: &Path) -> PathBuf {
+    run.join("model.safetensors")
+}
+
+#[test]
+fn the_pose_network_trains_and_reads_alike_on_wgpu_and_flex() {
+    if !wgpu_available() {
+        return;
+    }
+    let (dir, corpus) = corpus("wgpu-posenet");
+    let small =
+        PoseConfig { size: 64, batch: 4, epochs: 1, max_batches_per_epoch: 1, hidden: 16, ..PoseConfig::default() };
+    // The common start: one flex step from flex's seeded initialisation.
+    let start = dir.join("start");
+    train_posenet(&corpus, &small, Backend::Flex, &start, false, None, &mut Silent).expect("start");
+    let cfg = PoseConfig { epochs: 3, max_batches_per_epoch: 2, ..small };
+    let runs = [(Backend::Flex, dir.join("flex")), (Backend::Wgpu, dir.join("wgpu"))];
+    let mut losses = Vec::new();
+    for (backend, run) in &runs {
+        let (_, state) =
+            train_posenet(&corpus, &cfg, *backend, run, false, Some(&weights(&start)), &mut Silent).expect("train");
+        losses.push(totals(&state.history));
+    }
+    println!("losses flex {:?}, wgpu {:?}", losses[0], losses[1]);
+    // Six Adam steps in f32: the losses agree to 1e-4 of their size (measured on lavapipe:
+    // 1.3e-6).
+    let loss_gap = relative_gap(&losses[0], &losses[1]);
+    assert!(loss_gap < 1e-4, "losses differ by {loss_gap:.2e} of their size: {losses:?}");
+
+    // Inference: each trained network read back on its own device, then the wgpu-trained one on
+    // flex, on the same images.
+    let rows = [0, 1, 2, 3, 4, 5];
+    let read = |run: &Path, backend: Backend| -> Vec<f32> {
+        let device = backend.device();
+        let (net, _, _) = load_posenet(run, &device).expect("load");
+        let x = corpus.batch(&rows, &[], &device);
+        net.forward(x).into_data().try_to_vec::<f32>().expect("outputs")
+    };
+    let (flex, wgpu) = (read(&runs[0].1, Backend::Flex), read(&runs[1].1, Backend::Wgpu));
+    let same_weights = relative_gap(&read(&runs[1].1, Backend::Flex), &wgpu);
+    let trained = relative_gap(&flex, &wgpu);
+    println!("outputs: same weights {same_weights:.2e}, trained apart {trained:.2e}");
+    // The same weights: one forward pass, rounding only (measured 2.7e-7); trained apart, the
+    // rounding of every step carried along (measured 4.4e-5).
+    assert!(same_weights < 1e-5, "the same weights read {same_weights:.2e} apart");
+    assert!(trained < 1e-3, "the networks trained on the two backends read {trained:.2e} apart");
+}
+
+#[test]
+fn the_unshear_model_trains_and_unshears_alike_on_wgpu_and_flex() {
+    if !wgpu_available() {
+        return;
+    }
+    let (dir, corpus) = corpus("wgpu-unshear");
+    let small = UnshearConfig {
+        mode: Mode::SemiSupervised,
+        size: 64,
+        batch: 4,
+        self_supervised_epochs: 1,
+        supervised_epochs: 1,
+        max_batches_per_epoch: 1,
+        label_fraction: 0.25,
+        patch_count: 10,
+        ..UnshearConfig::default()
+    };
+    let start = dir.join("start");
+    train_unshear(&corpus, &small, Backend::Flex, &start, false, None, &mut Silent).expect("start");
+    let cfg = UnshearConfig { self_supervised_epochs: 2, supervised_epochs: 2, max_batches_per_epoch: 2, ..small };
+    let runs = [(Backend::Flex, dir.join("flex")), (Backend::Wgpu, dir.join("wgpu"))];
+    let mut losses = Vec::new();
+    for (backend, run) in &runs {
+        let (_, state) =
+            train_unshear(&corpus, &cfg, *backend, run, false, Some(&weights(&start)), &mut Silent).expect("train");
+        losses.push(totals(&state.history));
+    }
+    println!("losses flex {:?}, wgpu {:?}", losses[0], losses[1]);
+    // Eight steps of both phases (measured 1.9e-6).
+    let loss_gap = relative_gap(&losses[0], &losses[1]);
+    assert!(loss_gap < 1e-4, "losses differ by {loss_gap:.2e} of their size: {losses:?}");
+
+    let pairs = [0, 3, 7];
+    let unshear = |run: &Path, backend: Backend| -> Vec<f32> {
+        let device: Device = backend.device();
+        let (model, _) = load_unshear(run, &device).expect("load");
+        let x = corpus.batch(&pairs, &[(0, 0); 3], &device);
+        to_images(model.unshear(x)).concat()
+    };
+    let wgpu = unshear(&runs[1].1, Backend::Wgpu);
+    let same_weights = relative_gap(&unshear(&runs[1].1, Backend::Flex), &wgpu);
+    let trained = relative_gap(&unshear(&runs[0].1, Backend::Flex), &wgpu);
+    println!("images: same weights {same_weights:.2e}, trained apart {trained:.2e}");
+    // Measured 2.4e-7 and 6.0e-5.
+    assert!(same_weights < 1e-5, "the same weights unshear {same_weights:.2e} apart");
+    assert!(trained < 1e-3, "the models trained on the two backends unshear {trained:.2e} apart");
+}
