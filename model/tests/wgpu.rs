@@ -15,8 +15,8 @@ use std::path::{Path, PathBuf};
 
 use burn::tensor::Device;
 use tacsim_model::{
-    Backend, Corpus, EpochLog, Mode, PoseConfig, Silent, UnshearConfig, load_posenet, load_unshear, to_images,
-    train_posenet, train_unshear,
+    Backend, Corpus, EpochLog, Mode, PoseConfig, Silent, TrainState, UnshearConfig, load_posenet, load_unshear,
+    to_images, train_posenet, train_unshear,
 };
 
 /// Whether wgpu has a device here: a GPU, or a software Vulkan driver (lavapipe). Without one
@@ -62,6 +62,23 @@ fn weights(run: &Path) -> PathBuf {
     run.join("model.safetensors")
 }
 
+/// `dir/flex` and `dir/wgpu`, each trained by `train(backend, run, init)` from the weights in
+/// `start`: their per-epoch losses must agree to `bound` of their size.
+fn trained_alike(
+    dir: &Path,
+    start: &Path,
+    bound: f64,
+    train: impl Fn(Backend, &Path, &Path) -> TrainState,
+) -> [PathBuf; 2] {
+    let runs = [(Backend::Flex, dir.join("flex")), (Backend::Wgpu, dir.join("wgpu"))];
+    let losses: Vec<Vec<f32>> =
+        runs.iter().map(|(backend, run)| totals(&train(*backend, run, &weights(start)).history)).collect();
+    println!("losses flex {:?}, wgpu {:?}", losses[0], losses[1]);
+    let loss_gap = relative_gap(&losses[0], &losses[1]);
+    assert!(loss_gap < bound, "losses differ by {loss_gap:.2e} of their size: {losses:?}");
+    runs.map(|(_, run)| run)
+}
+
 #[test]
 fn the_pose_network_trains_and_reads_alike_on_wgpu_and_flex() {
     if !wgpu_available() {
@@ -74,18 +91,11 @@ fn the_pose_network_trains_and_reads_alike_on_wgpu_and_flex() {
     let start = dir.join("start");
     train_posenet(&corpus, &small, Backend::Flex, &start, false, None, &mut Silent).expect("start");
     let cfg = PoseConfig { epochs: 3, max_batches_per_epoch: 2, ..small };
-    let runs = [(Backend::Flex, dir.join("flex")), (Backend::Wgpu, dir.join("wgpu"))];
-    let mut losses = Vec::new();
-    for (backend, run) in &runs {
-        let (_, state) =
-            train_posenet(&corpus, &cfg, *backend, run, false, Some(&weights(&start)), &mut Silent).expect("train");
-        losses.push(totals(&state.history));
-    }
-    println!("losses flex {:?}, wgpu {:?}", losses[0], losses[1]);
     // Six Adam steps in f32: the losses agree to 1e-4 of their size (measured on lavapipe:
     // 1.3e-6).
-    let loss_gap = relative_gap(&losses[0], &losses[1]);
-    assert!(loss_gap < 1e-4, "losses differ by {loss_gap:.2e} of their size: {losses:?}");
+    let [flex_run, wgpu_run] = trained_alike(&dir, &start, 1e-4, |backend, run, init| {
+        train_posenet(&corpus, &cfg, backend, run, false, Some(init), &mut Silent).expect("train").1
+    });
 
     // Inference: each trained network read back on its own device, then the wgpu-trained one on
     // flex, on the same images.
@@ -96,8 +106,8 @@ fn the_pose_network_trains_and_reads_alike_on_wgpu_and_flex() {
         let x = corpus.batch(&rows, &[], &device);
         net.forward(x).into_data().try_to_vec::<f32>().expect("outputs")
     };
-    let (flex, wgpu) = (read(&runs[0].1, Backend::Flex), read(&runs[1].1, Backend::Wgpu));
-    let same_weights = relative_gap(&read(&runs[1].1, Backend::Flex), &wgpu);
+    let (flex, wgpu) = (read(&flex_run, Backend::Flex), read(&wgpu_run, Backend::Wgpu));
+    let same_weights = relative_gap(&read(&wgpu_run, Backend::Flex), &wgpu);
     let trained = relative_gap(&flex, &wgpu);
     println!("outputs: same weights {same_weights:.2e}, trained apart {trained:.2e}");
     // The same weights: one forward pass, rounding only (measured 2.7e-7); trained apart, the
@@ -126,17 +136,10 @@ fn the_unshear_model_trains_and_unshears_alike_on_wgpu_and_flex() {
     let start = dir.join("start");
     train_unshear(&corpus, &small, Backend::Flex, &start, false, None, &mut Silent).expect("start");
     let cfg = UnshearConfig { self_supervised_epochs: 2, supervised_epochs: 2, max_batches_per_epoch: 2, ..small };
-    let runs = [(Backend::Flex, dir.join("flex")), (Backend::Wgpu, dir.join("wgpu"))];
-    let mut losses = Vec::new();
-    for (backend, run) in &runs {
-        let (_, state) =
-            train_unshear(&corpus, &cfg, *backend, run, false, Some(&weights(&start)), &mut Silent).expect("train");
-        losses.push(totals(&state.history));
-    }
-    println!("losses flex {:?}, wgpu {:?}", losses[0], losses[1]);
     // Eight steps of both phases (measured 1.9e-6).
-    let loss_gap = relative_gap(&losses[0], &losses[1]);
-    assert!(loss_gap < 1e-4, "losses differ by {loss_gap:.2e} of their size: {losses:?}");
+    let [flex_run, wgpu_run] = trained_alike(&dir, &start, 1e-4, |backend, run, init| {
+        train_unshear(&corpus, &cfg, backend, run, false, Some(init), &mut Silent).expect("train").1
+    });
 
     let pairs = [0, 3, 7];
     let unshear = |run: &Path, backend: Backend| -> Vec<f32> {
@@ -145,9 +148,9 @@ fn the_unshear_model_trains_and_unshears_alike_on_wgpu_and_flex() {
         let x = corpus.batch(&pairs, &[(0, 0); 3], &device);
         to_images(model.unshear(x)).concat()
     };
-    let wgpu = unshear(&runs[1].1, Backend::Wgpu);
-    let same_weights = relative_gap(&unshear(&runs[1].1, Backend::Flex), &wgpu);
-    let trained = relative_gap(&unshear(&runs[0].1, Backend::Flex), &wgpu);
+    let wgpu = unshear(&wgpu_run, Backend::Wgpu);
+    let same_weights = relative_gap(&unshear(&wgpu_run, Backend::Flex), &wgpu);
+    let trained = relative_gap(&unshear(&flex_run, Backend::Flex), &wgpu);
     println!("images: same weights {same_weights:.2e}, trained apart {trained:.2e}");
     // Measured 2.4e-7 and 6.0e-5.
     assert!(same_weights < 1e-5, "the same weights unshear {same_weights:.2e} apart");
