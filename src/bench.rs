@@ -148,6 +148,28 @@ pub struct BenchReport {
     /// The GPU raster against the CPU's (`--device gpu` or `auto` with a GPU adapter).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gpu_raster: Option<GpuRasterBench>,
+    /// The GPU pin product against the CPU's (`--device gpu` or `auto`, where the adapter has
+    /// f64 in shaders).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gpu_pins: Option<GpuPinsBench>,
+}
+
+/// The GPU pin product (`--device gpu`, feature `wgpu`) against the CPU's on the same contact
+/// states: the bench's taps, cycled to a batch.
+#[derive(Debug, Serialize)]
+pub struct GpuPinsBench {
+    /// The adapter (as [`GpuRasterBench::adapter`]).
+    pub adapter: String,
+    /// Contact states in the batch.
+    pub states: usize,
+    /// The CPU's pin product, one thread (ms per state): the work per state the GPU path
+    /// takes off the CPU threads.
+    pub cpu_ms_per_state: f64,
+    /// The GPU batch's wall time per state, packing, upload, dispatch, readback and the pins'
+    /// move included (ms per state; after one warm-up batch).
+    pub gpu_ms_per_state: f64,
+    /// Largest distance between a GPU pin tip and the CPU's (mm).
+    pub max_tip_diff_mm: f64,
 }
 
 /// The batched GPU raster (`--device gpu`, feature `wgpu`) against the CPU's on the same
@@ -166,7 +188,7 @@ pub struct GpuRasterBench {
     /// (ms per frame; after one warm-up batch).
     pub gpu_ms_per_frame: f64,
     /// Pixels where the GPU's images differ from the CPU's (only where a pixel's coverage is
-    /// within f32 rounding of 1/2, `gpu_raster.rs`).
+    /// within f32 rounding of 1/2, `sim/src/gpu/raster.rs`).
     pub differing_pixels: usize,
 }
 
@@ -177,7 +199,7 @@ const GPU_FRAMES: usize = 256;
 /// [`GpuRasterBench`] on `gpu` for the pins of `taps`, cycled to [`GPU_FRAMES`] frames.
 #[cfg(feature = "wgpu")]
 fn gpu_raster_bench(
-    gpu: &tacsim_sim::GpuRaster,
+    gpu: &tacsim_sim::Gpu,
     model: &ContactModel,
     scene: &Scene,
     renderer: &PinRenderer,
@@ -211,6 +233,48 @@ fn gpu_raster_bench(
         gpu_ms_per_frame: gpu_ms,
         differing_pixels,
     })
+}
+
+/// [`GpuPinsBench`] on `gpu` for the contact states of `taps`, cycled to [`GPU_FRAMES`].
+#[cfg(feature = "wgpu")]
+fn gpu_pins_bench(
+    gpu: &tacsim_sim::Gpu,
+    model: &ContactModel,
+    scene: &Scene,
+    taps: &[(SensorPose, [f64; 2])],
+    single: &rayon::ThreadPool,
+) -> Result<Option<GpuPinsBench>> {
+    if !gpu.has_pins() {
+        return Ok(None);
+    }
+    let sims: Vec<Simulation<'_>> = taps
+        .iter()
+        .map(|(pose, _)| -> Result<_> {
+            let mut sim = Simulation::new(model, scene, &[*pose]);
+            sim.step(*pose)?;
+            Ok(sim)
+        })
+        .collect::<Result<_>>()?;
+    let batch: Vec<&Simulation<'_>> = (0..GPU_FRAMES).map(|k| &sims[k % sims.len()]).collect();
+    let t = Instant::now();
+    let cpu: Vec<Vec<PinPose>> = single.install(|| batch.iter().map(|s| s.pins()).collect());
+    let cpu_ms = t.elapsed().as_secs_f64() * 1e3 / GPU_FRAMES as f64;
+    gpu.pins_batch(&batch)?;
+    let t = Instant::now();
+    let moved = gpu.pins_batch(&batch)?;
+    let gpu_ms = t.elapsed().as_secs_f64() * 1e3 / GPU_FRAMES as f64;
+    let max_tip_diff_mm = cpu
+        .iter()
+        .zip(&moved)
+        .flat_map(|(a, b)| a.iter().zip(b).map(|(p, q)| (p.tip - q.tip).norm()))
+        .fold(0.0, f64::max);
+    Ok(Some(GpuPinsBench {
+        adapter: gpu.adapter().to_owned(),
+        states: GPU_FRAMES,
+        cpu_ms_per_state: cpu_ms,
+        gpu_ms_per_state: gpu_ms,
+        max_tip_diff_mm,
+    }))
 }
 
 fn disk_scene() -> Result<Scene> {
@@ -291,7 +355,7 @@ pub fn run(
 ) -> Result<String> {
     anyhow::ensure!(samples_n >= 4, "--samples must be at least 4");
     #[cfg(feature = "wgpu")]
-    let gpu = crate::device::gpu_raster(device)?;
+    let gpu = crate::device::gpu(device)?;
     #[cfg(not(feature = "wgpu"))]
     crate::device::check(device)?;
     let sensor = bench_sensor(cells, skin)?;
@@ -309,12 +373,15 @@ pub fn run(
     let mut curve = grid_curve(&sensor, &scene, &renderer, few, &rim, &single)?;
     curve.extend(step_curve(&model, &scene, &renderer, &poses[..samples_n.min(8)], &single)?);
     #[cfg(feature = "wgpu")]
-    let gpu_raster = match &gpu {
-        Some(gpu) => Some(gpu_raster_bench(gpu, &model, &scene, &renderer, few, &single)?),
-        None => None,
+    let (gpu_raster, gpu_pins) = match &gpu {
+        Some(gpu) => (
+            Some(gpu_raster_bench(gpu, &model, &scene, &renderer, few, &single)?),
+            gpu_pins_bench(gpu, &model, &scene, few, &single)?,
+        ),
+        None => (None, None),
     };
     #[cfg(not(feature = "wgpu"))]
-    let gpu_raster = None;
+    let (gpu_raster, gpu_pins) = (None, None);
     let report = BenchReport {
         threads: rayon::current_num_threads(),
         cells_across: sensor.skin.cells_across,
@@ -326,6 +393,7 @@ pub fn run(
         skips,
         curve,
         gpu_raster,
+        gpu_pins,
     };
     draw(&report, plot).with_context(|| format!("writing the plot {}", plot.display()))?;
     Ok(if json { serde_json::to_string_pretty(&report)? + "\n" } else { report.table(plot) })
@@ -532,6 +600,12 @@ impl BenchReport {
             out.push_str(&format!(
                 "GPU raster on {}: {} frames of 256 px, {:.3} ms a frame (CPU, one thread: {:.3} ms); {} pixels differ\n",
                 g.adapter, g.frames, g.gpu_ms_per_frame, g.cpu_ms_per_frame, g.differing_pixels
+            ));
+        }
+        if let Some(g) = &self.gpu_pins {
+            out.push_str(&format!(
+                "GPU pins on {}: {} states, {:.3} ms a state (CPU, one thread: {:.3} ms); tips up to {:.1e} mm apart\n",
+                g.adapter, g.states, g.gpu_ms_per_state, g.cpu_ms_per_state, g.max_tip_diff_mm
             ));
         }
         out.push_str(&format!("plot: {}\n", plot.display()));

@@ -36,7 +36,7 @@ pub struct GenerateOptions {
     /// Write beyond [`tacsim_sim::dataset::MAX_UNFORCED_IMAGES`] images or
     /// [`tacsim_sim::dataset::MAX_UNFORCED_BYTES`] bytes.
     pub force: bool,
-    /// Where the images are rasterised.
+    /// Where the pins are moved and the images rasterised.
     pub device: crate::device::DeviceChoice,
 }
 
@@ -67,7 +67,7 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
     job.estimate()?.check(&source, opts.force)?;
     #[cfg(feature = "wgpu")]
     {
-        job.gpu = crate::device::gpu_raster(opts.device)?;
+        job.gpu = crate::device::gpu(opts.device)?;
     }
     #[cfg(not(feature = "wgpu"))]
     crate::device::check(opts.device)?;

@@ -1,12 +1,13 @@
-//! `--device cpu|gpu|auto` of `tacsim generate` and `tacsim bench`: where the pin images are
-//! rasterised. `gpu` is the batched GPU raster of the simulator crate (feature `wgpu`:
-//! `cargo build --release --features wgpu`); on a machine without a GPU adapter it stops with
-//! a message, and only `auto` falls back to the CPU. The contact solve and the pins stay on the
-//! CPU threads either way.
+//! `--device cpu|gpu|auto` of `tacsim generate` and `tacsim bench`: where the pins are moved
+//! and the pin images rasterised. `gpu` is the batched GPU path of the simulator crate
+//! (feature `wgpu`: `cargo build --release --features wgpu`): the pin product (where the
+//! adapter has f64 in shaders; else the pins stay on the CPU, said on stderr) and the raster;
+//! on a machine without a GPU adapter it stops with a message, and only `auto` falls back to
+//! the CPU. The contact solve stays on the CPU threads either way.
 
 use anyhow::Result;
 
-/// Where the images are rasterised.
+/// Where the pins are moved and the images rasterised.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum DeviceChoice {
     /// The CPU, image by image on the worker threads (the default).
@@ -18,19 +19,30 @@ pub enum DeviceChoice {
     Auto,
 }
 
-/// The GPU raster `choice` asks for: `None` for the CPU; checked before any work starts.
+/// The GPU `choice` asks for: `None` for the CPU; checked before any work starts.
 #[cfg(feature = "wgpu")]
-pub fn gpu_raster(choice: DeviceChoice) -> Result<Option<tacsim_sim::GpuRaster>> {
+pub fn gpu(choice: DeviceChoice) -> Result<Option<tacsim_sim::Gpu>> {
+    let said = |gpu: tacsim_sim::Gpu| {
+        if !gpu.has_pins() {
+            eprintln!(
+                "--device {}: {} has no f64 in shaders (SHADER_F64); the pins are moved on the CPU, the images \
+                 rasterised on the GPU",
+                if choice == DeviceChoice::Gpu { "gpu" } else { "auto" },
+                gpu.adapter()
+            );
+        }
+        gpu
+    };
     match choice {
         DeviceChoice::Cpu => Ok(None),
-        DeviceChoice::Gpu => Ok(Some(tacsim_sim::GpuRaster::new()?)),
-        DeviceChoice::Auto => match tacsim_sim::GpuRaster::new() {
+        DeviceChoice::Gpu => Ok(Some(said(tacsim_sim::Gpu::new()?))),
+        DeviceChoice::Auto => match tacsim_sim::Gpu::new() {
             Ok(gpu) => {
-                eprintln!("--device auto: rasterising on {}", gpu.adapter());
-                Ok(Some(gpu))
+                eprintln!("--device auto: on {}", gpu.adapter());
+                Ok(Some(said(gpu)))
             }
             Err(e) => {
-                eprintln!("--device auto: {e}; rasterising on the CPU");
+                eprintln!("--device auto: {e}; on the CPU");
                 Ok(None)
             }
         },
@@ -46,9 +58,7 @@ pub fn check(choice: DeviceChoice) -> Result<()> {
             "--device gpu: this tacsim was built without the GPU path; rebuild with `cargo build --release --features wgpu`"
         ),
         DeviceChoice::Auto => {
-            eprintln!(
-                "--device auto: this tacsim was built without the GPU path (feature wgpu); rasterising on the CPU"
-            );
+            eprintln!("--device auto: this tacsim was built without the GPU path (feature wgpu); on the CPU");
             Ok(())
         }
     }

@@ -51,9 +51,9 @@ enum Command {
         /// skin-on-gel (default: the sensor's).
         #[arg(long)]
         skin: Option<SkinModel>,
-        /// Also time the batched GPU raster against the CPU's: gpu (a build with `--features
-        /// wgpu` and a GPU adapter; a software one's figures say nothing of a GPU's speed) or
-        /// auto.
+        /// Also time the batched GPU raster and pin product against the CPU's: gpu (a build
+        /// with `--features wgpu` and a GPU adapter; a software one's figures say nothing of a
+        /// GPU's speed) or auto.
         #[arg(long, value_enum, default_value = "cpu")]
         device: tacsim::device::DeviceChoice,
     },
@@ -90,8 +90,8 @@ enum Command {
         /// Write more than 1,000,000 images or about 16 GiB (refused without it).
         #[arg(long)]
         force: bool,
-        /// Where the images are rasterised: cpu, gpu (batched; a build with `--features wgpu`
-        /// and a GPU adapter) or auto (the GPU where there is one).
+        /// Where the pins are moved and the images rasterised: cpu, gpu (batched; a build with
+        /// `--features wgpu` and a GPU adapter) or auto (the GPU where there is one).
         #[arg(long, value_enum, default_value = "cpu")]
         device: tacsim::device::DeviceChoice,
         /// No progress bar.

@@ -20,7 +20,7 @@ mod embedded;
 mod error;
 mod fit;
 #[cfg(feature = "wgpu")]
-mod gpu_raster;
+mod gpu;
 mod pins;
 mod png_io;
 mod processing;
@@ -45,10 +45,10 @@ pub use detect::{Blob, detect_blobs, match_reference, pin_centres};
 pub use embedded::{RECIPES, SHAPE_FILES, catalogue as builtin_catalogue};
 pub use error::{Result, SimError};
 #[cfg(feature = "wgpu")]
-pub use gpu_raster::GpuRaster;
+pub use gpu::Gpu;
 #[cfg(feature = "wgpu")]
 #[doc(hidden)]
-pub use gpu_raster::for_tests as gpu_for_tests;
+pub use gpu::for_tests as gpu_for_tests;
 pub use pins::{Pin, PinLayout, PinPose};
 pub use png_io::{PngDepth, decode_png, read_png, write_png};
 pub use processing::LabProcessing;

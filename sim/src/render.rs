@@ -189,7 +189,7 @@ impl PinRenderer {
     }
 
     /// The discs of [`Self::render_varied`]: pins rolled, scaled and shifted, specks added.
-    fn varied_discs(&self, pins: &[PinPose], v: &Variation) -> Vec<Disc> {
+    pub(crate) fn varied_discs(&self, pins: &[PinPose], v: &Variation) -> Vec<Disc> {
         if *v == Variation::NOMINAL {
             return self.discs(pins);
         }
@@ -226,14 +226,10 @@ impl PinRenderer {
     }
 
     /// [`Self::render_varied`] for a batch of samples (pins and variation each), the binary
-    /// ones rasterised on the GPU in one dispatch (feature `wgpu`; `gpu_raster.rs`), those
+    /// ones rasterised on the GPU in one dispatch (feature `wgpu`; `gpu/raster.rs`), those
     /// whose variation blurs or thresholds otherwise on the CPU; framed on the CPU.
     #[cfg(feature = "wgpu")]
-    pub fn render_batch(
-        &self,
-        gpu: &crate::gpu_raster::GpuRaster,
-        batch: &[(&[PinPose], &Variation)],
-    ) -> Result<Vec<GrayImage>> {
+    pub fn render_batch(&self, gpu: &crate::gpu::Gpu, batch: &[(&[PinPose], &Variation)]) -> Result<Vec<GrayImage>> {
         let binary: Vec<usize> = (0..batch.len()).filter(|&k| !batch[k].1.needs_coverage()).collect();
         let discs: Vec<Vec<Disc>> = binary.iter().map(|&k| self.varied_discs(batch[k].0, batch[k].1)).collect();
         let mut drawn = gpu.draw_binary_batch(&discs, self.camera.size)?.into_iter();

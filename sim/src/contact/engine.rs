@@ -23,7 +23,7 @@ use super::kernel::{DepthKernel, Elastic};
 use super::layered::{Layer, LayeredBody, LayeredKernels};
 use super::normal::{self, Control, NormalSettings};
 use super::operator::{Component, HalfSpace, Operator, Pairing, Product};
-use super::pin_motion::{CellForces, PIN_SUBSQUARES, PinKernel, displaced_pins};
+use super::pin_motion::{CellForces, PIN_SUBSQUARES, PinKernel, PinLoad, displaced_pins};
 use super::pose::SensorPose;
 use super::tangential::{self, TangentialSettings};
 use crate::error::{Result, SimError};
@@ -720,18 +720,36 @@ impl<'a> Simulation<'a> {
     }
 
     fn pins_with(&self, exact: bool) -> Vec<PinPose> {
-        let Some(op) = self.op.as_ref() else {
-            return self.model.layout.poses();
-        };
+        match self.pin_load() {
+            Some(load) => self.frame.pins_to_sensor(displaced_pins(
+                load.layout,
+                &load.kernel,
+                load.dome_radius_mm,
+                &load.forces,
+                exact,
+            )),
+            None => self.undeformed_pins(),
+        }
+    }
+
+    /// What the pins depend on in the current state (the grid's frame), `None` where no cell
+    /// is loaded (the pins are the undeformed layout's).
+    pub(crate) fn pin_load(&self) -> Option<PinLoad<'_>> {
+        let op = self.op.as_ref()?;
         let forces = CellForces::new(op.grid(), &self.pressure, &self.qx, &self.qy, self.model.pin_subsquares);
         if forces.is_empty() {
-            // Unloaded: the undeformed pins exactly, without the frame's round trip.
-            return self.model.layout.poses();
+            return None;
         }
         let kernel = match &self.model.influence {
             Influence::HalfSpace(h) => PinKernel::HalfSpace(DepthKernel::new(&h.material)),
             Influence::Layered(k) => PinKernel::Layered(k),
         };
-        self.frame.pins_to_sensor(displaced_pins(&self.layout, &kernel, self.model.dome_radius(), &forces, exact))
+        Some(PinLoad { layout: &self.layout, kernel, dome_radius_mm: self.model.dome_radius(), forces })
+    }
+
+    /// The undeformed pins (sensor frame), exactly: an unloaded state's, without the frame's
+    /// round trip.
+    pub(crate) fn undeformed_pins(&self) -> Vec<PinPose> {
+        self.model.layout.poses()
     }
 }

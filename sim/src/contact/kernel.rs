@@ -156,6 +156,12 @@ impl DepthKernel {
         Self { c: 1.0 / (4.0 * PI * m.shear_modulus_mpa), k: 1.0 - 2.0 * nu, two_one_minus_nu: 2.0 * (1.0 - nu) }
     }
 
+    /// `[c, k, 2 (1 - nu)]` of [`DepthKernel::displacement`] (the GPU's copy).
+    #[cfg(feature = "wgpu")]
+    pub(crate) fn coefficients(&self) -> [f64; 3] {
+        [self.c, self.k, self.two_one_minus_nu]
+    }
+
     /// Displacement (mm) at `offset` (lateral x, y; depth z >= 0) from the surface force
     /// `(qx, qy, p)` (N).
     #[inline]

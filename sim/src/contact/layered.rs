@@ -274,6 +274,19 @@ const TABLE_STEP_MM: f64 = 0.08;
 const SURFACE_PARITY: [f64; 4] = [1.0, -1.0, 1.0, 1.0];
 const DEPTH_PARITY: [f64; 5] = [1.0, -1.0, -1.0, 1.0, 1.0];
 
+/// The depth tables of [`LayeredKernels`], borrowed (for the GPU's copy).
+#[cfg(feature = "wgpu")]
+pub(crate) struct DepthTables<'a> {
+    /// Row spacing in `r` (mm).
+    pub dr_mm: f64,
+    /// `[F_zz, F_pr, F_zq, F_s, F_d]` at the pin depth, one row per `r`.
+    pub depth: &'a [[f64; 5]],
+    /// Their derivatives in depth (per mm).
+    pub depth_dz: &'a [[f64; 5]],
+    /// Each column's parity in `r`.
+    pub parity: [f64; 5],
+}
+
 /// Gauss points per wavenumber interval.
 const GAUSS_POINTS: usize = 8;
 /// The transforms stop where their integrands have fallen by `exp(-DECAY)`.
@@ -409,6 +422,12 @@ impl LayeredKernels {
     pub fn surface_correction(&self, force: [f64; 3], x: f64, y: f64) -> [f64; 3] {
         let [zz, pr, s, d] = self.surface_radial(x.hypot(y));
         combine(force, x, y, zz, pr, -pr, s, d)
+    }
+
+    /// The tables of [`LayeredKernels::displacement`] (the GPU's copy).
+    #[cfg(feature = "wgpu")]
+    pub(crate) fn depth_tables(&self) -> DepthTables<'_> {
+        DepthTables { dr_mm: self.dr_mm, depth: &self.depth, depth_dz: &self.depth_dz, parity: DEPTH_PARITY }
     }
 
     /// Displacement (mm; `z` into the body) at depth `depth_mm` (close to the pin depth: linear

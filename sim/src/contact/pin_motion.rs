@@ -32,7 +32,7 @@ use rayon::prelude::*;
 use super::grid::Grid;
 use super::kernel::DepthKernel;
 use super::layered::LayeredKernels;
-use crate::pins::{PinLayout, PinPose};
+use crate::pins::{Pin, PinLayout, PinPose};
 
 /// Finite-difference step for the rotation (mm).
 const STEP_MM: f64 = 1e-3;
@@ -67,7 +67,7 @@ impl PinKernel<'_> {
 
     /// Depth (mm) of the point `p` (in the layout's frame) near the pin base `base` on a dome
     /// of outer radius `dome_radius_mm`.
-    fn depth(&self, dome_radius_mm: f64, base: &Vector3<f64>, p: &Vector3<f64>) -> f64 {
+    pub(crate) fn depth(&self, dome_radius_mm: f64, base: &Vector3<f64>, p: &Vector3<f64>) -> f64 {
         match self {
             PinKernel::HalfSpace(_) => dome_radius_mm - p.z,
             PinKernel::Layered(k) => k.pin_depth_mm() + base.z - p.z,
@@ -78,11 +78,11 @@ impl PinKernel<'_> {
 /// A group of loaded cells (or blocks): their total force at the load-weighted centroid, and
 /// the range of its members.
 #[derive(Clone, Debug)]
-struct Group {
-    x: f64,
-    y: f64,
-    f: [f64; 3],
-    members: std::ops::Range<usize>,
+pub(crate) struct Group {
+    pub x: f64,
+    pub y: f64,
+    pub f: [f64; 3],
+    pub members: std::ops::Range<usize>,
 }
 
 impl Group {
@@ -120,17 +120,17 @@ pub const PIN_SUBSQUARES: usize = 3;
 /// `SUPER x SUPER` blocks.
 #[derive(Clone, Debug, Default)]
 pub struct CellForces {
-    x: Vec<f64>,
-    y: Vec<f64>,
-    f: Vec<[f64; 3]>,
-    blocks: Vec<Group>,
-    supers: Vec<Group>,
-    far2: f64,
-    super_far2: f64,
+    pub(crate) x: Vec<f64>,
+    pub(crate) y: Vec<f64>,
+    pub(crate) f: Vec<[f64; 3]>,
+    pub(crate) blocks: Vec<Group>,
+    pub(crate) supers: Vec<Group>,
+    pub(crate) far2: f64,
+    pub(crate) super_far2: f64,
     /// Cell side (mm).
-    cell_mm: f64,
+    pub(crate) cell_mm: f64,
     /// Sub-squares per side of a near cell.
-    subsquares: usize,
+    pub(crate) subsquares: usize,
 }
 
 impl CellForces {
@@ -177,6 +177,14 @@ impl CellForces {
         out
     }
 
+    /// The near cells' rule: squared distance (mm^2) within which a cell acts as sub-squares,
+    /// the sub-square's side (mm) and the offset of the first sub-square's centre from the
+    /// cell's (mm).
+    pub(crate) fn near_rule(&self) -> (f64, f64, f64) {
+        let sub_mm = self.cell_mm / self.subsquares as f64;
+        ((NEAR_CELLS * self.cell_mm).powi(2), sub_mm, -0.5 * self.cell_mm + 0.5 * sub_mm)
+    }
+
     /// Whether no cell is loaded.
     pub fn is_empty(&self) -> bool {
         self.f.is_empty()
@@ -204,11 +212,9 @@ impl CellForces {
         };
         let p0 = at[0];
         let dist2 = |x: f64, y: f64| (p0.x - x).powi(2) + (p0.y - y).powi(2) + depth[0] * depth[0];
-        let near2 = (NEAR_CELLS * self.cell_mm).powi(2);
+        let (near2, sub_mm, first_mm) = self.near_rule();
         let sub = self.subsquares;
-        let sub_mm = self.cell_mm / sub as f64;
         let sub_force = |f: [f64; 3]| f.map(|v| v / (sub * sub) as f64);
-        let first_mm = -0.5 * self.cell_mm + 0.5 * sub_mm;
         for s in &self.supers {
             if !exact && dist2(s.x, s.y) > self.super_far2 {
                 add(s.x, s.y, s.f);
@@ -256,25 +262,44 @@ pub fn displaced_pins(
         .par_iter()
         .map(|pin| {
             let base = pin.base.coords;
-            let (u, omega) = if layout.patch_radius_mm > 0.0 {
-                // The mean over the base and six points on the patch's circle (in the contact
-                // plane's x, y, at the base's depth).
-                let mut sum = skin_motion(kernel, dome_radius_mm, forces, exact, &base, base);
-                for k in 0..6 {
-                    let (s, c) = (std::f64::consts::FRAC_PI_3 * k as f64).sin_cos();
-                    let at = base + Vector3::new(c, s, 0.0) * layout.patch_radius_mm;
-                    let m = skin_motion(kernel, dome_radius_mm, forces, exact, &base, at);
-                    sum = (sum.0 + m.0, sum.1 + m.1);
-                }
-                (sum.0 / 7.0, sum.1 / 7.0)
-            } else {
-                skin_motion(kernel, dome_radius_mm, forces, exact, &base, base)
-            };
-            let lever = pin.tip.coords - base;
-            let axis = (pin.normal + omega.cross(&pin.normal)).normalize();
-            PinPose { tip: (pin.tip.coords + u + omega.cross(&lever)).into(), axis }
+            let motions: Vec<_> = patch_points(layout, &base)
+                .map(|at| skin_motion(kernel, dome_radius_mm, forces, exact, &base, at))
+                .collect();
+            moved_pin(pin, &motions)
         })
         .collect()
+}
+
+/// The points whose skin motion moves the pin with base `base`: the base, then with a skin
+/// patch (`layout.patch_radius_mm > 0`) six points on the patch's circle (in the contact
+/// plane's x, y, at the base's depth).
+pub(crate) fn patch_points(layout: &PinLayout, base: &Vector3<f64>) -> impl Iterator<Item = Vector3<f64>> {
+    let (base, a) = (*base, layout.patch_radius_mm);
+    let ring = if a > 0.0 { 6 } else { 0 };
+    std::iter::once(base).chain((0..ring).map(move |k| {
+        let (s, c) = (std::f64::consts::FRAC_PI_3 * k as f64).sin_cos();
+        base + Vector3::new(c, s, 0.0) * a
+    }))
+}
+
+/// The pin moved by the skin motions (displacement mm, rotation rad) at its
+/// [`patch_points`], in their order: their mean displaces the base and turns the post.
+pub(crate) fn moved_pin(pin: &Pin, motions: &[(Vector3<f64>, Vector3<f64>)]) -> PinPose {
+    let (u, omega) = match motions {
+        [one] => *one,
+        [first, rest @ ..] => {
+            let mut sum = *first;
+            for m in rest {
+                sum = (sum.0 + m.0, sum.1 + m.1);
+            }
+            let n = motions.len() as f64;
+            (sum.0 / n, sum.1 / n)
+        }
+        [] => return PinPose { tip: pin.tip, axis: pin.normal },
+    };
+    let lever = pin.tip.coords - pin.base.coords;
+    let axis = (pin.normal + omega.cross(&pin.normal)).normalize();
+    PinPose { tip: (pin.tip.coords + u + omega.cross(&lever)).into(), axis }
 }
 
 /// Displacement (mm) and rotation `omega = curl(u) / 2` (rad) of the skin at `at`, near the pin
@@ -287,12 +312,31 @@ fn skin_motion(
     base: &Vector3<f64>,
     at: Vector3<f64>,
 ) -> (Vector3<f64>, Vector3<f64>) {
-    let points = [at, at + Vector3::x() * STEP_MM, at + Vector3::y() * STEP_MM, at + Vector3::z() * STEP_MM];
+    let points = stencil(at);
     let depth = points.map(|p| kernel.depth(dome_radius_mm, base, &p));
-    let [u, ux, uy, uz] = forces.displacements(kernel, &points, &depth, exact);
+    motion_from_stencil(&forces.displacements(kernel, &points, &depth, exact))
+}
+
+/// The finite-difference stencil at `at`: the point, then one step (`STEP_MM`) along x, y, z.
+pub(crate) fn stencil(at: Vector3<f64>) -> [Vector3<f64>; 4] {
+    [at, at + Vector3::x() * STEP_MM, at + Vector3::y() * STEP_MM, at + Vector3::z() * STEP_MM]
+}
+
+/// Displacement and rotation from the displacements at the [`stencil`]'s points.
+pub(crate) fn motion_from_stencil(u: &[Vector3<f64>; 4]) -> (Vector3<f64>, Vector3<f64>) {
+    let [u, ux, uy, uz] = *u;
     // Gradient by forward differences: column k = d u / d x_k.
     let (gx, gy, gz) = ((ux - u) / STEP_MM, (uy - u) / STEP_MM, (uz - u) / STEP_MM);
     (u, 0.5 * Vector3::new(gy.z - gz.y, gz.x - gx.z, gx.y - gy.x))
+}
+
+/// What the pins of one contact state depend on, handed whole to the GPU (`crate::gpu`).
+pub(crate) struct PinLoad<'a> {
+    /// The pins, in the grid's frame.
+    pub layout: &'a PinLayout,
+    pub kernel: PinKernel<'a>,
+    pub dome_radius_mm: f64,
+    pub forces: CellForces,
 }
 
 #[cfg(test)]

@@ -94,7 +94,7 @@ pub struct Job {
     /// The GPU that rasterises the images in batches (`tacsim generate --device gpu`); `None`
     /// (as [`Job::new`] leaves it): the CPU per image.
     #[cfg(feature = "wgpu")]
-    pub gpu: Option<crate::gpu_raster::GpuRaster>,
+    pub gpu: Option<crate::gpu::Gpu>,
     model: ContactModel,
     renderer: PinRenderer,
     scenes: Vec<Scene>,
@@ -137,6 +137,19 @@ impl Job {
             renderer,
             scenes,
         })
+    }
+
+    /// What [`Job::run`] generates from, with the CPU.
+    #[cfg(all(test, feature = "wgpu"))]
+    pub(crate) fn context(&self) -> super::generate::Context<'_> {
+        super::generate::Context {
+            plan: &self.plan,
+            model: &self.model,
+            scenes: &self.scenes,
+            renderer: &self.renderer,
+            source: &self.source,
+            gpu: None,
+        }
     }
 
     /// Images this run makes (its shard's).

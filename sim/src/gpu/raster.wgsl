@@ -1,7 +1,9 @@
-// The binary pin image on the GPU (tacsim-sim `gpu_raster.rs`), the rule of `raster.rs`: a
+// The binary pin image on the GPU (tacsim-sim `gpu/raster.rs`), the rule of `raster.rs`: a
 // pixel is white when some disc covers at least half of it (exact area), decided by the
 // distance to the disc's centre outside a thin band around the half-coverage boundary and by
-// the exact area inside it. One invocation per pixel of each image; f32 throughout.
+// the exact area inside it. One invocation per pixel of each image; f32 throughout, or f64
+// throughout where `gpu/raster.rs` builds this text with every `f32` made `f64` (adapters
+// with SHADER_F64).
 
 struct Params {
     size: u32,
@@ -11,7 +13,8 @@ struct Params {
 };
 
 @group(0) @binding(0) var<uniform> params: Params;
-// Per disc: centre u, v (px), radius r (px), unused.
+// Per disc, two entries: the centre's u, v rounded to f32 (px), radius r (px), unused; then
+// what that rounding left of u and v (px), unused, unused.
 @group(0) @binding(1) var<storage, read> discs: array<vec4<f32>>;
 // Per image: first disc, disc count.
 @group(0) @binding(2) var<storage, read> ranges: array<vec2<u32>>;
@@ -22,21 +25,21 @@ struct Params {
 const BAND_OUTER: f32 = 0.03;
 const BAND_INNER: f32 = 0.12;
 
-// asin(z) for |z| <= 1/2 by its series to z^19 (truncation below 1e-8): the shader's own
-// asin may be far less precise (llvmpipe's is off by about 2e-4 rad, enough to turn
-// pixels near half coverage).
+// asin(z) for |z| <= 1/2 by its series, `ASIN_TERMS` terms past z (the last below 1e-17 of
+// z): the shader's own asin may be far less precise (llvmpipe's is off by about 2e-4 rad,
+// enough to turn pixels near half coverage). Term n+1 is term n times
+// z^2 (2n+1)^2 / ((2n+2)(2n+3)).
+const ASIN_TERMS: u32 = 26u;
 fn asin_series(z: f32) -> f32 {
     let z2 = z * z;
-    var p = 0.0097616;
-    p = p * z2 + 0.0115518;
-    p = p * z2 + 0.0139648;
-    p = p * z2 + 0.0173528;
-    p = p * z2 + 0.0223722;
-    p = p * z2 + 0.0303819;
-    p = p * z2 + 0.0446429;
-    p = p * z2 + 0.075;
-    p = p * z2 + 0.1666667;
-    return z + z * z2 * p;
+    var term: f32 = z;
+    var sum: f32 = z;
+    for (var n = 0u; n < ASIN_TERMS; n++) {
+        let k = f32(n);
+        term = term * z2 * ((2.0 * k + 1.0) * (2.0 * k + 1.0)) / ((2.0 * k + 2.0) * (2.0 * k + 3.0));
+        sum = sum + term;
+    }
+    return sum;
 }
 
 // asin(z) on [-1, 1]: the series, or pi/2 - 2 asin(sqrt((1 - |z|) / 2)) above 1/2.
@@ -45,7 +48,7 @@ fn asin_precise(z: f32) -> f32 {
     if (a <= 0.5) {
         return asin_series(z);
     }
-    let v = 1.5707963 - 2.0 * asin_series(sqrt(max(0.5 * (1.0 - a), 0.0)));
+    let v = 1.5707963267948966 - 2.0 * asin_series(sqrt(max(0.5 * (1.0 - a), 0.0)));
     return select(v, -v, z < 0.0);
 }
 
@@ -91,7 +94,7 @@ fn box_coverage(x0: f32, x1: f32, y0: f32, y1: f32, r: f32) -> f32 {
         }
         cuts[j] = v;
     }
-    var area = 0.0;
+    var area: f32 = 0.0;
     for (var i = 0u; i < n; i++) {
         let s = cuts[i];
         let t = cuts[i + 1u];
@@ -126,10 +129,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let y = f32(id.y);
     var on = false;
     for (var k = range.x; k < range.x + range.y; k++) {
-        let d = discs[k];
+        let d = discs[2u * k];
+        let lo = discs[2u * k + 1u];
         let r = d.z;
-        let dx = x + 0.5 - d.x;
-        let dy = y + 0.5 - d.y;
+        // The pixel's corner from the centre: x - hi is exact near the disc (Sterbenz), so
+        // the offset carries the centre to about 1e-7 px, not f32's 4e-6 px at 100 px.
+        let ox = (x - d.x) - lo.x;
+        let oy = (y - d.y) - lo.y;
+        let dx = ox + 0.5;
+        let dy = oy + 0.5;
         var inner2 = r * r - 0.5;
         var outer2 = r * r;
         if (r >= 1.0) {
@@ -141,7 +149,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             on = true;
             break;
         }
-        if (d2 < outer2 && box_coverage(x - d.x, x + 1.0 - d.x, y - d.y, y + 1.0 - d.y, r) >= 0.5) {
+        if (d2 < outer2 && box_coverage(ox, ox + 1.0, oy, oy + 1.0, r) >= 0.5) {
             on = true;
             break;
         }
