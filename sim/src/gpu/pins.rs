@@ -77,11 +77,10 @@ impl Gpu {
         let loads: Vec<Option<PinLoad<'_>>> = states.iter().map(|s| s.pin_load()).collect();
         let mut out: Vec<Option<Vec<PinPose>>> = vec![None; states.len()];
         // Batches of whole states below the dispatch's size.
-        let mut chunk: Vec<usize> = Vec::new();
-        let mut points = 0;
-        let loaded: Vec<usize> = (0..states.len()).filter(|&k| loads[k].is_some()).collect();
-        for (n, &k) in loaded.iter().enumerate() {
-            let load = loads[k].as_ref().expect("loaded");
+        let loaded: Vec<(usize, &PinLoad<'_>)> =
+            loads.iter().enumerate().filter_map(|(k, l)| l.as_ref().map(|l| (k, l))).collect();
+        let (mut chunk, mut points) = (Vec::new(), 0);
+        for (n, &(k, load)) in loaded.iter().enumerate() {
             let count = load.layout.pins.len() * patch_points(load.layout, &Vector3::zeros()).count();
             if !chunk.is_empty() && points + count > MAX_POINTS {
                 self.pins_dispatch(pipeline, &loads, &chunk, &mut out)?;
