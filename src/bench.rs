@@ -196,24 +196,16 @@ pub struct GpuRasterBench {
 #[cfg(feature = "wgpu")]
 const GPU_FRAMES: usize = 256;
 
-/// [`GpuRasterBench`] on `gpu` for the pins of `taps`, cycled to [`GPU_FRAMES`] frames.
+/// [`GpuRasterBench`] on `gpu` for the pins of the contact `states`, cycled to [`GPU_FRAMES`]
+/// frames.
 #[cfg(feature = "wgpu")]
 fn gpu_raster_bench(
     gpu: &tacsim_sim::Gpu,
-    model: &ContactModel,
-    scene: &Scene,
     renderer: &PinRenderer,
-    taps: &[(SensorPose, [f64; 2])],
+    states: &[Simulation<'_>],
     single: &rayon::ThreadPool,
 ) -> Result<GpuRasterBench> {
-    let pins: Vec<Vec<PinPose>> = taps
-        .iter()
-        .map(|(pose, _)| -> Result<_> {
-            let mut sim = Simulation::new(model, scene, &[*pose]);
-            sim.step(*pose)?;
-            Ok(sim.pins())
-        })
-        .collect::<Result<_>>()?;
+    let pins: Vec<Vec<PinPose>> = states.iter().map(Simulation::pins).collect();
     let nominal = tacsim_sim::Variation::NOMINAL;
     let batch: Vec<(&[PinPose], &tacsim_sim::Variation)> =
         (0..GPU_FRAMES).map(|k| (pins[k % pins.len()].as_slice(), &nominal)).collect();
@@ -235,27 +227,33 @@ fn gpu_raster_bench(
     })
 }
 
-/// [`GpuPinsBench`] on `gpu` for the contact states of `taps`, cycled to [`GPU_FRAMES`].
+/// The contact states of `taps`, each solved from its own start (the GPU benches' input).
 #[cfg(feature = "wgpu")]
-fn gpu_pins_bench(
-    gpu: &tacsim_sim::Gpu,
-    model: &ContactModel,
-    scene: &Scene,
+fn tap_states<'a>(
+    model: &'a ContactModel,
+    scene: &'a Scene,
     taps: &[(SensorPose, [f64; 2])],
-    single: &rayon::ThreadPool,
-) -> Result<Option<GpuPinsBench>> {
-    if !gpu.has_pins() {
-        return Ok(None);
-    }
-    let sims: Vec<Simulation<'_>> = taps
-        .iter()
+) -> Result<Vec<Simulation<'a>>> {
+    taps.iter()
         .map(|(pose, _)| -> Result<_> {
             let mut sim = Simulation::new(model, scene, &[*pose]);
             sim.step(*pose)?;
             Ok(sim)
         })
-        .collect::<Result<_>>()?;
-    let batch: Vec<&Simulation<'_>> = (0..GPU_FRAMES).map(|k| &sims[k % sims.len()]).collect();
+        .collect()
+}
+
+/// [`GpuPinsBench`] on `gpu` for the contact `states`, cycled to [`GPU_FRAMES`].
+#[cfg(feature = "wgpu")]
+fn gpu_pins_bench(
+    gpu: &tacsim_sim::Gpu,
+    states: &[Simulation<'_>],
+    single: &rayon::ThreadPool,
+) -> Result<Option<GpuPinsBench>> {
+    if !gpu.has_pins() {
+        return Ok(None);
+    }
+    let batch: Vec<&Simulation<'_>> = (0..GPU_FRAMES).map(|k| &states[k % states.len()]).collect();
     let t = Instant::now();
     let cpu: Vec<Vec<PinPose>> = single.install(|| batch.iter().map(|s| s.pins()).collect());
     let cpu_ms = t.elapsed().as_secs_f64() * 1e3 / GPU_FRAMES as f64;
@@ -374,10 +372,10 @@ pub fn run(
     curve.extend(step_curve(&model, &scene, &renderer, &poses[..samples_n.min(8)], &single)?);
     #[cfg(feature = "wgpu")]
     let (gpu_raster, gpu_pins) = match &gpu {
-        Some(gpu) => (
-            Some(gpu_raster_bench(gpu, &model, &scene, &renderer, few, &single)?),
-            gpu_pins_bench(gpu, &model, &scene, few, &single)?,
-        ),
+        Some(gpu) => {
+            let states = tap_states(&model, &scene, few)?;
+            (Some(gpu_raster_bench(gpu, &renderer, &states, &single)?), gpu_pins_bench(gpu, &states, &single)?)
+        }
         None => (None, None),
     };
     #[cfg(not(feature = "wgpu"))]

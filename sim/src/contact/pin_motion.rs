@@ -285,18 +285,9 @@ pub(crate) fn patch_points(layout: &PinLayout, base: &Vector3<f64>) -> impl Iter
 /// The pin moved by the skin motions (displacement mm, rotation rad) at its
 /// [`patch_points`], in their order: their mean displaces the base and turns the post.
 pub(crate) fn moved_pin(pin: &Pin, motions: &[(Vector3<f64>, Vector3<f64>)]) -> PinPose {
-    let (u, omega) = match motions {
-        [one] => *one,
-        [first, rest @ ..] => {
-            let mut sum = *first;
-            for m in rest {
-                sum = (sum.0 + m.0, sum.1 + m.1);
-            }
-            let n = motions.len() as f64;
-            (sum.0 / n, sum.1 / n)
-        }
-        [] => return PinPose { tip: pin.tip, axis: pin.normal },
-    };
+    let n = motions.len() as f64;
+    let (u, omega) = motions.iter().fold((Vector3::zeros(), Vector3::zeros()), |s, m| (s.0 + m.0, s.1 + m.1));
+    let (u, omega) = (u / n, omega / n);
     let lever = pin.tip.coords - pin.base.coords;
     let axis = (pin.normal + omega.cross(&pin.normal)).normalize();
     PinPose { tip: (pin.tip.coords + u + omega.cross(&lever)).into(), axis }

@@ -91,8 +91,8 @@ pub struct Job {
     pub sensor: SensorParams,
     /// Shard `(i, n)` of the plan, or all of it.
     pub shard: Option<(usize, usize)>,
-    /// The GPU that rasterises the images in batches (`tacsim generate --device gpu`); `None`
-    /// (as [`Job::new`] leaves it): the CPU per image.
+    /// The GPU that moves the pins and rasterises the images in batches (`tacsim generate
+    /// --device gpu`); `None` (as [`Job::new`] leaves it): the CPU per image.
     #[cfg(feature = "wgpu")]
     pub gpu: Option<crate::gpu::Gpu>,
     model: ContactModel,
