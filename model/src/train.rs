@@ -291,17 +291,35 @@ fn shifts(n: usize, max: i32, rng: &mut ChaCha8Rng) -> Vec<(i32, i32)> {
         .collect()
 }
 
-/// The training device, seeded, after checking the data was loaded at the config's size.
-fn seeded_device(corpus: &Corpus, size: usize, backend: Backend, seed: u64) -> Result<burn::tensor::Device> {
+/// Checks the data was loaded at the config's side `size` (px).
+fn check_side(corpus: &Corpus, size: usize) -> Result<()> {
     if corpus.side() != size {
         return Err(ModelError::config(
             "size",
             format!("the data was loaded at {} px, the config says {size}", corpus.side()),
         ));
     }
+    Ok(())
+}
+
+/// The training device and a network `build` makes on it from `seed`.
+///
+/// A device's random stream is one per process (`Device::seed` sets it for every user of the
+/// device), so seeding and drawing the initial weights happen under one lock: two trainings
+/// started at once in one process (tests on parallel threads, a library user's threads) would
+/// otherwise interleave their draws and each start from weights no seed gives.
+fn seeded<M>(
+    backend: Backend,
+    seed: u64,
+    build: impl FnOnce(&burn::tensor::Device) -> Result<M>,
+) -> Result<(burn::tensor::Device, M)> {
+    static DRAWS: std::sync::Mutex<()> = std::sync::Mutex::new(());
     let device = backend.training_device();
+    // A thread that panicked while holding the lock left no state behind it: carry on.
+    let _draws = DRAWS.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     device.seed(seed);
-    Ok(device)
+    let model = build(&device)?;
+    Ok((device, model))
 }
 
 /// Trains the shear-removal model on `corpus` into the run directory `out`.
@@ -318,16 +336,19 @@ pub fn train_unshear(
     progress: &mut dyn Progress,
 ) -> Result<(Unshear, TrainState)> {
     cfg.validate()?;
-    let device = seeded_device(corpus, cfg.size, backend, cfg.seed)?;
-    let mut model = Unshear::new(cfg.net_size()?, &device);
-    if let Some(path) = init {
-        model = load_weights(model, path)?;
-    }
-    // The critic only where a self-supervised phase uses it, added after `--init`: those
-    // weights need not hold one.
-    if cfg.uses_critic() {
-        model = model.with_critic(cfg.net_size()?, &device);
-    }
+    check_side(corpus, cfg.size)?;
+    let (device, model) = seeded(backend, cfg.seed, |device| {
+        let mut model = Unshear::new(cfg.net_size()?, device);
+        if let Some(path) = init {
+            model = load_weights(model, path)?;
+        }
+        // The critic only where a self-supervised phase uses it, added after `--init`: those
+        // weights need not hold one.
+        if cfg.uses_critic() {
+            model = model.with_critic(cfg.net_size()?, device);
+        }
+        Ok(model)
+    })?;
     let settings = LoopSettings {
         batch: cfg.batch,
         max_batches: cfg.max_batches_per_epoch,
@@ -402,7 +423,7 @@ pub fn train_posenet(
     progress: &mut dyn Progress,
 ) -> Result<(PoseNet, TrainState)> {
     cfg.validate()?;
-    let device = seeded_device(corpus, cfg.size, backend, cfg.seed)?;
+    check_side(corpus, cfg.size)?;
     let rows = corpus.pose_rows(Split::Train, &cfg.labels);
     if rows.is_empty() {
         return Err(ModelError::Insufficient(format!(
@@ -412,10 +433,13 @@ pub fn train_posenet(
         )));
     }
     let scale = corpus.pose_scale(&cfg.labels, &rows);
-    let mut model = canonical_ids(PoseNet::new(cfg.net_size()?, cfg.hidden, scale.width(), &device));
-    if let Some(path) = init {
-        model = load_weights(model, path)?;
-    }
+    let (device, model) = seeded(backend, cfg.seed, |device| {
+        let model = canonical_ids(PoseNet::new(cfg.net_size()?, cfg.hidden, scale.width(), device));
+        match init {
+            Some(path) => load_weights(model, path),
+            None => Ok(model),
+        }
+    })?;
     let settings = LoopSettings {
         batch: cfg.batch,
         max_batches: cfg.max_batches_per_epoch,

@@ -309,3 +309,27 @@ fn shifted_supervised_targets_blurred_the_unsheared_images() {
     let (t, _) = corpus.pair_batch(pairs, &shifts, true, &device);
     assert_eq!(pixels(t), pixels(corpus.batch(&taps, &shifts, &device)), "shift_targets shifts both");
 }
+
+/// What broke: a device's random stream is one per process, so two trainings started at once
+/// (the tests' parallel threads) seeded it in turn and drew each other's numbers: each started
+/// from weights no seed gives, and a parity test on a GPU machine failed on one such start.
+/// Four runs from one seed, started together, must write the bytes one run alone writes.
+#[test]
+fn trainings_started_at_once_start_from_their_own_seeds() {
+    let (dir, corpus) = corpus("pose-at-once");
+    let cfg =
+        PoseConfig { size: 64, batch: 4, epochs: 1, max_batches_per_epoch: 1, hidden: 8, ..PoseConfig::default() };
+    let run = |name: String| {
+        let out = dir.join(name);
+        train_posenet(&corpus, &cfg, Backend::Flex, &out, false, None, &mut Silent).expect("posenet");
+        std::fs::read(out.join("model.safetensors")).expect("weights")
+    };
+    let alone = run("alone".into());
+    let together: Vec<Vec<u8>> = std::thread::scope(|s| {
+        let runs: Vec<_> = (0..4).map(|i| s.spawn(move || run(format!("together-{i}")))).collect();
+        runs.into_iter().map(|r| r.join().expect("thread")).collect()
+    });
+    for (i, bytes) in together.iter().enumerate() {
+        assert!(*bytes == alone, "run {i} of four started together wrote other weights than a run alone");
+    }
+}
