@@ -40,7 +40,7 @@ pub struct TrainOptions {
     /// TOML config (fields of the crate's UnshearConfig / PoseConfig); flags override it.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Image side: 256 (paper), 128 or 64; the dataset is resized to it.
+    /// Image side: 256 (paper), 128, 64 or 32; the dataset is resized to it.
     #[arg(long)]
     pub size: Option<usize>,
     /// Epochs (each phase of the unshear model; the pose network's).

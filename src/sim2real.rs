@@ -61,7 +61,7 @@ pub struct Sim2RealOptions {
     /// trainings; the flags below override it.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Network image side: 64, 128 or 256.
+    /// Network image side: 32, 64, 128 or 256.
     #[arg(long, default_value_t = 64)]
     pub size: usize,
     /// Epochs of both trainings.

@@ -40,7 +40,7 @@ fn bad_training_input_is_a_clear_error() {
     let e = err(&["train", "unshear", "--data", s(&dir.join("missing")), "--out", s(&out), "-q"]);
     assert!(e.contains("targets.csv"), "{e}");
     let e = err(&["train", "unshear", "--data", s(&dir), "--out", s(&out), "--size", "100", "-q"]);
-    assert!(e.contains("256, 128 or 64"), "{e}");
+    assert!(e.contains("256, 128, 64 or 32"), "{e}");
     let cfg = dir.join("bad.toml");
     std::fs::write(&cfg, "bach = 3\n").expect("config");
     let e = err(&["train", "unshear", "--data", s(&dir), "--out", s(&out), "--config", s(&cfg), "-q"]);

@@ -29,7 +29,7 @@ pub enum Mode {
 pub struct UnshearConfig {
     /// Which training (default semi-supervised).
     pub mode: Mode,
-    /// Image side (px): 256 (paper), 128 or 64.
+    /// Image side (px): 256 (paper), 128, 64 or 32.
     pub size: usize,
     /// Batch size (paper: 32).
     pub batch: usize,
@@ -183,7 +183,7 @@ impl UnshearConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PoseConfig {
-    /// Image side (px): 256, 128 or 64.
+    /// Image side (px): 256, 128, 64 or 32.
     pub size: usize,
     /// Batch size.
     pub batch: usize,
@@ -272,7 +272,8 @@ pub fn size_of(px: usize) -> Result<Size> {
         256 => Ok(Size::S256),
         128 => Ok(Size::S128),
         64 => Ok(Size::S64),
-        _ => Err(ModelError::config("size", format!("{px} px is not a network size: use 256, 128 or 64"))),
+        32 => Ok(Size::S32),
+        _ => Err(ModelError::config("size", format!("{px} px is not a network size: use 256, 128, 64 or 32"))),
     }
 }
 
@@ -307,7 +308,7 @@ mod tests {
         let err = UnshearConfig { beta1: f64::NAN, ..c.clone() }.validate().expect_err("nan");
         assert!(err.to_string().starts_with("beta1"), "{err}");
         let err = UnshearConfig { size: 100, ..c }.validate().expect_err("size");
-        assert!(err.to_string().contains("256, 128 or 64"), "{err}");
+        assert!(err.to_string().contains("256, 128, 64 or 32"), "{err}");
         let err = serde_json::from_str::<UnshearConfig>(r#"{"bach": 3}"#).expect_err("unknown");
         assert!(err.to_string().contains("bach"), "{err}");
         let p = PoseConfig::default();

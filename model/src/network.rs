@@ -37,6 +37,9 @@ pub enum Size {
     S128,
     /// 64x64.
     S64,
+    /// 32x32: each pixel a 4x4 block of a 128 px image, about one pin spacing across, so the
+    /// network sees how densely the pins lie, not the pins.
+    S32,
 }
 
 impl Size {
@@ -46,6 +49,7 @@ impl Size {
             Size::S256 => 256,
             Size::S128 => 128,
             Size::S64 => 64,
+            Size::S32 => 32,
         }
     }
 
@@ -55,6 +59,7 @@ impl Size {
             Size::S256 => 0,
             Size::S128 => 1,
             Size::S64 => 2,
+            Size::S32 => 3,
         }
     }
 }
@@ -276,7 +281,7 @@ mod tests {
     fn shapes_follow_the_paper_at_every_size_and_parameter_counts_are_documented() {
         let device = Device::flex();
         let mut counts = Vec::new();
-        for size in [Size::S256, Size::S128, Size::S64] {
+        for size in [Size::S256, Size::S128, Size::S64, Size::S32] {
             let s = size.px();
             let x = Tensor::<4>::zeros([2, 1, s, s], &device);
             let (es, dt, ds, et) = (
