@@ -251,7 +251,8 @@ fn randomised_recipes_keep_the_draws_record_the_variation_and_stay_deterministic
         &randomised,
         format!(
             "{quick}\n[randomise]\ncamera_shift_px = [-2.0, 2.0]\ncamera_roll_deg = [-1.0, 1.0]\npin_scale = [0.9, 1.1]\n\
-             depth_offset_mm = [0.0, 0.2]\nblur_px = [0.0, 1.0]\nthreshold = [0.4, 0.6]\nspecks = [0, 10]\n"
+             depth_offset_mm = [0.0, 0.2]\nblur_px = [0.0, 1.0]\nthreshold = [0.4, 0.6]\nspecks = [0, 10]\n\
+             pin_jitter_px = [0.0, 0.5]\n"
         ),
     )
     .expect("recipe");
@@ -273,6 +274,7 @@ fn randomised_recipes_keep_the_draws_record_the_variation_and_stay_deterministic
         let scale = r.dr_pin_scale.expect("dr_pin_scale recorded");
         assert!((0.9..=1.1).contains(&scale), "{scale}");
         assert!(r.dr_specks.is_some_and(|n| n <= 10) && r.dr_threshold.is_some_and(|t| (0.4..=0.6).contains(&t)));
+        assert!(r.dr_pin_jitter_px.is_some_and(|j| (0.0..=0.5).contains(&j)));
         assert!(p.dr_pin_scale.is_none(), "no dr_* columns without [randomise]");
     }
     let header = |f: &BTreeMap<String, Vec<u8>>| {

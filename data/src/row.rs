@@ -79,6 +79,9 @@ pub struct Row {
     /// Factor on the pin tips' radius; with `[randomise]` only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dr_pin_scale: Option<f64>,
+    /// Standard deviation of the pins' image offsets (px); with `[randomise]` only.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dr_pin_jitter_px: Option<f64>,
     /// Added to the pressed depth, label unchanged (mm); with `[randomise]` only.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dr_depth_offset_mm: Option<f64>,

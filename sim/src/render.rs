@@ -159,7 +159,7 @@ impl PinRenderer {
     }
 
     /// Renders pins at `pins` with a sample's [`Variation`]: pins rolled about the camera
-    /// axis, tips scaled, the field shifted; specks added over the pin field; then either the
+    /// axis, tips scaled, each pin offset by its jitter, the field shifted; specks added over the pin field; then either the
     /// binary coverage test or, with blur or another threshold, coverage blurred and cut at
     /// the threshold; framed as [`Self::render`]. Equal to [`Self::render`] for
     /// [`Variation::NOMINAL`].
@@ -188,7 +188,8 @@ impl PinRenderer {
         out
     }
 
-    /// The discs of [`Self::render_varied`]: pins rolled, scaled and shifted, specks added.
+    /// The discs of [`Self::render_varied`]: pins rolled, scaled, jittered and shifted, specks
+    /// added.
     pub(crate) fn varied_discs(&self, pins: &[PinPose], v: &Variation) -> Vec<Disc> {
         if *v == Variation::NOMINAL {
             return self.discs(pins);
@@ -196,6 +197,7 @@ impl PinRenderer {
         let (sin, cos) = v.roll_deg.to_radians().sin_cos();
         let roll = |x: f64, y: f64| (cos * x - sin * y, sin * x + cos * y);
         let size = self.camera.size;
+        let jitter = v.pin_jitter(pins.len());
         let mut discs: Vec<Disc> = pins
             .iter()
             .enumerate()
@@ -210,7 +212,8 @@ impl PinRenderer {
                     let (du, dv) = roll(o[0], o[1]);
                     [du, dv]
                 });
-                Some(offset_disc(d, offset.as_ref()))
+                let d = offset_disc(d, offset.as_ref());
+                Some(Disc { u: d.u + jitter[i][0], v: d.v + jitter[i][1], ..d })
             })
             .map(|d| Disc { u: d.u + v.shift_px[0], v: d.v + v.shift_px[1], ..d })
             .collect();
@@ -408,6 +411,30 @@ mod tests {
         let rolled = Variation { roll_deg: 7.0, ..Variation::NOMINAL };
         assert_ne!(r.render_varied(&pins, &rolled), nominal);
         assert_eq!(r.render_varied(&pins, &rolled), r.render_varied(&pins, &rolled));
+    }
+
+    #[test]
+    fn pin_jitter_moves_each_pin_by_its_own_normal_draw() {
+        let r = PinRenderer::new(&SensorParams::default(), 128).expect("renderer");
+        let pins = r.layout().poses();
+        let nominal = r.discs(&pins);
+        let v = Variation { pin_jitter_px: 0.5, jitter_seed: 9, ..Variation::NOMINAL };
+        let jittered = r.varied_discs(&pins, &v);
+        let draws = v.pin_jitter(pins.len());
+        assert_eq!((jittered.len(), nominal.len()), (pins.len(), pins.len()));
+        for ((j, n), d) in jittered.iter().zip(&nominal).zip(&draws) {
+            assert!((j.u - n.u - d[0]).abs() < 1e-12 && (j.v - n.v - d[1]).abs() < 1e-12 && j.r == n.r);
+        }
+        // 662 normal draws: mean 0 and standard deviation 0.5 px, within 5 standard errors.
+        let all: Vec<f64> = draws.iter().flatten().copied().collect();
+        let mean = all.iter().sum::<f64>() / all.len() as f64;
+        let sd = (all.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (all.len() - 1) as f64).sqrt();
+        assert!(mean.abs() < 5.0 * 0.5 / (all.len() as f64).sqrt(), "mean {mean}");
+        assert!((sd - 0.5).abs() < 5.0 * 0.5 / (2.0 * all.len() as f64).sqrt(), "sd {sd}");
+        // The same seed draws the same offsets, another seed others.
+        assert_eq!(r.render_varied(&pins, &v), r.render_varied(&pins, &v));
+        assert_ne!(draws, Variation { jitter_seed: 10, ..v }.pin_jitter(pins.len()));
+        assert_ne!(r.render_varied(&pins, &v), r.render(&pins));
     }
 
     #[test]

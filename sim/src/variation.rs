@@ -33,6 +33,11 @@ pub struct Variation {
     pub specks: u32,
     /// Seed of the specks' places and sizes.
     pub speck_seed: u64,
+    /// Standard deviation (px, each axis) of a random offset of every pin in the image: a pin
+    /// lattice that, as a real TacTip's, sits off the perfect layout pin by pin (0: none).
+    pub pin_jitter_px: f64,
+    /// Seed of the pins' offsets.
+    pub jitter_seed: u64,
 }
 
 impl Variation {
@@ -46,6 +51,8 @@ impl Variation {
         threshold: 0.5,
         specks: 0,
         speck_seed: 0,
+        pin_jitter_px: 0.0,
+        jitter_seed: 0,
     };
 
     /// Whether the image needs the coverage path (blur or a threshold other than 1/2).
@@ -64,6 +71,27 @@ impl Variation {
                 let rho = field_px * t.sqrt();
                 let phi = std::f64::consts::TAU * a;
                 Disc { u: centre[0] + rho * phi.cos(), v: centre[1] + rho * phi.sin(), r: k * (0.4 + 0.8 * r) }
+            })
+            .collect()
+    }
+}
+
+impl Variation {
+    /// Each of `count` pins' image offset `[du, dv]` (px): independent normal draws of
+    /// standard deviation [`Self::pin_jitter_px`] (Box-Muller on the jitter's own stream), all
+    /// zero without jitter.
+    pub fn pin_jitter(&self, count: usize) -> Vec<[f64; 2]> {
+        if self.pin_jitter_px <= 0.0 {
+            return vec![[0.0; 2]; count];
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(self.jitter_seed);
+        (0..count)
+            .map(|_| {
+                // 1 - u in (0, 1]: the logarithm stays finite.
+                let (u, a): (f64, f64) = (rng.random(), rng.random());
+                let rho = self.pin_jitter_px * (-2.0 * (1.0 - u).ln()).sqrt();
+                let phi = std::f64::consts::TAU * a;
+                [rho * phi.cos(), rho * phi.sin()]
             })
             .collect()
     }

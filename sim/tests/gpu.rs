@@ -38,6 +38,8 @@ fn a_batch_of_taps_renders_on_the_gpu_as_on_the_cpu() {
             pin_scale: 1.08,
             specks: 12,
             speck_seed: k as u64,
+            pin_jitter_px: 0.4,
+            jitter_seed: k as u64,
             ..Variation::NOMINAL
         },
         _ => Variation { blur_px: 0.8, threshold: 0.45, ..Variation::NOMINAL },

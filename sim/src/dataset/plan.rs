@@ -285,6 +285,9 @@ impl Plan {
             threshold: draw(&mut rng, d.threshold),
             specks: rng.random_range(d.specks[0]..=d.specks[1]),
             speck_seed: rng.random(),
+            // Drawn last: a recipe without jitter keeps every other draw it had.
+            pin_jitter_px: draw(&mut rng, d.pin_jitter_px),
+            jitter_seed: rng.random(),
         }
     }
 
@@ -337,6 +340,7 @@ impl Plan {
             dr_shift_y_px: dr(v.shift_px[1]),
             dr_roll_deg: dr(v.roll_deg),
             dr_pin_scale: dr(v.pin_scale),
+            dr_pin_jitter_px: dr(v.pin_jitter_px),
             dr_depth_offset_mm: dr(v.depth_offset_mm),
             dr_blur_px: dr(v.blur_px),
             dr_threshold: dr(v.threshold),

@@ -154,6 +154,8 @@ pub struct RandomiseSpec {
     pub threshold: [f64; 2],
     /// Number of bright specks over the pin field.
     pub specks: [u32; 2],
+    /// Standard deviation of each pin's random image offset, each axis (px at `image_size`).
+    pub pin_jitter_px: [f64; 2],
 }
 
 impl Default for RandomiseSpec {
@@ -166,6 +168,7 @@ impl Default for RandomiseSpec {
             blur_px: [0.0, 0.0],
             threshold: [0.5, 0.5],
             specks: [0, 0],
+            pin_jitter_px: [0.0, 0.0],
         }
     }
 }
@@ -478,6 +481,7 @@ impl Recipe {
         check.range("randomise.depth_offset_mm", d.depth_offset_mm, -5.0, 5.0)?;
         check.range("randomise.blur_px", d.blur_px, 0.0, side / 16.0)?;
         check.range("randomise.threshold", d.threshold, 0.01, 0.99)?;
+        check.range("randomise.pin_jitter_px", d.pin_jitter_px, 0.0, side / 32.0)?;
         if d.specks[0] > d.specks[1] || d.specks[1] > 1000 {
             return check
                 .bad("randomise.specks", format!("must be [low, high] with low <= high <= 1000, got {:?}", d.specks));
