@@ -584,6 +584,8 @@ mod tests {
             ("[randomise]\ncamera_shift_px = [-64.0, 64.0]\n", "randomise.camera_shift_px"),
             ("[randomise]\nblur_px = [0.0, inf]\n", "randomise.blur_px"),
             ("[randomise]\nspecks = [5, 2]\n", "randomise.specks"),
+            ("[randomise]\npin_jitter_px = [0.0, 9.0]\n", "randomise.pin_jitter_px"),
+            ("[randomise]\npin_jitter_px = [-0.5, 0.5]\n", "randomise.pin_jitter_px"),
             ("[randomise]\ndepth_offset_mm = [-2.0, 0.0]\n", "randomise.depth_offset_mm"),
             ("[randomise]\nfriction = [0.2, 0.8]\n", "friction"),
             ("[rig]\ndepth_compliance = -0.1\n", "rig.depth_compliance"),
