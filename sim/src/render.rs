@@ -197,7 +197,8 @@ impl PinRenderer {
         let (sin, cos) = v.roll_deg.to_radians().sin_cos();
         let roll = |x: f64, y: f64| (cos * x - sin * y, sin * x + cos * y);
         let size = self.camera.size;
-        let jitter = v.pin_jitter(pins.len());
+        // Only where the sample jitters: no allocation on the renderer's path otherwise.
+        let jitter = (v.pin_jitter_px > 0.0).then(|| v.pin_jitter(pins.len()));
         let mut discs: Vec<Disc> = pins
             .iter()
             .enumerate()
@@ -213,7 +214,10 @@ impl PinRenderer {
                     [du, dv]
                 });
                 let d = offset_disc(d, offset.as_ref());
-                Some(Disc { u: d.u + jitter[i][0], v: d.v + jitter[i][1], ..d })
+                Some(match &jitter {
+                    Some(j) => Disc { u: d.u + j[i][0], v: d.v + j[i][1], ..d },
+                    None => d,
+                })
             })
             .map(|d| Disc { u: d.u + v.shift_px[0], v: d.v + v.shift_px[1], ..d })
             .collect();
