@@ -1,7 +1,7 @@
 //! Which burn device the networks run on. `flex` is the default CPU backend (it trains these
 //! networks far faster than `ndarray`, whose transposed convolution is 30-60x slower); `ndarray`
-//! stays selectable; `wgpu` and `cuda` are there for GPU users behind the crate features of the
-//! same names.
+//! (deprecated in burn 0.22), `wgpu` and `cuda` are selectable behind the crate features of the
+//! same names, so a default build does not compile them.
 
 use std::fmt;
 use std::str::FromStr;
@@ -14,7 +14,8 @@ pub enum Backend {
     /// burn's `flex` CPU backend (default).
     #[default]
     Flex,
-    /// burn's `ndarray` CPU backend (deprecated in burn 0.22, kept selectable).
+    /// burn's `ndarray` CPU backend (feature `ndarray`; deprecated in burn 0.22).
+    #[cfg(feature = "ndarray")]
     Ndarray,
     /// The default wgpu device (feature `wgpu`).
     #[cfg(feature = "wgpu")]
@@ -29,6 +30,7 @@ impl Backend {
     pub fn device(self) -> Device {
         match self {
             Backend::Flex => Device::flex(),
+            #[cfg(feature = "ndarray")]
             #[allow(deprecated)] // burn-ndarray is deprecated in 0.22 but kept selectable.
             Backend::Ndarray => Device::ndarray(),
             #[cfg(feature = "wgpu")]
@@ -47,6 +49,7 @@ impl Backend {
     pub fn names() -> &'static [&'static str] {
         &[
             "flex",
+            #[cfg(feature = "ndarray")]
             "ndarray",
             #[cfg(feature = "wgpu")]
             "wgpu",
@@ -62,11 +65,14 @@ impl FromStr for Backend {
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
             "flex" => Ok(Backend::Flex),
+            #[cfg(feature = "ndarray")]
             "ndarray" => Ok(Backend::Ndarray),
             #[cfg(feature = "wgpu")]
             "wgpu" => Ok(Backend::Wgpu),
             #[cfg(feature = "cuda")]
             "cuda" => Ok(Backend::Cuda),
+            #[cfg(not(feature = "ndarray"))]
+            "ndarray" => Err(format!("backend `{s}` needs the `{s}` feature: rebuild with --features {s}")),
             #[cfg(not(feature = "wgpu"))]
             "wgpu" => Err(format!("backend `{s}` needs the `{s}` feature: rebuild with --features {s}")),
             #[cfg(not(feature = "cuda"))]
@@ -80,6 +86,7 @@ impl fmt::Display for Backend {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let name = match self {
             Backend::Flex => "flex",
+            #[cfg(feature = "ndarray")]
             Backend::Ndarray => "ndarray",
             #[cfg(feature = "wgpu")]
             Backend::Wgpu => "wgpu",

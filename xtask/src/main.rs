@@ -16,7 +16,8 @@
 //!   `explore` dataset, the pose network and shear-removal model trained on it, their
 //!   evaluation and the `scenarios/explore/learned/` runs; see [`explore`];
 //! - `bench-model [--quick] [--pytorch PYTHON]`: training samples/s and inference images/s of
-//!   the networks on flex at 256, 128 and 64 px and on ndarray at 64 px, and with `--pytorch`
+//!   the networks on flex at 256, 128 and 64 px (and on ndarray at 64 px when built with
+//!   `--features ndarray`), and with `--pytorch`
 //!   the same networks in PyTorch (`model/pytorch/bench.py` under that interpreter) on one
 //!   thread and on every core, with the ratio to flex; writes `docs/model-bench.json`;
 //! - `bench`: run the benchmarks (criterion: renderer, contact operator products, a tap's solve and pin product) and print
@@ -446,7 +447,9 @@ fn bench_model(quick: bool, python: Option<&str>) -> Result<()> {
     }
     let mut cases = vec![(Backend::Flex, 64)];
     if !quick {
-        cases = vec![(Backend::Flex, 256), (Backend::Flex, 128), (Backend::Flex, 64), (Backend::Ndarray, 64)];
+        cases = vec![(Backend::Flex, 256), (Backend::Flex, 128), (Backend::Flex, 64)];
+        #[cfg(feature = "ndarray")]
+        cases.push((Backend::Ndarray, 64));
     }
     let sizes: Vec<usize> = cases.iter().filter(|c| c.0 == Backend::Flex).map(|c| c.1).collect();
     println!(
