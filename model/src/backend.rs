@@ -96,3 +96,30 @@ impl fmt::Display for Backend {
         f.write_str(name)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_listed_backend_parses_back_to_its_name() {
+        for name in Backend::names() {
+            let backend: Backend = name.parse().expect("a listed name parses");
+            assert_eq!(backend.to_string(), *name);
+        }
+    }
+
+    #[test]
+    fn a_backend_left_out_of_the_build_names_the_feature_that_brings_it() {
+        for (name, built) in
+            [("ndarray", cfg!(feature = "ndarray")), ("wgpu", cfg!(feature = "wgpu")), ("cuda", cfg!(feature = "cuda"))]
+        {
+            if !built {
+                let err = name.parse::<Backend>().expect_err("not in this build");
+                assert!(err.contains(&format!("--features {name}")), "{err}");
+            }
+        }
+        let err = "tpu".parse::<Backend>().expect_err("unknown");
+        assert!(err.contains("flex"), "{err}");
+    }
+}
