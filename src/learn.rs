@@ -67,7 +67,7 @@ pub struct TrainOptions {
     /// Seed.
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Backend: flex (default), ndarray; wgpu / cuda with those features.
+    /// Backend: flex (default); wgpu, cuda and ndarray with the crate features of those names.
     #[arg(long, default_value = "flex")]
     pub backend: Backend,
     /// Continue an interrupted run in --out.

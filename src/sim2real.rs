@@ -70,7 +70,7 @@ pub struct Sim2RealOptions {
     /// Seed of both trainings.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Backend: flex (default), ndarray; wgpu / cuda with those features.
+    /// Backend: flex (default); wgpu, cuda and ndarray with the crate features of those names.
     #[arg(long, default_value = "flex")]
     pub backend: Backend,
     /// The lab folder's preprocessing.
