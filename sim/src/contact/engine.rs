@@ -539,7 +539,7 @@ impl<'a> Simulation<'a> {
             // it by less than that of `sum p` is inside the solver's own error, and a further
             // round would only re-solve the same tractions (issue 31: on the `edge-2d` taps the
             // rounds moved it by 0.14, 3e-3, 2e-5 and 5e-6 of `sum p`; stopping after the
-            // third leaves their images the same pixel for pixel).
+            // third changes one pixel in 7 of the recipe's 5,000 images).
             if op.uncoupled() || change / scale < self.model.tangential.tolerance {
                 break;
             }
