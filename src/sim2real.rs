@@ -27,7 +27,7 @@ use serde::Serialize;
 use tacsim_data::Column;
 use tacsim_data::Split;
 use tacsim_model::{
-    Backend, Corpus, LabelMap, Pose, PoseConfig, corpus_images, label_difference, label_name, load_posenet,
+    Backend, Corpus, LabelMap, Pose, PoseConfig, Span, corpus_images, label_difference, label_name, load_posenet,
     predict_poses,
 };
 
@@ -100,6 +100,22 @@ pub struct LabelScore {
     pub sim_trained_gain: Option<f64>,
 }
 
+/// How the simulated training poses cover the lab's, one simulated label: the lab's fitting
+/// part taken into the recipe's frame through the label map, against the simulated set.
+/// A recipe wider than the lab's span spends its samples on poses the lab never takes; lab
+/// poses outside the simulated span ask the network to extrapolate.
+#[derive(Clone, Debug, Serialize)]
+pub struct Coverage {
+    /// The simulated label.
+    pub label: Column,
+    /// The lab's fitting part, in the recipe's frame.
+    pub lab: Span,
+    /// The simulated training set.
+    pub sim: Span,
+    /// Share of the lab's fitting recordings outside the simulated span (0..1).
+    pub lab_outside: f64,
+}
+
 /// `report.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct Sim2RealReport {
@@ -123,6 +139,8 @@ pub struct Sim2RealReport {
     pub map: Vec<String>,
     /// Errors per label on the held-out part.
     pub labels: Vec<LabelScore>,
+    /// The simulated poses against the lab's, per mapped label.
+    pub coverage: Vec<Coverage>,
     /// Wall time (s).
     pub seconds: f64,
 }
@@ -185,6 +203,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         score(o, [&sim, &real], &real_labels, [&fitting, &held_out, &sim_rows], [&sim_run, &real_run])?;
     tacsim_data::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
     write_grid(&report_dir.join("grid.png"), &sim, &real, &held_out, &nearest)?;
+    let coverage = coverage(&map, [&sim, &real], [&sim_rows, &fitting]);
 
     let report = Sim2RealReport {
         command: command.to_owned(),
@@ -197,6 +216,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         posenet: real_cfg,
         map: map.describe(),
         labels,
+        coverage,
         seconds: started.elapsed().as_secs_f64(),
     };
     let json = serde_json::to_string_pretty(&report)?;
@@ -333,6 +353,26 @@ fn score(
     Ok((labels, map, nearest, csv))
 }
 
+/// Per link of `map`: the lab's fitting poses (`real` at `rows[1]`) in the recipe's frame
+/// against the simulated training poses (`sim` at `rows[0]`).
+fn coverage(map: &LabelMap, [sim, real]: [&Corpus; 2], [sim_rows, fitting]: [&[usize]; 2]) -> Vec<Coverage> {
+    map.links
+        .iter()
+        .filter_map(|l| {
+            let lab: Vec<f64> = fitting.iter().map(|&r| l.invert(real.pose(r).get(l.real))).collect();
+            let simulated: Vec<f64> = sim_rows.iter().map(|&r| sim.pose(r).get(l.sim)).collect();
+            let (lab_span, sim_span) = (Span::of(l.sim, &lab)?, Span::of(l.sim, &simulated)?);
+            let outside = lab.iter().filter(|&&v| !sim_span.contains(l.sim, v)).count();
+            Some(Coverage {
+                label: l.sim,
+                lab: lab_span,
+                sim: sim_span,
+                lab_outside: outside as f64 / lab.len() as f64,
+            })
+        })
+        .collect()
+}
+
 /// Least-squares slope of `y` on `x` over `(x, y)` pairs (0 when `x` does not vary).
 fn slope(pairs: &[(f64, f64)]) -> f64 {
     let n = pairs.len().max(1) as f64;
@@ -390,5 +430,18 @@ fn markdown(r: &Sim2RealReport) -> String {
         ));
     }
     s.push_str("\ngrid.png: held-out real images (top) above the simulated training images nearest their labels through the map (bottom).\n");
+    if !r.coverage.is_empty() {
+        s.push_str("\nCoverage: the lab's fitting poses in the recipe's frame (through the map) against the simulated training poses. A simulated span much wider than the lab's spends samples on poses the lab never takes; lab poses outside it make the network extrapolate.\n\n| simulated label | lab's span | simulated span | lab's outside |\n|---|---|---|---|\n");
+        for c in &r.coverage {
+            let span = |x: &Span| format!("{:.2} .. {:.2} ({:.2} wide)", x.lo, x.hi(c.label), x.width);
+            s.push_str(&format!(
+                "| {} | {} | {} | {:.0}% |\n",
+                label_name(c.label),
+                span(&c.lab),
+                span(&c.sim),
+                100.0 * c.lab_outside
+            ));
+        }
+    }
     s
 }

@@ -71,6 +71,25 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
             assert!(l[k].as_f64().is_some_and(|v| v.is_finite() && v >= 0.0), "{k}: {l}");
         }
     }
+    // Coverage: per mapped label, the lab's fitting poses in the recipe's frame beside the
+    // simulated ones (the recipe's -6..6 mm and whole turn, sampled by 48 taps).
+    assert!(text.contains("| simulated label | lab's span | simulated span | lab's outside |"), "{text}");
+    let coverage = report["coverage"].as_array().expect("coverage");
+    assert_eq!(coverage.len(), 3, "{coverage:?}");
+    for c in coverage {
+        let outside = c["lab_outside"].as_f64().expect("share");
+        assert!((0.0..=1.0).contains(&outside), "{c}");
+        let (lab_width, sim_width) = (c["lab"]["width"].as_f64().expect("w"), c["sim"]["width"].as_f64().expect("w"));
+        assert!(lab_width.is_finite() && lab_width >= 0.0 && sim_width >= 0.0, "{c}");
+        match c["label"].as_str().expect("label") {
+            "pose_x" => {
+                let lo = c["sim"]["lo"].as_f64().expect("lo");
+                assert!(lo >= -6.0 && lo + sim_width <= 6.0 && sim_width > 8.0, "{c}");
+            }
+            "pose_Rz" => assert!(sim_width > 270.0 && sim_width <= 360.0, "{c}"),
+            other => assert_eq!(other, "pose_z", "{c}"),
+        }
+    }
     // predictions.csv: one line per held-out image, the labels and both readings.
     let csv = std::fs::read_to_string(out.join("predictions.csv")).expect("predictions.csv");
     assert!(

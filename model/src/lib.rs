@@ -54,5 +54,5 @@ pub use network::Size;
 pub use objective::StepLosses;
 pub use posenet::{Pose, PoseNet, PoseScale, decode_batch};
 pub use train::{EpochLog, Progress, Silent, TrainState, train_posenet, train_unshear};
-pub use transfer::{LabelMap, difference as label_difference, label as label_name};
+pub use transfer::{LabelMap, Span, difference as label_difference, label as label_name};
 pub use unshear::Unshear;

@@ -177,6 +177,54 @@ impl LabelMap {
     }
 }
 
+/// The range a label's values cover: `lo..lo + width` (mm or deg); for a rotation the
+/// shortest arc holding every value (its complement is the widest gap between neighbours on
+/// the circle), so that -175 and 175 deg span 10 deg, not 350.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Span {
+    /// Start (mm, or deg in -180..180).
+    pub lo: f64,
+    /// Width (mm or deg, 0..=360).
+    pub width: f64,
+}
+
+impl Span {
+    /// The span of `values` of label `c`; `None` when there are none.
+    pub fn of(c: Column, values: &[f64]) -> Option<Self> {
+        if values.is_empty() {
+            return None;
+        }
+        let mut v: Vec<f64> = values.iter().map(|&x| if c.is_angle() { wrap_deg(x) } else { x }).collect();
+        v.sort_by(f64::total_cmp);
+        let (first, last) = (v[0], v[v.len() - 1]);
+        if !c.is_angle() {
+            return Some(Self { lo: first, width: last - first });
+        }
+        // The widest gap, the one across +-180 included; the span starts after it.
+        let (mut gap, mut lo) = (first + 360.0 - last, first);
+        for w in v.windows(2) {
+            if w[1] - w[0] > gap {
+                (gap, lo) = (w[1] - w[0], w[1]);
+            }
+        }
+        Some(Self { lo, width: 360.0 - gap })
+    }
+
+    /// End (mm; deg in -180..180).
+    pub fn hi(&self, c: Column) -> f64 {
+        if c.is_angle() { wrap_deg(self.lo + self.width) } else { self.lo + self.width }
+    }
+
+    /// Whether `v` lies in the span (on the circle for a rotation).
+    pub fn contains(&self, c: Column, v: f64) -> bool {
+        if c.is_angle() {
+            (v - self.lo).rem_euclid(360.0) <= self.width
+        } else {
+            v >= self.lo && v <= self.lo + self.width
+        }
+    }
+}
+
 /// The choice of column per row of `cost` (`cost[i][j].0`) of least sum, distinct columns
 /// when `distinct` (exhaustive: a handful of labels).
 fn assign<T>(cost: &[Vec<(f64, T)>], distinct: bool) -> Vec<usize> {
@@ -240,6 +288,24 @@ mod tests {
     }
 
     const SIM: [Column; 3] = [Column::PoseX, Column::PoseY, Column::PoseRz];
+
+    #[test]
+    fn a_span_of_angles_takes_the_short_way_round() {
+        let s = Span::of(Column::PoseRz, &[175.0, -175.0, 179.0]).expect("values");
+        assert_eq!((s.lo, s.width), (175.0, 10.0));
+        assert!((s.hi(Column::PoseRz) + 175.0).abs() < 1e-9);
+        assert!(s.contains(Column::PoseRz, 180.0) && !s.contains(Column::PoseRz, 0.0));
+        // The lab's edge yaws (-180..-62): one arc, not the whole turn.
+        let lab = Span::of(Column::PoseRz, &[-180.0, -120.0, -62.0, 179.5]).expect("values");
+        assert_eq!((lab.lo, lab.width), (179.5, 118.5));
+        // A whole turn sampled every 30 deg spans 330.
+        let turn: Vec<f64> = (0..12).map(|k| -180.0 + 30.0 * k as f64).collect();
+        assert_eq!(Span::of(Column::PoseRz, &turn).expect("values").width, 330.0);
+        let x = Span::of(Column::PoseX, &[2.0, -1.0, 0.5]).expect("values");
+        assert_eq!((x.lo, x.width, x.hi(Column::PoseX)), (-1.0, 3.0, 2.0));
+        assert!(x.contains(Column::PoseX, 2.0) && !x.contains(Column::PoseX, 2.1));
+        assert_eq!(Span::of(Column::PoseX, &[]), None);
+    }
 
     #[test]
     fn a_flipped_swapped_shifted_frame_is_recovered() {
