@@ -73,6 +73,11 @@ pub struct Sim2RealOptions {
     /// Backend: flex (default); wgpu, cuda and ndarray with the crate features of those names.
     #[arg(long, default_value = "flex")]
     pub backend: Backend,
+    /// Re-estimate the simulator-trained network's batch-norm statistics on the lab's fitting
+    /// images (their labels unused) before the map is fitted and the held-out part scored:
+    /// unsupervised adaptation (AdaBN); the weights stay trained on simulated images only.
+    #[arg(long)]
+    pub adapt_norms: bool,
     /// The lab folder's preprocessing.
     #[command(flatten)]
     pub lab: LabOptions,
@@ -135,6 +140,9 @@ pub struct Sim2RealReport {
     pub real_held_out: usize,
     /// The pose networks' settings (both; `labels` are the lab's, the real-trained network's).
     pub posenet: PoseConfig,
+    /// Whether the simulator-trained network's batch-norm statistics were re-estimated on the
+    /// lab's fitting images (`--adapt-norms`).
+    pub adapt_norms: bool,
     /// The fitted label map.
     pub map: Vec<String>,
     /// Errors per label on the held-out part.
@@ -214,6 +222,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         real_fitting: fitting.len(),
         real_held_out: held_out.len(),
         posenet: real_cfg,
+        adapt_norms: o.adapt_norms,
         map: map.describe(),
         labels,
         coverage,
@@ -282,6 +291,7 @@ fn score(
     let images = |rows: &[usize]| corpus_images(real, rows);
     let poses = |rows: &[usize]| -> Vec<Pose> { rows.iter().map(|&r| real.pose(r)).collect() };
     let (sim_net, _, sim_scale) = load_posenet(sim_run, &device)?;
+    let sim_net = if o.adapt_norms { sim_net.adapt_norms(&images(fitting), o.size, &device) } else { sim_net };
     let (real_net, _, real_scale) = load_posenet(real_run, &device)?;
     let fit_truth = poses(fitting);
     let fit_read = predict_poses(&sim_net, &sim_scale, &images(fitting), o.size, &device);
@@ -404,7 +414,7 @@ fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], near
 
 fn markdown(r: &Sim2RealReport) -> String {
     let mut s = format!(
-        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s.\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
+        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s.{}\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
         r.recipe,
         r.real,
         r.command,
@@ -416,6 +426,11 @@ fn markdown(r: &Sim2RealReport) -> String {
         r.posenet.epochs,
         r.posenet.seed,
         r.seconds,
+        if r.adapt_norms {
+            " The simulator-trained network's batch-norm statistics were re-estimated on the fitting part's images (`--adapt-norms`, labels unused); its weights are trained on simulated images only."
+        } else {
+            ""
+        },
         r.map.join("; "),
     );
     for l in &r.labels {

@@ -198,7 +198,7 @@ fn map_images(images: &[Vec<f32>], side: usize, device: &Device, f: impl Fn(Tens
     out
 }
 
-fn stack(images: &[Vec<f32>], side: usize, device: &Device) -> Tensor<4> {
+pub(crate) fn stack(images: &[Vec<f32>], side: usize, device: &Device) -> Tensor<4> {
     let flat: Vec<f32> = images.iter().flatten().copied().collect();
     Tensor::from_data(TensorData::new(flat, [images.len(), 1, side, side]), device)
 }

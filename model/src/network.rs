@@ -22,11 +22,11 @@
 //! | 128 | 461,696 | 165,153 | 461,057 | 165,472 |
 //! | 64 | 395,840 | 132,737 | 395,201 | 133,056 |
 
-use burn::module::{Initializer, Module};
+use burn::module::{Initializer, Module, RunningState};
 use burn::nn::conv::{Conv2d, Conv2dConfig, ConvTranspose2d, ConvTranspose2dConfig};
 use burn::nn::{BatchNorm, BatchNormConfig, PaddingConfig2d};
 use burn::tensor::activation::{relu, sigmoid};
-use burn::tensor::{Device, Tensor};
+use burn::tensor::{Device, Tensor, TensorData};
 
 /// Image side the networks take.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -113,6 +113,45 @@ impl ConvStack {
             x = relu(n.forward(c.forward(x)));
         }
         x
+    }
+
+    /// The stack with each batch norm's running statistics taken from `batches` instead of
+    /// the training images (AdaBN, Li et al. 2016): layer by layer, first to last, the mean
+    /// and variance per channel of the layer's convolution output over every image of every
+    /// batch, the layers before it already re-estimated. Learnt weights are untouched; no
+    /// label is read.
+    pub(crate) fn adapt_norms(mut self, batches: &[Tensor<4>]) -> Self {
+        for layer in 0..self.norms.len() {
+            let mut sums: Vec<[f64; 2]> = Vec::new();
+            let mut count = 0usize;
+            for batch in batches {
+                let mut x = batch.clone();
+                for (c, n) in self.convs.iter().zip(&self.norms).take(layer) {
+                    x = relu(n.forward(c.forward(x)));
+                }
+                let y = self.convs[layer].forward(x);
+                let [b, channels, h, w] = y.dims();
+                sums.resize(channels, [0.0; 2]);
+                let values: Vec<f32> = y.into_data().try_to_vec::<f32>().unwrap_or_default();
+                for (k, v) in values.iter().enumerate() {
+                    let s = &mut sums[(k / (h * w)) % channels];
+                    s[0] += f64::from(*v);
+                    s[1] += f64::from(*v) * f64::from(*v);
+                }
+                count += b * h * w;
+            }
+            if count == 0 {
+                return self;
+            }
+            let n = count as f64;
+            let mean: Vec<f32> = sums.iter().map(|s| (s[0] / n) as f32).collect();
+            let var: Vec<f32> = sums.iter().map(|s| (s[1] / n - (s[0] / n).powi(2)).max(0.0) as f32).collect();
+            let device = self.norms[layer].gamma.val().device();
+            let norm = &mut self.norms[layer];
+            norm.running_mean = RunningState::new(Tensor::from_data(TensorData::new(mean, [sums.len()]), &device));
+            norm.running_var = RunningState::new(Tensor::from_data(TensorData::new(var, [sums.len()]), &device));
+        }
+        self
     }
 }
 
@@ -313,5 +352,39 @@ mod tests {
             + 2 * conv(128, 64)
             + 4 * (32 + 64 + 64 + 128 + 64 + 64);
         assert_eq!(counts[0].1, es);
+    }
+
+    /// Per-channel mean and variance (over batch and pixels) of `y`, by tensor ops.
+    fn channel_statistics(y: Tensor<4>) -> (Vec<f32>, Vec<f32>) {
+        let [_, c, _, _] = y.dims();
+        let flat: Tensor<2> = y.swap_dims(0, 1).reshape([c as i32, -1]);
+        let mean = flat.clone().mean_dim(1);
+        let var = (flat - mean.clone()).powi_scalar(2).mean_dim(1);
+        let v = |t: Tensor<2>| t.into_data().try_to_vec::<f32>().unwrap_or_default();
+        (v(mean), v(var))
+    }
+
+    #[test]
+    fn adapted_norms_hold_the_new_images_statistics_layer_by_layer() {
+        let device = Device::flex();
+        let stack = ConvStack::new(1, &[4, 6], &device);
+        let images: Vec<f32> = (0..24 * 16 * 16).map(|k| ((k * 7919 % 1000) as f32 / 1000.0).powi(3)).collect();
+        let all = Tensor::<4>::from_data(TensorData::new(images, [24, 1, 16, 16]), &device);
+        let batches = [all.clone().narrow(0, 0, 16), all.clone().narrow(0, 16, 8)];
+        let adapted = stack.adapt_norms(&batches);
+        let mut x = all;
+        for (c, n) in adapted.convs.iter().zip(&adapted.norms) {
+            let y = c.forward(x);
+            let (mean, var) = channel_statistics(y.clone());
+            let v = |t: Tensor<1>| t.into_data().try_to_vec::<f32>().unwrap_or_default();
+            let (rm, rv) = (v(n.running_mean.value()), v(n.running_var.value()));
+            for k in 0..mean.len() {
+                assert!((rm[k] - mean[k]).abs() < 1e-4 * (1.0 + mean[k].abs()), "mean {k}: {} vs {}", rm[k], mean[k]);
+                assert!((rv[k] - var[k]).abs() < 1e-3 * var[k], "variance {k}: {} vs {}", rv[k], var[k]);
+            }
+            // A fresh norm holds 0 and 1: the statistics must have moved.
+            assert!(rv.iter().any(|&v| (v - 1.0).abs() > 0.01));
+            x = relu(n.forward(y));
+        }
     }
 }

@@ -44,6 +44,14 @@ impl PoseNet {
         }
     }
 
+    /// The network with its batch norms' statistics re-estimated on `images` (side `side`,
+    /// values in [0, 1]; [`ConvStack::adapt_norms`]): unlabelled images of another domain,
+    /// the weights trained on one.
+    pub fn adapt_norms(self, images: &[Vec<f32>], side: usize, device: &Device) -> Self {
+        let batches: Vec<Tensor<4>> = images.chunks(64).map(|c| crate::eval::stack(c, side, device)).collect();
+        Self { trunk: self.trunk.adapt_norms(&batches), ..self }
+    }
+
     /// `[batch, 1, s, s]` images to `[batch, outputs]` normalised outputs.
     pub fn forward(&self, x: Tensor<4>) -> Tensor<2> {
         let h = self.trunk.forward(x);
