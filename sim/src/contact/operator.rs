@@ -348,7 +348,47 @@ impl Operator {
             }
         }
         let values: Vec<Vec<f64>> = terms.iter().map(|(_, t)| sorted.iter().map(|&s| t[s]).collect()).collect();
-        for &d in dst {
+        // Four field cells side by side in a row share each source's traction: seen from
+        // (di + m, dj), m = 0..3, the t-th source's coefficient sits at `at - m + t`, so the
+        // four lie in one forward window `[at + t - 3, at + t]` of the table (lane k for
+        // m = 3 - k): one window load and four multiply-adds per source.
+        let mut targets = dst.to_vec();
+        if !targets.is_sorted() {
+            targets.sort_unstable();
+        }
+        let mut single: Vec<usize> = Vec::new();
+        let mut k = 0;
+        while k < targets.len() {
+            let d = targets[k];
+            let quad = k + 3 < targets.len() && targets[k + 3] == d + 3 && (d % nx) + 3 < nx;
+            if !quad {
+                single.push(d);
+                k += 1;
+                continue;
+            }
+            let (di, dj) = (d % nx, d / nx);
+            let mut acc = [0.0; 4];
+            for ((c, _), vals) in terms.iter().zip(&values) {
+                let coef = &self.mirrored[*c as usize];
+                for &(sj, i0, len, start) in &runs {
+                    // The window of the fourth cell (m = 3) starts at `at - 3 >= 0`: it is a
+                    // field cell of the grid, so its offset to every source is in the table.
+                    let at = (dj + ny - 1 - sj) * wx + i0 + nx - 1 - di - 3;
+                    let v = &vals[start..start + len];
+                    for (t, &x) in v.iter().enumerate() {
+                        let w = &coef[at + t..at + t + 4];
+                        for lane in 0..4 {
+                            acc[lane] += x * w[lane];
+                        }
+                    }
+                }
+            }
+            for m in 0..4 {
+                out[d + m] = acc[3 - m];
+            }
+            k += 4;
+        }
+        for &d in &single {
             let (di, dj) = (d % nx, d / nx);
             let mut sum = 0.0;
             for ((c, _), vals) in terms.iter().zip(&values) {
@@ -476,6 +516,36 @@ mod tests {
             vec![(Component::Xy, qx.as_slice()), (Component::Yy, qy.as_slice()), (Component::Yz, p.as_slice())],
         ] {
             assert_fft_equals_dense(&a, &terms);
+        }
+    }
+
+    /// What could break: the dense product takes four field cells of a row at once; on any
+    /// source and field sets (runs of every length, row ends, gaps) it must be the direct sum
+    /// of the coefficients and leave the other outputs alone.
+    #[test]
+    fn dense_product_on_scattered_cells_is_the_direct_sum() {
+        let n = 11;
+        let a = op(0.3, Pairing::RigidIndenter, n, 0.3);
+        let (p, qx) = (field(n * n, 4), field(n * n, 5));
+        let src: Vec<usize> = (0..n * n).filter(|k| k % 7 != 3 && k % 5 != 0).collect();
+        let dst: Vec<usize> = (0..n * n).filter(|k| (k * 2654435761) % 13 < 9).rev().collect();
+        let terms = [(Component::Xx, p.as_slice()), (Component::Xz, qx.as_slice())];
+        let mut out = vec![f64::NAN; n * n];
+        a.apply(&terms, &mut out, Product::Dense { src: &src, dst: &dst });
+        for (d, &got) in out.iter().enumerate() {
+            if !dst.contains(&d) {
+                assert!(got.is_nan(), "cell {d} is not a field cell but was written");
+                continue;
+            }
+            let (di, dj) = ((d % n) as isize, (d / n) as isize);
+            let want: f64 = src
+                .iter()
+                .map(|&s| {
+                    let (si, sj) = ((s % n) as isize, (s / n) as isize);
+                    terms.iter().map(|(c, t)| a.coefficient(*c, di - si, dj - sj) * t[s]).sum::<f64>()
+                })
+                .sum();
+            assert!((got - want).abs() < 1e-13 * (1.0 + want.abs()), "cell {d}: {got} vs {want}");
         }
     }
 
