@@ -290,11 +290,12 @@ fn score(
     let device = o.backend.device();
     let images = |rows: &[usize]| corpus_images(real, rows);
     let poses = |rows: &[usize]| -> Vec<Pose> { rows.iter().map(|&r| real.pose(r)).collect() };
+    let fit_images = images(fitting);
     let (sim_net, _, sim_scale) = load_posenet(sim_run, &device)?;
-    let sim_net = if o.adapt_norms { sim_net.adapt_norms(&images(fitting), o.size, &device) } else { sim_net };
+    let sim_net = if o.adapt_norms { sim_net.adapt_norms(&fit_images, o.size, &device) } else { sim_net };
     let (real_net, _, real_scale) = load_posenet(real_run, &device)?;
     let fit_truth = poses(fitting);
-    let fit_read = predict_poses(&sim_net, &sim_scale, &images(fitting), o.size, &device);
+    let fit_read = predict_poses(&sim_net, &sim_scale, &fit_images, o.size, &device);
     let map = LabelMap::fit(&fit_read, &sim_scale.columns(), &fit_truth, real_labels)?;
     let truth = poses(held_out);
     let test_images = images(held_out);
