@@ -1,7 +1,8 @@
 //! The two hot kernels of a tap on the default sensor, one thread: the coupled contact solve
 //! (initial gap, then normal and tangential solves alternated until the tractions settle) and
 //! the pin product (every pin's tip from the solved tractions), on the sensor's grid and on
-//! finer ones, for a press on the disk's flat top and a tap across its rim. Run with
+//! finer ones, for a press on the disk's flat top and a tap across its rim (the pins also with
+//! the edge preset's skin patch). Run with
 //! `cargo bench -p tacsim-sim --bench tap`; `tacsim bench` gives the same stages' means over
 //! many poses.
 
@@ -49,6 +50,15 @@ fn bench_tap(c: &mut Criterion) {
             sim.step(pose).expect("a tap solves");
             pins.bench_function(format!("{name}/{cells}-cells"), |b| b.iter(|| single.install(|| sim.pins())));
         }
+    }
+    // The edge preset's pins: each moves with a skin patch of seven points (1.5 mm radius).
+    let edge = SensorParams::preset("tactip-331-edge2d").expect("the edge preset");
+    let edge_model = ContactModel::new(&edge);
+    for (name, pose) in taps {
+        let mut sim = Simulation::new(&edge_model, &scene, &[pose]);
+        sim.step(pose).expect("a tap solves");
+        let id = format!("{name}/{}-cells-patch", edge.skin.cells_across);
+        pins.bench_function(id, |b| b.iter(|| single.install(|| sim.pins())));
     }
     pins.finish();
 }

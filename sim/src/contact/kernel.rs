@@ -166,22 +166,78 @@ impl DepthKernel {
     /// `(qx, qy, p)` (N).
     #[inline]
     pub fn displacement(&self, force: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
+        self.terms(offset).displacement(self, force)
+    }
+
+    /// Displacement (mm) and rotation `omega = curl(u) / 2` (rad) at `offset` from the surface
+    /// force `(qx, qy, p)` (N), both in the kernel's frame (`z` into the body). The rotation is
+    /// the curl of [`DepthKernel::displacement`] in closed form, with `rho = |offset|`,
+    /// `g = 1 / (rho (rho + z))` and `g' = (2 rho + z) / (rho^3 (rho + z)^2)`:
+    /// ```text
+    /// omega_x = c [-2 (1 - nu) p y / rho^3 - k x y g' qx + (k g + z / rho^3 - k y^2 g') qy]
+    /// omega_y = c [ 2 (1 - nu) p x / rho^3 + (k x^2 g' - k g - z / rho^3) qx + k x y g' qy]
+    /// omega_z = c (qx y - qy x) / rho^3
+    /// ```
+    /// (`c = 1 / (4 pi G)`, `k = 1 - 2 nu`; a normal load turns the skin about the horizontal
+    /// circles around it, and only a tangential one twists it about `z`). The displacement is
+    /// [`DepthKernel::displacement`]'s to the last bit.
+    #[inline]
+    pub fn motion(&self, force: [f64; 3], offset: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        let t = self.terms(offset);
+        let u = t.displacement(self, force);
         let [x, y, z] = offset;
         let [qx, qy, p] = force;
         let k = self.k;
+        let g = t.ir_irz;
+        let g1 = t.ir3 * t.irz + t.ir_irz * t.ir_irz;
+        let zr3 = z * t.ir3;
+        let pn = self.two_one_minus_nu * p * t.ir3;
+        let kxy = k * x * y * g1;
+        let wx = -pn * y - kxy * qx + (k * g + zr3 - k * y * y * g1) * qy;
+        let wy = pn * x + (k * x * x * g1 - k * g - zr3) * qx + kxy * qy;
+        let wz = (qx * y - qy * x) * t.ir3;
+        (u, [self.c * wx, self.c * wy, self.c * wz])
+    }
+
+    /// The powers of the distance that the displacement and its rotation share.
+    #[inline]
+    fn terms(&self, offset: [f64; 3]) -> Terms {
+        let [x, y, z] = offset;
         let rho = (x * x + y * y + z * z).sqrt();
         let ir = 1.0 / rho;
         let ir3 = ir * ir * ir;
         let irz = 1.0 / (rho + z);
         let ir_irz = ir * irz;
-        let ir_irz2 = ir_irz * irz;
-        // Boussinesq (normal force p), Cerruti (tangential forces qx, qy).
+        Terms { offset, ir, ir3, irz, ir_irz, ir_irz2: ir_irz * irz }
+    }
+}
+
+/// `1 / rho`, `1 / rho^3`, `1 / (rho + z)`, `1 / (rho (rho + z))` and `1 / (rho (rho + z)^2)`
+/// at one offset.
+#[derive(Clone, Copy, Debug)]
+struct Terms {
+    offset: [f64; 3],
+    ir: f64,
+    ir3: f64,
+    irz: f64,
+    ir_irz: f64,
+    ir_irz2: f64,
+}
+
+impl Terms {
+    /// Boussinesq (normal force p) and Cerruti (tangential forces qx, qy) at depth.
+    #[inline]
+    fn displacement(&self, kernel: &DepthKernel, force: [f64; 3]) -> [f64; 3] {
+        let [x, y, z] = self.offset;
+        let [qx, qy, p] = force;
+        let k = kernel.k;
+        let Terms { ir, ir3, irz, ir_irz, ir_irz2, .. } = *self;
         let b = p * (z * ir3 - k * ir_irz);
         let xy = x * y * (ir3 - k * ir_irz2);
         let ux = b * x + qx * (ir + x * x * ir3 + k * (irz - x * x * ir_irz2)) + qy * xy;
         let uy = b * y + qy * (ir + y * y * ir3 + k * (irz - y * y * ir_irz2)) + qx * xy;
-        let uz = p * (z * z * ir3 + self.two_one_minus_nu * ir) + (qx * x + qy * y) * (z * ir3 + k * ir_irz);
-        [self.c * ux, self.c * uy, self.c * uz]
+        let uz = p * (z * z * ir3 + kernel.two_one_minus_nu * ir) + (qx * x + qy * y) * (z * ir3 + k * ir_irz);
+        [kernel.c * ux, kernel.c * uy, kernel.c * uz]
     }
 }
 
@@ -227,6 +283,34 @@ mod tests {
         // The self integral of x^2/r^3 plus y^2/r^3 is that of 1/r.
         let s = Kernel::XxOverR3.rectangle(0.1, -0.2, 1.0, 1.3) + Kernel::YyOverR3.rectangle(0.1, -0.2, 1.0, 1.3);
         assert!((s - Kernel::InvR.rectangle(0.1, -0.2, 1.0, 1.3)).abs() < 1e-12);
+    }
+
+    /// The closed-form rotation is half the curl of the displacement, taken here by central
+    /// differences (step 1e-5 mm: truncation and rounding both near 1e-9 of the value).
+    #[test]
+    fn depth_kernel_rotation_is_half_the_curl_of_its_displacement() {
+        let kernel = DepthKernel::new(&Elastic::from_young(1.3, 0.436));
+        let h = 1e-5;
+        for force in [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.3, -0.7, 0.5]] {
+            for at in [[0.7, -0.4, 0.9], [-1.5, 0.2, 0.66], [0.05, 0.1, 0.3], [3.0, 2.0, 0.66]] {
+                let d = |k: usize, i: usize| {
+                    let (mut a, mut b) = (at, at);
+                    a[k] += h;
+                    b[k] -= h;
+                    (kernel.displacement(force, a)[i] - kernel.displacement(force, b)[i]) / (2.0 * h)
+                };
+                let curl = [0.5 * (d(1, 2) - d(2, 1)), 0.5 * (d(2, 0) - d(0, 2)), 0.5 * (d(0, 1) - d(1, 0))];
+                let (u, omega) = kernel.motion(force, at);
+                assert_eq!(u, kernel.displacement(force, at), "the displacement must be the same bits");
+                let scale = omega.iter().chain(&curl).fold(0.0f64, |m, v| m.max(v.abs()));
+                for i in 0..3 {
+                    assert!(
+                        (omega[i] - curl[i]).abs() < 1e-7 * scale,
+                        "force {force:?} at {at:?}, component {i}: {omega:?} against {curl:?}"
+                    );
+                }
+            }
+        }
     }
 
     #[test]

@@ -10,7 +10,10 @@
 //! the apex of the contact frame, [`super::frame`], in which the layout is given): on a half-space a base at sensor point `X` sits at lateral `(X.x, X.y)` and depth
 //! `R - X.z`; on layers ([`super::layered`]) every base sits at the skin's inner surface (the
 //! top layer's bottom) under `(X.x, X.y)`: the dome unrolled onto the contact plane, so that
-//! the pins stay in the skin that carries them. With a skin patch (`pins.patch_radius_mm`
+//! the pins stay in the skin that carries them. On the half-space the rotation is in closed
+//! form ([`super::kernel::DepthKernel::motion`]), summed with the displacement in one pass; the
+//! layered tables have no derivative in closed form and take a forward difference over
+//! `STEP_MM` (a stencil of four points). With a skin patch (`pins.patch_radius_mm`
 //! `a > 0`) `u(base)` and `omega` are the means over the base and six points on the circle of
 //! radius `a` about it, in the contact plane at the base's depth: a stiff skin's bending
 //! spreads the turn over that length.
@@ -191,9 +194,8 @@ impl CellForces {
     }
 
     /// Displacements (mm, in the grid's frame) at the points `at` (close together: the
-    /// first decides near and far; their depths from `depth`), in one pass. Blocks far from
-    /// the points act as one force; near ones cell by cell, and the nearest cells (within
-    /// `NEAR_CELLS` sides) as sub-squares. With `exact`, no block acts as one.
+    /// first decides near and far; their depths from `depth`), in one pass over
+    /// [`CellForces::each_force`].
     pub fn displacements<const N: usize>(
         &self,
         kernel: &PinKernel<'_>,
@@ -202,16 +204,51 @@ impl CellForces {
         exact: bool,
     ) -> [Vector3<f64>; N] {
         let mut u = [[0.0; 3]; N];
-        let mut add = |cx: f64, cy: f64, f: [f64; 3]| {
+        self.each_force(&at[0], depth[0], exact, |cx, cy, f| {
             for ((p, z), acc) in at.iter().zip(depth).zip(u.iter_mut()) {
                 let d = kernel.displacement(f, [p.x - cx, p.y - cy, *z]);
                 acc[0] += d[0];
                 acc[1] += d[1];
                 acc[2] += d[2];
             }
-        };
-        let p0 = at[0];
-        let dist2 = |x: f64, y: f64| (p0.x - x).powi(2) + (p0.y - y).powi(2) + depth[0] * depth[0];
+        });
+        // Into the body is sensor -z.
+        u.map(|v| Vector3::new(v[0], v[1], -v[2]))
+    }
+
+    /// Displacement (mm) and rotation (rad) of the half-space at `at`, `depth` (mm) under the
+    /// contact plane, both in the grid's frame, in one pass over [`CellForces::each_force`]
+    /// with the closed-form rotation [`DepthKernel::motion`].
+    pub fn motion(
+        &self,
+        kernel: &DepthKernel,
+        at: &Vector3<f64>,
+        depth: f64,
+        exact: bool,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let (mut u, mut w) = ([0.0; 3], [0.0; 3]);
+        self.each_force(at, depth, exact, |cx, cy, f| {
+            let (d, r) = kernel.motion(f, [at.x - cx, at.y - cy, depth]);
+            for i in 0..3 {
+                u[i] += d[i];
+                w[i] += r[i];
+            }
+        });
+        sensor_motion(u, w)
+    }
+
+    /// Hands every point force that a point at `p` (its depth `depth`, mm) sees to `add`
+    /// (position `(x, y)` mm, force N), in a fixed order: super-blocks and blocks far from the
+    /// point as one force each, near ones cell by cell, and the nearest cells (within
+    /// `NEAR_CELLS` sides) as sub-squares. With `exact`, no group acts as one.
+    pub(crate) fn each_force(
+        &self,
+        p: &Vector3<f64>,
+        depth: f64,
+        exact: bool,
+        mut add: impl FnMut(f64, f64, [f64; 3]),
+    ) {
+        let dist2 = |x: f64, y: f64| (p.x - x).powi(2) + (p.y - y).powi(2) + depth * depth;
         let (near2, sub_mm, first_mm) = self.near_rule();
         let sub = self.subsquares;
         let sub_force = |f: [f64; 3]| f.map(|v| v / (sub * sub) as f64);
@@ -240,9 +277,14 @@ impl CellForces {
                 }
             }
         }
-        // Into the body is sensor -z.
-        u.map(|v| Vector3::new(v[0], v[1], -v[2]))
     }
+}
+
+/// The half-space's displacement and rotation (kernel frame, `z` into the body) in the grid's
+/// frame, where into the body is `-z`: the mirror turns `u_z` and, the rotation being an axial
+/// vector, `omega_x` and `omega_y`.
+pub(crate) fn sensor_motion(u: [f64; 3], omega: [f64; 3]) -> (Vector3<f64>, Vector3<f64>) {
+    (Vector3::new(u[0], u[1], -u[2]), Vector3::new(-omega[0], -omega[1], omega[2]))
 }
 
 /// Deformed pin poses (in the frame of `layout` and the grid) for the given cell forces;
@@ -303,9 +345,15 @@ fn skin_motion(
     base: &Vector3<f64>,
     at: Vector3<f64>,
 ) -> (Vector3<f64>, Vector3<f64>) {
-    let points = stencil(at);
-    let depth = points.map(|p| kernel.depth(dome_radius_mm, base, &p));
-    motion_from_stencil(&forces.displacements(kernel, &points, &depth, exact))
+    match kernel {
+        PinKernel::HalfSpace(k) => forces.motion(k, &at, kernel.depth(dome_radius_mm, base, &at), exact),
+        // The tables have no derivative in closed form: a forward difference.
+        PinKernel::Layered(_) => {
+            let points = stencil(at);
+            let depth = points.map(|p| kernel.depth(dome_radius_mm, base, &p));
+            motion_from_stencil(&forces.displacements(kernel, &points, &depth, exact))
+        }
+    }
 }
 
 /// The finite-difference stencil at `at`: the point, then one step (`STEP_MM`) along x, y, z.
@@ -351,6 +399,52 @@ mod tests {
             }
         }
         u
+    }
+
+    /// The half-space's one-pass motion (closed-form rotation) against central differences of
+    /// the same sums' displacements (step 1e-5 mm; the same near and far groups, decided at
+    /// the point): the rotation within 1e-6 of its size, the displacement the same bits.
+    #[test]
+    fn half_space_rotation_is_half_the_curl_of_the_summed_displacements() {
+        let depth_kernel = DepthKernel::new(&Elastic::from_young(1.0, 0.436));
+        let kernel = PinKernel::HalfSpace(depth_kernel);
+        let h = 0.4;
+        let grid = Grid::square(9, h);
+        let n = grid.nx * grid.ny;
+        let (mut p, mut qx, mut qy) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        for k in 0..n {
+            let c = grid.centre(k);
+            let r2 = c[0] * c[0] + c[1] * c[1];
+            if r2 < 1.5 {
+                p[k] = 0.3 * (1.5 - r2);
+                qx[k] = 0.05 * (1.5 - r2) + 0.01 * c[1];
+                qy[k] = -0.02 * c[0];
+            }
+        }
+        let forces = CellForces::new(&grid, &p, &qx, &qy, PIN_SUBSQUARES);
+        let step = 1e-5;
+        for (at, depth) in [
+            (Vector3::new(0.1, -0.2, 0.0), 0.66),
+            (Vector3::new(1.3, 0.4, 0.0), 0.66),
+            (Vector3::new(-2.9, 1.7, 0.0), 1.0),
+        ] {
+            for exact in [false, true] {
+                let d = [Vector3::x(), -Vector3::x(), Vector3::y(), -Vector3::y(), Vector3::z(), -Vector3::z()];
+                let points: [Vector3<f64>; 7] = std::array::from_fn(|i| if i == 0 { at } else { at + d[i - 1] * step });
+                // The grid's z is out of the body: a step up is a step less deep.
+                let depths = points.map(|q| depth - (q.z - at.z));
+                let u = forces.displacements(&kernel, &points, &depths, exact);
+                let grad = |i: usize| (u[2 * i + 1] - u[2 * i + 2]) / (2.0 * step);
+                let (gx, gy, gz) = (grad(0), grad(1), grad(2));
+                let curl = 0.5 * Vector3::new(gy.z - gz.y, gz.x - gx.z, gx.y - gy.x);
+                let (disp, omega) = forces.motion(&depth_kernel, &at, depth, exact);
+                assert_eq!(disp, u[0], "at {at:?}: the displacement must be the same bits");
+                assert!(
+                    (omega - curl).norm() < 1e-6 * curl.norm(),
+                    "at {at:?} depth {depth} exact {exact}: {omega:?} against {curl:?}"
+                );
+            }
+        }
     }
 
     /// What broke: pins 0.66 mm under the skin saw each nearby cell as one point force at its

@@ -4,22 +4,25 @@
 //!
 //! The CPU's sums move to the GPU unchanged, in f64 (`SHADER_F64`): one invocation per pin
 //! point (a pin's base, and with a skin patch six more points about it), which sums the
-//! loaded cells' point forces at the point's finite-difference stencil in the CPU's order,
-//! with the CPU's grouping of far cells into blocks and near ones into sub-squares
-//! (`contact/pin_motion.rs`). The gradient, the rotation and the pin's move from them are the
-//! CPU's own functions on the stencil's displacements. What can differ is the rounding of the
-//! kernels' arithmetic (a fused multiply-add, a square root), about 1e-16 relative: the
+//! loaded cells' point forces in the CPU's order, with the CPU's grouping of far cells into
+//! blocks and near ones into sub-squares (`contact/pin_motion.rs`): on the half-space the
+//! displacement and the closed-form rotation at the point (`DepthKernel::motion`), on layers
+//! the displacements at the point's finite-difference stencil, whose gradient and rotation are
+//! then the CPU's own function. The pin's move is the CPU's. What can differ is the rounding
+//! of the kernels' arithmetic (a fused multiply-add, a square root), about 1e-16 relative: the
 //! parity test bounds the pins at 1e-9 mm (the issue asks 1e-5).
 //!
-//! Why f64: the rotation is a forward difference over 1e-3 mm; in f32 the displacements'
-//! rounding (about 1e-8 mm on 0.1 mm) would leave the rotation wrong by 1e-5 rad and the tips
-//! by 1e-4 mm. An adapter without f64 in shaders (Metal, some mobile GPUs) has no pin product;
-//! [`Gpu::has_pins`] says so, and [`Gpu::pins_batch`] refuses with that.
+//! Why f64: on layers the rotation is a forward difference over 1e-3 mm; in f32 the
+//! displacements' rounding (about 1e-8 mm on 0.1 mm) would leave the rotation wrong by 1e-5
+//! rad and the tips by 1e-4 mm. An adapter without f64 in shaders (Metal, some mobile GPUs)
+//! has no pin product; [`Gpu::has_pins`] says so, and [`Gpu::pins_batch`] refuses with that.
 
 use nalgebra::Vector3;
 
 use super::Gpu;
-use crate::contact::{PinKernel, PinLoad, Simulation, motion_from_stencil, moved_pin, patch_points, stencil};
+use crate::contact::{
+    PinKernel, PinLoad, Simulation, motion_from_stencil, moved_pin, patch_points, sensor_motion, stencil,
+};
 use crate::error::{Result, SimError};
 use crate::pins::PinPose;
 
@@ -136,10 +139,15 @@ impl Gpu {
                         .map(|_| {
                             let v = &values[12 * at..12 * at + 12];
                             at += 1;
-                            // Into the body is sensor -z (as `CellForces::displacements`).
-                            let u: [Vector3<f64>; 4] =
-                                std::array::from_fn(|s| Vector3::new(v[3 * s], v[3 * s + 1], -v[3 * s + 2]));
-                            motion_from_stencil(&u)
+                            match load.kernel {
+                                PinKernel::HalfSpace(_) => sensor_motion([v[0], v[1], v[2]], [v[3], v[4], v[5]]),
+                                PinKernel::Layered(_) => {
+                                    // Into the body is sensor -z (as `CellForces::displacements`).
+                                    let u: [Vector3<f64>; 4] =
+                                        std::array::from_fn(|s| Vector3::new(v[3 * s], v[3 * s + 1], -v[3 * s + 2]));
+                                    motion_from_stencil(&u)
+                                }
+                            }
                         })
                         .collect();
                     moved_pin(pin, &motions)

@@ -1,8 +1,9 @@
 // The pin influence product on the GPU (tacsim-sim `gpu/pins.rs`): the sums of
-// `contact/pin_motion.rs` (`CellForces::displacements`) in f64, in the CPU's order. One
-// invocation per pin point: the displacements (mm, z into the body) at the point's 4-point
-// finite-difference stencil from every loaded cell of its state, far cells grouped in blocks
-// and super-blocks, near ones split in sub-squares.
+// `contact/pin_motion.rs` (`CellForces::motion` and `CellForces::displacements`) in f64, in
+// the CPU's order. One invocation per pin point: from every loaded cell of its state, far
+// cells grouped in blocks and super-blocks, near ones split in sub-squares, on the half-space
+// the displacement (mm) and rotation (rad) at the point, z into the body; on layers the
+// displacements at the point's 4-point finite-difference stencil.
 
 struct Params {
     points: u32,
@@ -29,15 +30,22 @@ struct Params {
 // Everything integer: each point's state; per state its first super-block, super-block count,
 // sub-squares a side and a spare; super-blocks' and blocks' member ranges.
 @group(0) @binding(2) var<storage, read> ints: array<u32>;
-// Per point, per stencil point, x, y, z: 12 f64s.
+// Per point 12 f64s: on the half-space the displacement and the rotation (6), on layers per
+// stencil point x, y, z.
 @group(0) @binding(3) var<storage, read_write> out: array<f64>;
 
 var<private> stencil: array<vec3<f64>, 4>;
 var<private> depth: array<f64, 4>;
 var<private> acc: array<vec3<f64>, 4>;
 
-// `kernel.rs`, `DepthKernel::displacement`: Boussinesq and Cerruti at depth z.
-fn half_space(f: vec3<f64>, x: f64, y: f64, z: f64) -> vec3<f64> {
+struct Motion {
+    u: vec3<f64>,
+    w: vec3<f64>,
+};
+
+// `kernel.rs`, `DepthKernel::motion`: Boussinesq and Cerruti at depth z, the displacement and
+// its rotation in closed form.
+fn half_space(f: vec3<f64>, x: f64, y: f64, z: f64) -> Motion {
     let at = params.kernel_at;
     let c = reals[at];
     let k = reals[at + 1u];
@@ -56,7 +64,14 @@ fn half_space(f: vec3<f64>, x: f64, y: f64, z: f64) -> vec3<f64> {
     let ux = b * x + qx * (ir + x * x * ir3 + k * (irz - x * x * ir_irz2)) + qy * xy;
     let uy = b * y + qy * (ir + y * y * ir3 + k * (irz - y * y * ir_irz2)) + qx * xy;
     let uz = p * (z * z * ir3 + two_one_minus_nu * ir) + (qx * x + qy * y) * (z * ir3 + k * ir_irz);
-    return vec3<f64>(c * ux, c * uy, c * uz);
+    let g1 = ir3 * irz + ir_irz * ir_irz;
+    let zr3 = z * ir3;
+    let pn = two_one_minus_nu * p * ir3;
+    let kxy = k * x * y * g1;
+    let wx = -pn * y - kxy * qx + (k * ir_irz + zr3 - k * y * y * g1) * qy;
+    let wy = pn * x + (k * x * x * g1 - k * ir_irz - zr3) * qx + kxy * qy;
+    let wz = (qx * y - qy * x) * ir3;
+    return Motion(vec3<f64>(c * ux, c * uy, c * uz), vec3<f64>(c * wx, c * wy, c * wz));
 }
 
 // `layered.rs`, `LayeredKernels::lerp`: Catmull-Rom in r over the 5-column table at `table`;
@@ -122,15 +137,20 @@ fn layered(force: vec3<f64>, x: f64, y: f64, z: f64) -> vec3<f64> {
     return combine(force, x, y, f[0], f[1], f[2], f[3], f[4]);
 }
 
-// One point force `f` (N) at `(cx, cy)` (mm) on the surface, added at every stencil point.
+// One point force `f` (N) at `(cx, cy)` (mm) on the surface, added: on the half-space the
+// displacement at the point into `acc[0]` and its rotation into `acc[1]`; on layers the
+// displacement at every stencil point.
 fn add(cx: f64, cy: f64, f: vec3<f64>) {
+    if (params.kernel == 0u) {
+        let p = stencil[0];
+        let m = half_space(f, p.x - cx, p.y - cy, depth[0]);
+        acc[0] = acc[0] + m.u;
+        acc[1] = acc[1] + m.w;
+        return;
+    }
     for (var s = 0u; s < 4u; s++) {
         let p = stencil[s];
-        if (params.kernel == 0u) {
-            acc[s] = acc[s] + half_space(f, p.x - cx, p.y - cy, depth[s]);
-        } else {
-            acc[s] = acc[s] + layered(f, p.x - cx, p.y - cy, depth[s]);
-        }
+        acc[s] = acc[s] + layered(f, p.x - cx, p.y - cy, depth[s]);
     }
 }
 
