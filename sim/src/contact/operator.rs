@@ -348,10 +348,11 @@ impl Operator {
             }
         }
         let values: Vec<Vec<f64>> = terms.iter().map(|(_, t)| sorted.iter().map(|&s| t[s]).collect()).collect();
-        // Four field cells side by side in a row share each source's traction: seen from
-        // (di + m, dj), m = 0..3, the t-th source's coefficient sits at `at - m + t`, so the
-        // four lie in one forward window `[at + t - 3, at + t]` of the table (lane k for
-        // m = 3 - k): one window load and four multiply-adds per source.
+        // Field cells side by side in a row share each source's traction: seen from
+        // (di + m, dj), m = 0..L-1, the t-th source's coefficient sits at `at - m + t`, so the
+        // L lie in one forward window `[at + t - L + 1, at + t]` of the table (lane k for
+        // m = L - 1 - k): one window load and L multiply-adds per source. Runs of eight cells
+        // go eight at a time, then runs of four; each cell's sum is the same whatever its run.
         let mut targets = dst.to_vec();
         if !targets.is_sorted() {
             targets.sort_unstable();
@@ -359,36 +360,29 @@ impl Operator {
         // A repeated cell would pass for a neighbour in the run test below.
         targets.dedup();
         let mut single: Vec<usize> = Vec::new();
+        let run_of = |k: usize, len: usize| {
+            let d = targets[k];
+            k + len - 1 < targets.len() && targets[k + len - 1] == d + len - 1 && (d % nx) + len - 1 < nx
+        };
         let mut k = 0;
         while k < targets.len() {
             let d = targets[k];
-            let quad = k + 3 < targets.len() && targets[k + 3] == d + 3 && (d % nx) + 3 < nx;
-            if !quad {
+            if run_of(k, 8) {
+                let acc = self.row_run::<8>(terms, &values, &runs, d);
+                for (m, a) in acc.iter().rev().enumerate() {
+                    out[d + m] = *a;
+                }
+                k += 8;
+            } else if run_of(k, 4) {
+                let acc = self.row_run::<4>(terms, &values, &runs, d);
+                for (m, a) in acc.iter().rev().enumerate() {
+                    out[d + m] = *a;
+                }
+                k += 4;
+            } else {
                 single.push(d);
                 k += 1;
-                continue;
             }
-            let (di, dj) = (d % nx, d / nx);
-            let mut acc = [0.0; 4];
-            for ((c, _), vals) in terms.iter().zip(&values) {
-                let coef = &self.mirrored[*c as usize];
-                for &(sj, i0, len, start) in &runs {
-                    // The window of the fourth cell (m = 3) starts at `at - 3 >= 0`: it is a
-                    // field cell of the grid, so its offset to every source is in the table.
-                    let at = (dj + ny - 1 - sj) * wx + i0 + nx - 1 - di - 3;
-                    let v = &vals[start..start + len];
-                    for (t, &x) in v.iter().enumerate() {
-                        let w = &coef[at + t..at + t + 4];
-                        for lane in 0..4 {
-                            acc[lane] += x * w[lane];
-                        }
-                    }
-                }
-            }
-            for m in 0..4 {
-                out[d + m] = acc[3 - m];
-            }
-            k += 4;
         }
         for &d in &single {
             let (di, dj) = (d % nx, d / nx);
@@ -413,6 +407,37 @@ impl Operator {
             }
             out[d] = sum;
         }
+    }
+
+    /// The sums of `L` field cells side by side in a row from `d` on, lane `L - 1 - m` for cell
+    /// `d + m`, over the sources' `runs` (row, first column, length, start in `values`).
+    #[inline]
+    fn row_run<const L: usize>(
+        &self,
+        terms: &[(Component, &[f64])],
+        values: &[Vec<f64>],
+        runs: &[(usize, usize, usize, usize)],
+        d: usize,
+    ) -> [f64; L] {
+        let (nx, ny) = (self.grid.nx, self.grid.ny);
+        let wx = 2 * nx - 1;
+        let (di, dj) = (d % nx, d / nx);
+        let mut acc = [0.0; L];
+        for ((c, _), vals) in terms.iter().zip(values) {
+            let coef = &self.mirrored[*c as usize];
+            for &(sj, i0, len, start) in runs {
+                // The window of the last cell (m = L - 1) starts at `at >= 0`: it is a field
+                // cell of the grid, so its offset to every source is in the table.
+                let at = (dj + ny - 1 - sj) * wx + i0 + nx - di - L;
+                let v = &vals[start..start + len];
+                for (w, &x) in coef[at..at + len + L - 1].windows(L).zip(v) {
+                    for lane in 0..L {
+                        acc[lane] += x * w[lane];
+                    }
+                }
+            }
+        }
+        acc
     }
 
     fn apply_fft(&self, terms: &[(Component, &[f64])], out: &mut [f64]) {
@@ -534,6 +559,9 @@ mod tests {
         // Repeated cells must not pass for a run: 35, 36, 36, 38 (one row) is not 35..=38.
         dst.extend([36, 36, 35, 38]);
         dst.retain(|&k| k != 37);
+        // A whole row (eleven cells: a run of eight, then single ones) and one of seven (a run
+        // of four, then three).
+        dst.extend((77..88).chain(100..107));
         let terms = [(Component::Xx, p.as_slice()), (Component::Xz, qx.as_slice())];
         let mut out = vec![f64::NAN; n * n];
         a.apply(&terms, &mut out, Product::Dense { src: &src, dst: &dst });
