@@ -35,6 +35,8 @@ pub use kernel::{Elastic, Kernel, point_load_displacement};
 pub use operator::{Component, HalfSpace, Operator, Pairing, Product};
 pub use pin_motion::PIN_SUBSQUARES;
 #[cfg(feature = "wgpu")]
-pub(crate) use pin_motion::{PinKernel, PinLoad, motion_from_stencil, moved_pin, patch_points, sensor_motion, stencil};
+pub(crate) use pin_motion::{
+    PinKernel, PinLoad, motion_from_stencil, moved_pin, patch_points, sensor_displacement, sensor_motion, stencil,
+};
 pub use pose::MAX_TILT_DEG;
 pub use trajectory::{MAX_PATH_STEPS, PathStep};

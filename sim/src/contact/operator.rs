@@ -368,17 +368,9 @@ impl Operator {
         while k < targets.len() {
             let d = targets[k];
             if run_of(k, 8) {
-                let acc = self.row_run::<8>(terms, &values, &runs, d);
-                for (m, a) in acc.iter().rev().enumerate() {
-                    out[d + m] = *a;
-                }
-                k += 8;
+                k += self.row_run::<8>(terms, &values, &runs, d, out);
             } else if run_of(k, 4) {
-                let acc = self.row_run::<4>(terms, &values, &runs, d);
-                for (m, a) in acc.iter().rev().enumerate() {
-                    out[d + m] = *a;
-                }
-                k += 4;
+                k += self.row_run::<4>(terms, &values, &runs, d, out);
             } else {
                 single.push(d);
                 k += 1;
@@ -409,8 +401,9 @@ impl Operator {
         }
     }
 
-    /// The sums of `L` field cells side by side in a row from `d` on, lane `L - 1 - m` for cell
-    /// `d + m`, over the sources' `runs` (row, first column, length, start in `values`).
+    /// The sums of `L` field cells side by side in a row from `d` on (lane `L - 1 - m` for cell
+    /// `d + m`), over the sources' `runs` (row, first column, length, start in `values`), into
+    /// `out`; returns `L`, the cells done.
     #[inline]
     fn row_run<const L: usize>(
         &self,
@@ -418,7 +411,8 @@ impl Operator {
         values: &[Vec<f64>],
         runs: &[(usize, usize, usize, usize)],
         d: usize,
-    ) -> [f64; L] {
+        out: &mut [f64],
+    ) -> usize {
         let (nx, ny) = (self.grid.nx, self.grid.ny);
         let wx = 2 * nx - 1;
         let (di, dj) = (d % nx, d / nx);
@@ -437,7 +431,10 @@ impl Operator {
                 }
             }
         }
-        acc
+        for (m, a) in acc.iter().rev().enumerate() {
+            out[d + m] = *a;
+        }
+        L
     }
 
     fn apply_fft(&self, terms: &[(Component, &[f64])], out: &mut [f64]) {

@@ -212,8 +212,7 @@ impl CellForces {
                 acc[2] += d[2];
             }
         });
-        // Into the body is sensor -z.
-        u.map(|v| Vector3::new(v[0], v[1], -v[2]))
+        u.map(sensor_displacement)
     }
 
     /// Displacement (mm) and rotation (rad) of the half-space at `at`, `depth` (mm) under the
@@ -284,7 +283,13 @@ impl CellForces {
 /// frame, where into the body is `-z`: the mirror turns `u_z` and, the rotation being an axial
 /// vector, `omega_x` and `omega_y`.
 pub(crate) fn sensor_motion(u: [f64; 3], omega: [f64; 3]) -> (Vector3<f64>, Vector3<f64>) {
-    (Vector3::new(u[0], u[1], -u[2]), Vector3::new(-omega[0], -omega[1], omega[2]))
+    (sensor_displacement(u), Vector3::new(-omega[0], -omega[1], omega[2]))
+}
+
+/// A displacement of the kernels' frame (`z` into the body) in the grid's, where into the body
+/// is `-z`.
+pub(crate) fn sensor_displacement(u: [f64; 3]) -> Vector3<f64> {
+    Vector3::new(u[0], u[1], -u[2])
 }
 
 /// Deformed pin poses (in the frame of `layout` and the grid) for the given cell forces;

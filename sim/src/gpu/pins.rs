@@ -21,7 +21,8 @@ use nalgebra::Vector3;
 
 use super::Gpu;
 use crate::contact::{
-    PinKernel, PinLoad, Simulation, motion_from_stencil, moved_pin, patch_points, sensor_motion, stencil,
+    PinKernel, PinLoad, Simulation, motion_from_stencil, moved_pin, patch_points, sensor_displacement, sensor_motion,
+    stencil,
 };
 use crate::error::{Result, SimError};
 use crate::pins::PinPose;
@@ -141,12 +142,9 @@ impl Gpu {
                             at += 1;
                             match load.kernel {
                                 PinKernel::HalfSpace(_) => sensor_motion([v[0], v[1], v[2]], [v[3], v[4], v[5]]),
-                                PinKernel::Layered(_) => {
-                                    // Into the body is sensor -z (as `CellForces::displacements`).
-                                    let u: [Vector3<f64>; 4] =
-                                        std::array::from_fn(|s| Vector3::new(v[3 * s], v[3 * s + 1], -v[3 * s + 2]));
-                                    motion_from_stencil(&u)
-                                }
+                                PinKernel::Layered(_) => motion_from_stencil(&std::array::from_fn(|s| {
+                                    sensor_displacement([v[3 * s], v[3 * s + 1], v[3 * s + 2]])
+                                })),
                             }
                         })
                         .collect();
