@@ -107,6 +107,18 @@ impl ConvStack {
         Self { convs, norms }
     }
 
+    /// Each layer's ReLU input ([`PoseNet::relu_inputs`](crate::PoseNet::relu_inputs)) and
+    /// the stack's output.
+    pub(crate) fn relu_inputs(&self, mut x: Tensor<4>) -> (Vec<Tensor<4>>, Tensor<4>) {
+        let mut inputs = Vec::with_capacity(self.convs.len());
+        for (c, n) in self.convs.iter().zip(&self.norms) {
+            let z = n.forward(c.forward(x));
+            x = relu(z.clone());
+            inputs.push(z);
+        }
+        (inputs, x)
+    }
+
     /// Runs the stack.
     pub(crate) fn forward(&self, mut x: Tensor<4>) -> Tensor<4> {
         for (c, n) in self.convs.iter().zip(&self.norms) {

@@ -58,6 +58,18 @@ impl PoseNet {
         let h: Tensor<2> = h.flatten(1, 3);
         self.out.forward(relu(self.hidden.forward(h)))
     }
+
+    /// What each ReLU of the network takes for `[batch, 1, s, s]` images, one `[batch,
+    /// features]` tensor per ReLU: the trunk's batch-normed convolution outputs, first layer to
+    /// last, then the hidden layer's (on an autodiff device the batch norms use the batch's
+    /// statistics, as in training). A ReLU's gradient is a step at 0, so an input within
+    /// rounding of 0 is where two backends' gradients may part by more than rounding.
+    pub fn relu_inputs(&self, x: Tensor<4>) -> Vec<Tensor<2>> {
+        let (trunk, h) = self.trunk.relu_inputs(x);
+        let mut inputs: Vec<Tensor<2>> = trunk.into_iter().map(|z| z.flatten(1, 3)).collect();
+        inputs.push(self.hidden.forward(h.flatten(1, 3)));
+        inputs
+    }
 }
 
 /// The labels of a sample, one value per [`Column`] (mm or deg); a network's reading sets

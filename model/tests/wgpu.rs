@@ -135,7 +135,46 @@ fn one_pose_network_step_computes_alike_on_wgpu_and_flex() {
     let start = dir.join("start");
     train_posenet(&corpus, &cfg, Backend::Flex, &start, false, None, &mut Silent).expect("start");
     let (_, _, scale) = load_posenet(&start, &Backend::Flex.device()).expect("scale");
-    let rows = [0, 1, 2, 3];
+    let net = |device: &Device| {
+        let net = PoseNet::new(cfg.net_size().expect("size"), cfg.hidden, scale.width(), device);
+        load_weights(net, &weights(&start)).expect("weights")
+    };
+
+    // A ReLU's gradient is a step at 0. Where one of its inputs lies within rounding of 0, the
+    // backends may put it on either side, and every gradient upstream then parts by that
+    // input's whole contribution: arithmetic no longer tells. Seen on an AVX-512 machine, rows
+    // 0-3: three second-layer inputs at -9.3e-6 on flex and +1.3e-8 on lavapipe, the first
+    // layers' gradients 1.5e-3 of the largest apart, all else within 1.3e-4 (issue 31's CI
+    // run). So the step takes the first batch of four rows whose ReLU inputs keep their signs
+    // on both backends, after checking that each candidate's inputs agree to rounding.
+    let candidates: Vec<Vec<usize>> = (0..8).map(|k| (4 * k..4 * k + 4).collect()).collect();
+    let relu_inputs = |backend: Backend, rows: &[usize]| -> Vec<Vec<f32>> {
+        let device = backend.training_device();
+        let inputs = net(&device).relu_inputs(corpus.batch(rows, &[], &device));
+        inputs.into_iter().map(|z| z.into_data().try_to_vec::<f32>().expect("f32")).collect()
+    };
+    let mut chosen = None;
+    for rows in &candidates {
+        let (flex, wgpu) = (relu_inputs(Backend::Flex, rows), relu_inputs(Backend::Wgpu, rows));
+        let (flex, wgpu) = (flex.concat(), wgpu.concat());
+        let forward = relative_gap(&flex, &wgpu);
+        let flips: Vec<(f32, f32)> =
+            flex.iter().zip(&wgpu).filter(|(a, b)| (**a > 0.0) != (**b > 0.0)).map(|(a, b)| (*a, *b)).collect();
+        println!(
+            "rows {rows:?}: ReLU inputs {forward:.2e} apart, {} change sides: {:?}",
+            flips.len(),
+            &flips[..flips.len().min(4)]
+        );
+        // The forward pass alone, rounding only, wherever the signs go: 1e-4 of the largest
+        // input (measured 7.8e-6 and 5.0e-6 on the AVX-512 machine, rows 0-3 and 4-7).
+        assert!(forward < 1e-4, "rows {rows:?}: the ReLU inputs differ by {forward:.2e} of the largest");
+        if flips.is_empty() {
+            chosen = Some(rows.clone());
+            break;
+        }
+    }
+    let rows =
+        chosen.unwrap_or_else(|| panic!("every candidate batch {candidates:?} has a ReLU input on either side of 0"));
     let poses: Vec<_> = rows.iter().map(|&r| corpus.pose(r)).collect();
 
     /// Each parameter tensor's gradient, flattened, in the module's order.
@@ -148,8 +187,7 @@ fn one_pose_network_step_computes_alike_on_wgpu_and_flex() {
     }
     let step = |backend: Backend| -> (f32, Vec<Vec<f32>>) {
         let device = backend.training_device();
-        let net = PoseNet::new(cfg.net_size().expect("size"), cfg.hidden, scale.width(), &device);
-        let net = load_weights(net, &weights(&start)).expect("weights");
+        let net = net(&device);
         let x = corpus.batch(&rows, &[], &device);
         let loss = (net.forward(x) - scale.targets(&poses, &device)).square().mean();
         let value = loss.clone().into_scalar::<f32>();
@@ -182,7 +220,8 @@ fn one_pose_network_step_computes_alike_on_wgpu_and_flex() {
     );
     // One forward and backward pass in f32, sums in another order: the loss to 1e-5 of its size
     // (measured 9.8e-7 on lavapipe, 1.1e-6 on an H100), the gradients to 5e-5 of the largest
-    // (7.1e-6 and 6.1e-6; 1.1e-5 on the H100 from another start).
+    // (7.1e-6 and 6.1e-6; 1.1e-5 on the H100 from another start; 1.1e-5 on the AVX-512 machine,
+    // rows 4-7).
     assert!(loss_gap < 1e-5, "one step's loss differs by {loss_gap:.2e} of its size");
     assert!(worst < 5e-5, "one step's gradients differ by up to {worst:.2e} of the largest: {}", gaps.join(" "));
 }
