@@ -304,6 +304,32 @@ mod tests {
         assert_eq!(net.forward(Tensor::zeros([3, 1, 64, 64], &Device::flex())).dims(), [3, 4]);
     }
 
+    /// What could break: `relu_inputs` must be the inputs of the ReLUs `forward` applies,
+    /// else the wgpu step test would check the signs of other numbers. The last one, through
+    /// its ReLU and the output layer, must give `forward`'s outputs (the same bits), and every
+    /// one must have the layer's shape.
+    #[test]
+    fn relu_inputs_are_what_forward_feeds_its_relus() {
+        let device = Device::flex();
+        let net = PoseNet::new(Size::S64, 16, 4, &device);
+        let x: Tensor<4> = Tensor::from_data(
+            TensorData::new((0..2 * 64 * 64).map(|k| ((k * 37 % 101) as f32) / 101.0).collect(), [2, 1, 64, 64]),
+            &device,
+        );
+        let inputs = net.relu_inputs(x.clone());
+        let dims: Vec<[usize; 2]> = inputs.iter().map(|z| z.dims()).collect();
+        assert_eq!(dims, [[2, 64 * 32 * 32], [2, 64 * 16 * 16], [2, 64 * 8 * 8], [2, 16]]);
+        let hidden = inputs.last().expect("the hidden layer's").clone();
+        let via_inputs = net.out.forward(relu(hidden)).into_data().try_to_vec::<f32>().expect("f32");
+        let direct = net.forward(x).into_data().try_to_vec::<f32>().expect("f32");
+        assert_eq!(via_inputs, direct);
+        // Some inputs on each side of 0: the signs are what the test reads.
+        for z in inputs {
+            let v = z.into_data().try_to_vec::<f32>().expect("f32");
+            assert!(v.iter().any(|a| *a > 0.0) && v.iter().any(|a| *a < 0.0));
+        }
+    }
+
     #[test]
     fn any_label_set_round_trips_and_unread_labels_decode_to_zero() {
         let row = Row {
