@@ -109,20 +109,23 @@ impl ConvStack {
 
     /// Each layer's ReLU input ([`PoseNet::relu_inputs`](crate::PoseNet::relu_inputs)) and
     /// the stack's output.
-    pub(crate) fn relu_inputs(&self, mut x: Tensor<4>) -> (Vec<Tensor<4>>, Tensor<4>) {
+    pub(crate) fn relu_inputs(&self, x: Tensor<4>) -> (Vec<Tensor<4>>, Tensor<4>) {
         let mut inputs = Vec::with_capacity(self.convs.len());
-        for (c, n) in self.convs.iter().zip(&self.norms) {
-            let z = n.forward(c.forward(x));
-            x = relu(z.clone());
-            inputs.push(z);
-        }
-        (inputs, x)
+        let out = self.run(x, |z| inputs.push(z.clone()));
+        (inputs, out)
     }
 
     /// Runs the stack.
-    pub(crate) fn forward(&self, mut x: Tensor<4>) -> Tensor<4> {
+    pub(crate) fn forward(&self, x: Tensor<4>) -> Tensor<4> {
+        self.run(x, |_| {})
+    }
+
+    /// The layers in turn, each ReLU's input shown to `seen` before the ReLU takes it.
+    fn run(&self, mut x: Tensor<4>, mut seen: impl FnMut(&Tensor<4>)) -> Tensor<4> {
         for (c, n) in self.convs.iter().zip(&self.norms) {
-            x = relu(n.forward(c.forward(x)));
+            let z = n.forward(c.forward(x));
+            seen(&z);
+            x = relu(z);
         }
         x
     }
