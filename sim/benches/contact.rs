@@ -1,11 +1,13 @@
 //! Influence-operator products, dense on a disc of cells against zero-padded FFT over the grid,
 //! for the grid sizes the sensor uses: the measurement behind
-//! `contact::normal::DENSE_MAX_CELLS`. Run with `cargo bench -p tacsim-sim --bench contact`.
+//! `contact::normal::DENSE_MAX_CELLS`; and the tangential product on a tap's contact cells, by
+//! the operator's dense product against a prebuilt [`CellMatrix`] (and what building one
+//! costs). Run with `cargo bench -p tacsim-sim --bench contact`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use tacsim_sim::contact::Elastic;
 use tacsim_sim::contact::Grid;
-use tacsim_sim::contact::{Component, HalfSpace, Operator, Pairing, Product};
+use tacsim_sim::contact::{CellMatrix, Component, HalfSpace, Operator, Pairing, Product};
 
 fn bench_products(c: &mut Criterion) {
     let model = HalfSpace { material: Elastic::from_young(1.0, 0.5), pairing: Pairing::RigidIndenter };
@@ -27,6 +29,39 @@ fn bench_products(c: &mut Criterion) {
         group.bench_function(format!("fft/{}-candidates", cand.len()), |b| {
             b.iter(|| op.apply(&[(Component::Zz, &p)], &mut out, Product::Fft));
         });
+    }
+    group.finish();
+    bench_shear_products(c);
+}
+
+/// `u = A_t q` on a disc of contact cells, the tangential solver's product.
+fn bench_shear_products(c: &mut Criterion) {
+    let model = HalfSpace { material: Elastic::from_young(1.0, 0.436), pairing: Pairing::RigidIndenter };
+    let blocks = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy]];
+    let mut group = c.benchmark_group("shear-product");
+    for n in [13usize, 17, 21, 25] {
+        let grid = Grid::square(n, 1.0);
+        let op = Operator::new(&model, grid);
+        // The contact: the disc of 0.7 of the inscribed radius (a Hertz-like tap's).
+        let r = 0.35 * n as f64;
+        let centres = grid.centres();
+        let cells: Vec<usize> = (0..grid.len()).filter(|&k| centres[k][0].hypot(centres[k][1]) < r).collect();
+        let qx: Vec<f64> = (0..grid.len()).map(|k| (k % 7) as f64 - 3.0).collect();
+        let qy: Vec<f64> = (0..grid.len()).map(|k| (k % 5) as f64 - 2.0).collect();
+        let (mut ux, mut uy) = (vec![0.0; grid.len()], vec![0.0; grid.len()]);
+        let m = cells.len();
+        group.bench_function(format!("dense/{m}-cells"), |b| {
+            b.iter(|| {
+                let product = Product::Dense { src: &cells, dst: &cells };
+                op.apply(&[(Component::Xx, &qx), (Component::Xy, &qy)], &mut ux, product);
+                op.apply(&[(Component::Xy, &qx), (Component::Yy, &qy)], &mut uy, product);
+            });
+        });
+        let matrix = CellMatrix::new(&op, &blocks, &cells);
+        group.bench_function(format!("matrix/{m}-cells"), |b| {
+            b.iter(|| matrix.apply_fields(&cells, &[&qx, &qy], &mut [&mut ux, &mut uy]));
+        });
+        group.bench_function(format!("matrix-build/{m}-cells"), |b| b.iter(|| CellMatrix::new(&op, &blocks, &cells)));
     }
     group.finish();
 }

@@ -337,3 +337,36 @@ fn the_dome_slope_drags_the_skin_towards_a_contact_off_the_apex() {
     println!("far-side pins' mean x motion: {flat:.4} mm flat, {sloped:.4} mm with the dome's slope");
     assert!(sloped < flat - 0.01, "{sloped} vs {flat}");
 }
+
+/// The contact matrices (`contact::CellMatrix`) are built once per cell set and reused
+/// across a tap's coupling rounds, and a tap solved through them lands where one solved by
+/// FFT products does (both solved to tight tolerances): the same contact, force within 1e-7
+/// of itself, pins within 1e-6 mm.
+#[test]
+fn a_tap_through_the_contact_matrices_equals_one_through_fft_products() {
+    let scene = scene_with("disk");
+    let mut sensor = SensorParams::default();
+    sensor.skin.cells_across = 13;
+    let mut matrices = ContactModel::new(&sensor);
+    matrices.normal.tolerance = 1e-10;
+    matrices.tangential.tolerance = 1e-9;
+    let mut fft = matrices.clone();
+    fft.normal.products.dense_max_cells = 0;
+    fft.tangential.dense_max_cells = 0;
+    let pose = SensorPose::new(5.0, -3.0, 3.0, 30.0);
+    let mut a = Simulation::new(&matrices, &scene, &[pose]);
+    let ra = a.step(pose).expect("a tap").clone();
+    let [normal, shear] = a.matrix_counts();
+    assert!(ra.normal_iterations > 0 && ra.tangential_solved, "{ra:?}");
+    assert_eq!((normal[0], shear[0]), (1, 1), "one matrix of each kind built: {:?}", a.matrix_counts());
+    assert!(normal[1] > 0 && shear[1] > 0, "the coupling rounds reuse them: {:?}", a.matrix_counts());
+    let mut b = Simulation::new(&fft, &scene, &[pose]);
+    let rb = b.step(pose).expect("a tap").clone();
+    assert_eq!(b.matrix_counts(), [[0, 0], [0, 0]], "no matrix with FFT products");
+    assert_eq!(ra.contact_cells, rb.contact_cells);
+    for (fa, fb) in ra.force_n.iter().zip(rb.force_n) {
+        assert!((fa - fb).abs() <= 1e-7 * ra.force_n[2], "{:?} vs {:?}", ra.force_n, rb.force_n);
+    }
+    let shift = max_pin_shift(&a.pins(), &b.pins());
+    assert!(shift < 1e-6, "pins {shift} mm apart");
+}

@@ -21,6 +21,7 @@ use super::frame::ContactFrame;
 use super::grid::Grid;
 use super::kernel::{DepthKernel, Elastic};
 use super::layered::{Layer, LayeredBody, LayeredKernels};
+use super::matrix::MatrixCache;
 use super::normal::{self, Control, NormalSettings};
 use super::operator::{Component, HalfSpace, Operator, Pairing, Product};
 use super::pin_motion::{CellForces, PIN_SUBSQUARES, PinKernel, PinLoad, displaced_pins};
@@ -311,6 +312,10 @@ pub struct Simulation<'a> {
     /// tangential operator on them (reused while the contact stays inside).
     seen: Vec<bool>,
     lipschitz: Option<f64>,
+    /// The last normal (`A_zz` on the candidates) and tangential (`A_t` on the contact
+    /// cells) matrices, reused while the cells stay the same.
+    normal_matrix: MatrixCache,
+    shear_matrix: MatrixCache,
     /// The dome's slope `dh/dx, dh/dy` per cell times `skin.dome_slope` (none at 0).
     slope: Option<(Vec<f64>, Vec<f64>)>,
     /// How far each cell's surface was pressed in at the end of the previous step (mm).
@@ -355,6 +360,8 @@ impl<'a> Simulation<'a> {
             friction: vec![0.0; n],
             seen: vec![false; n],
             lipschitz: None,
+            normal_matrix: MatrixCache::default(),
+            shear_matrix: MatrixCache::default(),
             slope,
             closure: vec![0.0; n],
             pose: None,
@@ -372,6 +379,8 @@ impl<'a> Simulation<'a> {
         self.friction.fill(0.0);
         self.seen.fill(false);
         self.lipschitz = None;
+        self.normal_matrix = MatrixCache::default();
+        self.shear_matrix = MatrixCache::default();
         self.closure.fill(0.0);
         self.pose = None;
         self.report = StepReport::default();
@@ -406,6 +415,11 @@ impl<'a> Simulation<'a> {
     /// Friction coefficient of the stimulus under each grid cell at the last step.
     pub fn friction(&self) -> &[f64] {
         &self.friction
+    }
+
+    /// Normal and tangential [`MatrixCache`] counts: matrices built and reused.
+    pub fn matrix_counts(&self) -> [[usize; 2]; 2] {
+        [self.normal_matrix.counts, self.shear_matrix.counts]
     }
 
     /// The last step's report.
@@ -557,7 +571,15 @@ impl<'a> Simulation<'a> {
         extra: Option<&[f64]>,
         report: &mut StepReport,
     ) -> Result<()> {
-        let sol = normal::solve(op, g0, extra, Control::Indentation, Some(&self.pressure), &self.model.normal)?;
+        let sol = normal::solve(
+            op,
+            g0,
+            extra,
+            Control::Indentation,
+            Some(&self.pressure),
+            &self.model.normal,
+            &mut self.normal_matrix,
+        )?;
         report.normal_iterations += sol.iterations;
         report.force_n[2] = sol.force_n;
         self.pressure = sol.pressure;
@@ -646,7 +668,12 @@ impl<'a> Simulation<'a> {
         }
         if grown || self.lipschitz.is_none() {
             let cells: Vec<usize> = (0..self.seen.len()).filter(|&k| self.seen[k]).collect();
-            self.lipschitz = Some(tangential::largest_eigenvalue(op, &cells, self.model.tangential.dense_max_cells));
+            self.lipschitz = Some(tangential::largest_eigenvalue(
+                op,
+                &cells,
+                self.model.tangential.dense_max_cells,
+                &mut self.shear_matrix,
+            ));
         }
         let minus = |q: &[f64], o: &[f64]| -> Vec<f64> { q.iter().zip(o).map(|(q, o)| q - o).collect() };
         let shifted = offsets.map(|([ox, oy], [ox_prev, oy_prev])| {
@@ -664,7 +691,7 @@ impl<'a> Simulation<'a> {
             warm: Some((warm_x, warm_y)),
             lipschitz: self.lipschitz,
         };
-        let t = tangential::solve_step(op, &input, &self.model.tangential)?;
+        let t = tangential::solve_step(op, &input, &self.model.tangential, &mut self.shear_matrix)?;
         report.tangential_solved = true;
         report.tangential_iterations += t.iterations;
         report.force_n[0] = t.force_n[0];

@@ -19,6 +19,7 @@ mod frame;
 mod grid;
 mod kernel;
 mod layered;
+mod matrix;
 mod normal;
 mod operator;
 mod pin_motion;
@@ -32,6 +33,7 @@ pub use engine::{ContactModel, Influence, Simulation, StepReport, contact_disk_g
 pub use frame::{ContactFrame, press_direction};
 pub use grid::Grid;
 pub use kernel::{Elastic, Kernel, point_load_displacement};
+pub use matrix::{CellMatrix, MatrixCache};
 pub use operator::{Component, HalfSpace, Operator, Pairing, Product};
 pub use pin_motion::PIN_SUBSQUARES;
 #[cfg(feature = "wgpu")]

@@ -8,6 +8,9 @@
 //! every cell. Products are dense on the candidates when there are few, FFT otherwise
 //! ([`ProductChoice`]).
 
+use std::sync::Arc;
+
+use super::matrix::{CellMatrix, MatrixCache};
 use super::operator::{Component, Operator, Product};
 use crate::error::{Result, SimError};
 
@@ -83,7 +86,8 @@ impl NormalSolution {
 /// `extra` an additional normal displacement (mm, e.g. from tangential tractions), `warm` a
 /// starting pressure field (MPa). The stages: the candidate cells ([`Problem::new`]), the
 /// start (warm or a Jacobi guess, [`Problem::start`]), then the constrained conjugate
-/// gradient to convergence ([`Problem::conjugate_gradient`]).
+/// gradient to convergence ([`Problem::conjugate_gradient`]). Dense products go through
+/// `cache` ([`MatrixCache`]).
 pub fn solve(
     op: &Operator,
     g0: &[f64],
@@ -91,8 +95,9 @@ pub fn solve(
     control: Control,
     warm: Option<&[f64]>,
     settings: &NormalSettings,
+    cache: &mut MatrixCache,
 ) -> Result<NormalSolution> {
-    let problem = Problem::new(op, g0, extra, control, settings);
+    let problem = Problem::new(op, g0, extra, control, settings, cache);
     if problem.candidates.is_empty() || matches!(control, Control::Load(l) if l <= 0.0) {
         return Ok(problem.unloaded());
     }
@@ -112,6 +117,8 @@ struct Problem<'a> {
     candidates: Vec<usize>,
     /// Cell area (mm^2).
     area: f64,
+    /// `A_zz` on the candidates where products are dense.
+    matrix: Option<Arc<CellMatrix>>,
 }
 
 impl<'a> Problem<'a> {
@@ -121,6 +128,7 @@ impl<'a> Problem<'a> {
         extra: Option<&[f64]>,
         control: Control,
         settings: &'a NormalSettings,
+        cache: &mut MatrixCache,
     ) -> Self {
         let n = op.grid().len();
         let base: Vec<f64> = (0..n).map(|k| g0[k] + extra.map_or(0.0, |e| e[k])).collect();
@@ -128,7 +136,10 @@ impl<'a> Problem<'a> {
             Control::Indentation => (0..n).filter(|&k| base[k] < 0.0).collect(),
             Control::Load(_) => (0..n).filter(|&k| base[k].is_finite()).collect(),
         };
-        Self { op, control, settings, base, candidates, area: op.grid().cell_area_mm2() }
+        let dense = !candidates.is_empty() && candidates.len() <= settings.products.dense_max_cells;
+        let matrix = (dense && CellMatrix::worth_building(1, 1, candidates.len()))
+            .then(|| cache.get(op, &[[Component::Zz]], &candidates));
+        Self { op, control, settings, base, candidates, area: op.grid().cell_area_mm2(), matrix }
     }
 
     /// No load: zero pressure, the gap as it is.
@@ -141,8 +152,11 @@ impl<'a> Problem<'a> {
         NormalSolution { pressure: vec![0.0; n], gap, approach_mm: 0.0, force_n: 0.0, iterations: 0 }
     }
 
-    /// `out = A_zz v` at the candidates, from `v` on `src`.
+    /// `out = A_zz v` at the candidates, from `v` on `src` (zero on the other candidates).
     fn product(&self, src: &[usize], v: &[f64], out: &mut [f64]) {
+        if let Some(m) = &self.matrix {
+            return m.apply_fields(&self.candidates, &[v], &mut [out]);
+        }
         let choice =
             Product::by_size(self.candidates.len(), self.settings.products.dense_max_cells, src, &self.candidates);
         self.op.apply(&[(Component::Zz, v)], out, choice);

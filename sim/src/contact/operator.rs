@@ -316,6 +316,12 @@ impl Operator {
         self.coefficients[c as usize][idx]
     }
 
+    /// Component `c`'s coefficients (mm/MPa), row-major over the offsets `(dx, dy)` from
+    /// `(-(nx - 1), -(ny - 1))`: offset `(dx, dy)` at `(dy + ny - 1) (2 nx - 1) + dx + nx - 1`.
+    pub(crate) fn table(&self, c: Component) -> &[f64] {
+        &self.coefficients[c as usize]
+    }
+
     /// Self-influence `A_c(0, 0)` (mm/MPa).
     pub fn diagonal(&self, c: Component) -> f64 {
         self.coefficient(c, 0, 0)

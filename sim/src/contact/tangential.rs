@@ -17,6 +17,9 @@
 //! dissipation of the step, `-sum q_i . s_i h^2 >= 0` (N mm), follows. Normal-tangential
 //! coupling is left to the caller, which alternates the two solves (see [`super::engine`]).
 
+use std::sync::Arc;
+
+use super::matrix::{CellMatrix, MatrixCache};
 use super::operator::{Component, Operator, Product};
 use crate::error::{Result, SimError};
 
@@ -63,9 +66,9 @@ pub struct TangentialSolution {
 /// (mm/MPa), by power iteration. It bounds the eigenvalues on every subset of `cells` too
 /// (Cauchy interlacing), so one bound serves a whole path.
 /// Products are dense up to `dense_max_cells` cells.
-pub fn largest_eigenvalue(op: &Operator, cells: &[usize], dense_max_cells: usize) -> f64 {
+pub fn largest_eigenvalue(op: &Operator, cells: &[usize], dense_max_cells: usize, cache: &mut MatrixCache) -> f64 {
     let n = op.grid().len();
-    let product = Product::by_size(cells.len(), dense_max_cells, cells, cells);
+    let product = ContactProduct::new(op, cells, dense_max_cells, cache);
     let (mut vx, mut vy) = (vec![0.0; n], vec![0.0; n]);
     for &k in cells {
         vx[k] = 1.0;
@@ -74,8 +77,7 @@ pub fn largest_eigenvalue(op: &Operator, cells: &[usize], dense_max_cells: usize
     let (mut ax, mut ay) = (vec![0.0; n], vec![0.0; n]);
     let mut lambda = 0.0;
     for _ in 0..12 {
-        op.apply(&[(Component::Xx, &vx), (Component::Xy, &vy)], &mut ax, product);
-        op.apply(&[(Component::Xy, &vx), (Component::Yy, &vy)], &mut ay, product);
+        product.apply_contact(&vx, &vy, &mut ax, &mut ay);
         let norm = cells.iter().map(|&k| ax[k] * ax[k] + ay[k] * ay[k]).sum::<f64>().sqrt();
         let vnorm = cells.iter().map(|&k| vx[k] * vx[k] + vy[k] * vy[k]).sum::<f64>().sqrt();
         if norm == 0.0 {
@@ -124,18 +126,39 @@ pub struct StepInput<'a> {
     pub lipschitz: Option<f64>,
 }
 
-/// `u = A_t q` at the contact cells, from tractions on chosen source cells.
+/// The in-plane blocks of the operator: `(u_x, u_y)` from `(q_x, q_y)`.
+const SHEAR_BLOCKS: [[Component; 2]; 2] = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy]];
+
+/// `u = A_t q` at the contact cells: by the [`CellMatrix`] of the contact cells where the
+/// products are dense and it is worth building, by the operator's product otherwise.
 struct ContactProduct<'a> {
     op: &'a Operator,
     contact: &'a [usize],
     dense_max_cells: usize,
+    matrix: Option<Arc<CellMatrix>>,
 }
 
-impl ContactProduct<'_> {
+impl<'a> ContactProduct<'a> {
+    fn new(op: &'a Operator, contact: &'a [usize], dense_max_cells: usize, cache: &mut MatrixCache) -> Self {
+        let dense = contact.len() <= dense_max_cells;
+        let matrix =
+            (dense && CellMatrix::worth_building(2, 2, contact.len())).then(|| cache.get(op, &SHEAR_BLOCKS, contact));
+        Self { op, contact, dense_max_cells, matrix }
+    }
+
+    /// From tractions on chosen source cells `src`.
     fn apply(&self, src: &[usize], qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]) {
         let product = Product::by_size(self.contact.len(), self.dense_max_cells, src, self.contact);
         self.op.apply(&[(Component::Xx, qx), (Component::Xy, qy)], ux, product);
         self.op.apply(&[(Component::Xy, qx), (Component::Yy, qy)], uy, product);
+    }
+
+    /// From tractions on the contact cells.
+    fn apply_contact(&self, qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]) {
+        match &self.matrix {
+            Some(m) => m.apply_fields(self.contact, &[qx, qy], &mut [ux, uy]),
+            None => self.apply(self.contact, qx, qy, ux, uy),
+        }
     }
 }
 
@@ -144,7 +167,13 @@ impl ContactProduct<'_> {
 /// ([`slip_offset`]), the accelerated projected gradient from the warm start
 /// ([`minimise`]), and the slip, force and dissipation of the converged tractions
 /// ([`settle`]).
-pub fn solve_step(op: &Operator, input: &StepInput<'_>, settings: &TangentialSettings) -> Result<TangentialSolution> {
+/// Products on the contact cells go through `cache` ([`MatrixCache`]).
+pub fn solve_step(
+    op: &Operator,
+    input: &StepInput<'_>,
+    settings: &TangentialSettings,
+    cache: &mut MatrixCache,
+) -> Result<TangentialSolution> {
     let n = op.grid().len();
     let contact: Vec<usize> = (0..n).filter(|&k| input.pressure[k] > 0.0).collect();
     if contact.is_empty() {
@@ -161,9 +190,9 @@ pub fn solve_step(op: &Operator, input: &StepInput<'_>, settings: &TangentialSet
     }
     let bound: Vec<f64> =
         (0..n).map(|k| if input.pressure[k] > 0.0 { input.mu[k] * input.pressure[k] } else { 0.0 }).collect();
-    let product = ContactProduct { op, contact: &contact, dense_max_cells: settings.dense_max_cells };
+    let product = ContactProduct::new(op, &contact, settings.dense_max_cells, cache);
     let b = slip_offset(&product, input);
-    let (q, iterations) = minimise(&product, input, &b, &bound, settings)?;
+    let (q, iterations) = minimise(&product, input, &b, &bound, settings, cache)?;
     Ok(settle(&product, &b, &bound, q, iterations))
 }
 
@@ -194,13 +223,14 @@ fn minimise(
     (bx, by): &Pair,
     bound: &[f64],
     settings: &TangentialSettings,
+    cache: &mut MatrixCache,
 ) -> Result<(Pair, usize)> {
     let (op, contact) = (product.op, product.contact);
     let n = bound.len();
     let total_bound: f64 = contact.iter().map(|&k| bound[k]).sum();
     let lipschitz = match input.lipschitz {
         Some(l) => l,
-        None => largest_eigenvalue(op, contact, settings.dense_max_cells),
+        None => largest_eigenvalue(op, contact, settings.dense_max_cells, cache),
     };
     let step = 1.0 / lipschitz;
     let local = 1.0 / op.diagonal(Component::Xx).max(op.diagonal(Component::Yy));
@@ -213,7 +243,7 @@ fn minimise(
     let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
     let mut theta = 1.0f64;
     for iteration in 1..=settings.max_iterations {
-        product.apply(contact, &yx, &yy, &mut ux, &mut uy);
+        product.apply_contact(&yx, &yy, &mut ux, &mut uy);
         let mut kkt = 0.0;
         let mut restart = 0.0;
         let theta_next = 0.5 * (1.0 + (1.0 + 4.0 * theta * theta).sqrt());
@@ -265,7 +295,7 @@ fn settle(
     let n = bound.len();
     let area = product.op.grid().cell_area_mm2();
     let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
-    product.apply(product.contact, &qx, &qy, &mut ux, &mut uy);
+    product.apply_contact(&qx, &qy, &mut ux, &mut uy);
     let (mut slip_x, mut slip_y, mut slipping) = (vec![0.0; n], vec![0.0; n], vec![false; n]);
     let mut force = [0.0; 2];
     let mut dissipation = 0.0;

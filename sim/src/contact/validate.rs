@@ -14,6 +14,7 @@ use serde::Serialize;
 
 use super::grid::Grid;
 use super::kernel::Elastic;
+use super::matrix::MatrixCache;
 use super::normal::{self, Control, NormalSettings};
 use super::operator::{HalfSpace, Operator, Pairing};
 use super::tangential::{self, TangentialSettings};
@@ -92,7 +93,15 @@ pub fn hertz(n: usize) -> Result<HertzReport> {
     let op = Operator::new(&model, grid);
     let a = reference::CONTACT_RADIUS_MM;
     let d = a * a / reference::RADIUS_MM;
-    let sol = normal::solve(&op, &paraboloid(&grid, d), None, Control::Indentation, None, &NormalSettings::default())?;
+    let sol = normal::solve(
+        &op,
+        &paraboloid(&grid, d),
+        None,
+        Control::Indentation,
+        None,
+        &NormalSettings::default(),
+        &mut MatrixCache::default(),
+    )?;
     let p_exact = hertz_force_n(a);
     let contact_area = sol.contact_cells().len() as f64 * grid.cell_area_mm2();
     let p0 = 3.0 * p_exact / (2.0 * PI * a * a);
@@ -161,8 +170,15 @@ pub fn cattaneo_with(n: usize, poisson: f64) -> Result<CattaneoReport> {
     let op = Operator::new(&model, grid);
     let a = reference::CONTACT_RADIUS_MM;
     let p_total = hertz_force_with(a, poisson);
-    let normal =
-        normal::solve(&op, &paraboloid(&grid, 0.0), None, Control::Load(p_total), None, &NormalSettings::default())?;
+    let normal = normal::solve(
+        &op,
+        &paraboloid(&grid, 0.0),
+        None,
+        Control::Load(p_total),
+        None,
+        &NormalSettings::default(),
+        &mut MatrixCache::default(),
+    )?;
     let q_target = reference::Q_OVER_MU_P * reference::FRICTION * p_total;
     let mu = vec![reference::FRICTION; grid.len()];
     let zero = vec![0.0; grid.len()];
@@ -171,7 +187,8 @@ pub fn cattaneo_with(n: usize, poisson: f64) -> Result<CattaneoReport> {
     let mut warm: Option<(Vec<f64>, Vec<f64>)> = None;
     // The contact area is fixed: one eigenvalue bound serves every shift.
     let contact = normal.contact_cells();
-    let lipschitz = tangential::largest_eigenvalue(&op, &contact, settings.dense_max_cells);
+    let mut cache = MatrixCache::default();
+    let lipschitz = tangential::largest_eigenvalue(&op, &contact, settings.dense_max_cells, &mut cache);
     let mut force_at =
         |shift: f64, warm: &mut Option<(Vec<f64>, Vec<f64>)>| -> Result<tangential::TangentialSolution> {
             solves += 1;
@@ -184,7 +201,7 @@ pub fn cattaneo_with(n: usize, poisson: f64) -> Result<CattaneoReport> {
                 warm: warm.as_ref().map(|(x, y)| (x.as_slice(), y.as_slice())),
                 lipschitz: Some(lipschitz),
             };
-            let sol = tangential::solve_step(&op, &input, &settings)?;
+            let sol = tangential::solve_step(&op, &input, &settings, &mut cache)?;
             *warm = Some((sol.qx.clone(), sol.qy.clone()));
             Ok(sol)
         };

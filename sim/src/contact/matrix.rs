@@ -1,0 +1,264 @@
+//! The operator on one fixed set of cells as an explicit matrix, for a solver that repeats
+//! products on that set (the tangential iterations on the contact cells, the normal conjugate
+//! gradient on its candidates).
+//!
+//! [`Operator::apply`]'s dense product reads the Toeplitz table through each call's runs of
+//! cells; on the small footprints of the accurate grids (60-300 cells) that bookkeeping, not
+//! the multiply-adds, took most of a product's time. Here the coefficients are gathered once,
+//! `M[(a, i), (b, j)] = A_{c_ab}(x_i - x_j, y_i - y_j)` (mm/MPa) for output component `a` at
+//! cell `i` and input component `b` at cell `j`, and a product is a plain walk over it.
+//!
+//! Layout: rows in panels of [`LANES`]; a panel stores, column by column, its rows' `LANES`
+//! coefficients side by side. A product keeps a panel's `LANES` sums in registers and adds
+//! the columns in order, so every row's sum is the sequential sum over its columns whatever
+//! the vector width: the same bits on every x86-64 CPU.
+
+use std::sync::Arc;
+
+use super::grid::Grid;
+use super::operator::{Component, Operator};
+
+/// Rows per panel.
+const LANES: usize = 32;
+
+/// The largest matrix worth building (bytes): beyond about half of a core's L2 cache the
+/// products stream from farther away and lose to the operator's own dense product
+/// (`cargo bench -p tacsim-sim --bench contact -- shear-product`: 2.2x faster on 177 contact
+/// cells, 1.0 MB; slower on 241, 1.9 MB).
+const MAX_BYTES: usize = 1 << 20;
+
+/// The matrix of an operator's components on a cell set (see the module).
+#[derive(Clone, Debug)]
+pub struct CellMatrix {
+    /// The operator's grid.
+    grid: Grid,
+    /// The components, block row after block row.
+    components: Vec<Component>,
+    /// The cells (grid indices), in packing order.
+    cell_list: Vec<usize>,
+    /// Cells per component block.
+    cells: usize,
+    /// Output components times cells.
+    rows: usize,
+    /// Input components times cells.
+    cols: usize,
+    /// `ceil(rows / LANES)` panels of `cols * LANES` coefficients (mm/MPa), zero-padded.
+    panels: Vec<f64>,
+}
+
+impl CellMatrix {
+    /// The matrix of `op` on `cells` (grid indices): output block `a`, input block `b` holds
+    /// component `blocks[a][b]`. Inputs and outputs are packed: component block after
+    /// component block, cells in the order of `cells`.
+    pub fn new<const B: usize>(op: &Operator, blocks: &[[Component; B]], cells: &[usize]) -> Self {
+        let grid = op.grid();
+        let (nx, ny) = (grid.nx, grid.ny);
+        let wx = 2 * nx - 1;
+        let m = cells.len();
+        let (rows, cols) = (blocks.len() * m, B * m);
+        let mut panels = vec![0.0; rows.div_ceil(LANES) * cols * LANES];
+        // The coefficient for field cell i from source cell j sits at `at_i - at_j` of the
+        // component's table ([`Operator::table`]), with `at_k = (y_k + ny - 1) wx + x_k + nx - 1`
+        // for the field cell and `y_k wx + x_k` for the source.
+        let field_at: Vec<usize> = cells.iter().map(|&k| (k / nx + ny - 1) * wx + k % nx + nx - 1).collect();
+        let source_at: Vec<usize> = cells.iter().map(|&k| (k / nx) * wx + k % nx).collect();
+        // Written panel by panel, column by column: in storage order.
+        for (p, panel) in panels.chunks_exact_mut(cols * LANES).enumerate() {
+            let lanes: Vec<(usize, usize)> =
+                (p * LANES..((p + 1) * LANES).min(rows)).map(|r| (r / m, field_at[r % m])).collect();
+            for b in 0..B {
+                let tables: Vec<(&[f64], usize)> = lanes.iter().map(|&(a, at)| (op.table(blocks[a][b]), at)).collect();
+                for (j, &src) in source_at.iter().enumerate() {
+                    let column = &mut panel[(b * m + j) * LANES..(b * m + j + 1) * LANES];
+                    for (slot, &(table, at)) in column.iter_mut().zip(&tables) {
+                        *slot = table[at - src];
+                    }
+                }
+            }
+        }
+        let components = blocks.iter().flatten().copied().collect();
+        Self { grid: *op.grid(), components, cell_list: cells.to_vec(), cells: m, rows, cols, panels }
+    }
+
+    /// Whether the matrix of `blocks` (`outputs x inputs` components) on `cells` cells is
+    /// small enough to be worth building ([`MAX_BYTES`]).
+    pub fn worth_building(outputs: usize, inputs: usize, cells: usize) -> bool {
+        outputs * inputs * cells * cells * std::mem::size_of::<f64>() <= MAX_BYTES
+    }
+
+    /// Whether this is the matrix of `blocks` on `cells` of an operator on `grid`.
+    fn is<const B: usize>(&self, grid: &Grid, blocks: &[[Component; B]], cells: &[usize]) -> bool {
+        self.grid == *grid
+            && self.cell_list == cells
+            && self.components.len() == blocks.len() * B
+            && self.components.iter().eq(blocks.iter().flatten())
+    }
+
+    /// `y = M x` (x packed by input blocks, `y` by output blocks). Columns where `x` is zero
+    /// are skipped (they add nothing).
+    pub fn apply(&self, x: &[f64], y: &mut [f64]) {
+        assert_eq!((x.len(), y.len()), (self.cols, self.rows), "packed lengths of a cell matrix product");
+        let nonzero: Vec<(usize, f64)> = x.iter().copied().enumerate().filter(|(_, v)| *v != 0.0).collect();
+        // The same multiplies and adds in the same order on every vector unit: the same bits.
+        pulp::Arch::new().dispatch(PanelSums { matrix: self, nonzero: &nonzero, y });
+    }
+}
+
+/// Each panel's sums over the non-zero columns `(j, x_j)` into `y`, compiled for each vector
+/// unit ([`pulp::WithSimd`]).
+struct PanelSums<'a> {
+    matrix: &'a CellMatrix,
+    nonzero: &'a [(usize, f64)],
+    y: &'a mut [f64],
+}
+
+impl pulp::WithSimd for PanelSums<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let Self { matrix, nonzero, y } = self;
+        for (panel, out) in matrix.panels.chunks_exact(matrix.cols * LANES).zip(y.chunks_mut(LANES)) {
+            let mut acc = [0.0; LANES];
+            for &(j, v) in nonzero {
+                let column: &[f64; LANES] = panel[j * LANES..(j + 1) * LANES].try_into().expect("a panel column");
+                for (a, c) in acc.iter_mut().zip(column) {
+                    *a += c * v;
+                }
+            }
+            out.copy_from_slice(&acc[..out.len()]);
+        }
+    }
+}
+
+impl CellMatrix {
+    /// `y = M x` on grid fields: `x[b]` the input block `b` and `y[a]` the output block `a`
+    /// as grid fields, read and written at `cells` only.
+    pub fn apply_fields(&self, cells: &[usize], x: &[&[f64]], y: &mut [&mut [f64]]) {
+        let packed: Vec<f64> = x.iter().flat_map(|field| cells.iter().map(|&k| field[k])).collect();
+        let mut out = vec![0.0; self.rows];
+        self.apply(&packed, &mut out);
+        for (field, block) in y.iter_mut().zip(out.chunks_exact(self.cells.max(1))) {
+            for (&k, v) in cells.iter().zip(block) {
+                field[k] = *v;
+            }
+        }
+    }
+}
+
+/// The last [`CellMatrix`] built, handed out again while the operator's grid, the blocks and
+/// the cells stay the same (the coupling rounds of a step mostly solve on the same cells).
+#[derive(Clone, Debug, Default)]
+pub struct MatrixCache {
+    last: Option<Arc<CellMatrix>>,
+    /// Matrices built and handed out again (for tests and tuning).
+    pub counts: [usize; 2],
+}
+
+impl MatrixCache {
+    /// The matrix of `op`'s `blocks` on `cells`, built unless it is the last one.
+    pub fn get<const B: usize>(
+        &mut self,
+        op: &Operator,
+        blocks: &[[Component; B]],
+        cells: &[usize],
+    ) -> Arc<CellMatrix> {
+        match &self.last {
+            Some(m) if m.is(op.grid(), blocks, cells) => {
+                self.counts[1] += 1;
+                m.clone()
+            }
+            _ => {
+                self.counts[0] += 1;
+                let m = Arc::new(CellMatrix::new(op, blocks, cells));
+                self.last = Some(m.clone());
+                m
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::operator::{HalfSpace, Pairing, Product};
+    use crate::contact::{Elastic, Grid};
+
+    /// A compressible half-space on a 9 x 7 grid of 0.3 mm cells.
+    fn op() -> Operator {
+        let material = Elastic::from_young(0.3, 0.436);
+        Operator::new(
+            &HalfSpace { material, pairing: Pairing::RigidIndenter },
+            Grid { nx: 9, ny: 7, cell_mm: 0.3, centre_mm: [0.0, 0.0] },
+        )
+    }
+
+    fn field(n: usize, seed: u64) -> Vec<f64> {
+        let mut s = seed;
+        (0..n)
+            .map(|_| {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+            })
+            .collect()
+    }
+
+    #[test]
+    fn cell_matrix_product_equals_operator_dense_product() {
+        let op = op();
+        let n = op.grid().len();
+        // Scattered cells (not a multiple of the panel height), some tractions zero.
+        let cells: Vec<usize> = (0..n).filter(|k| k % 3 != 1).collect();
+        let (mut qx, qy) = (field(n, 1), field(n, 2));
+        for k in (0..n).step_by(5) {
+            qx[k] = 0.0;
+        }
+        let blocks = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy], [Component::Zx, Component::Zy]];
+        let matrix = CellMatrix::new(&op, &blocks, &cells);
+        let (mut ux, mut uy, mut uz) = (vec![7.0; n], vec![7.0; n], vec![7.0; n]);
+        matrix.apply_fields(&cells, &[&qx, &qy], &mut [&mut ux, &mut uy, &mut uz]);
+        for (block, got) in blocks.iter().zip([&ux, &uy, &uz]) {
+            let mut want = vec![7.0; n];
+            let terms = [(block[0], qx.as_slice()), (block[1], qy.as_slice())];
+            op.apply(&terms, &mut want, Product::Dense { src: &cells, dst: &cells });
+            let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for k in 0..n {
+                if cells.contains(&k) {
+                    assert!((got[k] - want[k]).abs() <= 1e-14 * scale, "cell {k}: {} vs {}", got[k], want[k]);
+                } else {
+                    assert_eq!(got[k], 7.0, "cell {k} off the set is left untouched");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn cell_matrix_skips_zero_columns_without_changing_the_sums() {
+        let op = op();
+        let n = op.grid().len();
+        let cells: Vec<usize> = (0..n).collect();
+        let matrix = CellMatrix::new(&op, &[[Component::Zz]], &cells);
+        let mut x = field(n, 3);
+        let mut y = vec![0.0; n];
+        matrix.apply(&x, &mut y);
+        // The same sums written out: row i's in column order.
+        for (i, yi) in y.iter().enumerate() {
+            let (xi, yi_) = ((i % 9) as isize, (i / 9) as isize);
+            let want = (0..n).fold(0.0, |s, j| {
+                s + op.coefficient(Component::Zz, xi - (j % 9) as isize, yi_ - (j / 9) as isize) * x[j]
+            });
+            assert_eq!(*yi, want, "row {i}");
+        }
+        x.iter_mut().step_by(2).for_each(|v| *v = 0.0);
+        let mut sparse = vec![0.0; n];
+        matrix.apply(&x, &mut sparse);
+        let mut dense = vec![0.0; n];
+        for (i, d) in dense.iter_mut().enumerate() {
+            let (xi, yi_) = ((i % 9) as isize, (i / 9) as isize);
+            *d = (0..n).filter(|j| j % 2 == 1).fold(0.0, |s, j| {
+                s + op.coefficient(Component::Zz, xi - (j % 9) as isize, yi_ - (j / 9) as isize) * x[j]
+            });
+        }
+        assert_eq!(sparse, dense);
+    }
+}
