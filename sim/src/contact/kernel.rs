@@ -166,7 +166,7 @@ impl DepthKernel {
     /// `(qx, qy, p)` (N).
     #[inline]
     pub fn displacement(&self, force: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
-        Terms::new(offset).displacement(self, force)
+        self.terms(offset).displacement(self, force)
     }
 
     /// Displacement (mm) and rotation `omega = curl(u) / 2` (rad) at `offset` from the surface
@@ -180,110 +180,64 @@ impl DepthKernel {
     /// ```
     /// (`c = 1 / (4 pi G)`, `k = 1 - 2 nu`; a normal load turns the skin about the horizontal
     /// circles around it, and only a tangential one twists it about `z`). The displacement is
-    /// [`DepthKernel::displacement`]'s to the last bit. On [`Lanes`] it evaluates several
-    /// forces at once, each lane `motion`'s on `f64` to the bit.
-    #[inline(always)]
-    pub fn motion<T: Lanes>(&self, force: [T; 3], offset: [T; 3]) -> ([T; 3], [T; 3]) {
-        let t = Terms::new(offset);
+    /// [`DepthKernel::displacement`]'s to the last bit.
+    #[inline]
+    pub fn motion(&self, force: [f64; 3], offset: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+        let t = self.terms(offset);
         let u = t.displacement(self, force);
         let [x, y, z] = offset;
         let [qx, qy, p] = force;
-        let k = T::splat(self.k);
+        let k = self.k;
         let g = t.ir_irz;
         let g1 = t.ir3 * t.irz + t.ir_irz * t.ir_irz;
         let zr3 = z * t.ir3;
-        let pn = T::splat(self.two_one_minus_nu) * p * t.ir3;
+        let pn = self.two_one_minus_nu * p * t.ir3;
         let kxy = k * x * y * g1;
         let wx = -pn * y - kxy * qx + (k * g + zr3 - k * y * y * g1) * qy;
         let wy = pn * x + (k * x * x * g1 - k * g - zr3) * qx + kxy * qy;
         let wz = (qx * y - qy * x) * t.ir3;
-        let c = T::splat(self.c);
-        (u, [c * wx, c * wy, c * wz])
-    }
-}
-
-/// The arithmetic of the kernels on one value (`f64`) or on lanes of values
-/// ([`wide::f64x4`]): every operation is IEEE-rounded lane by lane, so a lane's result is the
-/// `f64` one's to the bit.
-pub trait Lanes:
-    Copy
-    + std::ops::Add<Output = Self>
-    + std::ops::Sub<Output = Self>
-    + std::ops::Mul<Output = Self>
-    + std::ops::Div<Output = Self>
-    + std::ops::Neg<Output = Self>
-{
-    /// Every lane `v`.
-    fn splat(v: f64) -> Self;
-    /// The square root, lane by lane.
-    fn sqrt(self) -> Self;
-}
-
-impl Lanes for f64 {
-    #[inline(always)]
-    fn splat(v: f64) -> Self {
-        v
+        (u, [self.c * wx, self.c * wy, self.c * wz])
     }
 
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
-}
-
-impl Lanes for wide::f64x4 {
-    #[inline(always)]
-    fn splat(v: f64) -> Self {
-        wide::f64x4::splat(v)
-    }
-
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        wide::f64x4::sqrt(self)
+    /// The powers of the distance that the displacement and its rotation share.
+    #[inline]
+    fn terms(&self, offset: [f64; 3]) -> Terms {
+        let [x, y, z] = offset;
+        let rho = (x * x + y * y + z * z).sqrt();
+        let ir = 1.0 / rho;
+        let ir3 = ir * ir * ir;
+        let irz = 1.0 / (rho + z);
+        let ir_irz = ir * irz;
+        Terms { offset, ir, ir3, irz, ir_irz, ir_irz2: ir_irz * irz }
     }
 }
 
 /// `1 / rho`, `1 / rho^3`, `1 / (rho + z)`, `1 / (rho (rho + z))` and `1 / (rho (rho + z)^2)`
-/// at one offset (or lanes of them): the powers of the distance that the displacement and its
-/// rotation share.
+/// at one offset.
 #[derive(Clone, Copy, Debug)]
-struct Terms<T> {
-    offset: [T; 3],
-    ir: T,
-    ir3: T,
-    irz: T,
-    ir_irz: T,
-    ir_irz2: T,
+struct Terms {
+    offset: [f64; 3],
+    ir: f64,
+    ir3: f64,
+    irz: f64,
+    ir_irz: f64,
+    ir_irz2: f64,
 }
 
-impl<T: Lanes> Terms<T> {
-    #[inline(always)]
-    fn new(offset: [T; 3]) -> Self {
-        let [x, y, z] = offset;
-        let rho = (x * x + y * y + z * z).sqrt();
-        let one = T::splat(1.0);
-        let ir = one / rho;
-        let ir3 = ir * ir * ir;
-        let irz = one / (rho + z);
-        let ir_irz = ir * irz;
-        Self { offset, ir, ir3, irz, ir_irz, ir_irz2: ir_irz * irz }
-    }
-
+impl Terms {
     /// Boussinesq (normal force p) and Cerruti (tangential forces qx, qy) at depth.
-    #[inline(always)]
-    fn displacement(&self, kernel: &DepthKernel, force: [T; 3]) -> [T; 3] {
+    #[inline]
+    fn displacement(&self, kernel: &DepthKernel, force: [f64; 3]) -> [f64; 3] {
         let [x, y, z] = self.offset;
         let [qx, qy, p] = force;
-        let k = T::splat(kernel.k);
+        let k = kernel.k;
         let Terms { ir, ir3, irz, ir_irz, ir_irz2, .. } = *self;
         let b = p * (z * ir3 - k * ir_irz);
         let xy = x * y * (ir3 - k * ir_irz2);
         let ux = b * x + qx * (ir + x * x * ir3 + k * (irz - x * x * ir_irz2)) + qy * xy;
         let uy = b * y + qy * (ir + y * y * ir3 + k * (irz - y * y * ir_irz2)) + qx * xy;
-        let uz =
-            p * (z * z * ir3 + T::splat(kernel.two_one_minus_nu) * ir) + (qx * x + qy * y) * (z * ir3 + k * ir_irz);
-        let c = T::splat(kernel.c);
-        [c * ux, c * uy, c * uz]
+        let uz = p * (z * z * ir3 + kernel.two_one_minus_nu * ir) + (qx * x + qy * y) * (z * ir3 + k * ir_irz);
+        [kernel.c * ux, kernel.c * uy, kernel.c * uz]
     }
 }
 

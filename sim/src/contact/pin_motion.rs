@@ -225,16 +225,15 @@ impl CellForces {
         depth: f64,
         exact: bool,
     ) -> (Vector3<f64>, Vector3<f64>) {
-        FORCES.with_borrow_mut(|forces| {
-            forces.iter_mut().for_each(Vec::clear);
-            self.each_force(at, depth, exact, |cx, cy, f| {
-                for (list, v) in forces.iter_mut().zip([at.x - cx, at.y - cy, f[0], f[1], f[2]]) {
-                    list.push(v);
-                }
-            });
-            let (u, w) = pulp::Arch::new().dispatch(MotionSum { kernel, forces, depth });
-            sensor_motion(u, w)
-        })
+        let (mut u, mut w) = ([0.0; 3], [0.0; 3]);
+        self.each_force(at, depth, exact, |cx, cy, f| {
+            let (d, r) = kernel.motion(f, [at.x - cx, at.y - cy, depth]);
+            for i in 0..3 {
+                u[i] += d[i];
+                w[i] += r[i];
+            }
+        });
+        sensor_motion(u, w)
     }
 
     /// Hands every point force that a point at `p` (its depth `depth`, mm) sees to `add`
@@ -277,59 +276,6 @@ impl CellForces {
                 }
             }
         }
-    }
-}
-
-thread_local! {
-    /// The point forces one point sees, gathered before they are summed: lateral offsets
-    /// `x`, `y` (mm) and forces `qx`, `qy`, `p` (N), one list each.
-    static FORCES: std::cell::RefCell<[Vec<f64>; 5]> = std::cell::RefCell::new(Default::default());
-}
-
-/// The half-space's motion summed over point forces `(offset, force)` in their order, the
-/// kernel evaluated four at a time ([`DepthKernel::motion`] on [`wide::f64x4`], each lane
-/// the `f64` evaluation's to the bit) and the results added one by one: the one-at-a-time
-/// sum's bits, with the square roots and divisions of four forces in vector instructions
-/// (AVX where the CPU has it, [`pulp::WithSimd`]).
-struct MotionSum<'a> {
-    kernel: &'a DepthKernel,
-    /// Offsets `x`, `y` (mm) and forces `qx`, `qy`, `p` (N).
-    forces: &'a [Vec<f64>; 5],
-    /// Depth of the point (mm).
-    depth: f64,
-}
-
-impl pulp::WithSimd for MotionSum<'_> {
-    type Output = ([f64; 3], [f64; 3]);
-
-    #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) -> Self::Output {
-        let (mut u, mut w) = ([0.0; 3], [0.0; 3]);
-        let n = self.forces[0].len();
-        let whole = n - n % 4;
-        for start in (0..whole).step_by(4) {
-            let [x, y, qx, qy, p] = self.forces.each_ref().map(|list| {
-                let four: [f64; 4] = list[start..start + 4].try_into().expect("four forces");
-                wide::f64x4::new(four)
-            });
-            let (d, r) = self.kernel.motion([qx, qy, p], [x, y, wide::f64x4::splat(self.depth)]);
-            let (d, r) = (d.map(|v| v.to_array()), r.map(|v| v.to_array()));
-            for l in 0..4 {
-                for i in 0..3 {
-                    u[i] += d[i][l];
-                    w[i] += r[i][l];
-                }
-            }
-        }
-        for k in whole..n {
-            let [x, y, qx, qy, p] = self.forces.each_ref().map(|list| list[k]);
-            let (d, r) = self.kernel.motion([qx, qy, p], [x, y, self.depth]);
-            for i in 0..3 {
-                u[i] += d[i];
-                w[i] += r[i];
-            }
-        }
-        (u, w)
     }
 }
 
@@ -502,35 +448,6 @@ mod tests {
                     (omega - curl).norm() < 1e-6 * curl.norm(),
                     "at {at:?} depth {depth} exact {exact}: {omega:?} against {curl:?}"
                 );
-            }
-        }
-    }
-
-    /// The motion summed four forces at a time (`MotionSum`, vector lanes) is the
-    /// one-at-a-time sum of `DepthKernel::motion` on `f64` over the same forces, to the bit.
-    #[test]
-    fn motion_in_vector_lanes_is_the_one_at_a_time_sum() {
-        let kernel = DepthKernel::new(&Elastic::from_young(0.8, 0.436));
-        let grid = Grid::square(11, 0.35);
-        let n = grid.len();
-        let p: Vec<f64> = (0..n).map(|k| if k % 7 == 3 { 0.0 } else { 0.1 + 0.01 * (k % 5) as f64 }).collect();
-        let qx: Vec<f64> = (0..n).map(|k| 0.02 * ((k % 3) as f64 - 1.0)).collect();
-        let qy: Vec<f64> = (0..n).map(|k| 0.015 * ((k % 4) as f64 - 1.5)).collect();
-        let forces = CellForces::new(&grid, &p, &qx, &qy, PIN_SUBSQUARES);
-        for (at, depth) in [(Vector3::new(0.2, -0.1, 0.0), 0.66), (Vector3::new(3.0, 2.5, 0.0), 1.2)] {
-            for exact in [false, true] {
-                let (mut u, mut w) = ([0.0; 3], [0.0; 3]);
-                let mut count = 0;
-                forces.each_force(&at, depth, exact, |cx, cy, f| {
-                    let (d, r) = kernel.motion(f, [at.x - cx, at.y - cy, depth]);
-                    for i in 0..3 {
-                        u[i] += d[i];
-                        w[i] += r[i];
-                    }
-                    count += 1;
-                });
-                assert!(count % 4 != 0, "a remainder past the lanes is exercised ({count} forces)");
-                assert_eq!(forces.motion(&kernel, &at, depth, exact), sensor_motion(u, w), "at {at:?} exact {exact}");
             }
         }
     }
