@@ -419,7 +419,7 @@ impl<'a> Simulation<'a> {
 
     /// Normal and tangential [`MatrixCache`] counts: matrices built and reused.
     pub fn matrix_counts(&self) -> [[usize; 2]; 2] {
-        [self.normal_matrix.counts, self.shear_matrix.counts]
+        [self.normal_matrix.counts(), self.shear_matrix.counts()]
     }
 
     /// The last step's report.

@@ -35,9 +35,7 @@ pub struct CellMatrix {
     /// The components, block row after block row.
     components: Vec<Component>,
     /// The cells (grid indices), in packing order.
-    cell_list: Vec<usize>,
-    /// Cells per component block.
-    cells: usize,
+    cells: Vec<usize>,
     /// Output components times cells.
     rows: usize,
     /// Input components times cells.
@@ -77,7 +75,7 @@ impl CellMatrix {
             }
         }
         let components = blocks.iter().flatten().copied().collect();
-        Self { grid: *op.grid(), components, cell_list: cells.to_vec(), cells: m, rows, cols, panels }
+        Self { grid: *op.grid(), components, cells: cells.to_vec(), rows, cols, panels }
     }
 
     /// Whether the matrix of `blocks` (`outputs x inputs` components) on `cells` cells is
@@ -89,7 +87,7 @@ impl CellMatrix {
     /// Whether this is the matrix of `blocks` on `cells` of an operator on `grid`.
     fn is<const B: usize>(&self, grid: &Grid, blocks: &[[Component; B]], cells: &[usize]) -> bool {
         self.grid == *grid
-            && self.cell_list == cells
+            && self.cells == cells
             && self.components.len() == blocks.len() * B
             && self.components.iter().eq(blocks.iter().flatten())
     }
@@ -101,6 +99,19 @@ impl CellMatrix {
         let nonzero: Vec<(usize, f64)> = x.iter().copied().enumerate().filter(|(_, v)| *v != 0.0).collect();
         // The same multiplies and adds in the same order on every vector unit: the same bits.
         pulp::Arch::new().dispatch(PanelSums { matrix: self, nonzero: &nonzero, y });
+    }
+
+    /// `y = M x` on grid fields: `x[b]` the input block `b` and `y[a]` the output block `a`
+    /// as grid fields, read and written at the matrix's cells only.
+    pub fn apply_fields(&self, x: &[&[f64]], y: &mut [&mut [f64]]) {
+        let packed: Vec<f64> = x.iter().flat_map(|field| self.cells.iter().map(|&k| field[k])).collect();
+        let mut out = vec![0.0; self.rows];
+        self.apply(&packed, &mut out);
+        for (field, block) in y.iter_mut().zip(out.chunks_exact(self.cells.len().max(1))) {
+            for (&k, v) in self.cells.iter().zip(block) {
+                field[k] = *v;
+            }
+        }
     }
 }
 
@@ -131,31 +142,21 @@ impl pulp::WithSimd for PanelSums<'_> {
     }
 }
 
-impl CellMatrix {
-    /// `y = M x` on grid fields: `x[b]` the input block `b` and `y[a]` the output block `a`
-    /// as grid fields, read and written at `cells` only.
-    pub fn apply_fields(&self, cells: &[usize], x: &[&[f64]], y: &mut [&mut [f64]]) {
-        let packed: Vec<f64> = x.iter().flat_map(|field| cells.iter().map(|&k| field[k])).collect();
-        let mut out = vec![0.0; self.rows];
-        self.apply(&packed, &mut out);
-        for (field, block) in y.iter_mut().zip(out.chunks_exact(self.cells.max(1))) {
-            for (&k, v) in cells.iter().zip(block) {
-                field[k] = *v;
-            }
-        }
-    }
-}
-
 /// The last [`CellMatrix`] built, handed out again while the operator's grid, the blocks and
 /// the cells stay the same (the coupling rounds of a step mostly solve on the same cells).
 #[derive(Clone, Debug, Default)]
 pub struct MatrixCache {
     last: Option<Arc<CellMatrix>>,
-    /// Matrices built and handed out again (for tests and tuning).
-    pub counts: [usize; 2],
+    /// Matrices built and handed out again.
+    counts: [usize; 2],
 }
 
 impl MatrixCache {
+    /// Matrices built and matrices handed out again so far (for tests and tuning).
+    pub fn counts(&self) -> [usize; 2] {
+        self.counts
+    }
+
     /// The matrix of `op`'s `blocks` on `cells`, built unless it is the last one.
     pub fn get<const B: usize>(
         &mut self,
@@ -216,7 +217,7 @@ mod tests {
         let blocks = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy], [Component::Zx, Component::Zy]];
         let matrix = CellMatrix::new(&op, &blocks, &cells);
         let (mut ux, mut uy, mut uz) = (vec![7.0; n], vec![7.0; n], vec![7.0; n]);
-        matrix.apply_fields(&cells, &[&qx, &qy], &mut [&mut ux, &mut uy, &mut uz]);
+        matrix.apply_fields(&[&qx, &qy], &mut [&mut ux, &mut uy, &mut uz]);
         for (block, got) in blocks.iter().zip([&ux, &uy, &uz]) {
             let mut want = vec![7.0; n];
             let terms = [(block[0], qx.as_slice()), (block[1], qy.as_slice())];

@@ -155,7 +155,7 @@ impl<'a> Problem<'a> {
     /// `out = A_zz v` at the candidates, from `v` on `src` (zero on the other candidates).
     fn product(&self, src: &[usize], v: &[f64], out: &mut [f64]) {
         if let Some(m) = &self.matrix {
-            return m.apply_fields(&self.candidates, &[v], &mut [out]);
+            return m.apply_fields(&[v], &mut [out]);
         }
         let choice =
             Product::by_size(self.candidates.len(), self.settings.products.dense_max_cells, src, &self.candidates);

@@ -156,7 +156,7 @@ impl<'a> ContactProduct<'a> {
     /// From tractions on the contact cells.
     fn apply_contact(&self, qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]) {
         match &self.matrix {
-            Some(m) => m.apply_fields(self.contact, &[qx, qy], &mut [ux, uy]),
+            Some(m) => m.apply_fields(&[qx, qy], &mut [ux, uy]),
             None => self.apply(self.contact, qx, qy, ux, uy),
         }
     }
