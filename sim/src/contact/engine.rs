@@ -145,6 +145,26 @@ pub struct StepReport {
     pub tangential_solved: bool,
 }
 
+/// Where a path's contact is solved: its [`ContactFrame`] and the footprint grid in that
+/// frame ([`footprint_grid`]). Finding it probes the scene with rays (hundreds per pose), so
+/// a caller that has already found it (a dataset checks every sample's before any work)
+/// hands it to [`Simulation::on_footprint`] instead of probing again.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Footprint {
+    /// The path's frame.
+    pub frame: ContactFrame,
+    /// The grid covering every pose's footprint, `None` when no pose touches anything.
+    pub grid: Option<Grid>,
+}
+
+impl Footprint {
+    /// The footprint of the path through `poses` over `scene`.
+    pub fn of_path(model: &ContactModel, scene: &Scene, poses: &[SensorPose]) -> Self {
+        let frame = ContactFrame::of_poses(poses);
+        Self { frame, grid: footprint_grid(model, scene, poses, &frame) }
+    }
+}
+
 /// The contact grid for a path: square, in `frame`, covering the union over `poses` of the
 /// cells where the undeformed dome is inside a stimulus (found by a coarse then a fine ray
 /// probe), plus one fine probe cell of margin, with `cells_across` cells per side. `None`
@@ -329,8 +349,14 @@ impl<'a> Simulation<'a> {
     /// poses outside them are solved on the same grid, with contact cut at its border), in the
     /// path's [`ContactFrame`].
     pub fn new(model: &'a ContactModel, scene: &'a Scene, poses: &[SensorPose]) -> Self {
-        let frame = ContactFrame::of_poses(poses);
-        Self::in_frame(model, scene, footprint_grid(model, scene, poses, &frame), frame)
+        Self::on_footprint(model, scene, Footprint::of_path(model, scene, poses))
+    }
+
+    /// A simulation on a footprint already found for its path ([`Footprint::of_path`] of the
+    /// same model, scene and poses: the same simulation as [`Simulation::new`]'s, without
+    /// probing the scene again).
+    pub fn on_footprint(model: &'a ContactModel, scene: &'a Scene, footprint: Footprint) -> Self {
+        Self::in_frame(model, scene, footprint.grid, footprint.frame)
     }
 
     /// A simulation on a given contact grid (sensor frame), for paths not known in advance

@@ -28,8 +28,7 @@ mod tangential;
 pub(crate) mod trajectory;
 pub mod validate;
 
-pub(crate) use engine::footprint_grid;
-pub use engine::{ContactModel, Influence, Simulation, StepReport, contact_disk_grid, initial_gap};
+pub use engine::{ContactModel, Footprint, Influence, Simulation, StepReport, contact_disk_grid, initial_gap};
 pub use frame::{ContactFrame, press_direction};
 pub use grid::Grid;
 pub use kernel::{Elastic, Kernel, point_load_displacement};

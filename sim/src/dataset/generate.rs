@@ -18,8 +18,7 @@ use tacsim_data::{Kind, Meta, Row, Shard};
 use super::plan::{Plan, REFERENCE_IMAGE, Sample, image_name};
 use crate::SensorPath;
 use crate::atomic::{is_temp_name, write_atomic, write_atomic_unsynced};
-use crate::contact::ContactFrame;
-use crate::contact::{ContactModel, Simulation, footprint_grid};
+use crate::contact::{ContactModel, Footprint, Simulation};
 use crate::error::{Result, SimError};
 use crate::pins::PinLayout;
 use crate::png_io::{PngDepth, encode_png};
@@ -187,34 +186,27 @@ const GPU_BATCH: usize = 256;
 
 /// Every sample of `range` checked before any work: its sensor poses within the sensor's
 /// range and its path bounded; a sample that touches nothing is an error unless the recipe
-/// allows it (`poses.allow_no_contact`). Returns how many touch nothing.
-pub fn check_samples(ctx: &Context<'_>, range: std::ops::Range<usize>) -> Result<usize> {
+/// allows it (`poses.allow_no_contact`). Returns each sample's footprint (in `range`'s
+/// order; the solve reuses them instead of probing the scene again) and how many touch
+/// nothing.
+pub fn check_samples(ctx: &Context<'_>, range: std::ops::Range<usize>) -> Result<(Vec<Footprint>, usize)> {
     let plan = ctx.plan;
     let source = ctx.source;
     let radius = ctx.model.sensor.dome.outer_radius_mm;
-    let misses: Vec<usize> = range
+    let footprints: Vec<Footprint> = range
+        .clone()
         .into_par_iter()
-        .map(|i| -> Result<Option<usize>> {
+        .map(|i| -> Result<Footprint> {
             let s = plan.sample(i);
             let (start, target) = plan.sensor_poses(&s);
             let at =
                 |e: SimError| SimError::invalid(source, format!("sample {} ({})", i + 1, image_name(i)), e.to_string());
             start.validate("its start pose", radius).map_err(at)?;
             target.validate("its pose", radius).map_err(at)?;
-            let path = match s.kind {
-                Kind::Tap => SensorPath::tap(target),
-                Kind::Slide => {
-                    let sl = &plan.recipe.slides;
-                    SensorPath::slide_between(start, target, sl.step_mm, sl.step_deg).map_err(at)?
-                }
-            };
-            let poses = path.poses();
-            let scene = &ctx.scenes[plan.poses[s.pose_id].shape];
-            let touches = footprint_grid(ctx.model, scene, &poses, &ContactFrame::of_poses(&poses)).is_some();
-            Ok((!touches).then_some(i))
+            sample_footprint(ctx, &s).map_err(at)
         })
-        .filter_map(Result::transpose)
         .collect::<Result<Vec<_>>>()?;
+    let misses: Vec<usize> = footprints.iter().zip(range).filter(|(f, _)| f.grid.is_none()).map(|(_, i)| i).collect();
     if let (Some(&first), false) = (misses.first(), plan.recipe.poses.allow_no_contact) {
         let s = plan.sample(first);
         return Err(SimError::invalid(
@@ -234,14 +226,32 @@ pub fn check_samples(ctx: &Context<'_>, range: std::ops::Range<usize>) -> Result
             ),
         ));
     }
-    Ok(misses.len())
+    Ok((footprints, misses.len()))
 }
 
-/// Simulates, renders and encodes one sample; returns the PNG bytes and the stage times
-/// `[solve, render, encode]` (s).
-pub fn sample_png(ctx: &Context<'_>, s: &Sample) -> Result<(Vec<u8>, [f64; 3])> {
+/// Where sample `s`'s contact is solved.
+fn sample_footprint(ctx: &Context<'_>, s: &Sample) -> Result<Footprint> {
+    let scene = &ctx.scenes[ctx.plan.poses[s.pose_id].shape];
+    Ok(Footprint::of_path(ctx.model, scene, &sample_path(ctx.plan, s)?.poses()))
+}
+
+/// The path of sample `s`: a tap, or a slide in the recipe's steps.
+fn sample_path(plan: &Plan, s: &Sample) -> Result<SensorPath> {
+    let (start, target) = plan.sensor_poses(s);
+    Ok(match s.kind {
+        Kind::Tap => SensorPath::tap(target),
+        Kind::Slide => {
+            let sl = &plan.recipe.slides;
+            SensorPath::slide_between(start, target, sl.step_mm, sl.step_deg)?
+        }
+    })
+}
+
+/// Simulates, renders and encodes one sample on its `footprint` ([`check_samples`]);
+/// returns the PNG bytes and the stage times `[solve, render, encode]` (s).
+pub fn sample_png(ctx: &Context<'_>, s: &Sample, footprint: Footprint) -> Result<(Vec<u8>, [f64; 3])> {
     let t0 = Instant::now();
-    let pins = sample_pins(ctx, s)?;
+    let pins = sample_state(ctx, s, footprint)?.pins();
     let t1 = Instant::now();
     let img = ctx.renderer.render_varied(&pins, &s.variation);
     let t2 = Instant::now();
@@ -250,23 +260,11 @@ pub fn sample_png(ctx: &Context<'_>, s: &Sample) -> Result<(Vec<u8>, [f64; 3])> 
     Ok((png, [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()]))
 }
 
-/// The pins of one sample at the end of its path.
-fn sample_pins(ctx: &Context<'_>, s: &Sample) -> Result<Vec<crate::pins::PinPose>> {
-    Ok(sample_state(ctx, s)?.pins())
-}
-
-/// One sample's contact state at the end of its path.
-fn sample_state<'a>(ctx: &Context<'a>, s: &Sample) -> Result<Simulation<'a>> {
-    let (start, target) = ctx.plan.sensor_poses(s);
-    let path = match s.kind {
-        Kind::Tap => SensorPath::tap(target),
-        Kind::Slide => {
-            let sl = &ctx.plan.recipe.slides;
-            SensorPath::slide_between(start, target, sl.step_mm, sl.step_deg)?
-        }
-    };
+/// One sample's contact state at the end of its path, solved on its `footprint`.
+fn sample_state<'a>(ctx: &Context<'a>, s: &Sample, footprint: Footprint) -> Result<Simulation<'a>> {
+    let path = sample_path(ctx.plan, s)?;
     let scene = &ctx.scenes[ctx.plan.poses[s.pose_id].shape];
-    let mut sim = Simulation::new(ctx.model, scene, &path.poses());
+    let mut sim = Simulation::on_footprint(ctx.model, scene, footprint);
     for step in &path.steps {
         sim.step(step.pose)?;
     }
@@ -294,7 +292,8 @@ pub fn generate(
     };
     let shard = target.shard.map(|(index, count)| Shard { index, count, start: range.start, end: range.end });
     let meta = meta(plan, sensor, shard)?;
-    let no_contact = check_samples(ctx, range.clone())?;
+    let (footprints, no_contact) = check_samples(ctx, range.clone())?;
+    let footprint = |i: usize| footprints[i - range.start];
     prepare(target, &meta)?;
     let out = &target.out;
     let rows: Vec<Row> = range.clone().map(|i| plan.row(&plan.sample(i))).collect();
@@ -345,7 +344,7 @@ pub fn generate(
                 .map(|&i| {
                     let t = Instant::now();
                     let s = plan.sample(i);
-                    let sim = sample_state(ctx, &s)?;
+                    let sim = sample_state(ctx, &s, footprint(i))?;
                     Ok((s, sim, t.elapsed().as_secs_f64()))
                 })
                 .collect::<Result<_>>()?;
@@ -374,7 +373,7 @@ pub fn generate(
     let todo = if ctx.gpu.is_some() { Vec::new() } else { todo };
     todo.par_iter().try_for_each(|&i| -> Result<()> {
         let s = plan.sample(i);
-        let (png, times) = sample_png(ctx, &s)?;
+        let (png, times) = sample_png(ctx, &s, footprint(i))?;
         record(i, &s, &png, times)
     })?;
     let secs = |k: usize| nanos[k].load(Ordering::Relaxed) as f64 * 1e-9;
@@ -466,7 +465,10 @@ mod gpu_tests {
         let job = Job::new(&recipe, &source, &base, &crate::builtin_catalogue().expect("shapes"), None).expect("job");
         let ctx = job.context();
         let samples: Vec<Sample> = (0..16).chain([80, 224]).map(|i| job.plan.sample(i)).collect();
-        let states: Vec<Simulation<'_>> = samples.iter().map(|s| sample_state(&ctx, s).expect("solve")).collect();
+        let states: Vec<Simulation<'_>> = samples
+            .iter()
+            .map(|s| sample_state(&ctx, s, sample_footprint(&ctx, s).expect("footprint")).expect("solve"))
+            .collect();
         let refs: Vec<&Simulation<'_>> = states.iter().collect();
         let moved = if gpu.has_pins() { gpu.pins_batch(&refs).expect("GPU pins") } else { Vec::new() };
         let cpu_pins: Vec<_> = states.iter().map(Simulation::pins).collect();
