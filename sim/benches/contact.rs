@@ -7,7 +7,7 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use tacsim_sim::contact::Elastic;
 use tacsim_sim::contact::Grid;
-use tacsim_sim::contact::{CellMatrix, Component, HalfSpace, Operator, Pairing, Product};
+use tacsim_sim::contact::{CellMatrix, Component, HalfSpace, Operator, Pairing, Product, ProductBuffers};
 
 fn bench_products(c: &mut Criterion) {
     let model = HalfSpace { material: Elastic::from_young(1.0, 0.5), pairing: Pairing::RigidIndenter };
@@ -59,7 +59,8 @@ fn bench_shear_products(c: &mut Criterion) {
         });
         let matrix = CellMatrix::new(&op, &blocks, &cells);
         group.bench_function(format!("matrix/{m}-cells"), |b| {
-            b.iter(|| matrix.apply_fields(&[&qx, &qy], &mut [&mut ux, &mut uy]));
+            let mut buffers = ProductBuffers::default();
+            b.iter(|| matrix.apply_fields(&[&qx, &qy], &mut [&mut ux, &mut uy], &mut buffers));
         });
         group.bench_function(format!("matrix-build/{m}-cells"), |b| b.iter(|| CellMatrix::new(&op, &blocks, &cells)));
     }

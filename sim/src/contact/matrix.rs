@@ -95,24 +95,43 @@ impl CellMatrix {
     /// `y = M x` (x packed by input blocks, `y` by output blocks). Columns where `x` is zero
     /// are skipped (they add nothing).
     pub fn apply(&self, x: &[f64], y: &mut [f64]) {
+        self.apply_packed(x, y, &mut Vec::new());
+    }
+
+    /// [`Self::apply`] with the non-zero columns gathered into `nonzero` (reused).
+    fn apply_packed(&self, x: &[f64], y: &mut [f64], nonzero: &mut Vec<(usize, f64)>) {
         assert_eq!((x.len(), y.len()), (self.cols, self.rows), "packed lengths of a cell matrix product");
-        let nonzero: Vec<(usize, f64)> = x.iter().copied().enumerate().filter(|(_, v)| *v != 0.0).collect();
+        nonzero.clear();
+        nonzero.extend(x.iter().copied().enumerate().filter(|(_, v)| *v != 0.0));
         // The same multiplies and adds in the same order on every vector unit: the same bits.
-        pulp::Arch::new().dispatch(PanelSums { matrix: self, nonzero: &nonzero, y });
+        pulp::Arch::new().dispatch(PanelSums { matrix: self, nonzero, y });
     }
 
     /// `y = M x` on grid fields: `x[b]` the input block `b` and `y[a]` the output block `a`
-    /// as grid fields, read and written at the matrix's cells only.
-    pub fn apply_fields(&self, x: &[&[f64]], y: &mut [&mut [f64]]) {
-        let packed: Vec<f64> = x.iter().flat_map(|field| self.cells.iter().map(|&k| field[k])).collect();
-        let mut out = vec![0.0; self.rows];
-        self.apply(&packed, &mut out);
+    /// as grid fields, read and written at the matrix's cells only. `buffers` hold the packed
+    /// vectors between calls (a solver's iterations allocate nothing).
+    pub fn apply_fields(&self, x: &[&[f64]], y: &mut [&mut [f64]], buffers: &mut ProductBuffers) {
+        let ProductBuffers { packed, out, nonzero } = buffers;
+        packed.clear();
+        packed.extend(x.iter().flat_map(|field| self.cells.iter().map(|&k| field[k])));
+        out.clear();
+        out.resize(self.rows, 0.0);
+        self.apply_packed(packed, out, nonzero);
         for (field, block) in y.iter_mut().zip(out.chunks_exact(self.cells.len().max(1))) {
             for (&k, v) in self.cells.iter().zip(block) {
                 field[k] = *v;
             }
         }
     }
+}
+
+/// The working vectors of [`CellMatrix::apply_fields`], kept by a solver across its
+/// iterations: the packed input and output and the input's non-zero columns.
+#[derive(Clone, Debug, Default)]
+pub struct ProductBuffers {
+    packed: Vec<f64>,
+    out: Vec<f64>,
+    nonzero: Vec<(usize, f64)>,
 }
 
 /// Each panel's sums over the non-zero columns `(j, x_j)` into `y`, compiled for each vector
@@ -217,7 +236,7 @@ mod tests {
         let blocks = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy], [Component::Zx, Component::Zy]];
         let matrix = CellMatrix::new(&op, &blocks, &cells);
         let (mut ux, mut uy, mut uz) = (vec![7.0; n], vec![7.0; n], vec![7.0; n]);
-        matrix.apply_fields(&[&qx, &qy], &mut [&mut ux, &mut uy, &mut uz]);
+        matrix.apply_fields(&[&qx, &qy], &mut [&mut ux, &mut uy, &mut uz], &mut ProductBuffers::default());
         for (block, got) in blocks.iter().zip([&ux, &uy, &uz]) {
             let mut want = vec![7.0; n];
             let terms = [(block[0], qx.as_slice()), (block[1], qy.as_slice())];

@@ -8,9 +8,10 @@
 //! every cell. Products are dense on the candidates when there are few, FFT otherwise
 //! ([`ProductChoice`]).
 
+use std::cell::RefCell;
 use std::sync::Arc;
 
-use super::matrix::{CellMatrix, MatrixCache};
+use super::matrix::{CellMatrix, MatrixCache, ProductBuffers};
 use super::operator::{Component, Operator, Product};
 use crate::error::{Result, SimError};
 
@@ -119,6 +120,8 @@ struct Problem<'a> {
     area: f64,
     /// `A_zz` on the candidates where products are dense.
     matrix: Option<Arc<CellMatrix>>,
+    /// The matrix products' working vectors.
+    buffers: RefCell<ProductBuffers>,
 }
 
 impl<'a> Problem<'a> {
@@ -139,7 +142,8 @@ impl<'a> Problem<'a> {
         let dense = !candidates.is_empty() && candidates.len() <= settings.products.dense_max_cells;
         let matrix = (dense && CellMatrix::worth_building(1, 1, candidates.len()))
             .then(|| cache.get(op, &[[Component::Zz]], &candidates));
-        Self { op, control, settings, base, candidates, area: op.grid().cell_area_mm2(), matrix }
+        let area = op.grid().cell_area_mm2();
+        Self { op, control, settings, base, candidates, area, matrix, buffers: RefCell::default() }
     }
 
     /// No load: zero pressure, the gap as it is.
@@ -155,7 +159,7 @@ impl<'a> Problem<'a> {
     /// `out = A_zz v` at the candidates, from `v` on `src` (zero on the other candidates).
     fn product(&self, src: &[usize], v: &[f64], out: &mut [f64]) {
         if let Some(m) = &self.matrix {
-            return m.apply_fields(&[v], &mut [out]);
+            return m.apply_fields(&[v], &mut [out], &mut self.buffers.borrow_mut());
         }
         let choice =
             Product::by_size(self.candidates.len(), self.settings.products.dense_max_cells, src, &self.candidates);
@@ -213,8 +217,10 @@ impl<'a> Problem<'a> {
         let (mut u, mut r, mut t, mut g) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let (mut delta, mut g_old) = (0.0, 1.0);
         let mut residual = f64::INFINITY;
+        let mut active: Vec<usize> = Vec::with_capacity(candidates.len());
         for iteration in 1..=self.settings.max_iterations {
-            let active: Vec<usize> = candidates.iter().copied().filter(|&k| pressure[k] > 0.0).collect();
+            active.clear();
+            active.extend(candidates.iter().copied().filter(|&k| pressure[k] > 0.0));
             self.product(&active, &pressure, &mut u);
             for &k in candidates {
                 g[k] = u[k] + base[k];

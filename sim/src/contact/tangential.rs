@@ -17,9 +17,10 @@
 //! dissipation of the step, `-sum q_i . s_i h^2 >= 0` (N mm), follows. Normal-tangential
 //! coupling is left to the caller, which alternates the two solves (see [`super::engine`]).
 
+use std::cell::RefCell;
 use std::sync::Arc;
 
-use super::matrix::{CellMatrix, MatrixCache};
+use super::matrix::{CellMatrix, MatrixCache, ProductBuffers};
 use super::operator::{Component, Operator, Product};
 use crate::error::{Result, SimError};
 
@@ -136,6 +137,8 @@ struct ContactProduct<'a> {
     contact: &'a [usize],
     dense_max_cells: usize,
     matrix: Option<Arc<CellMatrix>>,
+    /// The matrix products' working vectors.
+    buffers: RefCell<ProductBuffers>,
 }
 
 impl<'a> ContactProduct<'a> {
@@ -143,7 +146,7 @@ impl<'a> ContactProduct<'a> {
         let dense = contact.len() <= dense_max_cells;
         let matrix =
             (dense && CellMatrix::worth_building(2, 2, contact.len())).then(|| cache.get(op, &SHEAR_BLOCKS, contact));
-        Self { op, contact, dense_max_cells, matrix }
+        Self { op, contact, dense_max_cells, matrix, buffers: RefCell::default() }
     }
 
     /// From tractions on chosen source cells `src`.
@@ -156,7 +159,7 @@ impl<'a> ContactProduct<'a> {
     /// From tractions on the contact cells.
     fn apply_contact(&self, qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]) {
         match &self.matrix {
-            Some(m) => m.apply_fields(&[qx, qy], &mut [ux, uy]),
+            Some(m) => m.apply_fields(&[qx, qy], &mut [ux, uy], &mut self.buffers.borrow_mut()),
             None => self.apply(self.contact, qx, qy, ux, uy),
         }
     }
@@ -242,13 +245,14 @@ fn minimise(
     let (mut yx, mut yy) = (qx.clone(), qy.clone());
     let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
     let mut theta = 1.0f64;
+    let mut next = Vec::with_capacity(contact.len());
     for iteration in 1..=settings.max_iterations {
         product.apply_contact(&yx, &yy, &mut ux, &mut uy);
         let mut kkt = 0.0;
         let mut restart = 0.0;
         let theta_next = 0.5 * (1.0 + (1.0 + 4.0 * theta * theta).sqrt());
         let beta = (theta - 1.0) / theta_next;
-        let mut next = Vec::with_capacity(contact.len());
+        next.clear();
         for &k in contact {
             let (gx, gy) = (ux[k] + bx[k], uy[k] + by[k]);
             let (nx, ny) = project(yx[k] - step * gx, yy[k] - step * gy, bound[k]);
