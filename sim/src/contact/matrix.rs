@@ -95,29 +95,26 @@ impl CellMatrix {
     /// `y = M x` (x packed by input blocks, `y` by output blocks). Columns where `x` is zero
     /// are skipped (they add nothing).
     pub fn apply(&self, x: &[f64], y: &mut [f64]) {
-        self.apply_packed(x, y, &mut Vec::new());
-    }
-
-    /// [`Self::apply`] with the non-zero columns gathered into `nonzero` (reused).
-    fn apply_packed(&self, x: &[f64], y: &mut [f64], nonzero: &mut Vec<(usize, f64)>) {
         assert_eq!((x.len(), y.len()), (self.cols, self.rows), "packed lengths of a cell matrix product");
-        nonzero.clear();
-        nonzero.extend(x.iter().copied().enumerate().filter(|(_, v)| *v != 0.0));
         // The same multiplies and adds in the same order on every vector unit: the same bits.
-        pulp::Arch::new().dispatch(PanelSums { matrix: self, nonzero, y });
+        pulp::Arch::new().dispatch(PanelSums { matrix: self, x, y });
     }
 
     /// `y = M x` on grid fields: `x[b]` the input block `b` and `y[a]` the output block `a`
     /// as grid fields, read and written at the matrix's cells only. `buffers` hold the packed
     /// vectors between calls (a solver's iterations allocate nothing).
     pub fn apply_fields(&self, x: &[&[f64]], y: &mut [&mut [f64]], buffers: &mut ProductBuffers) {
-        let ProductBuffers { packed, out, nonzero } = buffers;
-        packed.clear();
-        packed.extend(x.iter().flat_map(|field| self.cells.iter().map(|&k| field[k])));
-        out.clear();
+        let ProductBuffers { packed, out } = buffers;
+        let m = self.cells.len();
+        packed.resize(self.cols, 0.0);
         out.resize(self.rows, 0.0);
-        self.apply_packed(packed, out, nonzero);
-        for (field, block) in y.iter_mut().zip(out.chunks_exact(self.cells.len().max(1))) {
+        for (block, field) in packed.chunks_exact_mut(m.max(1)).zip(x) {
+            for (slot, &k) in block.iter_mut().zip(&self.cells) {
+                *slot = field[k];
+            }
+        }
+        self.apply(packed, out);
+        for (field, block) in y.iter_mut().zip(out.chunks_exact(m.max(1))) {
             for (&k, v) in self.cells.iter().zip(block) {
                 field[k] = *v;
             }
@@ -126,19 +123,18 @@ impl CellMatrix {
 }
 
 /// The working vectors of [`CellMatrix::apply_fields`], kept by a solver across its
-/// iterations: the packed input and output and the input's non-zero columns.
+/// iterations: the packed input and output.
 #[derive(Clone, Debug, Default)]
 pub struct ProductBuffers {
     packed: Vec<f64>,
     out: Vec<f64>,
-    nonzero: Vec<(usize, f64)>,
 }
 
-/// Each panel's sums over the non-zero columns `(j, x_j)` into `y`, compiled for each vector
-/// unit ([`pulp::WithSimd`]).
+/// Each panel's sums over the non-zero columns of `x` into `y`, compiled for each vector unit
+/// ([`pulp::WithSimd`]).
 struct PanelSums<'a> {
     matrix: &'a CellMatrix,
-    nonzero: &'a [(usize, f64)],
+    x: &'a [f64],
     y: &'a mut [f64],
 }
 
@@ -147,11 +143,14 @@ impl pulp::WithSimd for PanelSums<'_> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) {
-        let Self { matrix, nonzero, y } = self;
+        let Self { matrix, x, y } = self;
         for (panel, out) in matrix.panels.chunks_exact(matrix.cols * LANES).zip(y.chunks_mut(LANES)) {
             let mut acc = [0.0; LANES];
-            for &(j, v) in nonzero {
-                let column: &[f64; LANES] = panel[j * LANES..(j + 1) * LANES].try_into().expect("a panel column");
+            for (column, &v) in panel.chunks_exact(LANES).zip(x) {
+                if v == 0.0 {
+                    continue;
+                }
+                let column: &[f64; LANES] = column.try_into().expect("a panel column");
                 for (a, c) in acc.iter_mut().zip(column) {
                     *a += c * v;
                 }
