@@ -54,23 +54,24 @@ impl CellMatrix {
         let wx = 2 * nx - 1;
         let m = cells.len();
         let (rows, cols) = (blocks.len() * m, B * m);
-        let mut panels = vec![0.0; rows.div_ceil(LANES) * cols * LANES];
+        let panel_count = rows.div_ceil(LANES);
+        let mut panels = Vec::with_capacity(panel_count * cols * LANES);
         // The coefficient for field cell i from source cell j sits at `at_i - at_j` of the
         // component's table ([`Operator::table`]), with `at_k = (y_k + ny - 1) wx + x_k + nx - 1`
         // for the field cell and `y_k wx + x_k` for the source.
         let field_at: Vec<usize> = cells.iter().map(|&k| (k / nx + ny - 1) * wx + k % nx + nx - 1).collect();
         let source_at: Vec<usize> = cells.iter().map(|&k| (k / nx) * wx + k % nx).collect();
-        // Written panel by panel, column by column: in storage order.
-        for (p, panel) in panels.chunks_exact_mut(cols * LANES).enumerate() {
+        // Pushed panel by panel, column by column, in storage order (no zero fill first: on
+        // the small matrices that fill cost as much as the gathering), the last panel's
+        // missing rows as zeros.
+        for p in 0..panel_count {
             let lanes: Vec<(usize, usize)> =
                 (p * LANES..((p + 1) * LANES).min(rows)).map(|r| (r / m, field_at[r % m])).collect();
             for b in 0..B {
                 let tables: Vec<(&[f64], usize)> = lanes.iter().map(|&(a, at)| (op.table(blocks[a][b]), at)).collect();
-                for (j, &src) in source_at.iter().enumerate() {
-                    let column = &mut panel[(b * m + j) * LANES..(b * m + j + 1) * LANES];
-                    for (slot, &(table, at)) in column.iter_mut().zip(&tables) {
-                        *slot = table[at - src];
-                    }
+                for &src in &source_at {
+                    panels.extend(tables.iter().map(|&(table, at)| table[at - src]));
+                    panels.extend(std::iter::repeat_n(0.0, LANES - tables.len()));
                 }
             }
         }
