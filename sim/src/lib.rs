@@ -15,6 +15,7 @@
 mod atomic;
 mod camera;
 mod check;
+mod columns;
 mod detect;
 mod embedded;
 mod error;

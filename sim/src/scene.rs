@@ -10,9 +10,11 @@ use std::sync::Arc;
 
 use rapier3d::parry::query::DefaultQueryDispatcher;
 use rapier3d::prelude::{
-    BroadPhaseBvh, ColliderBuilder, ColliderHandle, ColliderSet, IntegrationParameters, QueryFilter, Ray, RigidBodySet,
+    BroadPhaseBvh, Collider, ColliderBuilder, ColliderHandle, ColliderSet, IntegrationParameters, QueryFilter,
+    QueryPipeline, Ray, RigidBodySet,
 };
 
+use crate::columns::ColumnIndex;
 use crate::error::{Result, SimError};
 use crate::stimulus::{EdgePoint, Stimulus};
 
@@ -67,7 +69,13 @@ pub struct SceneObject {
     /// Its placement.
     pub pose: ObjectPose,
     handle: ColliderHandle,
+    /// Its triangles binned for rays straight down ([`Scene::cast_rays`]).
+    columns: Arc<ColumnIndex>,
 }
+
+/// Hits of two objects nearer than this (mm) are left to the query pipeline (its order
+/// decides between them).
+const COLUMN_TIE_MM: f64 = 1e-3;
 
 /// The stimulus surface found under a point.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -136,9 +144,10 @@ impl Scene {
             .friction(stimulus.entry.friction as f32)
             .build();
         let aabb = collider.compute_aabb();
+        let columns = Arc::new(ColumnIndex::new(collider.shape().as_trimesh().expect("a trimesh collider")));
         let handle = self.colliders.insert(collider);
         self.broad_phase.set_aabb(&IntegrationParameters::default(), handle, aabb);
-        self.objects.push(SceneObject { stimulus, pose, handle });
+        self.objects.push(SceneObject { stimulus, pose, handle, columns });
         Ok(self.objects.len() - 1)
     }
 
@@ -155,12 +164,7 @@ impl Scene {
     /// `None` where no stimulus is.
     pub fn surface_height(&self, x_mm: f64, y_mm: f64) -> Option<SurfaceHit> {
         const ABOVE_MM: f64 = 1.0e4;
-        let pipeline = self.broad_phase.as_query_pipeline(
-            &DefaultQueryDispatcher,
-            &self.bodies,
-            &self.colliders,
-            QueryFilter::default(),
-        );
+        let pipeline = self.query_pipeline();
         let ray = Ray::new(
             rapier3d::math::Vector::new(x_mm as f32, y_mm as f32, ABOVE_MM as f32),
             rapier3d::math::Vector::new(0.0, 0.0, -1.0),
@@ -175,24 +179,91 @@ impl Scene {
 
     /// Casts rays from `origins` along the common unit direction `dir` (world, mm) and returns,
     /// per ray, the distance to the first stimulus surface within `max_mm` and the object hit.
-    /// The query pipeline's bounding-volume hierarchy only tests stimuli whose bounds the ray
-    /// reaches.
+    /// Rays straight down (an untilted sensor's) test only the triangles over their column
+    /// ([`ColumnIndex`]); others go through the query pipeline's bounding-volume hierarchy,
+    /// which only tests stimuli whose bounds the ray reaches. Both give the same hits.
     pub fn cast_rays(&self, origins: &[[f64; 3]], dir: [f64; 3], max_mm: f64) -> Vec<Option<(f64, ObjectId)>> {
-        let pipeline = self.broad_phase.as_query_pipeline(
-            &DefaultQueryDispatcher,
-            &self.bodies,
-            &self.colliders,
-            QueryFilter::default(),
-        );
+        self.cast_rays_down(origins, dir, max_mm).unwrap_or_else(|| self.cast_rays_bvh(origins, dir, max_mm))
+    }
+
+    /// [`Self::cast_rays`] by the objects' [`ColumnIndex`]es, where every object sees `dir` as
+    /// straight down its mesh (`None` otherwise). A ray whose answer could differ from the
+    /// pipeline's is cast through it instead: where an index is unsure, or where two objects'
+    /// hits are within rounding of each other (the pipeline's colliders sit in boxes fattened
+    /// by a skin, which every hit of theirs passes).
+    fn cast_rays_down(&self, origins: &[[f64; 3]], dir: [f64; 3], max_mm: f64) -> Option<Vec<Option<(f64, ObjectId)>>> {
+        let d = rapier3d::math::Vector::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
+        let down = rapier3d::math::Vector::new(0.0, 0.0, -1.0);
+        let colliders: Vec<_> = self.objects.iter().map(|o| self.colliders.get(o.handle)).collect::<Option<_>>()?;
+        // The local ray of each object is the pipeline's: `inverse_transform_by` its pose.
+        let probe = Ray::new(rapier3d::math::Vector::ZERO, d);
+        if colliders.iter().any(|c| probe.inverse_transform_by(c.position()).dir != down) {
+            return None;
+        }
+        let pipeline = self.query_pipeline();
+        let max = max_mm as f32;
+        Some(
+            origins
+                .iter()
+                .map(|o| {
+                    let ray = Ray::new(rapier3d::math::Vector::new(o[0] as f32, o[1] as f32, o[2] as f32), d);
+                    self.cast_down(&ray, &colliders, max).unwrap_or_else(|| self.cast_ray_bvh(&pipeline, &ray, max))
+                })
+                .collect(),
+        )
+    }
+
+    /// One ray straight down through the objects' [`ColumnIndex`]es; `None` where the
+    /// pipeline must answer ([`Self::cast_rays_down`]).
+    fn cast_down(&self, ray: &Ray, colliders: &[&Collider], max: f32) -> Option<Option<(f64, ObjectId)>> {
+        let mut best: Option<(f32, ObjectId)> = None;
+        let mut next = f32::INFINITY;
+        for (id, (object, collider)) in self.objects.iter().zip(colliders).enumerate() {
+            let Some(toi) = object.columns.cast_down(&ray.inverse_transform_by(collider.position()), max)? else {
+                continue;
+            };
+            match best {
+                Some((b, _)) if toi >= b => next = next.min(toi),
+                _ => {
+                    next = next.min(best.map_or(f32::INFINITY, |b| b.0));
+                    best = Some((toi, id));
+                }
+            }
+        }
+        match best {
+            Some((b, _)) if (next as f64) <= b as f64 + COLUMN_TIE_MM => None,
+            _ => Some(best.map(|(toi, id)| (toi as f64, id))),
+        }
+    }
+
+    /// [`Self::cast_rays`] through the query pipeline.
+    fn cast_rays_bvh(&self, origins: &[[f64; 3]], dir: [f64; 3], max_mm: f64) -> Vec<Option<(f64, ObjectId)>> {
+        let pipeline = self.query_pipeline();
         let d = rapier3d::math::Vector::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
         origins
             .iter()
             .map(|o| {
                 let ray = Ray::new(rapier3d::math::Vector::new(o[0] as f32, o[1] as f32, o[2] as f32), d);
-                let (handle, toi) = pipeline.cast_ray(&ray, max_mm as f32, true)?;
-                Some((toi as f64, self.object_of(handle)?))
+                self.cast_ray_bvh(&pipeline, &ray, max_mm as f32)
             })
             .collect()
+    }
+
+    /// The query pipeline over every object.
+    fn query_pipeline(&self) -> QueryPipeline<'_> {
+        self.broad_phase.as_query_pipeline(
+            &DefaultQueryDispatcher,
+            &self.bodies,
+            &self.colliders,
+            QueryFilter::default(),
+        )
+    }
+
+    /// One ray through the query pipeline: distance (mm) and object of the first hit within
+    /// `max` (mm).
+    fn cast_ray_bvh(&self, pipeline: &QueryPipeline<'_>, ray: &Ray, max: f32) -> Option<(f64, ObjectId)> {
+        let (handle, toi) = pipeline.cast_ray(ray, max, true)?;
+        Some((toi as f64, self.object_of(handle)?))
     }
 
     /// Height of the highest stimulus top in the scene (mm, world `z`), `None` when empty.
@@ -261,4 +332,70 @@ pub fn flat_scene(disk: &Stimulus, friction: f64) -> Result<Scene> {
     let mut scene = Scene::new();
     scene.add(Arc::new(stim), ObjectPose::default())?;
     Ok(scene)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The column search ([`crate::columns::ColumnIndex`]) must hit what parry's BVH hits, to
+    /// the bit: the gaps, footprints and so every image depend on these distances. Every
+    /// built-in stimulus, two of them in one scene shifted and turned, rays straight down at
+    /// random points over their bounds, on their vertices and next to them (where triangles
+    /// meet and the BVH's traversal order decides between near-equal hits), and along the
+    /// lines of a probe grid through the origin.
+    #[test]
+    fn straight_down_rays_hit_what_parrys_bvh_hits() {
+        let catalogue = crate::builtin_catalogue().expect("shapes");
+        let mut seed = 7u64;
+        let mut uniform = |lo: f64, hi: f64| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
+        };
+        for name in catalogue.names() {
+            let stimulus = catalogue.get(&name).expect("a built-in");
+            let mut scene = Scene::new();
+            scene.add(stimulus.clone(), ObjectPose::default()).expect("placed");
+            scene.add(stimulus.clone(), ObjectPose { position_mm: [40.0, -25.0, 3.0], yaw_deg: 33.0 }).expect("placed");
+            let mut origins = Vec::new();
+            for object in scene.objects() {
+                let (lo, hi) = object.stimulus.mesh.vertices.iter().fold(
+                    ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]),
+                    |(lo, hi), v| {
+                        let w = object.pose.to_world(*v);
+                        ([lo[0].min(w[0]), lo[1].min(w[1])], [hi[0].max(w[0]), hi[1].max(w[1])])
+                    },
+                );
+                for _ in 0..4000 {
+                    origins.push([uniform(lo[0] - 1.0, hi[0] + 1.0), uniform(lo[1] - 1.0, hi[1] + 1.0), 120.0]);
+                }
+                for v in object.stimulus.mesh.vertices.iter().step_by(3) {
+                    let w = object.pose.to_world(*v);
+                    for d in [0.0, 2e-6, -5e-6, 1.2e-5, -3e-5, 1e-4] {
+                        origins.push([w[0] + d, w[1] - d, 120.0]);
+                        origins.push([w[0] - d, w[1], 120.0]);
+                    }
+                }
+            }
+            for i in -60..=60 {
+                for j in -60..=60 {
+                    origins.push([i as f64 * 0.5, j as f64 * 0.5, 97.25]);
+                }
+            }
+            let down = [0.0, 0.0, -1.0];
+            let columns =
+                scene.cast_rays_down(&origins, down, 200.0).expect("every object sees the rays straight down");
+            let bvh = scene.cast_rays_bvh(&origins, down, 200.0);
+            let hits = bvh.iter().filter(|h| h.is_some()).count();
+            assert!(hits > origins.len() / 4, "{name}: the rays should mostly hit ({hits} of {})", origins.len());
+            for ((o, c), b) in origins.iter().zip(&columns).zip(&bvh) {
+                assert_eq!(c, b, "{name}: the ray down from {o:?}");
+            }
+            // A reach shorter than the hits: none.
+            assert!(scene.cast_rays_down(&origins, down, 50.0).expect("down").iter().all(Option::is_none));
+        }
+        // Tilted rays take the pipeline.
+        let scene = flat_scene(&catalogue.get("disk").expect("disk"), 0.5).expect("scene");
+        assert!(scene.cast_rays_down(&[[0.0, 0.0, 50.0]], [0.0, 0.6, -0.8], 100.0).is_none());
+    }
 }

@@ -1,0 +1,206 @@
+//! Rays straight down a mesh, without its BVH: the triangles binned by where they lie over the
+//! `(x, y)` plane of the mesh's frame, so that a ray along `-z` tests only the triangles over
+//! its bin.
+//!
+//! The contact engine casts every ray of a footprint probe and of a gap field along one
+//! direction, for an untilted sensor straight down. parry's BVH walk costs about 2,400
+//! instructions a ray on the built-in stimuli, whose flat tops are long thin triangles
+//! (a constrained Delaunay triangulation of the outline alone) with overlapping boxes; the
+//! triangles a ray tests over its bin (about 0.5 mm) are about five. Each is tested by parry's own
+//! triangle ray cast and the nearest hit kept; where parry's traversal could keep another
+//! (near-equal hits, a ray on a box bound) the caller asks the BVH instead: the same time of
+//! impact to the bit (`scene.rs`, test `straight_down_rays_hit_what_parrys_bvh_hits`).
+//!
+//! Binning is conservative: a triangle goes in every bin whose square, grown by
+//! [`MARGIN_MM`], its footprint overlaps (row by row: the triangle's `x` extent
+//! within the row's band), so rounding in a ray's bin or in parry's inside test
+//! (f32, about 1e-5 mm at these sizes) never loses a triangle the ray could hit.
+
+use rapier3d::math::Vector;
+use rapier3d::parry::query::{Ray, RayCast};
+use rapier3d::parry::shape::{TriMesh, Triangle};
+
+/// How far (mm) beyond its square a bin still takes triangles.
+const MARGIN_MM: f64 = 1e-3;
+/// Bins per triangle, about: the bin side is `sqrt(area / (BINS_PER_TRIANGLE triangles))`.
+const BINS_PER_TRIANGLE: f64 = 16.0;
+/// Most bins per side (a very elongated mesh's bins grow instead).
+const MAX_BINS_PER_SIDE: usize = 1024;
+
+/// A mesh's triangles binned over its `(x, y)` plane (mesh frame, mm).
+#[derive(Clone, Debug)]
+pub(crate) struct ColumnIndex {
+    /// Lower corner of bin `(0, 0)` (mm).
+    min: [f64; 2],
+    /// Bin side (mm).
+    bin_mm: f64,
+    nx: usize,
+    ny: usize,
+    /// Bin `j * nx + i` holds `items[starts[b]..starts[b + 1]]`.
+    starts: Vec<u32>,
+    /// Triangle indices, bin after bin, each bin's from the highest top down (then in mesh
+    /// order).
+    items: Vec<u32>,
+    triangles: Vec<Triangle>,
+    /// The highest `z` of each triangle (mm).
+    top_mm: Vec<f64>,
+}
+
+impl ColumnIndex {
+    /// The index of `mesh` (its own frame).
+    pub(crate) fn new(mesh: &TriMesh) -> Self {
+        let triangles: Vec<Triangle> = mesh.triangles().collect();
+        let aabb = mesh.local_aabb();
+        let min = [aabb.mins.x as f64 - MARGIN_MM, aabb.mins.y as f64 - MARGIN_MM];
+        let size = [aabb.maxs.x as f64 + MARGIN_MM - min[0], aabb.maxs.y as f64 + MARGIN_MM - min[1]];
+        let area = (size[0] * size[1]).max(f64::MIN_POSITIVE);
+        let mut bin_mm = (area / (BINS_PER_TRIANGLE * triangles.len().max(1) as f64)).sqrt();
+        bin_mm = bin_mm.max(size[0].max(size[1]) / MAX_BINS_PER_SIDE as f64);
+        let nx = ((size[0] / bin_mm).ceil() as usize).clamp(1, MAX_BINS_PER_SIDE);
+        let ny = ((size[1] / bin_mm).ceil() as usize).clamp(1, MAX_BINS_PER_SIDE);
+        let top_mm: Vec<f64> = triangles.iter().map(|t| t.a.z.max(t.b.z).max(t.c.z) as f64).collect();
+        // Triangles from the highest top down (then in mesh order), so each bin's list is too.
+        let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
+        order.sort_by(|a, b| top_mm[*b as usize].total_cmp(&top_mm[*a as usize]));
+        // Two passes over the same bins: count, then fill.
+        let each_bin = |tri: &Triangle, f: &mut dyn FnMut(usize)| {
+            let corners = [tri.a, tri.b, tri.c].map(|v| [v.x as f64, v.y as f64]);
+            let (lo, hi) =
+                corners.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), c| (l.min(c[1]), h.max(c[1])));
+            for j in bin_range(lo - MARGIN_MM, hi + MARGIN_MM, min[1], bin_mm, ny) {
+                let band = [min[1] + j as f64 * bin_mm - MARGIN_MM, min[1] + (j + 1) as f64 * bin_mm + MARGIN_MM];
+                let Some((x0, x1)) = x_extent(&corners, band) else { continue };
+                for i in bin_range(x0 - MARGIN_MM, x1 + MARGIN_MM, min[0], bin_mm, nx) {
+                    f(j * nx + i);
+                }
+            }
+        };
+        let mut starts = vec![0u32; nx * ny + 1];
+        for &t in &order {
+            each_bin(&triangles[t as usize], &mut |b| starts[b + 1] += 1);
+        }
+        for b in 0..nx * ny {
+            starts[b + 1] += starts[b];
+        }
+        let mut items = vec![0u32; starts[nx * ny] as usize];
+        let mut cursor: Vec<u32> = starts[..nx * ny].to_vec();
+        for &t in &order {
+            each_bin(&triangles[t as usize], &mut |b| {
+                items[cursor[b] as usize] = t;
+                cursor[b] += 1;
+            });
+        }
+        Self { min, bin_mm, nx, ny, starts, items, triangles, top_mm }
+    }
+
+    /// The time of impact of `ray` (mesh frame, direction exactly `-z`) on the nearest triangle
+    /// hit before `reach_mm` (`Some(None)` when none is), or `None` where parry's BVH might
+    /// answer otherwise: two hits within [`MARGIN_MM`] of each other (triangles meeting under
+    /// the ray, whose hits differ by rounding: the BVH keeps the first its traversal meets).
+    /// A triangle counts only where parry's walk reaches it: where the ray passes its box by
+    /// parry's own slab test ([`reaches_box`]). The bin's triangles are tried from the highest
+    /// down, and the search stops at the first whose top lies farther below the ray's origin
+    /// than the best hit by more than [`MARGIN_MM`] (it, and all after it, can only be hit
+    /// farther: a flat top's hit skips the bottom face).
+    pub(crate) fn cast_down(&self, ray: &Ray, reach_mm: f32) -> Option<Option<f32>> {
+        debug_assert_eq!(ray.dir, Vector::new(0.0, 0.0, -1.0), "a column ray goes straight down");
+        let (x, y) =
+            ((ray.origin.x as f64 - self.min[0]) / self.bin_mm, (ray.origin.y as f64 - self.min[1]) / self.bin_mm);
+        if !(x >= 0.0 && y >= 0.0 && x < self.nx as f64 && y < self.ny as f64) {
+            return Some(None);
+        }
+        let inv_dir =
+            ray.dir.to_array().map(|r| if r.abs() < f32::EPSILON { r.signum() / f32::EPSILON } else { 1.0 / r });
+        let b = y as usize * self.nx + x as usize;
+        let (mut best, mut next) = (None::<f32>, f32::INFINITY);
+        for &t in &self.items[self.starts[b] as usize..self.starts[b + 1] as usize] {
+            let bound = best.unwrap_or(reach_mm) as f64;
+            if ray.origin.z as f64 - self.top_mm[t as usize] > bound + MARGIN_MM {
+                break;
+            }
+            let triangle = &self.triangles[t as usize];
+            // Hits up to a tie above the best are looked at too.
+            let limit = best.map_or(reach_mm, |b| (b as f64 + MARGIN_MM) as f32);
+            let Some(toi) = triangle.cast_local_ray(ray, limit, true) else { continue };
+            if !reaches_box(triangle, ray, inv_dir) {
+                continue;
+            }
+            match best {
+                Some(b) if toi >= b => next = next.min(toi),
+                _ if toi < reach_mm => {
+                    next = next.min(best.unwrap_or(f32::INFINITY));
+                    best = Some(toi);
+                }
+                _ => {}
+            }
+        }
+        match best {
+            Some(b) if (next as f64) <= b as f64 + MARGIN_MM => None,
+            _ => Some(best),
+        }
+    }
+}
+
+/// Whether parry's BVH walk reaches `triangle`'s box with `ray`: its slab test
+/// (`BvhNode::cast_inv_ray_simd`) in the same f32 operations, with a zero direction component's
+/// inverse `+-1 / f32::EPSILON` (`inv_dir`) as parry takes it, so that a ray straight down
+/// passes a box only if it enters it within about `1e-7` of its travel from the box's side.
+/// A box reached contains its ancestors' test too (theirs are larger).
+fn reaches_box(triangle: &Triangle, ray: &Ray, inv_dir: [f32; 3]) -> bool {
+    let (a, b, c) = (triangle.a.to_array(), triangle.b.to_array(), triangle.c.to_array());
+    let origin = ray.origin.to_array();
+    let (mut tmin, mut tmax) = (f32::NEG_INFINITY, f32::INFINITY);
+    for k in 0..3 {
+        // Finite values throughout: plain comparisons order them as parry's min and max do.
+        let (lo, hi) = (least(least(a[k], b[k]), c[k]), most(most(a[k], b[k]), c[k]));
+        let (t1, t2) = ((lo - origin[k]) * inv_dir[k], (hi - origin[k]) * inv_dir[k]);
+        let (near, far) = if t1 < t2 { (t1, t2) } else { (t2, t1) };
+        if near > tmin {
+            tmin = near;
+        }
+        if far < tmax {
+            tmax = far;
+        }
+    }
+    tmax >= tmin && tmax >= 0.0
+}
+
+/// The lesser of two finite values.
+fn least(a: f32, b: f32) -> f32 {
+    if b < a { b } else { a }
+}
+
+/// The greater of two finite values.
+fn most(a: f32, b: f32) -> f32 {
+    if b > a { b } else { a }
+}
+
+/// The bins `i` (of `n` from `origin`, side `bin_mm`) whose span meets `[lo, hi]` (mm).
+fn bin_range(lo: f64, hi: f64, origin: f64, bin_mm: f64, n: usize) -> std::ops::Range<usize> {
+    let first = ((lo - origin) / bin_mm).floor().max(0.0) as usize;
+    let last = ((hi - origin) / bin_mm).floor();
+    if last < 0.0 {
+        return 0..0;
+    }
+    first.min(n)..(last as usize + 1).min(n)
+}
+
+/// The `x` extent (mm) of the triangle `corners` (its footprint) within the band
+/// `band[0] <= y <= band[1]`: over its corners inside the band and its edges' crossings of the
+/// band's two lines. `None` when it misses the band.
+fn x_extent(corners: &[[f64; 2]; 3], band: [f64; 2]) -> Option<(f64, f64)> {
+    let mut xs = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut take = |x: f64| xs = (xs.0.min(x), xs.1.max(x));
+    for (k, a) in corners.iter().enumerate() {
+        if a[1] >= band[0] && a[1] <= band[1] {
+            take(a[0]);
+        }
+        let b = corners[(k + 1) % 3];
+        for y in band {
+            if (a[1] - y) * (b[1] - y) < 0.0 {
+                take(a[0] + (b[0] - a[0]) * (y - a[1]) / (b[1] - a[1]));
+            }
+        }
+    }
+    (xs.0 <= xs.1).then_some(xs)
+}
