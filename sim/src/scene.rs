@@ -187,17 +187,30 @@ impl Scene {
     }
 
     /// [`Self::cast_rays`] by the objects' [`ColumnIndex`]es, where every object sees `dir` as
-    /// straight down its mesh (`None` otherwise). A ray whose answer could differ from the
-    /// pipeline's is cast through it instead: where an index is unsure, or where two objects'
+    /// straight down its mesh (`None` otherwise), over the objects whose boxes span the rays.
+    /// A ray whose answer could differ from the pipeline's is cast through it instead: where an index is unsure, or where two objects'
     /// hits are within rounding of each other (the pipeline's colliders sit in boxes fattened
     /// by a skin, which every hit of theirs passes).
     fn cast_rays_down(&self, origins: &[[f64; 3]], dir: [f64; 3], max_mm: f64) -> Option<Vec<Option<(f64, ObjectId)>>> {
         let d = rapier3d::math::Vector::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
         let down = rapier3d::math::Vector::new(0.0, 0.0, -1.0);
-        let colliders: Vec<_> = self.objects.iter().map(|o| self.colliders.get(o.handle)).collect::<Option<_>>()?;
+        // Only objects whose box spans some ray's (x, y) can be hit (by a ray straight down).
+        let (lo, hi) = origins.iter().fold(([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]), |(lo, hi), o| {
+            ([lo[0].min(o[0]), lo[1].min(o[1])], [hi[0].max(o[0]), hi[1].max(o[1])])
+        });
+        let mut near: Vec<(ObjectId, &Collider)> = Vec::new();
+        for (id, o) in self.objects.iter().enumerate() {
+            let collider = self.colliders.get(o.handle)?;
+            let b = collider.compute_aabb();
+            let (mins, maxs) = ([b.mins.x as f64, b.mins.y as f64], [b.maxs.x as f64, b.maxs.y as f64]);
+            // With a margin far above f32 rounding.
+            if (0..2).all(|k| mins[k] <= hi[k] + COLUMN_TIE_MM && maxs[k] >= lo[k] - COLUMN_TIE_MM) {
+                near.push((id, collider));
+            }
+        }
         // The local ray of each object is the pipeline's: `inverse_transform_by` its pose.
         let probe = Ray::new(rapier3d::math::Vector::ZERO, d);
-        if colliders.iter().any(|c| probe.inverse_transform_by(c.position()).dir != down) {
+        if near.iter().any(|(_, c)| probe.inverse_transform_by(c.position()).dir != down) {
             return None;
         }
         let pipeline = self.query_pipeline();
@@ -207,7 +220,7 @@ impl Scene {
                 .iter()
                 .map(|o| {
                     let ray = Ray::new(rapier3d::math::Vector::new(o[0] as f32, o[1] as f32, o[2] as f32), d);
-                    self.cast_down(&ray, &colliders, max).unwrap_or_else(|| self.cast_ray_bvh(&pipeline, &ray, max))
+                    self.cast_down(&ray, &near, max).unwrap_or_else(|| self.cast_ray_bvh(&pipeline, &ray, max))
                 })
                 .collect(),
         )
@@ -215,11 +228,12 @@ impl Scene {
 
     /// One ray straight down through the objects' [`ColumnIndex`]es; `None` where the
     /// pipeline must answer ([`Self::cast_rays_down`]).
-    fn cast_down(&self, ray: &Ray, colliders: &[&Collider], max: f32) -> Option<Option<(f64, ObjectId)>> {
+    fn cast_down(&self, ray: &Ray, objects: &[(ObjectId, &Collider)], max: f32) -> Option<Option<(f64, ObjectId)>> {
         let mut best: Option<(f32, ObjectId)> = None;
         let mut next = f32::INFINITY;
-        for (id, (object, collider)) in self.objects.iter().zip(colliders).enumerate() {
-            let Some(toi) = object.columns.cast_down(&ray.inverse_transform_by(collider.position()), max)? else {
+        for &(id, collider) in objects {
+            let columns = &self.objects[id].columns;
+            let Some(toi) = columns.cast_down(&ray.inverse_transform_by(collider.position()), max)? else {
                 continue;
             };
             match best {
