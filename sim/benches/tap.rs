@@ -1,13 +1,14 @@
-//! The two hot kernels of a tap on the default sensor, one thread: the coupled contact solve
-//! (initial gap, then normal and tangential solves alternated until the tractions settle) and
-//! the pin product (every pin's tip from the solved tractions), on the sensor's grid and on
-//! finer ones, for a press on the disk's flat top and a tap across its rim (the pins also with
-//! the edge preset's skin patch). Run with
+//! The hot kernels of a tap on the default sensor, one thread: the footprint probe (rays down
+//! the scene: by the column index straight down, by parry's BVH when tilted), the coupled
+//! contact solve (initial gap, then normal and tangential solves alternated until the
+//! tractions settle) and the pin product (every pin's tip from the solved tractions), on the
+//! sensor's grid and on finer ones, for a press on the disk's flat top and a tap across its rim
+//! (the pins also with the edge preset's skin patch). Run with
 //! `cargo bench -p tacsim-sim --bench tap`; `tacsim bench` gives the same stages' means over
 //! many poses.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use tacsim_sim::contact::{ContactModel, Simulation};
+use tacsim_sim::contact::{ContactModel, Footprint, Simulation};
 use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPose};
 
 fn bench_tap(c: &mut Criterion) {
@@ -30,6 +31,13 @@ fn bench_tap(c: &mut Criterion) {
             (cells, ContactModel::new(&sensor))
         })
         .collect();
+    let mut probe = c.benchmark_group("tap-footprint");
+    let model = &models[0].1;
+    let tilted = SensorPose { rx_deg: 10.0, ..taps[1].1 };
+    for (name, pose) in taps.into_iter().chain([("rim-tilted", tilted)]) {
+        probe.bench_function(name, |b| b.iter(|| Footprint::of_path(model, &scene, &[pose]).grid.expect("a touch")));
+    }
+    probe.finish();
     let mut solve = c.benchmark_group("tap-solve");
     for (cells, model) in &models {
         for (name, pose) in taps {
