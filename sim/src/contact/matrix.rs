@@ -67,13 +67,14 @@ impl CellMatrix {
         for p in 0..panel_count {
             let lanes: Vec<(usize, usize)> =
                 (p * LANES..((p + 1) * LANES).min(rows)).map(|r| (r / m, field_at[r % m])).collect();
-            for b in 0..B {
+            // Input block `b`: each lane's row `a` reads component `blocks[a][b]`.
+            (0..B).for_each(|b| {
                 let tables: Vec<(&[f64], usize)> = lanes.iter().map(|&(a, at)| (op.table(blocks[a][b]), at)).collect();
                 for &src in &source_at {
                     panels.extend(tables.iter().map(|&(table, at)| table[at - src]));
                     panels.extend(std::iter::repeat_n(0.0, LANES - tables.len()));
                 }
-            }
+            });
         }
         let components = blocks.iter().flatten().copied().collect();
         Self { grid: *op.grid(), components, cells: cells.to_vec(), rows, cols, panels }
