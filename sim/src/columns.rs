@@ -4,12 +4,13 @@
 //!
 //! The contact engine casts every ray of a footprint probe and of a gap field along one
 //! direction, for an untilted sensor straight down. parry's BVH walk costs about 2,400
-//! instructions a ray on the built-in stimuli, whose flat tops are long thin triangles
-//! (a constrained Delaunay triangulation of the outline alone) with overlapping boxes; the
-//! triangles a ray tests over its bin (about 0.5 mm) are about five. Each is tested by parry's own
-//! triangle ray cast and the nearest hit kept; where parry's traversal could keep another
-//! (near-equal hits, a ray on a box bound) the caller asks the BVH instead: the same time of
-//! impact to the bit (`scene.rs`, test `straight_down_rays_hit_what_parrys_bvh_hits`).
+//! instructions a ray that reaches a built-in stimulus (`docs/guide/contact.md`), whose flat
+//! tops are long thin triangles (a constrained Delaunay triangulation of the outline alone)
+//! with overlapping boxes; the triangles a ray tests over its bin (about 0.5 mm) are about
+//! five. Each goes through parry's own triangle ray cast and, where it hits, parry's own box
+//! test, and the nearest hit is kept; where parry's traversal could keep another (near-equal
+//! hits) the caller asks the BVH instead: the same time of impact to the bit (`scene.rs`, test
+//! `straight_down_rays_hit_what_parrys_bvh_hits`).
 //!
 //! Binning is conservative: a triangle goes in every bin whose square, grown by
 //! [`MARGIN_MM`], its footprint overlaps (row by row: the triangle's `x` extent
@@ -143,9 +144,10 @@ impl ColumnIndex {
 
 /// Whether parry's BVH walk reaches `triangle`'s box with `ray`: its slab test
 /// (`BvhNode::cast_inv_ray_simd`) in the same f32 operations, with a zero direction component's
-/// inverse `+-1 / f32::EPSILON` (`inv_dir`) as parry takes it, so that a ray straight down
-/// passes a box only if it enters it within about `1e-7` of its travel from the box's side.
-/// A box reached contains its ancestors' test too (theirs are larger).
+/// inverse `+-1 / f32::EPSILON` (`inv_dir`) as parry takes it: a ray straight down is taken
+/// as drifting `f32::EPSILON` per mm of travel along `+x` and `+y`, so one that passes within
+/// about 1e-5 mm of a box's side at 100 mm misses or meets the box by that drift, whatever
+/// the triangle test says. A box reached passes its ancestors' tests too (theirs are larger).
 fn reaches_box(triangle: &Triangle, ray: &Ray, inv_dir: [f32; 3]) -> bool {
     let (a, b, c) = (triangle.a.to_array(), triangle.b.to_array(), triangle.c.to_array());
     let origin = ray.origin.to_array();

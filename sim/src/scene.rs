@@ -188,9 +188,9 @@ impl Scene {
 
     /// [`Self::cast_rays`] by the objects' [`ColumnIndex`]es, where every object sees `dir` as
     /// straight down its mesh (`None` otherwise), over the objects whose boxes span the rays.
-    /// A ray whose answer could differ from the pipeline's is cast through it instead: where an index is unsure, or where two objects'
-    /// hits are within rounding of each other (the pipeline's colliders sit in boxes fattened
-    /// by a skin, which every hit of theirs passes).
+    /// A ray whose answer could differ from the pipeline's is cast through it instead: where
+    /// an index is unsure, or where two objects' hits are within rounding of each other (the
+    /// pipeline's colliders sit in boxes fattened by a skin, which every hit of theirs passes).
     fn cast_rays_down(&self, origins: &[[f64; 3]], dir: [f64; 3], max_mm: f64) -> Option<Vec<Option<(f64, ObjectId)>>> {
         let d = rapier3d::math::Vector::new(dir[0] as f32, dir[1] as f32, dir[2] as f32);
         let down = rapier3d::math::Vector::new(0.0, 0.0, -1.0);

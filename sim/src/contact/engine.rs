@@ -163,6 +163,12 @@ impl Footprint {
         let frame = ContactFrame::of_poses(poses);
         Self { frame, grid: footprint_grid(model, scene, poses, &frame) }
     }
+
+    /// The footprint of the path through `poses` whose grid [`Footprint::of_path`] found before
+    /// (the frame, cheap, found again).
+    pub fn on_grid(poses: &[SensorPose], grid: Option<Grid>) -> Self {
+        Self { frame: ContactFrame::of_poses(poses), grid }
+    }
 }
 
 /// The contact grid for a path: square, in `frame`, covering the union over `poses` of the

@@ -18,7 +18,7 @@ use tacsim_data::{Kind, Meta, Row, Shard};
 use super::plan::{Plan, REFERENCE_IMAGE, Sample, image_name};
 use crate::SensorPath;
 use crate::atomic::{is_temp_name, write_atomic, write_atomic_unsynced};
-use crate::contact::{ContactModel, Footprint, Simulation};
+use crate::contact::{ContactModel, Footprint, Grid, Simulation};
 use crate::error::{Result, SimError};
 use crate::pins::PinLayout;
 use crate::png_io::{PngDepth, encode_png};
@@ -184,29 +184,40 @@ pub struct Context<'a> {
 #[cfg(feature = "wgpu")]
 const GPU_BATCH: usize = 256;
 
+/// Samples whose footprint grids the pre-check keeps for the solve (48 bytes each, 48 MB at
+/// most): a larger run's solve probes the scene for them again.
+const KEPT_FOOTPRINTS: usize = 1_000_000;
+
 /// Every sample of `range` checked before any work: its sensor poses within the sensor's
 /// range and its path bounded; a sample that touches nothing is an error unless the recipe
-/// allows it (`poses.allow_no_contact`). Returns each sample's footprint (in `range`'s
-/// order; the solve reuses them instead of probing the scene again) and how many touch
-/// nothing.
-pub fn check_samples(ctx: &Context<'_>, range: std::ops::Range<usize>) -> Result<(Vec<Footprint>, usize)> {
+/// allows it (`poses.allow_no_contact`). Returns each sample's footprint grid (in `range`'s
+/// order, up to [`KEPT_FOOTPRINTS`] samples, else none: the solve reuses them instead of
+/// probing the scene again) and how many touch nothing.
+pub fn check_samples(ctx: &Context<'_>, range: std::ops::Range<usize>) -> Result<(Vec<Option<Grid>>, usize)> {
     let plan = ctx.plan;
     let source = ctx.source;
     let radius = ctx.model.sensor.dome.outer_radius_mm;
-    let footprints: Vec<Footprint> = range
-        .clone()
-        .into_par_iter()
-        .map(|i| -> Result<Footprint> {
-            let s = plan.sample(i);
-            let (start, target) = plan.sensor_poses(&s);
-            let at =
-                |e: SimError| SimError::invalid(source, format!("sample {} ({})", i + 1, image_name(i)), e.to_string());
-            start.validate("its start pose", radius).map_err(at)?;
-            target.validate("its pose", radius).map_err(at)?;
-            sample_footprint(ctx, &s).map_err(at)
-        })
-        .collect::<Result<Vec<_>>>()?;
-    let misses: Vec<usize> = footprints.iter().zip(range).filter(|(f, _)| f.grid.is_none()).map(|(_, i)| i).collect();
+    let check = |i: usize| -> Result<Option<Grid>> {
+        let s = plan.sample(i);
+        let (start, target) = plan.sensor_poses(&s);
+        let at =
+            |e: SimError| SimError::invalid(source, format!("sample {} ({})", i + 1, image_name(i)), e.to_string());
+        start.validate("its start pose", radius).map_err(at)?;
+        target.validate("its pose", radius).map_err(at)?;
+        Ok(sample_footprint(ctx, &s).map_err(at)?.grid)
+    };
+    let (grids, misses): (Vec<Option<Grid>>, Vec<usize>) = if range.len() <= KEPT_FOOTPRINTS {
+        let grids: Vec<Option<Grid>> = range.clone().into_par_iter().map(check).collect::<Result<_>>()?;
+        let misses = grids.iter().zip(range).filter(|(g, _)| g.is_none()).map(|(_, i)| i).collect();
+        (grids, misses)
+    } else {
+        let misses = range
+            .into_par_iter()
+            .map(|i| Ok(check(i)?.is_none().then_some(i)))
+            .filter_map(Result::transpose)
+            .collect::<Result<_>>()?;
+        (Vec::new(), misses)
+    };
     if let (Some(&first), false) = (misses.first(), plan.recipe.poses.allow_no_contact) {
         let s = plan.sample(first);
         return Err(SimError::invalid(
@@ -226,7 +237,7 @@ pub fn check_samples(ctx: &Context<'_>, range: std::ops::Range<usize>) -> Result
             ),
         ));
     }
-    Ok((footprints, misses.len()))
+    Ok((grids, misses.len()))
 }
 
 /// Where sample `s`'s contact is solved.
@@ -247,11 +258,12 @@ fn sample_path(plan: &Plan, s: &Sample) -> Result<SensorPath> {
     })
 }
 
-/// Simulates, renders and encodes one sample on its `footprint` ([`check_samples`]);
-/// returns the PNG bytes and the stage times `[solve, render, encode]` (s).
-pub fn sample_png(ctx: &Context<'_>, s: &Sample, footprint: Footprint) -> Result<(Vec<u8>, [f64; 3])> {
+/// Simulates, renders and encodes one sample, on its footprint grid where the pre-check kept
+/// it (`known`, [`check_samples`]); returns the PNG bytes and the stage times `[solve,
+/// render, encode]` (s).
+pub fn sample_png(ctx: &Context<'_>, s: &Sample, known: Option<Option<Grid>>) -> Result<(Vec<u8>, [f64; 3])> {
     let t0 = Instant::now();
-    let pins = sample_state(ctx, s, footprint)?.pins();
+    let pins = sample_state(ctx, s, known)?.pins();
     let t1 = Instant::now();
     let img = ctx.renderer.render_varied(&pins, &s.variation);
     let t2 = Instant::now();
@@ -260,10 +272,16 @@ pub fn sample_png(ctx: &Context<'_>, s: &Sample, footprint: Footprint) -> Result
     Ok((png, [(t1 - t0).as_secs_f64(), (t2 - t1).as_secs_f64(), (t3 - t2).as_secs_f64()]))
 }
 
-/// One sample's contact state at the end of its path, solved on its `footprint`.
-fn sample_state<'a>(ctx: &Context<'a>, s: &Sample, footprint: Footprint) -> Result<Simulation<'a>> {
+/// One sample's contact state at the end of its path, solved on its footprint grid where it
+/// is `known` (else found again).
+fn sample_state<'a>(ctx: &Context<'a>, s: &Sample, known: Option<Option<Grid>>) -> Result<Simulation<'a>> {
     let path = sample_path(ctx.plan, s)?;
     let scene = &ctx.scenes[ctx.plan.poses[s.pose_id].shape];
+    let poses = path.poses();
+    let footprint = match known {
+        Some(grid) => Footprint::on_grid(&poses, grid),
+        None => Footprint::of_path(ctx.model, scene, &poses),
+    };
     let mut sim = Simulation::on_footprint(ctx.model, scene, footprint);
     for step in &path.steps {
         sim.step(step.pose)?;
@@ -292,8 +310,8 @@ pub fn generate(
     };
     let shard = target.shard.map(|(index, count)| Shard { index, count, start: range.start, end: range.end });
     let meta = meta(plan, sensor, shard)?;
-    let (footprints, no_contact) = check_samples(ctx, range.clone())?;
-    let footprint = |i: usize| footprints[i - range.start];
+    let (grids, no_contact) = check_samples(ctx, range.clone())?;
+    let known = |i: usize| grids.get(i - range.start).copied();
     prepare(target, &meta)?;
     let out = &target.out;
     let rows: Vec<Row> = range.clone().map(|i| plan.row(&plan.sample(i))).collect();
@@ -344,7 +362,7 @@ pub fn generate(
                 .map(|&i| {
                     let t = Instant::now();
                     let s = plan.sample(i);
-                    let sim = sample_state(ctx, &s, footprint(i))?;
+                    let sim = sample_state(ctx, &s, known(i))?;
                     Ok((s, sim, t.elapsed().as_secs_f64()))
                 })
                 .collect::<Result<_>>()?;
@@ -373,7 +391,7 @@ pub fn generate(
     let todo = if ctx.gpu.is_some() { Vec::new() } else { todo };
     todo.par_iter().try_for_each(|&i| -> Result<()> {
         let s = plan.sample(i);
-        let (png, times) = sample_png(ctx, &s, footprint(i))?;
+        let (png, times) = sample_png(ctx, &s, known(i))?;
         record(i, &s, &png, times)
     })?;
     let secs = |k: usize| nanos[k].load(Ordering::Relaxed) as f64 * 1e-9;
@@ -465,10 +483,7 @@ mod gpu_tests {
         let job = Job::new(&recipe, &source, &base, &crate::builtin_catalogue().expect("shapes"), None).expect("job");
         let ctx = job.context();
         let samples: Vec<Sample> = (0..16).chain([80, 224]).map(|i| job.plan.sample(i)).collect();
-        let states: Vec<Simulation<'_>> = samples
-            .iter()
-            .map(|s| sample_state(&ctx, s, sample_footprint(&ctx, s).expect("footprint")).expect("solve"))
-            .collect();
+        let states: Vec<Simulation<'_>> = samples.iter().map(|s| sample_state(&ctx, s, None).expect("solve")).collect();
         let refs: Vec<&Simulation<'_>> = states.iter().collect();
         let moved = if gpu.has_pins() { gpu.pins_batch(&refs).expect("GPU pins") } else { Vec::new() };
         let cpu_pins: Vec<_> = states.iter().map(Simulation::pins).collect();
