@@ -124,6 +124,26 @@ impl CellMatrix {
     }
 }
 
+/// A [`CellMatrix`] with its working vectors: one solve's repeated products on its cells,
+/// allocating nothing after the first.
+#[derive(Debug)]
+pub(crate) struct SolveMatrix {
+    matrix: Arc<CellMatrix>,
+    buffers: std::cell::RefCell<ProductBuffers>,
+}
+
+impl SolveMatrix {
+    /// Products by `matrix`.
+    pub(crate) fn new(matrix: Arc<CellMatrix>) -> Self {
+        Self { matrix, buffers: Default::default() }
+    }
+
+    /// [`CellMatrix::apply_fields`] through the kept buffers.
+    pub(crate) fn apply_fields(&self, x: &[&[f64]], y: &mut [&mut [f64]]) {
+        self.matrix.apply_fields(x, y, &mut self.buffers.borrow_mut());
+    }
+}
+
 /// The working vectors of [`CellMatrix::apply_fields`], kept by a solver across its
 /// iterations: the packed input and output.
 #[derive(Clone, Debug, Default)]

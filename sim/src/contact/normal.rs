@@ -8,10 +8,7 @@
 //! every cell. Products are dense on the candidates when there are few, FFT otherwise
 //! ([`ProductChoice`]).
 
-use std::cell::RefCell;
-use std::sync::Arc;
-
-use super::matrix::{CellMatrix, MatrixCache, ProductBuffers};
+use super::matrix::{CellMatrix, MatrixCache, SolveMatrix};
 use super::operator::{Component, Operator, Product};
 use crate::error::{Result, SimError};
 
@@ -119,9 +116,7 @@ struct Problem<'a> {
     /// Cell area (mm^2).
     area: f64,
     /// `A_zz` on the candidates where products are dense.
-    matrix: Option<Arc<CellMatrix>>,
-    /// The matrix products' working vectors.
-    buffers: RefCell<ProductBuffers>,
+    matrix: Option<SolveMatrix>,
 }
 
 impl<'a> Problem<'a> {
@@ -141,9 +136,8 @@ impl<'a> Problem<'a> {
         };
         let dense = !candidates.is_empty() && candidates.len() <= settings.products.dense_max_cells;
         let matrix = (dense && CellMatrix::worth_building(1, 1, candidates.len()))
-            .then(|| cache.get(op, &[[Component::Zz]], &candidates));
-        let area = op.grid().cell_area_mm2();
-        Self { op, control, settings, base, candidates, area, matrix, buffers: RefCell::default() }
+            .then(|| SolveMatrix::new(cache.get(op, &[[Component::Zz]], &candidates)));
+        Self { op, control, settings, base, candidates, area: op.grid().cell_area_mm2(), matrix }
     }
 
     /// No load: zero pressure, the gap as it is.
@@ -159,7 +153,7 @@ impl<'a> Problem<'a> {
     /// `out = A_zz v` at the candidates, from `v` on `src` (zero on the other candidates).
     fn product(&self, src: &[usize], v: &[f64], out: &mut [f64]) {
         if let Some(m) = &self.matrix {
-            return m.apply_fields(&[v], &mut [out], &mut self.buffers.borrow_mut());
+            return m.apply_fields(&[v], &mut [out]);
         }
         let choice =
             Product::by_size(self.candidates.len(), self.settings.products.dense_max_cells, src, &self.candidates);

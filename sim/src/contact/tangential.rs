@@ -17,10 +17,7 @@
 //! dissipation of the step, `-sum q_i . s_i h^2 >= 0` (N mm), follows. Normal-tangential
 //! coupling is left to the caller, which alternates the two solves (see [`super::engine`]).
 
-use std::cell::RefCell;
-use std::sync::Arc;
-
-use super::matrix::{CellMatrix, MatrixCache, ProductBuffers};
+use super::matrix::{CellMatrix, MatrixCache, SolveMatrix};
 use super::operator::{Component, Operator, Product};
 use crate::error::{Result, SimError};
 
@@ -136,17 +133,15 @@ struct ContactProduct<'a> {
     op: &'a Operator,
     contact: &'a [usize],
     dense_max_cells: usize,
-    matrix: Option<Arc<CellMatrix>>,
-    /// The matrix products' working vectors.
-    buffers: RefCell<ProductBuffers>,
+    matrix: Option<SolveMatrix>,
 }
 
 impl<'a> ContactProduct<'a> {
     fn new(op: &'a Operator, contact: &'a [usize], dense_max_cells: usize, cache: &mut MatrixCache) -> Self {
         let dense = contact.len() <= dense_max_cells;
-        let matrix =
-            (dense && CellMatrix::worth_building(2, 2, contact.len())).then(|| cache.get(op, &SHEAR_BLOCKS, contact));
-        Self { op, contact, dense_max_cells, matrix, buffers: RefCell::default() }
+        let matrix = (dense && CellMatrix::worth_building(2, 2, contact.len()))
+            .then(|| SolveMatrix::new(cache.get(op, &SHEAR_BLOCKS, contact)));
+        Self { op, contact, dense_max_cells, matrix }
     }
 
     /// From tractions on chosen source cells `src`.
@@ -159,7 +154,7 @@ impl<'a> ContactProduct<'a> {
     /// From tractions on the contact cells.
     fn apply_contact(&self, qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]) {
         match &self.matrix {
-            Some(m) => m.apply_fields(&[qx, qy], &mut [ux, uy], &mut self.buffers.borrow_mut()),
+            Some(m) => m.apply_fields(&[qx, qy], &mut [ux, uy]),
             None => self.apply(self.contact, qx, qy, ux, uy),
         }
     }
