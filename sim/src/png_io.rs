@@ -47,7 +47,9 @@ pub fn encode_png(img: &GrayImage, depth: PngDepth) -> Result<Vec<u8>> {
                 img.as_raw().clone()
             }
         };
-        enc.set_compression(png::Compression::Fast);
+        // `Fastest`: one fixed filter (`Up`) instead of the adaptive choice per row, which
+        // took 4% of a `paper` run (issue 31); the same pixels, files about 3% larger.
+        enc.set_compression(png::Compression::Fastest);
         let mut writer = enc.write_header().map_err(fail)?;
         writer.write_image_data(&data).map_err(fail)?;
         writer.finish().map_err(fail)?;

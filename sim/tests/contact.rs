@@ -370,3 +370,34 @@ fn a_tap_through_the_contact_matrices_equals_one_through_fft_products() {
     let shift = max_pin_shift(&a.pins(), &b.pins());
     assert!(shift < 1e-6, "pins {shift} mm apart");
 }
+
+/// The engine's default tolerances (normal 1e-5, tangential 1e-4, the coupling rounds stopped
+/// once one moves the shear by less than the tangential tolerance of the pressure's sum) keep
+/// every pin within 1e-4 mm of the same paths solved tightly (1e-10, 1e-9, rounds until they
+/// move the shear by less than 1e-9 of the pressure's sum): a tap on the disk's top and a
+/// slide across its rim in 1 mm steps, as the `paper` recipe's (17 cells).
+#[test]
+fn default_tolerances_keep_the_pins_within_a_tenth_of_a_micron_of_a_tight_solve() {
+    let scene = scene_with("disk");
+    let mut sensor = SensorParams::default();
+    sensor.skin.cells_across = 17;
+    let default = ContactModel::new(&sensor);
+    let mut tight = default.clone();
+    tight.normal.tolerance = 1e-10;
+    tight.tangential.tolerance = 1e-9;
+    tight.coupling_iterations = 12;
+    let tap = SensorPath::tap(SensorPose::new(5.0, -3.0, 3.0, 30.0));
+    let slide = SensorPath::slide(SensorPose::new(49.0, 1.0, 2.5, 20.0), [-2.5, -1.0], 1.0).expect("path");
+    for (name, path) in [("tap", tap), ("slide", slide)] {
+        let a = path.run(&default, &scene).expect("default");
+        let b = path.run(&tight, &scene).expect("tight");
+        let (ra, rb) = (&a[a.len() - 1].report, &b[b.len() - 1].report);
+        assert!(ra.in_contact && ra.tangential_solved, "{name}: {ra:?}");
+        let shift = max_pin_shift(&a[a.len() - 1].pins, &b[b.len() - 1].pins);
+        println!(
+            "{name}: pins {shift:.2e} mm from the tight solve; iterations normal {} / {}, tangential {} / {}",
+            ra.normal_iterations, rb.normal_iterations, ra.tangential_iterations, rb.tangential_iterations
+        );
+        assert!(shift < 1e-4, "{name}: pins {shift} mm from the tight solve");
+    }
+}

@@ -20,10 +20,13 @@
 //!   `--features ndarray`), and with `--pytorch`
 //!   the same networks in PyTorch (`model/pytorch/bench.py` under that interpreter) on one
 //!   thread and on every core, with the ratio to flex; writes `docs/model-bench.json`;
+//! - `image-diff A B`: how two dataset folders differ: images by decoded pixels, other files by
+//!   bytes (see [`image_diff`]);
 //! - `bench`: run the benchmarks (criterion: renderer, contact operator products, a tap's solve and pin product) and print
 //!   their figures; `tacsim bench` times whole taps and slides.
 
 mod explore;
+mod image_diff;
 mod reproduce;
 
 use std::path::{Path, PathBuf};
@@ -73,6 +76,14 @@ enum Task {
         /// Arguments passed on to criterion.
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         criterion: Vec<String>,
+    },
+    /// How two dataset folders differ: images by decoded pixels, other files by bytes; exit
+    /// status 1 when they differ.
+    ImageDiff {
+        /// The first folder.
+        a: PathBuf,
+        /// The second folder.
+        b: PathBuf,
     },
     /// Track the lab's recordings and compare the simulated pin motion of one parameter set
     /// with the real one.
@@ -160,6 +171,7 @@ fn main() -> Result<()> {
             fit(&real.unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d/images/image_0.png")))
         }
         Task::Bench { criterion } => bench(&criterion),
+        Task::ImageDiff { a, b } => image_diff::run(&a, &b),
         Task::RealCompare(a) => real_compare(&a),
         Task::Reproduce { quick, run } => reproduce::run(quick, &run),
         Task::Explore(run) => explore::run(&run),
