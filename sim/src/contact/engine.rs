@@ -26,7 +26,7 @@ use super::normal::{self, Control, NormalSettings};
 use super::operator::{Component, HalfSpace, Operator, Pairing, Product};
 use super::pin_motion::{CellForces, PIN_SUBSQUARES, PinKernel, PinLoad, displaced_pins};
 use super::pose::SensorPose;
-use super::tangential::{self, TangentialSettings};
+use super::tangential::{self, Eigenvector, TangentialSettings};
 use crate::error::{Result, SimError};
 use crate::pins::{PinLayout, PinPose};
 use crate::scene::Scene;
@@ -357,6 +357,8 @@ pub struct Simulation<'a> {
     /// tangential operator on them (reused while the contact stays inside).
     seen: Vec<bool>,
     lipschitz: Option<f64>,
+    /// The power iteration's vector behind `lipschitz`, where the next bound starts.
+    eigenvector: Option<Eigenvector>,
     /// The last normal (`A_zz` on the candidates) and tangential (`A_t` on the contact
     /// cells) matrices, reused while the cells stay the same.
     normal_matrix: MatrixCache,
@@ -411,6 +413,7 @@ impl<'a> Simulation<'a> {
             friction: vec![0.0; n],
             seen: vec![false; n],
             lipschitz: None,
+            eigenvector: None,
             normal_matrix: MatrixCache::default(),
             shear_matrix: MatrixCache::default(),
             slope,
@@ -430,6 +433,7 @@ impl<'a> Simulation<'a> {
         self.friction.fill(0.0);
         self.seen.fill(false);
         self.lipschitz = None;
+        self.eigenvector = None;
         self.normal_matrix = MatrixCache::default();
         self.shear_matrix = MatrixCache::default();
         self.closure.fill(0.0);
@@ -722,12 +726,10 @@ impl<'a> Simulation<'a> {
         }
         if grown || self.lipschitz.is_none() {
             let cells: Vec<usize> = (0..self.seen.len()).filter(|&k| self.seen[k]).collect();
-            self.lipschitz = Some(tangential::largest_eigenvalue(
-                op,
-                &cells,
-                self.model.tangential.dense_max_cells,
-                &mut self.shear_matrix,
-            ));
+            let dense = self.model.tangential.dense_max_cells;
+            let e = Eigenvector::power_iteration(op, &cells, dense, &mut self.shear_matrix, self.eigenvector.as_ref());
+            self.lipschitz = Some(e.bound);
+            self.eigenvector = Some(e);
         }
         let minus = |q: &[f64], o: &[f64]| -> Vec<f64> { q.iter().zip(o).map(|(q, o)| q - o).collect() };
         let shifted = offsets.map(|([ox, oy], [ox_prev, oy_prev])| {
