@@ -34,6 +34,15 @@ use crate::sensor::{SensorParams, SkinModel};
 
 /// Cells of the coarse probe used to find the footprint, per side.
 const PROBE_CELLS: usize = 15;
+/// How many times looser than the model's tolerances the first coupling round's normal and
+/// tangential solves stop, on a coupled material (issue 31). The round's shear is moved by
+/// about a tenth of the pressure's sum by the next (its normal solve does not see the shear
+/// yet), so solving it to 1e-4 was wasted: on a `paper` pose (`tacsim generate paper --shard
+/// 250/600`) the normal iterations fall from 17,777 to 14,735 and the tangential from 21,638
+/// to 15,122, with the same 1,883 rounds (2,093 at 1,000; 1,930 at 300). The last round is
+/// solved at the model's tolerances as before: test
+/// `default_tolerances_keep_the_pins_within_a_tenth_of_a_micron_of_a_tight_solve`.
+const FIRST_ROUND_LOOSENESS: f64 = 100.0;
 /// How far (mm) beyond its threshold a footprint probe's rays reach: any gap that far above
 /// the threshold is as good as `+inf` to the probe, and the margin keeps every hit within
 /// f32 rounding of the threshold (about 1e-5 mm) found exactly as by a ray of full length.
@@ -336,6 +345,9 @@ fn rounding_mm(scene: &Scene, id: usize, origin: &[f64; 3], dir: Vector3<f64>, t
     stimulus.drop_below_top_mm(scene.edge(id, x, y).signed_distance_mm) / -dir.z
 }
 
+/// An `x` and a `y` grid field.
+type FieldPair<'a> = (&'a [f64], &'a [f64]);
+
 /// The dome slope's share of the skin's traction, `(p grad h, p_prev grad h)` per axis (MPa).
 type SlopeTractions = ([Vec<f64>; 2], [Vec<f64>; 2]);
 
@@ -550,8 +562,10 @@ impl<'a> Simulation<'a> {
 
     /// The normal and tangential solves of one step from the initial gap `g0`, friction `mu`
     /// and rigid slip `(wx, wy)`: once for an uncoupled material, else alternated (the shear's
-    /// normal displacement fed to the next normal solve) until a round changes the shear by less
-    /// than the tangential tolerance times the pressure's sum, or `coupling_iterations` rounds.
+    /// normal displacement fed to the next normal solve) until a round after the first changes
+    /// the shear by less than the tangential tolerance times the pressure's sum, or
+    /// `coupling_iterations` rounds; the first round's solves stop [`FIRST_ROUND_LOOSENESS`]
+    /// times sooner.
     fn solve_coupled(
         &mut self,
         op: &Operator,
@@ -567,8 +581,16 @@ impl<'a> Simulation<'a> {
         let mut report = StepReport { in_contact: true, ..StepReport::default() };
         let mut extra: Option<Vec<f64>> = None;
         let rounds = if op.uncoupled() { 1 } else { self.model.coupling_iterations.max(1) };
-        for _ in 0..rounds {
-            self.solve_normal(op, g0, extra.as_deref(), &mut report)?;
+        for round in 0..rounds {
+            // The first of several rounds only starts the alternation: its solves stop
+            // [`FIRST_ROUND_LOOSENESS`] times sooner, and it never ends it.
+            let first = round == 0 && rounds > 1;
+            let factor = if first { FIRST_ROUND_LOOSENESS } else { 1.0 };
+            let normal_settings =
+                NormalSettings { tolerance: self.model.normal.tolerance * factor, ..self.model.normal };
+            let shear_settings =
+                TangentialSettings { tolerance: self.model.tangential.tolerance * factor, ..self.model.tangential };
+            self.solve_normal(op, g0, extra.as_deref(), &normal_settings, &mut report)?;
             // How far each cell was pressed in: needed (and kept) only with a dome slope.
             let closure: Option<Vec<f64>> = self
                 .slope
@@ -590,7 +612,8 @@ impl<'a> Simulation<'a> {
                 self.add_slope_slip(op, offsets, closure, &closure_prev, &mut cx, &mut cy);
             }
             let (qx, qy) = if frictional {
-                self.solve_tangential(op, mu, (&qx_prev, &qy_prev), (&cx, &cy), offsets.as_ref(), &mut report)?
+                let history = ((qx_prev.as_slice(), qy_prev.as_slice()), (cx.as_slice(), cy.as_slice()));
+                self.solve_tangential(op, mu, history, offsets.as_ref(), &shear_settings, &mut report)?
             } else {
                 // Frictionless (reached only with a slope): the stimulus-plane traction is
                 // zero; the skin's is `p grad h`.
@@ -612,7 +635,7 @@ impl<'a> Simulation<'a> {
             // earlier, where the rounds' ratio predicts the next to move it by less than that,
             // was measured and not kept: the pins landed 2.2e-4 mm from a tight solve against
             // 1.6e-5 (test `default_tolerances_keep_the_pins_within_a_tenth_of_a_micron...`).
-            if op.uncoupled() || change / scale < self.model.tangential.tolerance {
+            if op.uncoupled() || !first && change / scale < self.model.tangential.tolerance {
                 break;
             }
             extra = Some(self.normal_from_shear(op, g0));
@@ -627,6 +650,7 @@ impl<'a> Simulation<'a> {
         op: &Operator,
         g0: &[f64],
         extra: Option<&[f64]>,
+        settings: &NormalSettings,
         report: &mut StepReport,
     ) -> Result<()> {
         let sol = normal::solve(
@@ -635,7 +659,7 @@ impl<'a> Simulation<'a> {
             extra,
             Control::Indentation,
             Some(&self.pressure),
-            &self.model.normal,
+            settings,
             &mut self.normal_matrix,
         )?;
         report.normal_iterations += sol.iterations;
@@ -711,9 +735,9 @@ impl<'a> Simulation<'a> {
         &mut self,
         op: &Operator,
         mu: &[f64],
-        (qx_prev, qy_prev): (&[f64], &[f64]),
-        slip: (&[f64], &[f64]),
+        ((qx_prev, qy_prev), slip): (FieldPair<'_>, FieldPair<'_>),
         offsets: Option<&SlopeTractions>,
+        settings: &TangentialSettings,
         report: &mut StepReport,
     ) -> Result<(Vec<f64>, Vec<f64>)> {
         // The eigenvalue bound on all cells seen in contact serves every step inside them.
@@ -747,7 +771,7 @@ impl<'a> Simulation<'a> {
             warm: Some((warm_x, warm_y)),
             lipschitz: self.lipschitz,
         };
-        let t = tangential::solve_step(op, &input, &self.model.tangential, &mut self.shear_matrix)?;
+        let t = tangential::solve_step(op, &input, settings, &mut self.shear_matrix)?;
         report.tangential_solved = true;
         report.tangential_iterations += t.iterations;
         report.force_n[0] = t.force_n[0];
