@@ -113,31 +113,64 @@ impl ColumnIndex {
         let inv_dir =
             ray.dir.to_array().map(|r| if r.abs() < f32::EPSILON { r.signum() / f32::EPSILON } else { 1.0 / r });
         let b = y as usize * self.nx + x as usize;
-        let (mut best, mut next) = (None::<f32>, f32::INFINITY);
+        let mut nearest = Nearest::default();
         for &t in &self.items[self.starts[b] as usize..self.starts[b + 1] as usize] {
-            let bound = best.unwrap_or(reach_mm) as f64;
-            if ray.origin.z as f64 - self.top_mm[t as usize] > bound + MARGIN_MM {
+            let best = nearest.best();
+            if ray.origin.z as f64 - self.top_mm[t as usize] > best.unwrap_or(reach_mm) as f64 + MARGIN_MM {
                 break;
             }
             let triangle = &self.triangles[t as usize];
             // Hits up to a tie above the best are looked at too.
             let limit = best.map_or(reach_mm, |b| (b as f64 + MARGIN_MM) as f32);
             let Some(toi) = triangle.cast_local_ray(ray, limit, true) else { continue };
-            if !reaches_box(triangle, ray, inv_dir) {
+            if !reaches_box(triangle, ray, inv_dir) || best.is_none() && toi >= reach_mm {
                 continue;
             }
-            match best {
-                Some(b) if toi >= b => next = next.min(toi),
-                _ if toi < reach_mm => {
-                    next = next.min(best.unwrap_or(f32::INFINITY));
-                    best = Some(toi);
-                }
-                _ => {}
+            nearest.offer(toi, ());
+        }
+        nearest.unless_tied(MARGIN_MM).map(|hit| hit.map(|(toi, ())| toi))
+    }
+}
+
+/// The nearest of several hits (time of impact in f32 mm, and what was hit), and whether
+/// another came within a tie of it: where two hits lie that close, which one parry's BVH
+/// keeps depends on its traversal, so the caller asks the BVH.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Nearest<T> {
+    best: Option<(f32, T)>,
+    /// The nearest of the other hits.
+    next: f32,
+}
+
+impl<T> Default for Nearest<T> {
+    fn default() -> Self {
+        Self { best: None, next: f32::INFINITY }
+    }
+}
+
+impl<T: Copy> Nearest<T> {
+    /// The nearest time of impact so far.
+    pub(crate) fn best(&self) -> Option<f32> {
+        self.best.map(|(toi, _)| toi)
+    }
+
+    /// Takes a hit at `toi` on `what`.
+    pub(crate) fn offer(&mut self, toi: f32, what: T) {
+        match self.best {
+            Some((b, _)) if toi >= b => self.next = self.next.min(toi),
+            _ => {
+                self.next = self.next.min(self.best().unwrap_or(f32::INFINITY));
+                self.best = Some((toi, what));
             }
         }
-        match best {
-            Some(b) if (next as f64) <= b as f64 + MARGIN_MM => None,
-            _ => Some(best),
+    }
+
+    /// The nearest hit (`Some(None)` when there was none), or `None` where another lies
+    /// within `tie_mm` of it.
+    pub(crate) fn unless_tied(self, tie_mm: f64) -> Option<Option<(f32, T)>> {
+        match self.best {
+            Some((b, _)) if self.next as f64 <= b as f64 + tie_mm => None,
+            best => Some(best),
         }
     }
 }

@@ -14,7 +14,7 @@ use rapier3d::prelude::{
     QueryPipeline, Ray, RigidBodySet,
 };
 
-use crate::columns::ColumnIndex;
+use crate::columns::{ColumnIndex, Nearest};
 use crate::error::{Result, SimError};
 use crate::stimulus::{EdgePoint, Stimulus};
 
@@ -229,25 +229,15 @@ impl Scene {
     /// One ray straight down through the objects' [`ColumnIndex`]es; `None` where the
     /// pipeline must answer ([`Self::cast_rays_down`]).
     fn cast_down(&self, ray: &Ray, objects: &[(ObjectId, &Collider)], max: f32) -> Option<Option<(f64, ObjectId)>> {
-        let mut best: Option<(f32, ObjectId)> = None;
-        let mut next = f32::INFINITY;
+        let mut nearest = Nearest::default();
         for &(id, collider) in objects {
             let columns = &self.objects[id].columns;
             let Some(toi) = columns.cast_down(&ray.inverse_transform_by(collider.position()), max)? else {
                 continue;
             };
-            match best {
-                Some((b, _)) if toi >= b => next = next.min(toi),
-                _ => {
-                    next = next.min(best.map_or(f32::INFINITY, |b| b.0));
-                    best = Some((toi, id));
-                }
-            }
+            nearest.offer(toi, id);
         }
-        match best {
-            Some((b, _)) if (next as f64) <= b as f64 + COLUMN_TIE_MM => None,
-            _ => Some(best.map(|(toi, id)| (toi as f64, id))),
-        }
+        nearest.unless_tied(COLUMN_TIE_MM).map(|hit| hit.map(|(toi, id)| (toi as f64, id)))
     }
 
     /// [`Self::cast_rays`] through the query pipeline.
@@ -350,6 +340,9 @@ pub fn flat_scene(disk: &Stimulus, friction: f64) -> Result<Scene> {
 
 #[cfg(test)]
 mod tests {
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
     use super::*;
 
     /// The column search ([`crate::columns::ColumnIndex`]) must hit what parry's BVH hits, to
@@ -361,11 +354,8 @@ mod tests {
     #[test]
     fn straight_down_rays_hit_what_parrys_bvh_hits() {
         let catalogue = crate::builtin_catalogue().expect("shapes");
-        let mut seed = 7u64;
-        let mut uniform = |lo: f64, hi: f64| {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
-        };
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        let mut uniform = |lo: f64, hi: f64| rng.random_range(lo..hi);
         for name in catalogue.names() {
             let stimulus = catalogue.get(&name).expect("a built-in");
             let mut scene = Scene::new();

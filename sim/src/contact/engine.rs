@@ -368,8 +368,8 @@ pub struct Simulation<'a> {
     /// Every cell that has been in contact on this path, and the eigenvalue bound of the
     /// tangential operator on them (reused while the contact stays inside).
     seen: Vec<bool>,
-    lipschitz: Option<f64>,
-    /// The power iteration's vector behind `lipschitz`, where the next bound starts.
+    /// The power iteration's last vector and bound on those cells (where the next bound
+    /// starts when they grow).
     eigenvector: Option<Eigenvector>,
     /// The last normal (`A_zz` on the candidates) and tangential (`A_t` on the contact
     /// cells) matrices, reused while the cells stay the same.
@@ -424,7 +424,6 @@ impl<'a> Simulation<'a> {
             gap: vec![f64::INFINITY; n],
             friction: vec![0.0; n],
             seen: vec![false; n],
-            lipschitz: None,
             eigenvector: None,
             normal_matrix: MatrixCache::default(),
             shear_matrix: MatrixCache::default(),
@@ -444,7 +443,6 @@ impl<'a> Simulation<'a> {
         self.gap.fill(f64::INFINITY);
         self.friction.fill(0.0);
         self.seen.fill(false);
-        self.lipschitz = None;
         self.eigenvector = None;
         self.normal_matrix = MatrixCache::default();
         self.shear_matrix = MatrixCache::default();
@@ -750,11 +748,10 @@ impl<'a> Simulation<'a> {
                 grown = true;
             }
         }
-        if grown || self.lipschitz.is_none() {
+        if grown || self.eigenvector.is_none() {
             let cells: Vec<usize> = (0..self.seen.len()).filter(|&k| self.seen[k]).collect();
             let dense = self.model.tangential.dense_max_cells;
             let e = Eigenvector::power_iteration(op, &cells, dense, &mut self.shear_matrix, self.eigenvector.as_ref());
-            self.lipschitz = Some(e.bound);
             self.eigenvector = Some(e);
         }
         let minus = |q: &[f64], o: &[f64]| -> Vec<f64> { q.iter().zip(o).map(|(q, o)| q - o).collect() };
@@ -771,7 +768,7 @@ impl<'a> Simulation<'a> {
             prev: (prev_x, prev_y),
             slip,
             warm: Some((warm_x, warm_y)),
-            lipschitz: self.lipschitz,
+            lipschitz: self.eigenvector.as_ref().map(|e| e.bound),
         };
         let t = tangential::solve_step(op, &input, settings, &mut self.shear_matrix)?;
         report.tangential_solved = true;
@@ -870,6 +867,9 @@ impl<'a> Simulation<'a> {
 
 #[cfg(test)]
 mod tests {
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
     use super::*;
     use crate::scene::ObjectPose;
 
@@ -887,11 +887,8 @@ mod tests {
         let s = 2.0 * r / PROBE_CELLS as f64;
         let coarse = (Grid::square(PROBE_CELLS, s), s * s / (4.0 * model.dome_radius()) * 1.01);
         let fine = (Grid { nx: PROBE_CELLS, ny: PROBE_CELLS, cell_mm: 0.4, centre_mm: [0.7, -0.3] }, 0.0);
-        let mut seed = 11u64;
-        let mut uniform = |lo: f64, hi: f64| {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            lo + (hi - lo) * ((seed >> 11) as f64 / (1u64 << 53) as f64)
-        };
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let mut uniform = |lo: f64, hi: f64| rng.random_range(lo..hi);
         let mut below = 0;
         for name in catalogue.names() {
             for edge_radius_mm in [0.0, 1.5] {
