@@ -16,7 +16,7 @@
 use std::sync::Arc;
 
 use super::grid::Grid;
-use super::operator::{Component, Operator};
+use super::operator::{Component, Operator, Product};
 
 /// Rows per panel.
 const LANES: usize = 32;
@@ -124,23 +124,81 @@ impl CellMatrix {
     }
 }
 
-/// A [`CellMatrix`] with its working vectors: one solve's repeated products on its cells,
-/// allocating nothing after the first.
+/// Products of an operator's blocks on one fixed cell set, on packed vectors (component block
+/// after component block, the cells in the set's order): by the set's [`CellMatrix`] where
+/// the products are dense and it is worth building, else by the operator's own product
+/// through grid fields kept between calls. A solver's iterations work on the packed vectors
+/// and allocate nothing (issue 31: the gathers and scatters of grid fields, and a solve's
+/// grid-sized vectors, were 8% of a `paper` run's time).
 #[derive(Debug)]
-pub(crate) struct SolveMatrix {
-    matrix: Arc<CellMatrix>,
-    buffers: std::cell::RefCell<ProductBuffers>,
+pub(crate) struct CellProduct<'a, const B: usize> {
+    op: &'a Operator,
+    blocks: &'a [[Component; B]; B],
+    cells: &'a [usize],
+    dense_max_cells: usize,
+    matrix: Option<Arc<CellMatrix>>,
+    /// Input and output grid fields of the operator's product (without a matrix).
+    fields: std::cell::RefCell<[Vec<f64>; 2]>,
 }
 
-impl SolveMatrix {
-    /// Products by `matrix`.
-    pub(crate) fn new(matrix: Arc<CellMatrix>) -> Self {
-        Self { matrix, buffers: Default::default() }
+impl<'a, const B: usize> CellProduct<'a, B> {
+    /// Products of `blocks` (output block `a`, input block `b`: `blocks[a][b]`) on `cells`,
+    /// dense up to `dense_max_cells` cells; the matrix comes from `cache`.
+    pub(crate) fn new(
+        op: &'a Operator,
+        blocks: &'a [[Component; B]; B],
+        cells: &'a [usize],
+        dense_max_cells: usize,
+        cache: &mut MatrixCache,
+    ) -> Self {
+        let dense = !cells.is_empty() && cells.len() <= dense_max_cells;
+        let matrix = (dense && CellMatrix::worth_building(B, B, cells.len())).then(|| cache.get(op, blocks, cells));
+        Self { op, blocks, cells, dense_max_cells, matrix, fields: Default::default() }
     }
 
-    /// [`CellMatrix::apply_fields`] through the kept buffers.
-    pub(crate) fn apply_fields(&self, x: &[&[f64]], y: &mut [&mut [f64]]) {
-        self.matrix.apply_fields(x, y, &mut self.buffers.borrow_mut());
+    /// The cells, in packing order.
+    pub(crate) fn cells(&self) -> &'a [usize] {
+        self.cells
+    }
+
+    /// The operator.
+    pub(crate) fn operator(&self) -> &'a Operator {
+        self.op
+    }
+
+    /// Whether products go through the cells' [`CellMatrix`] (which needs no source cells).
+    pub(crate) fn has_matrix(&self) -> bool {
+        self.matrix.is_some()
+    }
+
+    /// `y = M x` on packed vectors (`B` blocks of the cells each). `src`: the grid cells where
+    /// `x` may be non-zero, for the operator's dense product (`None`: all the cells); the
+    /// matrix skips zero inputs by itself.
+    pub(crate) fn apply(&self, src: Option<&[usize]>, x: &[f64], y: &mut [f64]) {
+        if let Some(m) = &self.matrix {
+            return m.apply(x, y);
+        }
+        let m = self.cells.len();
+        let n = self.op.grid().len();
+        let mut fields = self.fields.borrow_mut();
+        let [input, output] = &mut *fields;
+        input.resize(B * n, 0.0);
+        output.resize(n, 0.0);
+        for (block, field) in x.chunks_exact(m.max(1)).zip(input.chunks_exact_mut(n)) {
+            for (&k, v) in self.cells.iter().zip(block) {
+                field[k] = *v;
+            }
+        }
+        let src = src.unwrap_or(self.cells);
+        let product = Product::by_size(m, self.dense_max_cells, src, self.cells);
+        let inputs: Vec<&[f64]> = input.chunks_exact(n).collect();
+        for (row, out) in self.blocks.iter().zip(y.chunks_exact_mut(m.max(1))) {
+            let terms: [(Component, &[f64]); B] = std::array::from_fn(|b| (row[b], inputs[b]));
+            self.op.apply(&terms, output, product);
+            for (&k, v) in self.cells.iter().zip(out.iter_mut()) {
+                *v = output[k];
+            }
+        }
     }
 }
 

@@ -8,8 +8,8 @@
 //! every cell. Products are dense on the candidates when there are few, FFT otherwise
 //! ([`ProductChoice`]).
 
-use super::matrix::{CellMatrix, MatrixCache, SolveMatrix};
-use super::operator::{Component, Operator, Product};
+use super::matrix::{CellProduct, MatrixCache};
+use super::operator::{Component, Operator};
 use crate::error::{Result, SimError};
 
 /// How the normal problem is driven.
@@ -95,28 +95,32 @@ pub fn solve(
     settings: &NormalSettings,
     cache: &mut MatrixCache,
 ) -> Result<NormalSolution> {
-    let problem = Problem::new(op, g0, extra, control, settings, cache);
+    let problem = Problem::new(op, g0, extra, control, settings);
     if problem.candidates.is_empty() || matches!(control, Control::Load(l) if l <= 0.0) {
         return Ok(problem.unloaded());
     }
     let pressure = problem.start(warm);
-    problem.conjugate_gradient(pressure)
+    let product = problem.product(cache);
+    problem.conjugate_gradient(pressure, &product)
 }
 
-/// One normal solve's fixed data.
+/// The normal block: `u_z` from `p`.
+const NORMAL_BLOCK: [[Component; 1]; 1] = [[Component::Zz]];
+
+/// One normal solve's fixed data; vectors on the candidates are packed in their order.
 struct Problem<'a> {
     op: &'a Operator,
     control: Control,
     settings: &'a NormalSettings,
-    /// `g0 + extra` per cell (mm).
-    base: Vec<f64>,
-    /// The cells solved for: where `base < 0` under indentation control, every finite one
-    /// under load control.
+    /// Grid cells.
+    n: usize,
+    /// The cells solved for: where `g0 + extra < 0` under indentation control, every finite
+    /// one under load control.
     candidates: Vec<usize>,
+    /// `g0 + extra` on the candidates (mm).
+    base: Vec<f64>,
     /// Cell area (mm^2).
     area: f64,
-    /// `A_zz` on the candidates where products are dense.
-    matrix: Option<SolveMatrix>,
 }
 
 impl<'a> Problem<'a> {
@@ -126,165 +130,185 @@ impl<'a> Problem<'a> {
         extra: Option<&[f64]>,
         control: Control,
         settings: &'a NormalSettings,
-        cache: &mut MatrixCache,
     ) -> Self {
         let n = op.grid().len();
-        let base: Vec<f64> = (0..n).map(|k| g0[k] + extra.map_or(0.0, |e| e[k])).collect();
+        let at = |k: usize| g0[k] + extra.map_or(0.0, |e| e[k]);
         let candidates: Vec<usize> = match control {
-            Control::Indentation => (0..n).filter(|&k| base[k] < 0.0).collect(),
-            Control::Load(_) => (0..n).filter(|&k| base[k].is_finite()).collect(),
+            Control::Indentation => (0..n).filter(|&k| at(k) < 0.0).collect(),
+            Control::Load(_) => (0..n).filter(|&k| at(k).is_finite()).collect(),
         };
-        let dense = !candidates.is_empty() && candidates.len() <= settings.products.dense_max_cells;
-        let matrix = (dense && CellMatrix::worth_building(1, 1, candidates.len()))
-            .then(|| SolveMatrix::new(cache.get(op, &[[Component::Zz]], &candidates)));
-        Self { op, control, settings, base, candidates, area: op.grid().cell_area_mm2(), matrix }
+        let base = candidates.iter().map(|&k| at(k)).collect();
+        Self { op, control, settings, n, candidates, base, area: op.grid().cell_area_mm2() }
+    }
+
+    /// `A_zz` on the candidates (the matrix through `cache`).
+    fn product(&self, cache: &mut MatrixCache) -> CellProduct<'_, 1> {
+        CellProduct::new(self.op, &NORMAL_BLOCK, &self.candidates, self.settings.products.dense_max_cells, cache)
+    }
+
+    /// A grid field from values on the candidates, `fill` elsewhere.
+    fn scatter(&self, packed: &[f64], fill: f64) -> Vec<f64> {
+        let mut field = vec![fill; self.n];
+        for (&k, v) in self.candidates.iter().zip(packed) {
+            field[k] = *v;
+        }
+        field
     }
 
     /// No load: zero pressure, the gap as it is.
     fn unloaded(&self) -> NormalSolution {
-        let n = self.base.len();
-        let mut gap = vec![f64::INFINITY; n];
-        for &k in &self.candidates {
-            gap[k] = self.base[k];
+        NormalSolution {
+            pressure: vec![0.0; self.n],
+            gap: self.scatter(&self.base, f64::INFINITY),
+            approach_mm: 0.0,
+            force_n: 0.0,
+            iterations: 0,
         }
-        NormalSolution { pressure: vec![0.0; n], gap, approach_mm: 0.0, force_n: 0.0, iterations: 0 }
-    }
-
-    /// `out = A_zz v` at the candidates, from `v` on `src` (zero on the other candidates).
-    fn product(&self, src: &[usize], v: &[f64], out: &mut [f64]) {
-        if let Some(m) = &self.matrix {
-            return m.apply_fields(&[v], &mut [out]);
-        }
-        let choice =
-            Product::by_size(self.candidates.len(), self.settings.products.dense_max_cells, src, &self.candidates);
-        self.op.apply(&[(Component::Zz, v)], out, choice);
     }
 
     /// Under load control, scales the candidates' pressures to the load.
     fn rescale_to_load(&self, pressure: &mut [f64]) {
         if let Control::Load(load) = self.control {
-            let total: f64 = self.candidates.iter().map(|&k| pressure[k]).sum::<f64>() * self.area;
+            let total: f64 = pressure.iter().sum::<f64>() * self.area;
             if total > 0.0 {
-                for &k in &self.candidates {
-                    pressure[k] *= load / total;
+                for p in pressure.iter_mut() {
+                    *p *= load / total;
                 }
             }
         }
     }
 
-    /// The starting pressures: the warm ones on the candidates, else a Jacobi guess (half the
+    /// The starting pressures on the candidates: the warm ones, else a Jacobi guess (half the
     /// overlap over the diagonal; uniform under load control), scaled to the load.
     fn start(&self, warm: Option<&[f64]>) -> Vec<f64> {
-        let mut pressure = vec![0.0; self.base.len()];
-        if let Some(w) = warm {
-            for &k in &self.candidates {
-                pressure[k] = w[k].max(0.0);
-            }
-        }
-        if self.candidates.iter().all(|&k| pressure[k] <= 0.0) {
+        let mut pressure = match warm {
+            Some(w) => self.candidates.iter().map(|&k| w[k].max(0.0)).collect(),
+            None => vec![0.0; self.candidates.len()],
+        };
+        if pressure.iter().all(|p| *p <= 0.0) {
             let diag = self.op.diagonal(Component::Zz);
-            for &k in &self.candidates {
-                pressure[k] = match self.control {
-                    Control::Indentation => (-self.base[k]).max(0.0) / diag * 0.5,
+            for (p, base) in pressure.iter_mut().zip(&self.base) {
+                *p = match self.control {
+                    Control::Indentation => (-base).max(0.0) / diag * 0.5,
                     Control::Load(_) => 1.0,
                 };
             }
         }
         if let Control::Load(load) = self.control {
-            let total: f64 = self.candidates.iter().map(|&k| pressure[k]).sum::<f64>() * self.area;
-            for &k in &self.candidates {
-                pressure[k] *= load / total;
+            let total: f64 = pressure.iter().sum::<f64>() * self.area;
+            for p in pressure.iter_mut() {
+                *p *= load / total;
             }
         }
         pressure
+    }
+
+    /// The candidates in contact (`p > 0`): positions among them and, where the product is
+    /// the operator's, grid cells.
+    fn active(&self, pressure: &[f64], product: &CellProduct<'_, 1>, active: &mut Vec<usize>, cells: &mut Vec<usize>) {
+        active.clear();
+        active.extend((0..pressure.len()).filter(|&i| pressure[i] > 0.0));
+        cells.clear();
+        if !product.has_matrix() {
+            cells.extend(active.iter().map(|&i| self.candidates[i]));
+        }
     }
 
     /// Polonsky-Keer iterations from `pressure` until the relative pressure change falls
     /// below the tolerance: conjugate directions on the cells in contact, cells that overlap
     /// while unloaded re-entered (resetting the conjugacy), the mean gap removed under load
     /// control.
-    fn conjugate_gradient(&self, mut pressure: Vec<f64>) -> Result<NormalSolution> {
-        let (candidates, base) = (&self.candidates, &self.base);
-        let n = base.len();
+    fn conjugate_gradient(&self, mut pressure: Vec<f64>, product: &CellProduct<'_, 1>) -> Result<NormalSolution> {
+        let base = &self.base;
+        let m = base.len();
         let load_control = matches!(self.control, Control::Load(_));
         let diag = self.op.diagonal(Component::Zz);
-        let (mut u, mut r, mut t, mut g) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let (mut u, mut r, mut t, mut g) = (vec![0.0; m], vec![0.0; m], vec![0.0; m], vec![0.0; m]);
         let (mut delta, mut g_old) = (0.0, 1.0);
         let mut residual = f64::INFINITY;
-        let mut active: Vec<usize> = Vec::with_capacity(candidates.len());
+        let (mut active, mut cells) = (Vec::with_capacity(m), Vec::new());
         for iteration in 1..=self.settings.max_iterations {
-            active.clear();
-            active.extend(candidates.iter().copied().filter(|&k| pressure[k] > 0.0));
-            self.product(&active, &pressure, &mut u);
-            for &k in candidates {
-                g[k] = u[k] + base[k];
+            self.active(&pressure, product, &mut active, &mut cells);
+            product.apply(Some(&cells), &pressure, &mut u);
+            for i in 0..m {
+                g[i] = u[i] + base[i];
             }
             if load_control && !active.is_empty() {
-                let g_mean = active.iter().map(|&k| g[k]).sum::<f64>() / active.len() as f64;
-                for &k in candidates {
-                    g[k] -= g_mean;
+                let g_mean = active.iter().map(|&i| g[i]).sum::<f64>() / active.len() as f64;
+                for gi in g.iter_mut() {
+                    *gi -= g_mean;
                 }
             }
-            let gg: f64 = active.iter().map(|&k| g[k] * g[k]).sum();
-            for &k in candidates {
-                t[k] = if pressure[k] > 0.0 { g[k] + delta * (gg / g_old) * t[k] } else { 0.0 };
+            let gg: f64 = active.iter().map(|&i| g[i] * g[i]).sum();
+            for i in 0..m {
+                t[i] = if pressure[i] > 0.0 { g[i] + delta * (gg / g_old) * t[i] } else { 0.0 };
             }
             g_old = gg;
-            self.product(&active, &t, &mut r);
+            product.apply(Some(&cells), &t, &mut r);
             if load_control && !active.is_empty() {
-                let r_mean = active.iter().map(|&k| r[k]).sum::<f64>() / active.len() as f64;
-                for &k in &active {
-                    r[k] -= r_mean;
+                let r_mean = active.iter().map(|&i| r[i]).sum::<f64>() / active.len() as f64;
+                for &i in &active {
+                    r[i] -= r_mean;
                 }
             }
-            let num: f64 = active.iter().map(|&k| g[k] * t[k]).sum();
-            let den: f64 = active.iter().map(|&k| r[k] * t[k]).sum();
+            let num: f64 = active.iter().map(|&i| g[i] * t[i]).sum();
+            let den: f64 = active.iter().map(|&i| r[i] * t[i]).sum();
             let tau = if den > 0.0 { num / den } else { 0.0 };
             let mut change = 0.0;
             let mut overlap = false;
-            for &k in candidates {
-                let old = pressure[k];
+            for i in 0..m {
+                let old = pressure[i];
                 let mut p = old;
                 if old > 0.0 {
-                    p = (old - tau * t[k]).max(0.0);
-                } else if g[k] < 0.0 {
-                    p = -tau.max(diag.recip() * 1e-3) * g[k];
+                    p = (old - tau * t[i]).max(0.0);
+                } else if g[i] < 0.0 {
+                    p = -tau.max(diag.recip() * 1e-3) * g[i];
                     overlap = true;
                 }
-                pressure[k] = p;
+                pressure[i] = p;
                 change += (p - old).abs();
             }
             delta = if overlap { 0.0 } else { 1.0 };
             self.rescale_to_load(&mut pressure);
-            let total: f64 = candidates.iter().map(|&k| pressure[k]).sum();
+            let total: f64 = pressure.iter().sum();
             residual = if total > 0.0 { change / total } else { 0.0 };
             if !residual.is_finite() {
                 break;
             }
             if residual < self.settings.tolerance {
-                return Ok(self.finish(pressure, total, iteration));
+                return Ok(self.finish(pressure, total, iteration, product));
             }
         }
         Err(SimError::NoConvergence { solver: "normal", iterations: self.settings.max_iterations, residual })
     }
 
-    /// The solution from converged pressures (their sum `total`, MPa): the gaps and, under load
-    /// control, the approach taken again from the contact cells (the final rescaling changed
-    /// the pressures slightly).
-    fn finish(&self, pressure: Vec<f64>, total: f64, iterations: usize) -> NormalSolution {
-        let n = self.base.len();
-        let mut u = vec![0.0; n];
-        let active: Vec<usize> = self.candidates.iter().copied().filter(|&k| pressure[k] > 0.0).collect();
-        self.product(&active, &pressure, &mut u);
+    /// The solution from converged pressures on the candidates (their sum `total`, MPa): the
+    /// gaps and, under load control, the approach taken again from the contact cells (the
+    /// final rescaling changed the pressures slightly).
+    fn finish(
+        &self,
+        pressure: Vec<f64>,
+        total: f64,
+        iterations: usize,
+        product: &CellProduct<'_, 1>,
+    ) -> NormalSolution {
+        let m = self.base.len();
+        let mut u = vec![0.0; m];
+        let (mut active, mut cells) = (Vec::with_capacity(m), Vec::new());
+        self.active(&pressure, product, &mut active, &mut cells);
+        product.apply(Some(&cells), &pressure, &mut u);
         let approach = if matches!(self.control, Control::Load(_)) && !active.is_empty() {
-            active.iter().map(|&k| u[k] + self.base[k]).sum::<f64>() / active.len() as f64
+            active.iter().map(|&i| u[i] + self.base[i]).sum::<f64>() / active.len() as f64
         } else {
             0.0
         };
-        let mut gap = vec![f64::INFINITY; n];
-        for &k in &self.candidates {
-            gap[k] = u[k] + self.base[k] - approach;
+        let gap: Vec<f64> = (0..m).map(|i| u[i] + self.base[i] - approach).collect();
+        NormalSolution {
+            pressure: self.scatter(&pressure, 0.0),
+            gap: self.scatter(&gap, f64::INFINITY),
+            approach_mm: approach,
+            force_n: total * self.area,
+            iterations,
         }
-        NormalSolution { pressure, gap, approach_mm: approach, force_n: total * self.area, iterations }
     }
 }

@@ -17,7 +17,7 @@
 //! dissipation of the step, `-sum q_i . s_i h^2 >= 0` (N mm), follows. Normal-tangential
 //! coupling is left to the caller, which alternates the two solves (see [`super::engine`]).
 
-use super::matrix::{CellMatrix, MatrixCache, SolveMatrix};
+use super::matrix::{CellProduct, MatrixCache};
 use super::operator::{Component, Operator, Product};
 use crate::error::{Result, SimError};
 
@@ -95,38 +95,41 @@ impl Eigenvector {
         cache: &mut MatrixCache,
         start: Option<&Eigenvector>,
     ) -> Self {
-        let n = op.grid().len();
-        let product = ContactProduct::new(op, cells, dense_max_cells, cache);
-        let (mut vx, mut vy) = (vec![0.0; n], vec![0.0; n]);
+        let m = cells.len();
+        let product = CellProduct::new(op, &SHEAR_BLOCKS, cells, dense_max_cells, cache);
+        // Packed: `x` on the cells, then `y`.
+        let mut v = vec![0.0; 2 * m];
         let iterations = match start {
             Some(e) => {
-                for &k in cells {
-                    (vx[k], vy[k]) = (e.vector.0[k], e.vector.1[k]);
+                for (i, &k) in cells.iter().enumerate() {
+                    (v[i], v[m + i]) = (e.vector.0[k], e.vector.1[k]);
                 }
                 Self::WARM_ITERATIONS
             }
             None => {
-                for &k in cells {
-                    vx[k] = 1.0;
-                    vy[k] = 0.5;
-                }
+                v[..m].fill(1.0);
+                v[m..].fill(0.5);
                 Self::COLD_ITERATIONS
             }
         };
-        let (mut ax, mut ay) = (vec![0.0; n], vec![0.0; n]);
+        let mut a = vec![0.0; 2 * m];
         let mut lambda = 0.0;
         for _ in 0..iterations {
-            product.apply_contact(&vx, &vy, &mut ax, &mut ay);
-            let norm = cells.iter().map(|&k| ax[k] * ax[k] + ay[k] * ay[k]).sum::<f64>().sqrt();
-            let vnorm = cells.iter().map(|&k| vx[k] * vx[k] + vy[k] * vy[k]).sum::<f64>().sqrt();
+            product.apply(None, &v, &mut a);
+            let norm = (0..m).map(|i| a[i] * a[i] + a[m + i] * a[m + i]).sum::<f64>().sqrt();
+            let vnorm = (0..m).map(|i| v[i] * v[i] + v[m + i] * v[m + i]).sum::<f64>().sqrt();
             if norm == 0.0 {
                 break;
             }
             lambda = norm / vnorm;
-            for &k in cells {
-                vx[k] = ax[k] / norm;
-                vy[k] = ay[k] / norm;
+            for (v, a) in v.iter_mut().zip(&a) {
+                *v = a / norm;
             }
+        }
+        let n = op.grid().len();
+        let (mut vx, mut vy) = (vec![0.0; n], vec![0.0; n]);
+        for (i, &k) in cells.iter().enumerate() {
+            (vx[k], vy[k]) = (v[i], v[m + i]);
         }
         Self { vector: (vx, vy), bound: 1.05 * lambda }
     }
@@ -144,9 +147,6 @@ fn project(x: f64, y: f64, r: f64) -> (f64, f64) {
         (x * s, y * s)
     }
 }
-
-/// A pair of grid fields, `x` and `y` (tractions in MPa or slips in mm).
-type Pair = (Vec<f64>, Vec<f64>);
 
 /// One step's inputs, grid fields on the operator's grid.
 #[derive(Clone, Copy, Debug)]
@@ -168,39 +168,6 @@ pub struct StepInput<'a> {
 
 /// The in-plane blocks of the operator: `(u_x, u_y)` from `(q_x, q_y)`.
 const SHEAR_BLOCKS: [[Component; 2]; 2] = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy]];
-
-/// `u = A_t q` at the contact cells: by the [`CellMatrix`] of the contact cells where the
-/// products are dense and it is worth building, by the operator's product otherwise.
-struct ContactProduct<'a> {
-    op: &'a Operator,
-    contact: &'a [usize],
-    dense_max_cells: usize,
-    matrix: Option<SolveMatrix>,
-}
-
-impl<'a> ContactProduct<'a> {
-    fn new(op: &'a Operator, contact: &'a [usize], dense_max_cells: usize, cache: &mut MatrixCache) -> Self {
-        let dense = contact.len() <= dense_max_cells;
-        let matrix = (dense && CellMatrix::worth_building(2, 2, contact.len()))
-            .then(|| SolveMatrix::new(cache.get(op, &SHEAR_BLOCKS, contact)));
-        Self { op, contact, dense_max_cells, matrix }
-    }
-
-    /// From tractions on chosen source cells `src`.
-    fn apply(&self, src: &[usize], qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]) {
-        let product = Product::by_size(self.contact.len(), self.dense_max_cells, src, self.contact);
-        self.op.apply(&[(Component::Xx, qx), (Component::Xy, qy)], ux, product);
-        self.op.apply(&[(Component::Xy, qx), (Component::Yy, qy)], uy, product);
-    }
-
-    /// From tractions on the contact cells.
-    fn apply_contact(&self, qx: &[f64], qy: &[f64], ux: &mut [f64], uy: &mut [f64]) {
-        match &self.matrix {
-            Some(m) => m.apply_fields(&[qx, qy], &mut [ux, uy]),
-            None => self.apply(self.contact, qx, qy, ux, uy),
-        }
-    }
-}
 
 /// Solves one step: the tractions within the bound `mu p` that minimise the step's energy
 /// (the module's problem). The stages: the slip offset `b = w - A_t q'`
@@ -228,46 +195,47 @@ pub fn solve_step(
             iterations: 0,
         });
     }
-    let bound: Vec<f64> =
-        (0..n).map(|k| if input.pressure[k] > 0.0 { input.mu[k] * input.pressure[k] } else { 0.0 }).collect();
-    let product = ContactProduct::new(op, &contact, settings.dense_max_cells, cache);
-    let b = slip_offset(&product, input);
+    let bound: Vec<f64> = contact.iter().map(|&k| input.mu[k] * input.pressure[k]).collect();
+    let product = CellProduct::new(op, &SHEAR_BLOCKS, &contact, settings.dense_max_cells, cache);
+    let b = slip_offset(op, &contact, settings.dense_max_cells, input);
     let (q, iterations) = minimise(&product, input, &b, &bound, settings, cache)?;
     Ok(settle(&product, &b, &bound, q, iterations))
 }
 
-/// `b = w - A_t q'` on the contact cells (mm): the slip each cell would have with the
-/// previous tractions kept.
-fn slip_offset(product: &ContactProduct<'_>, input: &StepInput<'_>) -> Pair {
+/// `b = w - A_t q'` on the contact cells (mm), packed (`x` on the cells, then `y`): the slip
+/// each cell would have with the previous tractions kept.
+fn slip_offset(op: &Operator, contact: &[usize], dense_max_cells: usize, input: &StepInput<'_>) -> Vec<f64> {
     let n = input.pressure.len();
     let (prev, w) = (input.prev, input.slip);
     let prev_cells: Vec<usize> = (0..n).filter(|&k| prev.0[k] != 0.0 || prev.1[k] != 0.0).collect();
-    let (mut bx, mut by) = (vec![0.0; n], vec![0.0; n]);
+    let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
     if !prev_cells.is_empty() {
-        product.apply(&prev_cells, prev.0, prev.1, &mut bx, &mut by);
+        let product = Product::by_size(contact.len(), dense_max_cells, &prev_cells, contact);
+        op.apply(&[(Component::Xx, prev.0), (Component::Xy, prev.1)], &mut ux, product);
+        op.apply(&[(Component::Xy, prev.0), (Component::Yy, prev.1)], &mut uy, product);
     }
-    for &k in product.contact {
-        bx[k] = w.0[k] - bx[k];
-        by[k] = w.1[k] - by[k];
-    }
-    (bx, by)
+    let bx = contact.iter().map(|&k| w.0[k] - ux[k]);
+    let by = contact.iter().map(|&k| w.1[k] - uy[k]);
+    bx.chain(by).collect()
 }
 
 /// Projected gradient with Nesterov momentum and adaptive restart on the step's problem
 /// (gradient `A_t q + b`, the slip), from the warm start projected on the bounds, until the
 /// projected Jacobi step (local scale `1/A_t(0,0)`) summed over the cells falls below the
-/// tolerance relative to `mu sum p`. Returns the tractions and the iterations used.
+/// tolerance relative to `mu sum p`. Vectors are packed on the contact cells (`x`, then `y`);
+/// returns the tractions and the iterations used.
 fn minimise(
-    product: &ContactProduct<'_>,
+    product: &CellProduct<'_, 2>,
     input: &StepInput<'_>,
-    (bx, by): &Pair,
+    b: &[f64],
     bound: &[f64],
     settings: &TangentialSettings,
     cache: &mut MatrixCache,
-) -> Result<(Pair, usize)> {
-    let (op, contact) = (product.op, product.contact);
-    let n = bound.len();
-    let total_bound: f64 = contact.iter().map(|&k| bound[k]).sum();
+) -> Result<(Vec<f64>, usize)> {
+    let contact = product.cells();
+    let op = product.operator();
+    let m = contact.len();
+    let total_bound: f64 = bound.iter().sum();
     let lipschitz = match input.lipschitz {
         Some(l) => l,
         None => largest_eigenvalue(op, contact, settings.dense_max_cells, cache),
@@ -275,77 +243,82 @@ fn minimise(
     let step = 1.0 / lipschitz;
     let local = 1.0 / op.diagonal(Component::Xx).max(op.diagonal(Component::Yy));
     let start = input.warm.unwrap_or(input.prev);
-    let (mut qx, mut qy) = (vec![0.0; n], vec![0.0; n]);
-    for &k in contact {
-        (qx[k], qy[k]) = project(start.0[k], start.1[k], bound[k]);
+    let mut q = vec![0.0; 2 * m];
+    for (i, &k) in contact.iter().enumerate() {
+        (q[i], q[m + i]) = project(start.0[k], start.1[k], bound[i]);
     }
-    let (mut yx, mut yy) = (qx.clone(), qy.clone());
-    let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
+    let mut y = q.clone();
+    let mut u = vec![0.0; 2 * m];
     let mut theta = 1.0f64;
-    let mut next = Vec::with_capacity(contact.len());
+    let mut next = Vec::with_capacity(m);
     for iteration in 1..=settings.max_iterations {
-        product.apply_contact(&yx, &yy, &mut ux, &mut uy);
+        product.apply(None, &y, &mut u);
         let mut kkt = 0.0;
         let mut restart = 0.0;
         let theta_next = 0.5 * (1.0 + (1.0 + 4.0 * theta * theta).sqrt());
         let beta = (theta - 1.0) / theta_next;
         next.clear();
-        for &k in contact {
-            let (gx, gy) = (ux[k] + bx[k], uy[k] + by[k]);
-            let (nx, ny) = project(yx[k] - step * gx, yy[k] - step * gy, bound[k]);
-            let (jx, jy) = project(yx[k] - local * gx, yy[k] - local * gy, bound[k]);
+        for i in 0..m {
+            let (gx, gy) = (u[i] + b[i], u[m + i] + b[m + i]);
+            let (nx, ny) = project(y[i] - step * gx, y[m + i] - step * gy, bound[i]);
+            let (jx, jy) = project(y[i] - local * gx, y[m + i] - local * gy, bound[i]);
             // `sqrt` of the squares, not `hypot` (4% of a `paper` run in libm's hypot):
             // tractions are far from overflow, and this sum only decides when to stop.
-            let (dx, dy) = (jx - yx[k], jy - yy[k]);
+            let (dx, dy) = (jx - y[i], jy - y[m + i]);
             kkt += (dx * dx + dy * dy).sqrt();
             // Restart when the momentum points uphill.
-            restart += gx * (nx - qx[k]) + gy * (ny - qy[k]);
+            restart += gx * (nx - q[i]) + gy * (ny - q[m + i]);
             next.push((nx, ny));
         }
         let residual = kkt / total_bound;
         let momentum = if restart > 0.0 { 0.0 } else { beta };
         theta = if restart > 0.0 { 1.0 } else { theta_next };
-        for (&k, &(nx, ny)) in contact.iter().zip(&next) {
-            yx[k] = nx + momentum * (nx - qx[k]);
-            yy[k] = ny + momentum * (ny - qy[k]);
-            qx[k] = nx;
-            qy[k] = ny;
+        for (i, &(nx, ny)) in next.iter().enumerate() {
+            y[i] = nx + momentum * (nx - q[i]);
+            y[m + i] = ny + momentum * (ny - q[m + i]);
+            q[i] = nx;
+            q[m + i] = ny;
         }
         if momentum > 0.0 {
-            for &k in contact {
-                (yx[k], yy[k]) = project(yx[k], yy[k], bound[k]);
+            for i in 0..m {
+                (y[i], y[m + i]) = project(y[i], y[m + i], bound[i]);
             }
         }
         if residual < settings.tolerance {
-            return Ok(((qx, qy), iteration));
+            return Ok((q, iteration));
         }
         if !residual.is_finite() || iteration == settings.max_iterations {
             return Err(SimError::NoConvergence { solver: "tangential", iterations: iteration, residual });
         }
     }
     // Only with `max_iterations` = 0: the projected start, no iteration.
-    Ok(((qx, qy), 0))
+    Ok((q, 0))
 }
 
-/// The step's slip, force and dissipation from the converged tractions `q`: slip cells are
-/// those on the bound whose slip opposes the traction; stick cells report exact zeros.
+/// The step's slip, force and dissipation from the converged tractions `q` (packed): slip
+/// cells are those on the bound whose slip opposes the traction; stick cells report exact
+/// zeros.
 fn settle(
-    product: &ContactProduct<'_>,
-    (bx, by): &Pair,
+    product: &CellProduct<'_, 2>,
+    b: &[f64],
     bound: &[f64],
-    (qx, qy): Pair,
+    q: Vec<f64>,
     iterations: usize,
 ) -> TangentialSolution {
-    let n = bound.len();
-    let area = product.op.grid().cell_area_mm2();
-    let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
-    product.apply_contact(&qx, &qy, &mut ux, &mut uy);
+    let contact = product.cells();
+    let m = contact.len();
+    let n = product.operator().grid().len();
+    let area = product.operator().grid().cell_area_mm2();
+    let mut u = vec![0.0; 2 * m];
+    product.apply(None, &q, &mut u);
+    let (mut qx, mut qy) = (vec![0.0; n], vec![0.0; n]);
     let (mut slip_x, mut slip_y, mut slipping) = (vec![0.0; n], vec![0.0; n], vec![false; n]);
     let mut force = [0.0; 2];
     let mut dissipation = 0.0;
-    for &k in product.contact {
-        let (sx, sy) = (ux[k] + bx[k], uy[k] + by[k]);
-        let on_bound = qx[k].hypot(qy[k]) >= bound[k] * (1.0 - 1e-9);
+    for (i, &k) in contact.iter().enumerate() {
+        (qx[k], qy[k]) = (q[i], q[m + i]);
+        let (sx, sy) = (u[i] + b[i], u[m + i] + b[m + i]);
+        let on_bound = qx[k].hypot(qy[k]) >= bound[i] * (1.0 - 1e-9);
         // Stick cells have zero slip up to the solver tolerance; report exact zeros there.
         if on_bound && sx.hypot(sy) > 0.0 && qx[k] * sx + qy[k] * sy < 0.0 {
             slip_x[k] = sx;
