@@ -239,7 +239,8 @@ fn probe_box(
     threshold: f64,
     margin: f64,
 ) -> Option<[f64; 4]> {
-    let gaps = gaps_below(model, scene, pose, frame, probe, threshold + PROBE_REACH_MARGIN_MM);
+    let dome = DomeCells::new(model, frame, probe);
+    let gaps = gaps_below(model, scene, pose, frame, &dome, threshold + PROBE_REACH_MARGIN_MM);
     let mut b: Option<[f64; 4]> = None;
     for (k, g) in gaps.iter().enumerate() {
         if g.0 < threshold {
@@ -275,6 +276,32 @@ fn dome_point(dome_radius: f64, c: [f64; 2]) -> Vector3<f64> {
     Vector3::new(c[0], c[1], (dome_radius * dome_radius - r2).max(0.0).sqrt())
 }
 
+/// The undeformed dome under each cell of a grid: the point of its outer surface above the
+/// cell's centre (sensor frame, mm) and whether the cell counts (within [`DOME_FRACTION`] of
+/// the radius around the frame's apex, and on the hemisphere). Fixed for a path's grid, so a
+/// [`Simulation`] finds it once instead of at every step.
+#[derive(Clone, Debug, Default)]
+struct DomeCells {
+    points: Vec<Vector3<f64>>,
+    inside: Vec<bool>,
+}
+
+impl DomeCells {
+    fn new(model: &ContactModel, frame: &ContactFrame, grid: &Grid) -> Self {
+        let radius = model.dome_radius();
+        let limit = DOME_FRACTION * radius;
+        let (points, inside) = grid
+            .centres()
+            .into_iter()
+            .map(|c| {
+                let x = frame.to_sensor(dome_point(radius, c));
+                (x, c[0].hypot(c[1]) < limit && x.z > 0.0)
+            })
+            .unzip();
+        Self { points, inside }
+    }
+}
+
 /// Initial gap (mm, along `+z` of `frame`, negative where the undeformed dome is inside a
 /// stimulus, `+inf` where nothing is below or off the dome) and the friction coefficient of the
 /// stimulus under each cell of `grid` (in `frame`).
@@ -285,43 +312,41 @@ pub fn initial_gap(
     frame: &ContactFrame,
     grid: &Grid,
 ) -> Vec<(f64, f64)> {
-    gaps_below(model, scene, pose, frame, grid, f64::INFINITY)
+    gaps_below(model, scene, pose, frame, &DomeCells::new(model, frame, grid), f64::INFINITY)
 }
 
-/// [`initial_gap`] where it is below `limit_mm`; `+inf` may stand for any gap above it. The
-/// rays end there: a ray over open ground or far below the dome stops at the first triangle of
-/// its column (the footprint probe only asks which cells are below a threshold, and the gap
-/// of a hit is at least its distance beyond the dome, the rounding of an edge adding to it).
+/// [`initial_gap`] at the cells of `dome` where it is below `limit_mm`; `+inf` may stand for
+/// any gap above it. The rays end there: a ray over open ground or far below the dome stops at
+/// the first triangle of its column (the footprint probe only asks which cells are below a
+/// threshold, and the gap of a hit is at least its distance beyond the dome, the rounding of an
+/// edge adding to it).
 fn gaps_below(
     model: &ContactModel,
     scene: &Scene,
     pose: &SensorPose,
     frame: &ContactFrame,
-    grid: &Grid,
+    dome: &DomeCells,
     limit_mm: f64,
 ) -> Vec<(f64, f64)> {
     let radius = model.dome_radius();
-    let Some(top) = scene.top_height_mm() else { return vec![(f64::INFINITY, 0.0); grid.len()] };
+    let Some(top) = scene.top_height_mm() else { return vec![(f64::INFINITY, 0.0); dome.points.len()] };
     let rot = pose.rotation();
     let origin = pose.origin_world(radius, top);
     // Start rays behind the dome surface so that they begin outside every stimulus.
     let back = pose.depth_mm.max(0.0) + 2.0 * radius;
     let axis = frame.to_sensor(Vector3::z());
     let dir = rot * axis;
-    let limit = DOME_FRACTION * radius;
-    let mut origins = Vec::with_capacity(grid.len());
-    let mut on_dome = Vec::with_capacity(grid.len());
-    for c in grid.centres() {
-        let x = frame.to_sensor(dome_point(radius, c));
-        // Within the dome's flat-enough part around the frame's apex, and on the hemisphere.
-        let inside = c[0].hypot(c[1]) < limit && x.z > 0.0;
-        let p = origin + rot * (x - back * axis);
-        origins.push([p.x, p.y, p.z]);
-        on_dome.push(inside);
-    }
+    let origins: Vec<[f64; 3]> = dome
+        .points
+        .iter()
+        .map(|x| {
+            let p = origin + rot * (x - back * axis);
+            [p.x, p.y, p.z]
+        })
+        .collect();
     let hits = scene.cast_rays(&origins, [dir.x, dir.y, dir.z], back + limit_mm.min(2.0 * radius));
     hits.iter()
-        .zip(&on_dome)
+        .zip(&dome.inside)
         .zip(&origins)
         .map(|((hit, &inside), o)| match (hit, inside) {
             (Some((toi, id)), true) => {
@@ -360,6 +385,8 @@ pub struct Simulation<'a> {
     /// The pins in `frame` (the model's layout when it is the sensor frame).
     layout: Arc<PinLayout>,
     op: Option<Operator>,
+    /// The dome over the grid's cells.
+    dome: DomeCells,
     pressure: Vec<f64>,
     qx: Vec<f64>,
     qy: Vec<f64>,
@@ -412,12 +439,14 @@ impl<'a> Simulation<'a> {
             if frame.is_sensor() { model.layout.clone() } else { Arc::new(frame.layout_to_contact(&model.layout)) };
         let factor = model.sensor.skin.dome_slope;
         let slope = op.as_ref().filter(|_| factor > 0.0).map(|o| dome_slope(o.grid(), model.dome_radius(), factor));
+        let dome = op.as_ref().map(|o| DomeCells::new(model, &frame, o.grid())).unwrap_or_default();
         Self {
             model,
             scene,
             frame,
             layout,
             op,
+            dome,
             pressure: vec![0.0; n],
             qx: vec![0.0; n],
             qy: vec![0.0; n],
@@ -515,9 +544,8 @@ impl<'a> Simulation<'a> {
 
     /// [`Self::step`]'s stages on the path's operator `op`.
     fn solve_at(&mut self, op: &Operator, pose: SensorPose, previous: Option<SensorPose>) -> Result<StepReport> {
-        let grid = *op.grid();
         let (g0, mu): (Vec<f64>, Vec<f64>) =
-            initial_gap(self.model, self.scene, &pose, &self.frame, &grid).into_iter().unzip();
+            gaps_below(self.model, self.scene, &pose, &self.frame, &self.dome, f64::INFINITY).into_iter().unzip();
         self.friction.clone_from(&mu);
         self.gap.clone_from(&g0);
         if g0.iter().all(|g| *g >= 0.0) {
@@ -530,9 +558,9 @@ impl<'a> Simulation<'a> {
         }
         let had_contact = self.pressure.iter().any(|p| *p > 0.0);
         let slip = match previous {
-            Some(previous) if had_contact => self.rigid_slip(&grid, &pose, &previous),
+            Some(previous) if had_contact => self.rigid_slip(&pose, &previous),
             // A new contact has no slip yet.
-            _ => (vec![0.0; grid.len()], vec![0.0; grid.len()]),
+            _ => (vec![0.0; g0.len()], vec![0.0; g0.len()]),
         };
         let mut report = self.solve_coupled(op, &g0, &mu, slip)?;
         self.finish_report(&mut report)?;
@@ -542,20 +570,19 @@ impl<'a> Simulation<'a> {
     /// Rigid slip increment (mm) of the skin over the stimulus per cell (contact frame), from
     /// `previous` to `pose`: each cell's dome point `x` (sensor frame) moves by
     /// `x - R_new^T (R_old x + o_old - o_new)` relative to the stimulus.
-    fn rigid_slip(&self, grid: &Grid, pose: &SensorPose, previous: &SensorPose) -> (Vec<f64>, Vec<f64>) {
-        let n = grid.len();
-        let (mut wx, mut wy) = (vec![0.0; n], vec![0.0; n]);
+    fn rigid_slip(&self, pose: &SensorPose, previous: &SensorPose) -> (Vec<f64>, Vec<f64>) {
         let top = self.scene.top_height_mm().unwrap_or(0.0);
         let radius = self.model.dome_radius();
         let (r_new, r_old) = (pose.rotation(), previous.rotation());
         let (o_new, o_old) = (pose.origin_world(radius, top), previous.origin_world(radius, top));
-        for (k, c) in grid.centres().into_iter().enumerate() {
-            let x = self.frame.to_sensor(dome_point(radius, c));
-            let w = self.frame.to_contact(x - r_new.transpose() * (r_old * x + o_old - o_new));
-            wx[k] = w.x;
-            wy[k] = w.y;
-        }
-        (wx, wy)
+        self.dome
+            .points
+            .iter()
+            .map(|x| {
+                let w = self.frame.to_contact(x - r_new.transpose() * (r_old * x + o_old - o_new));
+                (w.x, w.y)
+            })
+            .unzip()
     }
 
     /// The normal and tangential solves of one step from the initial gap `g0`, friction `mu`
@@ -908,8 +935,9 @@ mod tests {
                     }
                     let frame = ContactFrame::of_poses(&[pose]);
                     for (grid, threshold) in [&coarse, &fine] {
-                        let full = gaps_below(&model, &scene, &pose, &frame, grid, f64::INFINITY);
-                        let short = gaps_below(&model, &scene, &pose, &frame, grid, threshold + PROBE_REACH_MARGIN_MM);
+                        let dome = DomeCells::new(&model, &frame, grid);
+                        let full = gaps_below(&model, &scene, &pose, &frame, &dome, f64::INFINITY);
+                        let short = gaps_below(&model, &scene, &pose, &frame, &dome, threshold + PROBE_REACH_MARGIN_MM);
                         for (f, s) in full.iter().zip(&short) {
                             assert_eq!(f.0 < *threshold, s.0 < *threshold, "{name}: {pose:?}: {f:?} vs {s:?}");
                             if f.0 < *threshold {
