@@ -21,6 +21,8 @@
 
 use std::f64::consts::PI;
 
+use super::lanes::Real;
+
 /// `a * asinh(b / a)` with the limit 0 at `a = 0`.
 fn a_asinh_b_over_a(a: f64, b: f64) -> f64 {
     if a == 0.0 { 0.0 } else { a * (b / a).asinh() }
@@ -180,9 +182,11 @@ impl DepthKernel {
     /// ```
     /// (`c = 1 / (4 pi G)`, `k = 1 - 2 nu`; a normal load turns the skin about the horizontal
     /// circles around it, and only a tangential one twists it about `z`). The displacement is
-    /// [`DepthKernel::displacement`]'s to the last bit.
-    #[inline]
-    pub fn motion(&self, force: [f64; 3], offset: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    /// [`DepthKernel::displacement`]'s to the last bit. On [`super::lanes::Lanes`], each lane
+    /// is the `f64` result's bits (one formula; the products written with the material
+    /// constant last, which changes no bit).
+    #[inline(always)]
+    pub fn motion<T: Real>(&self, force: [T; 3], offset: [T; 3]) -> ([T; 3], [T; 3]) {
         let t = self.terms(offset);
         let u = t.displacement(self, force);
         let [x, y, z] = offset;
@@ -191,22 +195,22 @@ impl DepthKernel {
         let g = t.ir_irz;
         let g1 = t.ir3 * t.irz + t.ir_irz * t.ir_irz;
         let zr3 = z * t.ir3;
-        let pn = self.two_one_minus_nu * p * t.ir3;
-        let kxy = k * x * y * g1;
-        let wx = -pn * y - kxy * qx + (k * g + zr3 - k * y * y * g1) * qy;
-        let wy = pn * x + (k * x * x * g1 - k * g - zr3) * qx + kxy * qy;
+        let pn = p * self.two_one_minus_nu * t.ir3;
+        let kxy = x * k * y * g1;
+        let wx = -pn * y - kxy * qx + (g * k + zr3 - y * k * y * g1) * qy;
+        let wy = pn * x + (x * k * x * g1 - g * k - zr3) * qx + kxy * qy;
         let wz = (qx * y - qy * x) * t.ir3;
-        (u, [self.c * wx, self.c * wy, self.c * wz])
+        (u, [wx * self.c, wy * self.c, wz * self.c])
     }
 
     /// The powers of the distance that the displacement and its rotation share.
-    #[inline]
-    fn terms(&self, offset: [f64; 3]) -> Terms {
+    #[inline(always)]
+    fn terms<T: Real>(&self, offset: [T; 3]) -> Terms<T> {
         let [x, y, z] = offset;
         let rho = (x * x + y * y + z * z).sqrt();
-        let ir = 1.0 / rho;
+        let ir = rho.splat_like(1.0) / rho;
         let ir3 = ir * ir * ir;
-        let irz = 1.0 / (rho + z);
+        let irz = rho.splat_like(1.0) / (rho + z);
         let ir_irz = ir * irz;
         Terms { offset, ir, ir3, irz, ir_irz, ir_irz2: ir_irz * irz }
     }
@@ -215,29 +219,29 @@ impl DepthKernel {
 /// `1 / rho`, `1 / rho^3`, `1 / (rho + z)`, `1 / (rho (rho + z))` and `1 / (rho (rho + z)^2)`
 /// at one offset.
 #[derive(Clone, Copy, Debug)]
-struct Terms {
-    offset: [f64; 3],
-    ir: f64,
-    ir3: f64,
-    irz: f64,
-    ir_irz: f64,
-    ir_irz2: f64,
+struct Terms<T> {
+    offset: [T; 3],
+    ir: T,
+    ir3: T,
+    irz: T,
+    ir_irz: T,
+    ir_irz2: T,
 }
 
-impl Terms {
+impl<T: Real> Terms<T> {
     /// Boussinesq (normal force p) and Cerruti (tangential forces qx, qy) at depth.
-    #[inline]
-    fn displacement(&self, kernel: &DepthKernel, force: [f64; 3]) -> [f64; 3] {
+    #[inline(always)]
+    fn displacement(&self, kernel: &DepthKernel, force: [T; 3]) -> [T; 3] {
         let [x, y, z] = self.offset;
         let [qx, qy, p] = force;
         let k = kernel.k;
         let Terms { ir, ir3, irz, ir_irz, ir_irz2, .. } = *self;
-        let b = p * (z * ir3 - k * ir_irz);
-        let xy = x * y * (ir3 - k * ir_irz2);
-        let ux = b * x + qx * (ir + x * x * ir3 + k * (irz - x * x * ir_irz2)) + qy * xy;
-        let uy = b * y + qy * (ir + y * y * ir3 + k * (irz - y * y * ir_irz2)) + qx * xy;
-        let uz = p * (z * z * ir3 + kernel.two_one_minus_nu * ir) + (qx * x + qy * y) * (z * ir3 + k * ir_irz);
-        [kernel.c * ux, kernel.c * uy, kernel.c * uz]
+        let b = p * (z * ir3 - ir_irz * k);
+        let xy = x * y * (ir3 - ir_irz2 * k);
+        let ux = b * x + qx * (ir + x * x * ir3 + (irz - x * x * ir_irz2) * k) + qy * xy;
+        let uy = b * y + qy * (ir + y * y * ir3 + (irz - y * y * ir_irz2) * k) + qx * xy;
+        let uz = p * (z * z * ir3 + ir * kernel.two_one_minus_nu) + (qx * x + qy * y) * (z * ir3 + ir_irz * k);
+        [ux * kernel.c, uy * kernel.c, uz * kernel.c]
     }
 }
 

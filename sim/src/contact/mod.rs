@@ -18,6 +18,7 @@ mod fft2;
 mod frame;
 mod grid;
 mod kernel;
+mod lanes;
 mod layered;
 mod matrix;
 mod normal;
