@@ -26,7 +26,7 @@ use super::normal::{self, Control, NormalSettings};
 use super::operator::{Component, HalfSpace, Operator, Pairing, Product};
 use super::pin_motion::{CellForces, PIN_SUBSQUARES, PinKernel, PinLoad, displaced_pins};
 use super::pose::SensorPose;
-use super::tangential::{self, Eigenvector, TangentialSettings};
+use super::tangential::{self, Eigenvector, PrevProduct, TangentialSettings};
 use crate::error::{Result, SimError};
 use crate::pins::{PinLayout, PinPose};
 use crate::scene::Scene;
@@ -402,6 +402,8 @@ pub struct Simulation<'a> {
     /// cells) matrices, reused while the cells stay the same.
     normal_matrix: MatrixCache,
     shear_matrix: MatrixCache,
+    /// `A_t q'` of the step's previous tractions, kept across its coupling rounds.
+    prev_product: PrevProduct,
     /// The dome's slope `dh/dx, dh/dy` per cell times `skin.dome_slope` (none at 0).
     slope: Option<(Vec<f64>, Vec<f64>)>,
     /// How far each cell's surface was pressed in at the end of the previous step (mm).
@@ -456,6 +458,7 @@ impl<'a> Simulation<'a> {
             eigenvector: None,
             normal_matrix: MatrixCache::default(),
             shear_matrix: MatrixCache::default(),
+            prev_product: PrevProduct::default(),
             slope,
             closure: vec![0.0; n],
             pose: None,
@@ -602,6 +605,8 @@ impl<'a> Simulation<'a> {
         let moving = wx.iter().chain(&wy).any(|w| *w != 0.0);
         let frictional = mu.iter().any(|m| *m > 0.0);
         let (p_prev, qx_prev, qy_prev) = (self.pressure.clone(), self.qx.clone(), self.qy.clone());
+        // A new step: new previous tractions.
+        self.prev_product = PrevProduct::default();
         let closure_prev = if self.slope.is_some() { self.closure.clone() } else { Vec::new() };
         let mut report = StepReport { in_contact: true, ..StepReport::default() };
         let mut extra: Option<Vec<f64>> = None;
@@ -797,7 +802,7 @@ impl<'a> Simulation<'a> {
             warm: Some((warm_x, warm_y)),
             lipschitz: self.eigenvector.as_ref().map(|e| e.bound),
         };
-        let t = tangential::solve_step(op, &input, settings, &mut self.shear_matrix)?;
+        let t = tangential::solve_step(op, &input, settings, &mut self.shear_matrix, &mut self.prev_product)?;
         report.tangential_solved = true;
         report.tangential_iterations += t.iterations;
         report.force_n[0] = t.force_n[0];

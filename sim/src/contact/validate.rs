@@ -201,7 +201,7 @@ pub fn cattaneo_with(n: usize, poisson: f64) -> Result<CattaneoReport> {
                 warm: warm.as_ref().map(|(x, y)| (x.as_slice(), y.as_slice())),
                 lipschitz: Some(lipschitz),
             };
-            let sol = tangential::solve_step(&op, &input, &settings, &mut cache)?;
+            let sol = tangential::solve_step(&op, &input, &settings, &mut cache, &mut Default::default())?;
             *warm = Some((sol.qx.clone(), sol.qy.clone()));
             Ok(sol)
         };
