@@ -191,14 +191,16 @@ impl Footprint {
 pub fn footprint_grid(model: &ContactModel, scene: &Scene, poses: &[SensorPose], frame: &ContactFrame) -> Option<Grid> {
     let r = model.dome_radius() * DOME_FRACTION;
     let mut bounds: Option<[f64; 4]> = None;
+    // Coarse probe: keep cells close enough to touching that a footprint could hide between
+    // probe points (a sphere's gap rises by at most s^2 / (4 R) over half a cell diagonal),
+    // then probe their box finely and keep the cells that overlap. The coarse grid is the
+    // same for every pose.
+    let s = 2.0 * r / PROBE_CELLS as f64;
+    let coarse = Grid::square(PROBE_CELLS, s);
+    let coarse_dome = DomeCells::new(model, frame, &coarse);
+    let threshold = s * s / (4.0 * model.dome_radius()) * 1.01;
     for pose in poses {
-        // Coarse probe: keep cells close enough to touching that a footprint could hide
-        // between probe points (a sphere's gap rises by at most s^2 / (4 R) over half a cell
-        // diagonal), then probe their box finely and keep the cells that overlap.
-        let s = 2.0 * r / PROBE_CELLS as f64;
-        let coarse = Grid::square(PROBE_CELLS, s);
-        let threshold = s * s / (4.0 * model.dome_radius()) * 1.01;
-        let Some(b) = probe_box(model, scene, pose, frame, &coarse, threshold, s) else { continue };
+        let Some(b) = probe_box(model, scene, pose, frame, (&coarse, &coarse_dome), threshold, s) else { continue };
         let side = (b[2] - b[0]).max(b[3] - b[1]);
         let fine_s = side / PROBE_CELLS as f64;
         let fine = Grid {
@@ -207,7 +209,8 @@ pub fn footprint_grid(model: &ContactModel, scene: &Scene, poses: &[SensorPose],
             cell_mm: fine_s,
             centre_mm: [0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3])],
         };
-        let Some(b) = probe_box(model, scene, pose, frame, &fine, 0.0, fine_s) else { continue };
+        let fine_dome = DomeCells::new(model, frame, &fine);
+        let Some(b) = probe_box(model, scene, pose, frame, (&fine, &fine_dome), 0.0, fine_s) else { continue };
         bounds = Some(match bounds {
             None => b,
             Some(a) => [a[0].min(b[0]), a[1].min(b[1]), a[2].max(b[2]), a[3].max(b[3])],
@@ -229,18 +232,18 @@ pub fn contact_disk_grid(model: &ContactModel, depth_mm: f64) -> Grid {
     Grid { nx: n, ny: n, cell_mm: 2.0 * half / n as f64, centre_mm: [0.0, 0.0] }
 }
 
-/// Box `[x0, y0, x1, y1]` of the probe cells with gap below `threshold`, grown by `margin`.
+/// Box `[x0, y0, x1, y1]` of the probe cells (the grid and its dome) with gap below
+/// `threshold`, grown by `margin`.
 fn probe_box(
     model: &ContactModel,
     scene: &Scene,
     pose: &SensorPose,
     frame: &ContactFrame,
-    probe: &Grid,
+    (probe, dome): (&Grid, &DomeCells),
     threshold: f64,
     margin: f64,
 ) -> Option<[f64; 4]> {
-    let dome = DomeCells::new(model, frame, probe);
-    let gaps = gaps_below(model, scene, pose, frame, &dome, threshold + PROBE_REACH_MARGIN_MM);
+    let gaps = gaps_below(model, scene, pose, frame, dome, threshold + PROBE_REACH_MARGIN_MM);
     let mut b: Option<[f64; 4]> = None;
     for (k, g) in gaps.iter().enumerate() {
         if g.0 < threshold {
