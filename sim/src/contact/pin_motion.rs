@@ -245,8 +245,9 @@ impl CellForces {
     /// forces the point sees are gathered first ([`CellForces::each_force`]), then summed in
     /// `LANES` running sums, added together at the end. Only the order of the additions
     /// differs from the one force at a time of [`CellForces::motion`]: within 1e-12 of it
-    /// relative to the largest term (test `pins_by_lanes_match_one_force_at_a_time`), in
-    /// about a third of the time (issue 31: the pins were half of a 13-cell tap).
+    /// relative to its size (test `pins_by_lanes_match_one_force_at_a_time`), in about 60% of
+    /// the time (issue 31: the pins were half of a 13-cell tap; `cargo bench --bench tap --
+    /// tap-pins`).
     pub fn motion_by_lanes(
         &self,
         kernel: &DepthKernel,
