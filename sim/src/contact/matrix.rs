@@ -31,7 +31,7 @@ const MAX_BYTES: usize = 1 << 20;
 /// (its other rows are computed and not read). On a `paper` pose (`tacsim generate paper
 /// --shard 250/600 --threads 1`) the shear matrices built fall from 1,007 to 534 at 1.25 (the
 /// power iteration's on all cells seen serves the contact cells of the step), the normal ones
-/// from 656 to 540; instructions 2.905 -> 2.867 G (1.5 and 2.0: 2.874 G).
+/// from 656 to 540; instructions 2.907 -> 2.865 G (1.5 and 2.0: 2.874 G).
 const SUPERSET_RATIO: f64 = 1.25;
 
 /// The matrix of an operator's components on a cell set (see the module).
@@ -124,11 +124,6 @@ impl CellMatrix {
             && positions_in(&self.cells, cells).is_some()
     }
 
-    /// The cells, in packing order.
-    pub fn cells(&self) -> &[usize] {
-        &self.cells
-    }
-
     /// `y = M x` (x packed by input blocks, `y` by output blocks). Columns where `x` is zero
     /// are skipped (they add nothing).
     pub fn apply(&self, x: &[f64], y: &mut [f64]) {
@@ -163,8 +158,8 @@ impl CellMatrix {
 /// after component block, the cells in the set's order): by the set's [`CellMatrix`] where
 /// the products are dense and it is worth building, else by the operator's own product
 /// through grid fields kept between calls. A solver's iterations work on the packed vectors
-/// and allocate nothing (issue 31: the gathers and scatters of grid fields, and a solve's
-/// grid-sized vectors, were 8% of a `paper` run's time).
+/// and allocate nothing (issue 31: without the gathers and scatters of grid fields and a
+/// solve's grid-sized vectors, a `paper` pose takes 3.075 -> 2.907 G instructions).
 #[derive(Debug)]
 pub(crate) struct CellProduct<'a, const B: usize> {
     op: &'a Operator,
@@ -262,8 +257,9 @@ impl<'a, const B: usize> CellProduct<'a, B> {
     }
 }
 
-/// The working vectors of [`CellMatrix::apply_fields`], kept by a solver across its
-/// iterations: the packed input and output.
+/// The working vectors of [`CellMatrix::apply_fields`], kept by a caller across its products
+/// (the packed input and output; the solvers themselves work on packed vectors through
+/// `CellProduct`).
 #[derive(Clone, Debug, Default)]
 pub struct ProductBuffers {
     packed: Vec<f64>,
