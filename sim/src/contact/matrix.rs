@@ -104,24 +104,24 @@ impl CellMatrix {
         outputs * inputs * cells * cells * std::mem::size_of::<f64>() <= MAX_BYTES
     }
 
-    /// Whether this is the matrix of `blocks` on `cells` of an operator on `grid`.
-    fn is<const B: usize>(&self, grid: &Grid, blocks: &[[Component; B]], cells: &[usize]) -> bool {
+    /// Whether this is the matrix of `blocks` of an operator on `grid`.
+    fn has<const B: usize>(&self, grid: &Grid, blocks: &[[Component; B]]) -> bool {
         self.grid == *grid
-            && self.cells == cells
             && self.components.len() == blocks.len() * B
             && self.components.iter().eq(blocks.iter().flatten())
     }
 
-    /// Whether this is the matrix of `blocks` on a superset of `cells` (both in increasing
-    /// order) of an operator on `grid`, with at most `SUPERSET_RATIO` times as many cells.
-    fn holds<const B: usize>(&self, grid: &Grid, blocks: &[[Component; B]], cells: &[usize]) -> bool {
-        self.grid == *grid
-            && self.components.len() == blocks.len() * B
-            && self.components.iter().eq(blocks.iter().flatten())
-            && self.cells.len() as f64 <= SUPERSET_RATIO * cells.len() as f64
+    /// Where `cells` sit among this matrix's when it serves them: `Some(None)` for its own
+    /// cells, `Some(Some(positions))` for a subset (both in increasing order, at most
+    /// [`SUPERSET_RATIO`] times fewer), `None` otherwise.
+    fn serves(&self, cells: &[usize]) -> Option<Option<Vec<usize>>> {
+        if self.cells == cells {
+            return Some(None);
+        }
+        let subset = self.cells.len() as f64 <= SUPERSET_RATIO * cells.len() as f64
             && cells.is_sorted()
-            && self.cells.is_sorted()
-            && positions_in(&self.cells, cells).is_some()
+            && self.cells.is_sorted();
+        if subset { positions_in(&self.cells, cells).map(Some) } else { None }
     }
 
     /// `y = M x` (x packed by input blocks, `y` by output blocks). Columns where `x` is zero
@@ -130,27 +130,6 @@ impl CellMatrix {
         assert_eq!((x.len(), y.len()), (self.cols, self.rows), "packed lengths of a cell matrix product");
         // The same multiplies and adds in the same order on every vector unit: the same bits.
         pulp::Arch::new().dispatch(PanelSums { matrix: self, x, y });
-    }
-
-    /// `y = M x` on grid fields: `x[b]` the input block `b` and `y[a]` the output block `a`
-    /// as grid fields, read and written at the matrix's cells only. `buffers` hold the packed
-    /// vectors between calls (a solver's iterations allocate nothing).
-    pub fn apply_fields(&self, x: &[&[f64]], y: &mut [&mut [f64]], buffers: &mut ProductBuffers) {
-        let ProductBuffers { packed, out } = buffers;
-        let m = self.cells.len();
-        packed.resize(self.cols, 0.0);
-        out.resize(self.rows, 0.0);
-        for (block, field) in packed.chunks_exact_mut(m.max(1)).zip(x) {
-            for (slot, &k) in block.iter_mut().zip(&self.cells) {
-                *slot = field[k];
-            }
-        }
-        self.apply(packed, out);
-        for (field, block) in y.iter_mut().zip(out.chunks_exact(m.max(1))) {
-            for (&k, v) in self.cells.iter().zip(block) {
-                field[k] = *v;
-            }
-        }
     }
 }
 
@@ -185,8 +164,12 @@ impl<'a, const B: usize> CellProduct<'a, B> {
         cache: &mut MatrixCache,
     ) -> Self {
         let dense = !cells.is_empty() && cells.len() <= dense_max_cells;
-        let matrix = (dense && CellMatrix::worth_building(B, B, cells.len())).then(|| cache.get(op, blocks, cells));
-        let positions = matrix.as_ref().filter(|m| m.cells != cells).and_then(|m| positions_in(&m.cells, cells));
+        let (matrix, positions) = if dense && CellMatrix::worth_building(B, B, cells.len()) {
+            let (matrix, positions) = cache.get(op, blocks, cells);
+            (Some(matrix), positions)
+        } else {
+            (None, None)
+        };
         let fields = match (&matrix, &positions) {
             (Some(m), Some(_)) => [vec![0.0; m.cols], vec![0.0; m.rows]],
             _ => Default::default(),
@@ -257,15 +240,6 @@ impl<'a, const B: usize> CellProduct<'a, B> {
     }
 }
 
-/// The working vectors of [`CellMatrix::apply_fields`], kept by a caller across its products
-/// (the packed input and output; the solvers themselves work on packed vectors through
-/// `CellProduct`).
-#[derive(Clone, Debug, Default)]
-pub struct ProductBuffers {
-    packed: Vec<f64>,
-    out: Vec<f64>,
-}
-
 /// The position in `big` of each of `cells` (both increasing), `None` unless all are there.
 fn positions_in(big: &[usize], cells: &[usize]) -> Option<Vec<usize>> {
     let mut positions = Vec::with_capacity(cells.len());
@@ -327,25 +301,23 @@ impl MatrixCache {
         self.counts
     }
 
-    /// The matrix of `op`'s `blocks` on `cells`, built unless it is the last one.
+    /// The matrix of `op`'s `blocks` on `cells`, built unless the last one serves them (its
+    /// own cells, or a superset: then with the cells' positions among its own).
     pub fn get<const B: usize>(
         &mut self,
         op: &Operator,
         blocks: &[[Component; B]],
         cells: &[usize],
-    ) -> Arc<CellMatrix> {
-        match &self.last {
-            Some(m) if m.is(op.grid(), blocks, cells) || m.holds(op.grid(), blocks, cells) => {
-                self.counts[1] += 1;
-                m.clone()
-            }
-            _ => {
-                self.counts[0] += 1;
-                let m = Arc::new(CellMatrix::new(op, blocks, cells));
-                self.last = Some(m.clone());
-                m
-            }
+    ) -> (Arc<CellMatrix>, Option<Vec<usize>>) {
+        let kept = self.last.as_ref().filter(|m| m.has(op.grid(), blocks));
+        if let Some((m, positions)) = kept.and_then(|m| m.serves(cells).map(|p| (m.clone(), p))) {
+            self.counts[1] += 1;
+            return (m, positions);
         }
+        self.counts[0] += 1;
+        let m = Arc::new(CellMatrix::new(op, blocks, cells));
+        self.last = Some(m.clone());
+        (m, None)
     }
 }
 
@@ -387,7 +359,15 @@ mod tests {
         let blocks = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy], [Component::Zx, Component::Zy]];
         let matrix = CellMatrix::new(&op, &blocks, &cells);
         let (mut ux, mut uy, mut uz) = (vec![7.0; n], vec![7.0; n], vec![7.0; n]);
-        matrix.apply_fields(&[&qx, &qy], &mut [&mut ux, &mut uy, &mut uz], &mut ProductBuffers::default());
+        // Packed by input blocks in, by output blocks out, the cells in their order.
+        let packed: Vec<f64> = [&qx, &qy].iter().flat_map(|q| cells.iter().map(|&k| q[k])).collect();
+        let mut out = vec![0.0; blocks.len() * cells.len()];
+        matrix.apply(&packed, &mut out);
+        for (field, block) in [&mut ux, &mut uy, &mut uz].into_iter().zip(out.chunks_exact(cells.len())) {
+            for (&k, v) in cells.iter().zip(block) {
+                field[k] = *v;
+            }
+        }
         for (block, got) in blocks.iter().zip([&ux, &uy, &uz]) {
             let mut want = vec![7.0; n];
             let terms = [(block[0], qx.as_slice()), (block[1], qy.as_slice())];
