@@ -350,6 +350,7 @@ pub fn run(
     json: bool,
     plot: &Path,
     device: crate::device::DeviceChoice,
+    edge_cuts: bool,
 ) -> Result<String> {
     anyhow::ensure!(samples_n >= 4, "--samples must be at least 4");
     #[cfg(feature = "wgpu")]
@@ -358,7 +359,7 @@ pub fn run(
     crate::device::check(device)?;
     let sensor = bench_sensor(cells, skin)?;
     let scene = disk_scene()?;
-    let model = ContactModel::new(&sensor);
+    let model = ContactModel { cut_edges: edge_cuts, ..ContactModel::new(&sensor) };
     let renderer = PinRenderer::new(&sensor, 256)?;
     let poses = samples(samples_n, 1);
     let (tap_fps, mean_cells) = tap_rate(&model, &scene, &renderer, &poses)?;
@@ -368,7 +369,7 @@ pub fn run(
     let tap_breakdown = single.install(|| tap_breakdown(&model, &scene, &renderer, few))?;
     let skips = single.install(|| measure_skips(&sensor, &scene, few))?;
     let rim = rim_samples(few.len(), 2);
-    let mut curve = grid_curve(&sensor, &scene, &renderer, few, &rim, &single)?;
+    let mut curve = grid_curve(&sensor, edge_cuts, &scene, &renderer, few, &rim, &single)?;
     curve.extend(step_curve(&model, &scene, &renderer, &poses[..samples_n.min(8)], &single)?);
     #[cfg(feature = "wgpu")]
     let (gpu_raster, gpu_pins) = match &gpu {
@@ -443,6 +444,7 @@ fn tap_breakdown(
 /// taps on the fine reference grid.
 fn grid_curve(
     sensor: &SensorParams,
+    edge_cuts: bool,
     scene: &Scene,
     renderer: &PinRenderer,
     taps: &[(SensorPose, [f64; 2])],
@@ -452,7 +454,7 @@ fn grid_curve(
     let at_grid = |cells: usize, subsquares: usize| {
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
-        ContactModel { pin_subsquares: subsquares, ..ContactModel::new(&s) }
+        ContactModel { pin_subsquares: subsquares, cut_edges: edge_cuts, ..ContactModel::new(&s) }
     };
     let tap_pins = |m: &ContactModel, pose: SensorPose, exact: bool| -> Result<Vec<_>> {
         let mut sim = Simulation::new(m, scene, &[pose]);

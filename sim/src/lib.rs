@@ -56,7 +56,7 @@ pub use processing::LabProcessing;
 pub use realism::Realism;
 pub use render::PinRenderer;
 pub use rig::{Press, RigFrame};
-pub use scene::{ObjectId, ObjectPose, Scene, SceneObject, SurfaceHit, flat_scene};
+pub use scene::{NearEdges, ObjectId, ObjectPose, Scene, SceneObject, SurfaceHit, flat_scene};
 pub use sensor::{
     CameraParams, DomeParams, FramingParams, MAX_IMAGE_OFFSET, PRESETS, PinParams, SensorParams, SkinModel, SkinParams,
     pin_count,

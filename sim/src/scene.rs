@@ -16,7 +16,7 @@ use rapier3d::prelude::{
 
 use crate::columns::{ColumnIndex, Nearest};
 use crate::error::{Result, SimError};
-use crate::stimulus::{EdgePoint, Stimulus};
+use crate::stimulus::{EdgePoint, NearContour, Stimulus};
 
 /// Placement of an object in the world (mm, deg).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -279,6 +279,24 @@ impl Scene {
             .reduce(f64::max)
     }
 
+    /// The edges of planar object `object` within `margin_mm` of the world box `[lo, hi]`
+    /// (in-plane, mm): [`Scene::edge`] for its points near an edge, in time for the edges near
+    /// the box only.
+    pub fn edges_near(&self, object: ObjectId, lo_mm: [f64; 2], hi_mm: [f64; 2], margin_mm: f64) -> NearEdges {
+        let o = &self.objects[object];
+        let corners = [[lo_mm[0], lo_mm[1]], [hi_mm[0], lo_mm[1]], [lo_mm[0], hi_mm[1]], [hi_mm[0], hi_mm[1]]]
+            .map(|c| o.pose.to_object([c[0], c[1], 0.0]));
+        let lo = [0, 1].map(|k| corners.iter().map(|c| c[k]).fold(f64::INFINITY, f64::min));
+        let hi = [0, 1].map(|k| corners.iter().map(|c| c[k]).fold(f64::NEG_INFINITY, f64::max));
+        NearEdges { pose: o.pose, near: o.stimulus.contour.near(lo, hi, margin_mm) }
+    }
+
+    /// Height of object `id`'s top face (mm, world `z`): the top of its bounding box, where a
+    /// planar stimulus's flat top lies.
+    pub fn object_top_mm(&self, id: ObjectId) -> Option<f64> {
+        self.colliders.get(self.objects.get(id)?.handle).map(|c| c.compute_aabb().maxs.z as f64)
+    }
+
     /// Objects whose bounding boxes reach the axis-aligned box `[min, max]` (world, mm).
     pub fn objects_in_box(&self, min_mm: [f64; 3], max_mm: [f64; 3]) -> Vec<ObjectId> {
         let mut ids: Vec<ObjectId> = self
@@ -326,6 +344,28 @@ impl Scene {
             point: [w[0], w[1]],
             tangent: o.pose.rotate_to_world(e.tangent),
         }
+    }
+}
+
+/// The edges of one planar object near a world box ([`Scene::edges_near`]).
+#[derive(Clone, Debug)]
+pub struct NearEdges {
+    pose: ObjectPose,
+    near: NearContour,
+}
+
+impl NearEdges {
+    /// [`Scene::edge`] at world point `(x, y)` of the box, `None` farther from the edge than
+    /// the margin.
+    pub fn edge(&self, x_mm: f64, y_mm: f64) -> Option<EdgePoint> {
+        let p = self.pose.to_object([x_mm, y_mm, 0.0]);
+        let e = self.near.nearest([p[0], p[1]])?;
+        let w = self.pose.to_world([e.point[0], e.point[1], 0.0]);
+        Some(EdgePoint {
+            signed_distance_mm: e.signed_distance_mm,
+            point: [w[0], w[1]],
+            tangent: self.pose.rotate_to_world(e.tangent),
+        })
     }
 }
 

@@ -151,6 +151,9 @@ pub(crate) struct CellProduct<'a, const B: usize> {
     /// Input and output grid fields of the operator's product (without a matrix), or the
     /// packed vectors of a superset's matrix.
     fields: std::cell::RefCell<[Vec<f64>; 2]>,
+    /// Compliance added to the diagonal blocks' diagonals (mm/MPa, packed), where edges cut
+    /// cells ([`CellProduct::with_cut`]).
+    cut: Option<Vec<f64>>,
 }
 
 impl<'a, const B: usize> CellProduct<'a, B> {
@@ -174,7 +177,38 @@ impl<'a, const B: usize> CellProduct<'a, B> {
             (Some(m), Some(_)) => [vec![0.0; m.cols], vec![0.0; m.rows]],
             _ => Default::default(),
         };
-        Self { op, blocks, cells, dense_max_cells, matrix, positions, fields: std::cell::RefCell::new(fields) }
+        Self {
+            op,
+            blocks,
+            cells,
+            dense_max_cells,
+            matrix,
+            positions,
+            fields: std::cell::RefCell::new(fields),
+            cut: None,
+        }
+    }
+
+    /// The same products with each cut cell's extra compliance to its own traction
+    /// (`extra` per grid cell, relative to the operator's diagonal: [`super::cut`]) added on
+    /// the diagonal blocks. `None`, or no cut among the cells: unchanged.
+    pub(crate) fn with_cut(mut self, extra: Option<&[f64]>) -> Self {
+        let Some(extra) = extra else { return self };
+        if self.cells.iter().all(|&k| extra[k] == 0.0) {
+            return self;
+        }
+        let mut packed = Vec::with_capacity(B * self.cells.len());
+        for (a, row) in self.blocks.iter().enumerate() {
+            let diagonal = self.op.diagonal(row[a]);
+            packed.extend(self.cells.iter().map(|&k| diagonal * extra[k]));
+        }
+        self.cut = Some(packed);
+        self
+    }
+
+    /// The compliance [`CellProduct::with_cut`] added (mm/MPa, packed), `None` without.
+    pub(crate) fn cut(&self) -> Option<&[f64]> {
+        self.cut.as_deref()
     }
 
     /// The cells, in packing order.
@@ -196,6 +230,16 @@ impl<'a, const B: usize> CellProduct<'a, B> {
     /// `x` may be non-zero, for the operator's dense product (`None`: all the cells); the
     /// matrix skips zero inputs by itself.
     pub(crate) fn apply(&self, src: Option<&[usize]>, x: &[f64], y: &mut [f64]) {
+        self.apply_operator(src, x, y);
+        if let Some(cut) = &self.cut {
+            for ((y, x), c) in y.iter_mut().zip(x).zip(cut) {
+                *y += c * x;
+            }
+        }
+    }
+
+    /// [`CellProduct::apply`] without the cut cells' compliance.
+    pub(crate) fn apply_operator(&self, src: Option<&[usize]>, x: &[f64], y: &mut [f64]) {
         let m = self.cells.len();
         if let Some(matrix) = &self.matrix {
             let Some(positions) = &self.positions else { return matrix.apply(x, y) };

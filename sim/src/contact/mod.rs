@@ -13,6 +13,7 @@
 //! sensor's axes for an untilted path); pressure `p >= 0` presses into the skin; shear
 //! traction `q` is the stimulus's force per area on the skin (MPa); the gap `g` (mm) is
 //! measured along the frame's `+z` and is negative for overlap.
+mod cut;
 mod engine;
 mod fft2;
 mod frame;

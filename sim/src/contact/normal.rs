@@ -80,8 +80,18 @@ impl NormalSolution {
     }
 }
 
+/// What adds to the gap besides the pressures' displacement through the operator.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Extra<'a> {
+    /// A normal displacement per cell (mm, e.g. from tangential tractions).
+    pub displacement: Option<&'a [f64]>,
+    /// Each cell's compliance to its own pressure beyond the operator's diagonal, relative to
+    /// it (a cell an edge cuts: [`super::cut`]; 0 elsewhere).
+    pub cut: Option<&'a [f64]>,
+}
+
 /// Solves for the pressures. `g0` is the gap per cell (mm, `+inf` where nothing can touch),
-/// `extra` an additional normal displacement (mm, e.g. from tangential tractions), `warm` a
+/// `extra` what else adds to the gap ([`Extra`]), `warm` a
 /// starting pressure field (MPa). The stages: the candidate cells ([`Problem::new`]), the
 /// start (warm or a Jacobi guess, [`Problem::start`]), then the constrained conjugate
 /// gradient to convergence ([`Problem::conjugate_gradient`]). Dense products go through
@@ -89,18 +99,18 @@ impl NormalSolution {
 pub fn solve(
     op: &Operator,
     g0: &[f64],
-    extra: Option<&[f64]>,
+    extra: Extra<'_>,
     control: Control,
     warm: Option<&[f64]>,
     settings: &NormalSettings,
     cache: &mut MatrixCache,
 ) -> Result<NormalSolution> {
-    let problem = Problem::new(op, g0, extra, control, settings);
+    let problem = Problem::new(op, g0, extra.displacement, control, settings);
     if problem.candidates.is_empty() || matches!(control, Control::Load(l) if l <= 0.0) {
         return Ok(problem.unloaded());
     }
     let pressure = problem.start(warm);
-    let product = problem.product(cache);
+    let product = problem.product(cache).with_cut(extra.cut);
     problem.conjugate_gradient(pressure, &product)
 }
 

@@ -27,11 +27,13 @@
 //! (`s` = [`PIN_SUBSQUARES`] by default), each a force `t h^2 / s^2` at its centre (the
 //! midpoint rule on the cell). On the bench's taps this takes the largest pin error against a
 //! 65-cell reference from 0.77 to 0.026 mm on 13 cells (`tacsim bench`,
-//! `docs/guide/contact.md`).
+//! `docs/guide/contact.md`). A cell a sharp edge cuts ([`super::cut`]) acts at its covered
+//! part's centroid, and near a point as sub-rectangles of its covered rectangle.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
+use super::cut::Cut;
 use super::grid::Grid;
 use super::kernel::DepthKernel;
 #[cfg(target_arch = "x86_64")]
@@ -137,14 +139,27 @@ pub struct CellForces {
     pub(crate) cell_mm: f64,
     /// Sub-squares per side of a near cell.
     pub(crate) subsquares: usize,
+    /// Per cell, its sub-squares' layout: the first one's centre offset from the cell's point
+    /// and their sides (mm, `x`, `y`): [`CellForces::near_rule`]'s for a whole cell, the
+    /// covered rectangle's for one an edge cuts ([`super::cut`]).
+    pub(crate) subs: Vec<[f64; 4]>,
 }
 
 impl CellForces {
     /// Collects the cells with non-zero traction; cells near a pin act as `subsquares` x
-    /// `subsquares` sub-squares (at least 1).
-    pub fn new(grid: &Grid, pressure: &[f64], qx: &[f64], qy: &[f64], subsquares: usize) -> Self {
+    /// `subsquares` sub-squares (at least 1). A cell an edge cuts (`cuts`, per grid cell)
+    /// acts at its covered part's centroid, near ones as sub-rectangles of its covered
+    /// rectangle.
+    pub(crate) fn new(
+        grid: &Grid,
+        (pressure, qx, qy): (&[f64], &[f64], &[f64]),
+        cuts: Option<&[Option<Cut>]>,
+        subsquares: usize,
+    ) -> Self {
         let area = grid.cell_area_mm2();
         let mut out = Self { cell_mm: grid.cell_mm, subsquares: subsquares.max(1), ..Self::default() };
+        let (_, sub_mm, first_mm) = out.near_rule();
+        let s = out.subsquares as f64;
         let diagonal = (BLOCK as f64) * grid.cell_mm * std::f64::consts::SQRT_2;
         out.far2 = (FAR_DIAGONALS * diagonal).powi(2);
         out.super_far2 = (FAR_DIAGONALS * diagonal * SUPER as f64).powi(2);
@@ -162,8 +177,24 @@ impl CellForces {
                                     continue;
                                 }
                                 let c = grid.centre(k);
-                                out.x.push(c[0]);
-                                out.y.push(c[1]);
+                                match cuts.and_then(|c| c[k]) {
+                                    None => {
+                                        out.x.push(c[0]);
+                                        out.y.push(c[1]);
+                                        out.subs.push([first_mm, first_mm, sub_mm, sub_mm]);
+                                    }
+                                    Some(cut) => {
+                                        out.x.push(c[0] + cut.centroid_mm[0]);
+                                        out.y.push(c[1] + cut.centroid_mm[1]);
+                                        let [sx, sy] = cut.sides_mm.map(|v| v / s);
+                                        out.subs.push([
+                                            0.5 * (sx - cut.sides_mm[0]),
+                                            0.5 * (sy - cut.sides_mm[1]),
+                                            sx,
+                                            sy,
+                                        ]);
+                                    }
+                                }
                                 out.f.push([qx[k] * area, qy[k] * area, pressure[k] * area]);
                             }
                         }
@@ -275,7 +306,7 @@ impl CellForces {
         mut add: impl FnMut(f64, f64, [f64; 3]),
     ) {
         let dist2 = |x: f64, y: f64| (p.x - x).powi(2) + (p.y - y).powi(2) + depth * depth;
-        let (near2, sub_mm, first_mm) = self.near_rule();
+        let (near2, _, _) = self.near_rule();
         let sub = self.subsquares;
         let sub_force = |f: [f64; 3]| f.map(|v| v / (sub * sub) as f64);
         for s in &self.supers {
@@ -295,9 +326,10 @@ impl CellForces {
                         continue;
                     }
                     let part = sub_force(f);
+                    let [first_x, first_y, sub_x, sub_y] = self.subs[k];
                     for i in 0..sub {
                         for j in 0..sub {
-                            add(x + first_mm + i as f64 * sub_mm, y + first_mm + j as f64 * sub_mm, part);
+                            add(x + first_x + i as f64 * sub_x, y + first_y + j as f64 * sub_y, part);
                         }
                     }
                 }
@@ -545,7 +577,7 @@ mod tests {
                 qy[k] = 0.02 * c[0];
             }
         }
-        CellForces::new(&grid, &p, &qx, &qy, PIN_SUBSQUARES)
+        CellForces::new(&grid, (&p, &qx, &qy), None, PIN_SUBSQUARES)
     }
 
     /// What changed: the kernel is evaluated on `LANES` forces at once, in `LANES` running
@@ -628,7 +660,7 @@ mod tests {
                 qy[k] = -0.02 * c[0];
             }
         }
-        let forces = CellForces::new(&grid, &p, &qx, &qy, PIN_SUBSQUARES);
+        let forces = CellForces::new(&grid, (&p, &qx, &qy), None, PIN_SUBSQUARES);
         let step = 1e-5;
         for (at, depth) in [
             (Vector3::new(0.1, -0.2, 0.0), 0.66),
@@ -666,7 +698,7 @@ mod tests {
         let (mut p, mut qx, qy) = (vec![0.0; 25], vec![0.0; 25], vec![0.0; 25]);
         p[centre] = 0.2;
         qx[centre] = 0.05;
-        let forces = CellForces::new(&grid, &p, &qx, &qy, PIN_SUBSQUARES);
+        let forces = CellForces::new(&grid, (&p, &qx, &qy), None, PIN_SUBSQUARES);
         let force = [0.05 * h * h, 0.0, 0.2 * h * h];
         for (x, depth) in [(0.0, 0.66), (0.3, 0.66), (0.8, 1.0), (0.2, 0.4)] {
             let at = Vector3::new(x, 0.1, 0.0);

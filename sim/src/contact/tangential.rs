@@ -164,6 +164,9 @@ pub struct StepInput<'a> {
     /// An upper bound of the largest eigenvalue of `A_t` on the contact cells (mm/MPa), e.g.
     /// [`largest_eigenvalue`] on a superset of them; `None` computes it.
     pub lipschitz: Option<f64>,
+    /// Each cell's compliance to its own traction beyond the operator's diagonal, relative to
+    /// it (a cell an edge cuts: [`super::cut`]; 0 elsewhere), `None` without.
+    pub cut: Option<&'a [f64]>,
 }
 
 /// The in-plane blocks of the operator: `(u_x, u_y)` from `(q_x, q_y)`.
@@ -197,7 +200,7 @@ pub fn solve_step(
         });
     }
     let bound: Vec<f64> = contact.iter().map(|&k| input.mu[k] * input.pressure[k]).collect();
-    let product = CellProduct::new(op, &SHEAR_BLOCKS, &contact, settings.dense_max_cells, cache);
+    let product = CellProduct::new(op, &SHEAR_BLOCKS, &contact, settings.dense_max_cells, cache).with_cut(input.cut);
     let b = slip_offset(op, &contact, settings.dense_max_cells, input, kept);
     let (q, iterations) = minimise(&product, input, &b, &bound, settings, cache)?;
     Ok(settle(&product, &b, &bound, q, iterations))
@@ -234,6 +237,13 @@ fn slip_offset(
             op.apply(&[(Component::Xx, prev.0), (Component::Xy, prev.1)], &mut ux, product);
             op.apply(&[(Component::Xy, prev.0), (Component::Yy, prev.1)], &mut uy, product);
         }
+        if let Some(cut) = input.cut {
+            let (dx, dy) = (op.diagonal(Component::Xx), op.diagonal(Component::Yy));
+            for &k in contact {
+                ux[k] += dx * cut[k] * prev.0[k];
+                uy[k] += dy * cut[k] * prev.1[k];
+            }
+        }
         *kept = PrevProduct { contact: contact.to_vec(), u: (ux, uy) };
     }
     let (ux, uy) = &kept.u;
@@ -264,6 +274,12 @@ fn minimise(
         None => largest_eigenvalue(op, contact, settings.dense_max_cells, cache),
     };
     let step = 1.0 / lipschitz;
+    // The cut cells' own compliance `D` (diagonal, [`super::cut`]) is not in the gradient
+    // step but in the projection, exactly: the minimiser of `q.D q / 2 + |q - z|^2 / (2 step)`
+    // on a disc is `z / (1 + step d)` projected on it (Xx and Yy have one diagonal, so `d` is
+    // the same along both axes). A sliver's large `d` would otherwise shrink the step of
+    // every cell.
+    let cut = product.cut();
     let local = 1.0 / op.diagonal(Component::Xx).max(op.diagonal(Component::Yy));
     let start = input.warm.unwrap_or(input.prev);
     let mut q = vec![0.0; 2 * m];
@@ -275,15 +291,26 @@ fn minimise(
     let mut theta = 1.0f64;
     let mut next = Vec::with_capacity(m);
     for iteration in 1..=settings.max_iterations {
-        product.apply(None, &y, &mut u);
+        product.apply_operator(None, &y, &mut u);
         let mut kkt = 0.0;
         let mut restart = 0.0;
         let theta_next = 0.5 * (1.0 + (1.0 + 4.0 * theta * theta).sqrt());
         let beta = (theta - 1.0) / theta_next;
         next.clear();
         for i in 0..m {
-            let (gx, gy) = (u[i] + b[i], u[m + i] + b[m + i]);
-            let (nx, ny) = project(y[i] - step * gx, y[m + i] - step * gy, bound[i]);
+            let (ax, ay) = (u[i] + b[i], u[m + i] + b[m + i]);
+            let (gx, gy, nx, ny) = match cut {
+                None => {
+                    let (nx, ny) = project(y[i] - step * ax, y[m + i] - step * ay, bound[i]);
+                    (ax, ay, nx, ny)
+                }
+                Some(d) => {
+                    let (zx, zy) =
+                        ((y[i] - step * ax) / (1.0 + step * d[i]), (y[m + i] - step * ay) / (1.0 + step * d[m + i]));
+                    let (nx, ny) = project(zx, zy, bound[i]);
+                    (ax + d[i] * y[i], ay + d[m + i] * y[m + i], nx, ny)
+                }
+            };
             let (jx, jy) = project(y[i] - local * gx, y[m + i] - local * gy, bound[i]);
             // `sqrt` of the squares, not `hypot` (4% of a `paper` run in libm's hypot):
             // tractions are far from overflow, and this sum only decides when to stop.

@@ -96,7 +96,7 @@ pub fn hertz(n: usize) -> Result<HertzReport> {
     let sol = normal::solve(
         &op,
         &paraboloid(&grid, d),
-        None,
+        normal::Extra::default(),
         Control::Indentation,
         None,
         &NormalSettings::default(),
@@ -173,7 +173,7 @@ pub fn cattaneo_with(n: usize, poisson: f64) -> Result<CattaneoReport> {
     let normal = normal::solve(
         &op,
         &paraboloid(&grid, 0.0),
-        None,
+        normal::Extra::default(),
         Control::Load(p_total),
         None,
         &NormalSettings::default(),
@@ -200,6 +200,7 @@ pub fn cattaneo_with(n: usize, poisson: f64) -> Result<CattaneoReport> {
                 slip: (&w, &zero),
                 warm: warm.as_ref().map(|(x, y)| (x.as_slice(), y.as_slice())),
                 lipschitz: Some(lipschitz),
+                cut: None,
             };
             let sol = tangential::solve_step(&op, &input, &settings, &mut cache, &mut Default::default())?;
             *warm = Some((sol.qx.clone(), sol.qy.clone()));

@@ -201,9 +201,9 @@ fn pack(states: &[&PinLoad<'_>]) -> Result<Packed> {
     let (mut super_members, mut block_members, mut sample_ints) = (Vec::new(), Vec::new(), Vec::new());
     for s in states {
         let f = &s.forces;
-        let (near2, sub_mm, first_mm) = f.near_rule();
-        p.reals.extend([f.far2, f.super_far2, near2, sub_mm, first_mm, s.dome_radius_mm]);
-        let (block0, cell0) = (blocks.len() / 5, cells.len() / 5);
+        let (near2, _, _) = f.near_rule();
+        p.reals.extend([f.far2, f.super_far2, near2, s.dome_radius_mm]);
+        let (block0, cell0) = (blocks.len() / 5, cells.len() / 9);
         sample_ints.extend([(supers.len() / 5) as u32, f.supers.len() as u32, f.subsquares as u32, 0]);
         for g in &f.supers {
             supers.extend([g.x, g.y, g.f[0], g.f[1], g.f[2]]);
@@ -215,6 +215,7 @@ fn pack(states: &[&PinLoad<'_>]) -> Result<Packed> {
         }
         for k in 0..f.x.len() {
             cells.extend([f.x[k], f.y[k], f.f[k][0], f.f[k][1], f.f[k][2]]);
+            cells.extend(f.subs[k]);
         }
     }
     p.params.supers_at = append(&mut p.reals, supers);

@@ -183,13 +183,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let state = ints[params.point_sample_at + p];
     let pa = params.points_at + 15u * p;
     let base_z = reals[pa + 2u];
-    let sa = params.samples_at + 6u * state;
+    let sa = params.samples_at + 4u * state;
     let far2 = reals[sa];
     let super_far2 = reals[sa + 1u];
     let near2 = reals[sa + 2u];
-    let sub_mm = reals[sa + 3u];
-    let first_mm = reals[sa + 4u];
-    let dome_radius = reals[sa + 5u];
+    let dome_radius = reals[sa + 3u];
     for (var s = 0u; s < 4u; s++) {
         let q = pa + 3u + 3u * s;
         stencil[s] = vec3<f64>(reals[q], reals[q + 1u], reals[q + 2u]);
@@ -216,7 +214,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let cells_end = ints[params.block_members_at + 2u * b + 1u];
             for (var k = ints[params.block_members_at + 2u * b]; k < cells_end; k++) {
-                let ca = params.cells_at + 5u * k;
+                let ca = params.cells_at + 9u * k;
                 let x = reals[ca];
                 let y = reals[ca + 1u];
                 let f = group(ca);
@@ -225,9 +223,14 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     continue;
                 }
                 let part = f / f64(sub * sub);
+                // The cell's sub-squares: the first one's offset and their sides (`subs`).
+                let first_x = reals[ca + 5u];
+                let first_y = reals[ca + 6u];
+                let sub_x = reals[ca + 7u];
+                let sub_y = reals[ca + 8u];
                 for (var i = 0u; i < sub; i++) {
                     for (var j = 0u; j < sub; j++) {
-                        add(x + first_mm + f64(i) * sub_mm, y + first_mm + f64(j) * sub_mm, part);
+                        add(x + first_x + f64(i) * sub_x, y + first_y + f64(j) * sub_y, part);
                     }
                 }
             }

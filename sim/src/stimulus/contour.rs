@@ -147,6 +147,79 @@ impl Contour {
     pub fn signed_distance(&self, p: [f64; 2]) -> f64 {
         self.nearest(p).signed_distance_mm
     }
+
+    /// The segments that come within `margin_mm` of the box `[lo, hi]` (mm): where
+    /// [`NearContour::nearest`] answers [`Contour::nearest`]'s question for the points in the
+    /// box, in time for those segments only (one pass over the contour's segments, comparing
+    /// boxes).
+    pub fn near(&self, lo: [f64; 2], hi: [f64; 2], margin_mm: f64) -> NearContour {
+        let (lo, hi) = ([lo[0] - margin_mm, lo[1] - margin_mm], [hi[0] + margin_mm, hi[1] + margin_mm]);
+        let mut segments = Vec::new();
+        for lp in &self.loops {
+            let n = lp.len();
+            for i in 0..n {
+                let (a, b) = (lp[i], lp[(i + 1) % n]);
+                if a[0].max(b[0]) < lo[0] || a[0].min(b[0]) > hi[0] || a[1].max(b[1]) < lo[1] || a[1].min(b[1]) > hi[1]
+                {
+                    continue;
+                }
+                segments.push([lp[(i + n - 1) % n], a, b, lp[(i + 2) % n]]);
+            }
+        }
+        NearContour { segments, margin_mm }
+    }
+}
+
+/// The part of a [`Contour`] near a box ([`Contour::near`]): each segment with the vertices
+/// before and after it (object frame, mm).
+#[derive(Clone, Debug, Default)]
+pub struct NearContour {
+    segments: Vec<[[f64; 2]; 4]>,
+    margin_mm: f64,
+}
+
+impl NearContour {
+    /// [`Contour::nearest`] for a point `p` of the box within the margin of the contour
+    /// (`None` farther): the same nearest point and tangent, the sign from the side of the
+    /// tangent `p` lies on (material on its left) instead of a winding number, which agree
+    /// off the contour (test `near_contours_answer_as_the_whole`).
+    pub fn nearest(&self, p: [f64; 2]) -> Option<EdgePoint> {
+        let mut best: Option<(f64, [f64; 2], [f64; 2])> = None;
+        for &[before, a, b, after] in &self.segments {
+            // A segment whose box is farther than the best so far cannot be nearer.
+            let gap = |lo: f64, hi: f64, v: f64| (lo - v).max(v - hi).max(0.0);
+            let (gx, gy) = (gap(a[0].min(b[0]), a[0].max(b[0]), p[0]), gap(a[1].min(b[1]), a[1].max(b[1]), p[1]));
+            if gx * gx + gy * gy > best.map_or(self.margin_mm * self.margin_mm, |(d, _, _)| d) {
+                continue;
+            }
+            let Some(SegmentPoint { t, point: q, distance2: d2, length: len }) = project_on_segment(a, b, p) else {
+                continue;
+            };
+            if best.is_some_and(|(d, _, _)| d2 >= d) {
+                continue;
+            }
+            let dir = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
+            let tangent = if t == 0.0 || t == 1.0 {
+                let (c, d) = if t == 0.0 { (before, a) } else { (b, after) };
+                let (fx, fy) = (d[0] - c[0], d[1] - c[1]);
+                let fl = fx.hypot(fy).max(1e-300);
+                let (mx, my) = (dir[0] + fx / fl, dir[1] + fy / fl);
+                let ml = mx.hypot(my);
+                if ml > 1e-12 { [mx / ml, my / ml] } else { dir }
+            } else {
+                dir
+            };
+            best = Some((d2, q, tangent));
+        }
+        let (d2, point, tangent) = best?;
+        let d = d2.sqrt();
+        if d > self.margin_mm {
+            return None;
+        }
+        // Material on the tangent's left: a point there is inside.
+        let left = tangent[0] * (p[1] - point[1]) - tangent[1] * (p[0] - point[0]) > 0.0;
+        Some(EdgePoint { signed_distance_mm: if left { -d } else { d }, point, tangent })
+    }
 }
 
 /// The point of segment `a`-`b` nearest `p` (mm).
@@ -204,5 +277,47 @@ mod tests {
         assert!((e.tangent[0]).abs() < 1e-3 && (e.tangent[1] - 1.0).abs() < 1e-3, "{e:?}");
         let inside = c.nearest([0.0, 45.0]);
         assert!((inside.signed_distance_mm + 5.0).abs() < 1e-3 && inside.tangent[0] < -0.999, "{inside:?}");
+    }
+
+    /// The near part of a contour gives the whole's nearest point, tangent and signed distance
+    /// for every point of its box within its margin, and nothing farther: every built-in
+    /// shape, 2 mm boxes across its edge (and a few wholly inside or outside).
+    #[test]
+    fn near_contours_answer_as_the_whole() {
+        use rand::{Rng, SeedableRng};
+        let catalogue = crate::builtin_catalogue().expect("shapes");
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let (mut answered, mut none) = (0, 0);
+        for name in catalogue.names() {
+            let c = &catalogue.get(&name).expect("a built-in").contour;
+            for _ in 0..40 {
+                // A box about a random point near a random vertex.
+                let lp = &c.loops[rng.random_range(0..c.loops.len())];
+                let v = lp[rng.random_range(0..lp.len())];
+                let centre = [v[0] + rng.random_range(-3.0..3.0), v[1] + rng.random_range(-3.0..3.0)];
+                let (lo, hi) = ([centre[0] - 1.0, centre[1] - 1.0], [centre[0] + 1.0, centre[1] + 1.0]);
+                let near = c.near(lo, hi, 1.5);
+                for _ in 0..20 {
+                    let p = [rng.random_range(lo[0]..hi[0]), rng.random_range(lo[1]..hi[1])];
+                    let whole = c.nearest(p);
+                    match near.nearest(p) {
+                        Some(e) => {
+                            answered += 1;
+                            assert!(whole.signed_distance_mm.abs() <= 1.5, "{name} {p:?}");
+                            assert!(
+                                (e.signed_distance_mm - whole.signed_distance_mm).abs() < 1e-12,
+                                "{name} {p:?}: {e:?} {whole:?}"
+                            );
+                            assert_eq!((e.point, e.tangent), (whole.point, whole.tangent), "{name} {p:?}");
+                        }
+                        None => {
+                            none += 1;
+                            assert!(whole.signed_distance_mm.abs() > 1.5, "{name} {p:?}: {whole:?}");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(answered > 1000 && none > 100, "{answered} {none}");
     }
 }

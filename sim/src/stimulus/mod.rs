@@ -11,7 +11,7 @@ pub use catalogue::{
     CONTACT_TOLERANCE_MM, Catalogue, MAX_EDGE_RADIUS_MM, MAX_FRICTION, ShapeEntry, Stimulus, check_edge_radius,
     off_the_edge,
 };
-pub use contour::{Contour, EdgePoint, SegmentPoint, project_on_segment};
+pub use contour::{Contour, EdgePoint, NearContour, SegmentPoint, project_on_segment};
 pub use mesh::Mesh;
 pub use outline::Outline;
 pub(crate) use outline::{perimeter, signed_area};
