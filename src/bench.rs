@@ -357,9 +357,9 @@ pub fn run(
     let gpu = crate::device::gpu(device)?;
     #[cfg(not(feature = "wgpu"))]
     crate::device::check(device)?;
-    let sensor = bench_sensor(cells, skin)?;
+    let sensor = bench_sensor(cells, skin, edge_cuts)?;
     let scene = disk_scene()?;
-    let model = ContactModel { cut_edges: edge_cuts, ..ContactModel::new(&sensor) };
+    let model = ContactModel::new(&sensor);
     let renderer = PinRenderer::new(&sensor, 256)?;
     let poses = samples(samples_n, 1);
     let (tap_fps, mean_cells) = tap_rate(&model, &scene, &renderer, &poses)?;
@@ -369,7 +369,7 @@ pub fn run(
     let tap_breakdown = single.install(|| tap_breakdown(&model, &scene, &renderer, few))?;
     let skips = single.install(|| measure_skips(&sensor, &scene, few))?;
     let rim = rim_samples(few.len(), 2);
-    let mut curve = grid_curve(&sensor, edge_cuts, &scene, &renderer, few, &rim, &single)?;
+    let mut curve = grid_curve(&sensor, &scene, &renderer, few, &rim, &single)?;
     curve.extend(step_curve(&model, &scene, &renderer, &poses[..samples_n.min(8)], &single)?);
     #[cfg(feature = "wgpu")]
     let (gpu_raster, gpu_pins) = match &gpu {
@@ -398,9 +398,10 @@ pub fn run(
     Ok(if json { serde_json::to_string_pretty(&report)? + "\n" } else { report.table(plot) })
 }
 
-/// The calibrated sensor with the bench's `--cells` and `--skin`.
-fn bench_sensor(cells: Option<usize>, skin: Option<SkinModel>) -> Result<SensorParams> {
+/// The calibrated sensor with the bench's `--cells`, `--skin` and `--edge-cuts`.
+fn bench_sensor(cells: Option<usize>, skin: Option<SkinModel>, edge_cuts: bool) -> Result<SensorParams> {
     let mut sensor = SensorParams::default();
+    sensor.skin.cut_edges = edge_cuts;
     if let Some(n) = cells {
         sensor.skin.cells_across = n;
         sensor.validate("--cells")?;
@@ -444,7 +445,6 @@ fn tap_breakdown(
 /// taps on the fine reference grid.
 fn grid_curve(
     sensor: &SensorParams,
-    edge_cuts: bool,
     scene: &Scene,
     renderer: &PinRenderer,
     taps: &[(SensorPose, [f64; 2])],
@@ -454,7 +454,7 @@ fn grid_curve(
     let at_grid = |cells: usize, subsquares: usize| {
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
-        ContactModel { pin_subsquares: subsquares, cut_edges: edge_cuts, ..ContactModel::new(&s) }
+        ContactModel { pin_subsquares: subsquares, ..ContactModel::new(&s) }
     };
     let tap_pins = |m: &ContactModel, pose: SensorPose, exact: bool| -> Result<Vec<_>> {
         let mut sim = Simulation::new(m, scene, &[pose]);

@@ -5,7 +5,7 @@
 //! cargo run --release -p tacsim-sim --example edge_convergence -- X DEPTH YAW [CELLS,...] [cuts]
 //! ```
 //! With `cuts`, cells the edge cuts carry their load on the covered part
-//! (`ContactModel::cut_edges`).
+//! (the sensor's `skin.cut_edges`).
 //! The tap: the calibrated default sensor over the built-in `disk` (its sharp rim at
 //! `x = 50` mm), apex at `(X, 0.3)` mm, `DEPTH` mm deep, yaw `YAW` deg; grids of `CELLS`
 //! cells across the footprint (default `13,17,25,33,65,97`; the last is the reference), every
@@ -37,7 +37,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut sensor = SensorParams::default();
         sensor.skin.cells_across = n;
         sensor.validate("CELLS")?;
-        let model = ContactModel { cut_edges, ..ContactModel::new(&sensor) };
+        sensor.skin.cut_edges = cut_edges;
+        let model = ContactModel::new(&sensor);
         let mut sim = Simulation::new(&model, &scene, &[pose]);
         let force = sim.step(pose)?.force_n[2];
         let cell = sim.grid().map_or(0.0, |g| g.cell_mm);

@@ -102,7 +102,7 @@ mod tests {
         assert!((c.centroid_mm[0] - -0.15).abs() < 1e-12 && c.centroid_mm[1].abs() < 1e-12, "{c:?}");
         assert!((c.sides_mm[0] - 0.5).abs() < 1e-12 && (c.sides_mm[1] - h).abs() < 1e-12, "{c:?}");
         // Material on the other side: the mirror image.
-        let m = Cut::of_half_plane(h, 0.1, -1.0, 0.0).expect("cut");
+        let m = Cut::of_half_plane(h, -0.1, -1.0, 0.0).expect("cut");
         assert!((m.fraction - 0.625).abs() < 1e-12 && (m.centroid_mm[0] - 0.15).abs() < 1e-12, "{m:?}");
         // Wholly in or out.
         assert_eq!(Cut::of_half_plane(h, -0.5, 1.0, 0.0), None);

@@ -74,10 +74,8 @@ pub struct ContactModel {
     /// Sub-squares per side of the cells near a pin in the pin product (`pin_motion.rs`;
     /// 1: one point force per cell).
     pub pin_subsquares: usize,
-    /// Whether cells a sharp edge cuts carry their load on the covered part ([`super::cut`]):
-    /// off by default for now. It takes the rim taps' pin error 2-4x down on 13-33 cells, but
-    /// shifts the closed loop's geometric perception on the clover by 0.8 mm (issue 31,
-    /// `docs/guide/contact.md`, "Cut cells").
+    /// Whether cells a sharp edge cuts carry their load on the covered part ([`super::cut`];
+    /// the sensor's `skin.cut_edges`).
     pub cut_edges: bool,
 }
 
@@ -115,7 +113,7 @@ impl ContactModel {
             tangential: TangentialSettings { tolerance: 1e-4, ..TangentialSettings::default() },
             coupling_iterations: 4,
             pin_subsquares: PIN_SUBSQUARES,
-            cut_edges: false,
+            cut_edges: sensor.skin.cut_edges,
         }
     }
 
@@ -1113,7 +1111,8 @@ mod tests {
         scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("placed");
         let mut sensor = SensorParams::default();
         sensor.skin.cells_across = 13;
-        let model = ContactModel { cut_edges: true, ..ContactModel::new(&sensor) };
+        sensor.skin.cut_edges = true;
+        let model = ContactModel::new(&sensor);
         let grid = contact_disk_grid(&model, 2.0);
         let (mut force, mut tip) = (Vec::new(), Vec::new());
         for i in 0..=20 {

@@ -122,20 +122,7 @@ impl Contour {
                     continue;
                 };
                 if d2 < best.0 {
-                    let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
-                    let dir = [ex / len, ey / len];
-                    let tangent = if t == 0.0 || t == 1.0 {
-                        // Vertex: average with the neighbouring edge.
-                        let (c, d) = if t == 0.0 { (lp[(i + n - 1) % n], a) } else { (b, lp[(i + 2) % n]) };
-                        let (fx, fy) = (d[0] - c[0], d[1] - c[1]);
-                        let fl = fx.hypot(fy).max(1e-300);
-                        let (mx, my) = (dir[0] + fx / fl, dir[1] + fy / fl);
-                        let ml = mx.hypot(my);
-                        if ml > 1e-12 { [mx / ml, my / ml] } else { dir }
-                    } else {
-                        dir
-                    };
-                    best = (d2, q, tangent);
+                    best = (d2, q, tangent_at([lp[(i + n - 1) % n], a, b, lp[(i + 2) % n]], t, len));
                 }
             }
         }
@@ -198,18 +185,7 @@ impl NearContour {
             if best.is_some_and(|(d, _, _)| d2 >= d) {
                 continue;
             }
-            let dir = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
-            let tangent = if t == 0.0 || t == 1.0 {
-                let (c, d) = if t == 0.0 { (before, a) } else { (b, after) };
-                let (fx, fy) = (d[0] - c[0], d[1] - c[1]);
-                let fl = fx.hypot(fy).max(1e-300);
-                let (mx, my) = (dir[0] + fx / fl, dir[1] + fy / fl);
-                let ml = mx.hypot(my);
-                if ml > 1e-12 { [mx / ml, my / ml] } else { dir }
-            } else {
-                dir
-            };
-            best = Some((d2, q, tangent));
+            best = Some((d2, q, tangent_at([before, a, b, after], t, len)));
         }
         let (d2, point, tangent) = best?;
         let d = d2.sqrt();
@@ -220,6 +196,22 @@ impl NearContour {
         let left = tangent[0] * (p[1] - point[1]) - tangent[1] * (p[0] - point[0]) > 0.0;
         Some(EdgePoint { signed_distance_mm: if left { -d } else { d }, point, tangent })
     }
+}
+
+/// The unit tangent at `t` along segment `a`-`b` (length `len`, mm) of `[before, a, b,
+/// after]`: the segment's direction, and at a vertex (`t` 0 or 1) its mean with the
+/// neighbouring segment's.
+fn tangent_at([before, a, b, after]: [[f64; 2]; 4], t: f64, len: f64) -> [f64; 2] {
+    let dir = [(b[0] - a[0]) / len, (b[1] - a[1]) / len];
+    if t != 0.0 && t != 1.0 {
+        return dir;
+    }
+    let (c, d) = if t == 0.0 { (before, a) } else { (b, after) };
+    let (fx, fy) = (d[0] - c[0], d[1] - c[1]);
+    let fl = fx.hypot(fy).max(1e-300);
+    let (mx, my) = (dir[0] + fx / fl, dir[1] + fy / fl);
+    let ml = mx.hypot(my);
+    if ml > 1e-12 { [mx / ml, my / ml] } else { dir }
 }
 
 /// The point of segment `a`-`b` nearest `p` (mm).
