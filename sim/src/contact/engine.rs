@@ -470,7 +470,8 @@ pub struct Simulation<'a> {
     shear_matrix: MatrixCache,
     /// `A_t q'` of the step's previous tractions, kept across its coupling rounds.
     prev_product: PrevProduct,
-    /// The cells a sharp edge cuts at this step ([`super::cut`]).
+    /// The cells a sharp edge cuts at this step ([`super::cut`]), a grid field; empty
+    /// without the option.
     cuts: Vec<Option<Cut>>,
     /// The dome's slope `dh/dx, dh/dy` per cell times `skin.dome_slope` (none at 0).
     slope: Option<(Vec<f64>, Vec<f64>)>,
@@ -527,7 +528,7 @@ impl<'a> Simulation<'a> {
             normal_matrix: MatrixCache::default(),
             shear_matrix: MatrixCache::default(),
             prev_product: PrevProduct::default(),
-            cuts: vec![None; n],
+            cuts: Vec::new(),
             slope,
             closure: vec![0.0; n],
             pose: None,
@@ -648,10 +649,11 @@ impl<'a> Simulation<'a> {
     /// is the contour of the stimulus the nearer one's ray hit, at the point where the cell's
     /// centre ray crosses that stimulus's top.
     fn cut_cells(&self, grid: &Grid, pose: &SensorPose, hits: &mut [CellHit]) -> Vec<Option<Cut>> {
-        let n = grid.len();
         if !self.model.cut_edges {
-            return vec![None; n];
+            // Off: no cut anywhere, as an empty field.
+            return Vec::new();
         }
+        let n = grid.len();
         let h = grid.cell_mm;
         let mut edge_object: Vec<Option<usize>> = vec![None; n];
         for k in 0..n {
@@ -1068,7 +1070,7 @@ impl<'a> Simulation<'a> {
         let forces = CellForces::new(
             op.grid(),
             (&self.pressure, &self.qx, &self.qy),
-            Some(&self.cuts),
+            (!self.cuts.is_empty()).then_some(self.cuts.as_slice()),
             self.model.pin_subsquares,
         );
         if forces.is_empty() {
