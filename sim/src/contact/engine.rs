@@ -419,9 +419,10 @@ fn cell_hits(
         .collect()
 }
 
-/// How much steeper than a cell side per cell side two neighbours' gaps must differ for the
-/// cells to be looked at for a sharp edge between them ([`Simulation::cut_cells`]): the dome
-/// and a tilt change the gap smoothly by less (a false alarm only costs an edge query).
+/// By how many cell sides two neighbours' gaps must differ for the cells to be looked at for
+/// a sharp edge between them ([`Simulation::cut_cells`]): a smooth surface under the dome
+/// changes the gap by less than a side per side where the contact is (a false alarm near the
+/// dome's flanks only costs an edge query, which finds no edge within the cell).
 const JUMP_PER_SIDE: f64 = 1.0;
 
 /// How much further (mm, along the ray `dir` from `origin`) the rounded edge of object `id`
