@@ -130,6 +130,10 @@ pub struct BenchReport {
     pub threads: usize,
     /// Cells across the footprint (sensor default).
     pub cells_across: usize,
+    /// Whether cells a sharp edge cuts carry their load on the covered part (`--edge-cuts`,
+    /// the sensor's `skin.cut_edges`), every grid's and the reference's.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub cut_edges: bool,
     /// Taps per second on all threads (contact solve + pins + 256x256 render).
     pub tap_frames_per_s: f64,
     /// Slides per second on all threads (touch down 2.5 mm away, slide in 0.25 mm steps, capture
@@ -383,6 +387,7 @@ pub fn run(
     let (gpu_raster, gpu_pins) = (None, None);
     let report = BenchReport {
         threads: rayon::current_num_threads(),
+        cut_edges: sensor.skin.cut_edges,
         cells_across: sensor.skin.cells_across,
         tap_frames_per_s: tap_fps,
         slide_samples_per_s: slide_sps,
@@ -548,13 +553,14 @@ impl BenchReport {
     fn table(&self, plot: &Path) -> String {
         let b = &self.tap_breakdown;
         let mut out = format!(
-            "{} threads, {} cells across the footprint (mean {:.0} in contact)\n\
+            "{} threads, {} cells across the footprint (mean {:.0} in contact){}\n\
              taps:   {:>9.1} frames/s  (solve + pins + 256x256 render)\n\
              slides: {:>9.1} samples/s (touch down {SLIDE_MM} mm away, {STEP_MM} mm steps, capture)\n\
              a tap, one thread: footprint {:.3} ms, gap + solve {:.3} ms, pins {:.3} ms, render {:.3} ms\n",
             self.threads,
             self.cells_across,
             self.mean_contact_cells,
+            if self.cut_edges { ", cut cells at edges" } else { "" },
             self.tap_frames_per_s,
             self.slide_samples_per_s,
             b.footprint_ms,
