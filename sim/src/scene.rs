@@ -337,13 +337,7 @@ impl Scene {
     pub fn edge(&self, object: ObjectId, x_mm: f64, y_mm: f64) -> EdgePoint {
         let o = &self.objects[object];
         let p = o.pose.to_object([x_mm, y_mm, 0.0]);
-        let e = o.stimulus.contour.nearest([p[0], p[1]]);
-        let w = o.pose.to_world([e.point[0], e.point[1], 0.0]);
-        EdgePoint {
-            signed_distance_mm: e.signed_distance_mm,
-            point: [w[0], w[1]],
-            tangent: o.pose.rotate_to_world(e.tangent),
-        }
+        edge_to_world(&o.pose, o.stimulus.contour.nearest([p[0], p[1]]))
     }
 }
 
@@ -359,13 +353,17 @@ impl NearEdges {
     /// the margin.
     pub fn edge(&self, x_mm: f64, y_mm: f64) -> Option<EdgePoint> {
         let p = self.pose.to_object([x_mm, y_mm, 0.0]);
-        let e = self.near.nearest([p[0], p[1]])?;
-        let w = self.pose.to_world([e.point[0], e.point[1], 0.0]);
-        Some(EdgePoint {
-            signed_distance_mm: e.signed_distance_mm,
-            point: [w[0], w[1]],
-            tangent: self.pose.rotate_to_world(e.tangent),
-        })
+        Some(edge_to_world(&self.pose, self.near.nearest([p[0], p[1]])?))
+    }
+}
+
+/// An edge point of an object placed at `pose`, from its frame into the world's.
+fn edge_to_world(pose: &ObjectPose, e: EdgePoint) -> EdgePoint {
+    let w = pose.to_world([e.point[0], e.point[1], 0.0]);
+    EdgePoint {
+        signed_distance_mm: e.signed_distance_mm,
+        point: [w[0], w[1]],
+        tangent: pose.rotate_to_world(e.tangent),
     }
 }
 

@@ -74,9 +74,6 @@ pub struct ContactModel {
     /// Sub-squares per side of the cells near a pin in the pin product (`pin_motion.rs`;
     /// 1: one point force per cell).
     pub pin_subsquares: usize,
-    /// Whether cells a sharp edge cuts carry their load on the covered part ([`super::cut`];
-    /// the sensor's `skin.cut_edges`).
-    pub cut_edges: bool,
 }
 
 impl ContactModel {
@@ -113,7 +110,6 @@ impl ContactModel {
             tangential: TangentialSettings { tolerance: 1e-4, ..TangentialSettings::default() },
             coupling_iterations: 4,
             pin_subsquares: PIN_SUBSQUARES,
-            cut_edges: sensor.skin.cut_edges,
         }
     }
 
@@ -252,7 +248,7 @@ fn probe_box(
     let gaps = gaps_below(model, scene, pose, frame, dome, threshold + PROBE_REACH_MARGIN_MM);
     let mut b: Option<[f64; 4]> = None;
     for (k, g) in gaps.iter().enumerate() {
-        if g.0 < threshold {
+        if g.gap < threshold {
             let c = probe.centre(k);
             b = Some(match b {
                 None => [c[0], c[1], c[0], c[1]],
@@ -322,22 +318,9 @@ pub fn initial_gap(
     grid: &Grid,
 ) -> Vec<(f64, f64)> {
     gaps_below(model, scene, pose, frame, &DomeCells::new(model, frame, grid), f64::INFINITY)
-}
-
-/// [`initial_gap`] at the cells of `dome` where it is below `limit_mm`; `+inf` may stand for
-/// any gap above it. The rays end there: a ray over open ground or far below the dome stops at
-/// the first triangle of its column (the footprint probe only asks which cells are below a
-/// threshold, and the gap of a hit is at least its distance beyond the dome, the rounding of an
-/// edge adding to it).
-fn gaps_below(
-    model: &ContactModel,
-    scene: &Scene,
-    pose: &SensorPose,
-    frame: &ContactFrame,
-    dome: &DomeCells,
-    limit_mm: f64,
-) -> Vec<(f64, f64)> {
-    cell_hits(model, scene, pose, frame, dome, limit_mm).into_iter().map(|h| (h.gap, h.friction)).collect()
+        .into_iter()
+        .map(|h| (h.gap, h.friction))
+        .collect()
 }
 
 /// What the ray of one cell found: the gap (mm, `+inf` for nothing), the friction of the
@@ -378,8 +361,12 @@ impl PoseRays {
     }
 }
 
-/// [`gaps_below`] with the object each ray hit.
-fn cell_hits(
+/// [`initial_gap`] at the cells of `dome` where it is below `limit_mm`; `+inf` may stand for
+/// any gap above it. The rays end there: a ray over open ground or far below the dome stops at
+/// the first triangle of its column (the footprint probe only asks which cells are below a
+/// threshold, and the gap of a hit is at least its distance beyond the dome, the rounding of an
+/// edge adding to it). With each gap, the friction and the object of the stimulus its ray hit.
+fn gaps_below(
     model: &ContactModel,
     scene: &Scene,
     pose: &SensorPose,
@@ -474,6 +461,9 @@ pub struct Simulation<'a> {
     /// The cells a sharp edge cuts at this step ([`super::cut`]), a grid field; empty
     /// without the option.
     cuts: Vec<Option<Cut>>,
+    /// Their extra compliance to their own traction, relative to the operator's diagonal (0
+    /// elsewhere), found with them once a step for the step's solves; `None` without a cut.
+    cut_compliance: Option<Vec<f64>>,
     /// The dome's slope `dh/dx, dh/dy` per cell times `skin.dome_slope` (none at 0).
     slope: Option<(Vec<f64>, Vec<f64>)>,
     /// How far each cell's surface was pressed in at the end of the previous step (mm).
@@ -530,6 +520,7 @@ impl<'a> Simulation<'a> {
             shear_matrix: MatrixCache::default(),
             prev_product: PrevProduct::default(),
             cuts: Vec::new(),
+            cut_compliance: None,
             slope,
             closure: vec![0.0; n],
             pose: None,
@@ -551,6 +542,7 @@ impl<'a> Simulation<'a> {
         self.shear_matrix = MatrixCache::default();
         self.closure.fill(0.0);
         self.cuts.fill(None);
+        self.cut_compliance = None;
         self.pose = None;
         self.report = StepReport::default();
     }
@@ -619,8 +611,13 @@ impl<'a> Simulation<'a> {
 
     /// [`Self::step`]'s stages on the path's operator `op`.
     fn solve_at(&mut self, op: &Operator, pose: SensorPose, previous: Option<SensorPose>) -> Result<StepReport> {
-        let mut hits = cell_hits(self.model, self.scene, &pose, &self.frame, &self.dome, f64::INFINITY);
+        let mut hits = gaps_below(self.model, self.scene, &pose, &self.frame, &self.dome, f64::INFINITY);
         self.cuts = self.cut_cells(op.grid(), &pose, &mut hits);
+        self.cut_compliance = self
+            .cuts
+            .iter()
+            .any(Option::is_some)
+            .then(|| self.cuts.iter().map(|c| c.as_ref().map_or(0.0, Cut::extra_compliance)).collect());
         let (g0, mu): (Vec<f64>, Vec<f64>) = hits.iter().map(|h| (h.gap, h.friction)).unzip();
         self.friction.clone_from(&mu);
         self.gap.clone_from(&g0);
@@ -650,7 +647,7 @@ impl<'a> Simulation<'a> {
     /// is the contour of the stimulus the nearer one's ray hit, at the point where the cell's
     /// centre ray crosses that stimulus's top.
     fn cut_cells(&self, grid: &Grid, pose: &SensorPose, hits: &mut [CellHit]) -> Vec<Option<Cut>> {
-        if !self.model.cut_edges {
+        if !self.model.sensor.skin.cut_edges {
             // Off: no cut anywhere, as an empty field.
             return Vec::new();
         }
@@ -681,14 +678,15 @@ impl<'a> Simulation<'a> {
         let Some(top) = self.scene.top_height_mm() else { return cuts };
         let rays = PoseRays::new(self.model, top, pose, &self.frame);
         let radius = self.model.dome_radius();
+        if rays.dir.z > -1e-6 {
+            // Rays that do not go down cross no top.
+            return cuts;
+        }
         // The grid's axes as moves of a ray's crossing with a horizontal top (world).
         let on_top = |v: Vector3<f64>| {
             let w = rays.rot * self.frame.to_sensor(v);
             w - rays.dir * (w.z / rays.dir.z)
         };
-        if rays.dir.z > -1e-6 {
-            return cuts;
-        }
         let (ux, uy) = (on_top(Vector3::x()), on_top(Vector3::y()));
         // Where each looked-at cell's centre ray crosses its stimulus's top (world).
         let crossings: Vec<(usize, usize, Vector3<f64>)> = (0..n)
@@ -736,7 +734,7 @@ impl<'a> Simulation<'a> {
             inside: centroids.iter().map(|(k, _)| self.dome.inside[*k]).collect(),
             points: centroids.iter().map(|(_, x)| *x).collect(),
         };
-        let found = cell_hits(self.model, self.scene, pose, &self.frame, &dome, f64::INFINITY);
+        let found = gaps_below(self.model, self.scene, pose, &self.frame, &dome, f64::INFINITY);
         for ((k, _), hit) in centroids.iter().zip(found) {
             if hit.gap.is_finite() {
                 hits[*k] = hit;
@@ -862,11 +860,10 @@ impl<'a> Simulation<'a> {
         settings: &NormalSettings,
         report: &mut StepReport,
     ) -> Result<()> {
-        let cut = self.cut_compliance();
         let sol = normal::solve(
             op,
             g0,
-            normal::Extra { displacement: extra, cut: cut.as_deref() },
+            normal::Extra { displacement: extra, cut: self.cut_compliance.as_deref() },
             Control::Indentation,
             Some(&self.pressure),
             settings,
@@ -881,15 +878,6 @@ impl<'a> Simulation<'a> {
             }
         }
         Ok(())
-    }
-
-    /// Each cell's extra compliance to its own traction where an edge cuts it, relative to the
-    /// operator's diagonal (0 elsewhere); `None` without a cut cell.
-    fn cut_compliance(&self) -> Option<Vec<f64>> {
-        self.cuts
-            .iter()
-            .any(Option::is_some)
-            .then(|| self.cuts.iter().map(|c| c.as_ref().map_or(0.0, Cut::extra_compliance)).collect())
     }
 
     /// Adds to the slip `(cx, cy)` of the cells in contact the tangential displacement that
@@ -974,7 +962,6 @@ impl<'a> Simulation<'a> {
             self.eigenvector = Some(e);
         }
         let minus = |q: &[f64], o: &[f64]| -> Vec<f64> { q.iter().zip(o).map(|(q, o)| q - o).collect() };
-        let cut = self.cut_compliance();
         let shifted = offsets.map(|([ox, oy], [ox_prev, oy_prev])| {
             [minus(qx_prev, ox_prev), minus(qy_prev, oy_prev), minus(&self.qx, ox), minus(&self.qy, oy)]
         });
@@ -989,7 +976,7 @@ impl<'a> Simulation<'a> {
             slip,
             warm: Some((warm_x, warm_y)),
             lipschitz: self.eigenvector.as_ref().map(|e| e.bound),
-            cut: cut.as_deref(),
+            cut: self.cut_compliance.as_deref(),
         };
         let t = tangential::solve_step(op, &input, settings, &mut self.shear_matrix, &mut self.prev_product)?;
         report.tangential_solved = true;
@@ -1173,9 +1160,9 @@ mod tests {
                         let full = gaps_below(&model, &scene, &pose, &frame, &dome, f64::INFINITY);
                         let short = gaps_below(&model, &scene, &pose, &frame, &dome, threshold + PROBE_REACH_MARGIN_MM);
                         for (f, s) in full.iter().zip(&short) {
-                            assert_eq!(f.0 < *threshold, s.0 < *threshold, "{name}: {pose:?}: {f:?} vs {s:?}");
-                            if f.0 < *threshold {
-                                assert_eq!(f.0.to_bits(), s.0.to_bits(), "{name}: {pose:?}");
+                            assert_eq!(f.gap < *threshold, s.gap < *threshold, "{name}: {pose:?}: {f:?} vs {s:?}");
+                            if f.gap < *threshold {
+                                assert_eq!(f.gap.to_bits(), s.gap.to_bits(), "{name}: {pose:?}");
                                 below += 1;
                             }
                         }

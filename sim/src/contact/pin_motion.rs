@@ -250,32 +250,11 @@ impl CellForces {
     }
 
     /// Displacement (mm) and rotation (rad) of the half-space at `at`, `depth` (mm) under the
-    /// contact plane, both in the grid's frame, in one pass over [`CellForces::each_force`]
-    /// with the closed-form rotation [`DepthKernel::motion`], one force at a time: the
-    /// reference of [`CellForces::motion_by_lanes`].
-    #[cfg(test)]
-    pub fn motion(
-        &self,
-        kernel: &DepthKernel,
-        at: &Vector3<f64>,
-        depth: f64,
-        exact: bool,
-    ) -> (Vector3<f64>, Vector3<f64>) {
-        let (mut u, mut w) = ([0.0; 3], [0.0; 3]);
-        self.each_force(at, depth, exact, |cx, cy, f| {
-            let (d, r) = kernel.motion(f, [at.x - cx, at.y - cy, depth]);
-            for i in 0..3 {
-                u[i] += d[i];
-                w[i] += r[i];
-            }
-        });
-        sensor_motion(u, w)
-    }
-
-    /// [`CellForces::motion`] with the kernel evaluated on [`LANES`] forces at once: the
-    /// forces the point sees are gathered first ([`CellForces::each_force`]), then summed in
-    /// `LANES` running sums, added together at the end. Only the order of the additions
-    /// differs from the one force at a time of [`CellForces::motion`]: within 1e-12 of it
+    /// contact plane, both in the grid's frame, with the closed-form rotation
+    /// [`DepthKernel::motion`] evaluated on [`LANES`] forces at once: the forces the point
+    /// sees are gathered first ([`CellForces::each_force`]), then summed in `LANES` running
+    /// sums, added together at the end. Only the order of the additions differs from one force
+    /// at a time (the tests' `one_force_at_a_time`): within 1e-12 of it
     /// relative to its size (test `pins_by_lanes_match_one_force_at_a_time`), in about 60% of
     /// the time (issue 31: the pins were half of a 13-cell tap; `cargo bench --bench tap --
     /// tap-pins`).
@@ -544,6 +523,26 @@ mod tests {
     use super::*;
     use crate::contact::kernel::Elastic;
 
+    /// The reference of [`CellForces::motion_by_lanes`]: the same forces
+    /// ([`CellForces::each_force`]) summed one at a time.
+    fn one_force_at_a_time(
+        forces: &CellForces,
+        kernel: &DepthKernel,
+        at: &Vector3<f64>,
+        depth: f64,
+        exact: bool,
+    ) -> (Vector3<f64>, Vector3<f64>) {
+        let (mut u, mut w) = ([0.0; 3], [0.0; 3]);
+        forces.each_force(at, depth, exact, |cx, cy, f| {
+            let (d, r) = kernel.motion(f, [at.x - cx, at.y - cy, depth]);
+            for i in 0..3 {
+                u[i] += d[i];
+                w[i] += r[i];
+            }
+        });
+        sensor_motion(u, w)
+    }
+
     /// A cell's displacement at a point under it by a fine midpoint rule over its square
     /// (400 x 400 points: the square's integral to well under 0.1%).
     fn square_integral(kernel: &PinKernel<'_>, h: f64, force: [f64; 3], at: [f64; 3]) -> [f64; 3] {
@@ -594,7 +593,7 @@ mod tests {
         {
             let at = Vector3::new(x, y, 0.0);
             for exact in [false, true] {
-                let (u, w) = forces.motion(&kernel, &at, depth, exact);
+                let (u, w) = one_force_at_a_time(&forces, &kernel, &at, depth, exact);
                 let (ul, wl) = forces.motion_by_lanes(&kernel, &at, depth, exact);
                 assert!((u - ul).norm() <= 1e-12 * u.norm(), "at {at:?} exact {exact}: {u:?} vs {ul:?}");
                 assert!((w - wl).norm() <= 1e-12 * w.norm(), "at {at:?} exact {exact}: {w:?} vs {wl:?}");
@@ -676,7 +675,7 @@ mod tests {
                 let grad = |i: usize| (u[2 * i + 1] - u[2 * i + 2]) / (2.0 * step);
                 let (gx, gy, gz) = (grad(0), grad(1), grad(2));
                 let curl = 0.5 * Vector3::new(gy.z - gz.y, gz.x - gx.z, gx.y - gy.x);
-                let (disp, omega) = forces.motion(&depth_kernel, &at, depth, exact);
+                let (disp, omega) = one_force_at_a_time(&forces, &depth_kernel, &at, depth, exact);
                 assert_eq!(disp, u[0], "at {at:?}: the displacement must be the same bits");
                 assert!(
                     (omega - curl).norm() < 1e-6 * curl.norm(),

@@ -1,5 +1,5 @@
 // The pin influence product on the GPU (tacsim-sim `gpu/pins.rs`): the sums of
-// `contact/pin_motion.rs` (`CellForces::motion` and `CellForces::displacements`) in f64, in
+// `contact/pin_motion.rs` (`CellForces::motion_by_lanes` and `CellForces::displacements`) in f64, in
 // the CPU's order. One invocation per pin point: from every loaded cell of its state, far
 // cells grouped in blocks and super-blocks, near ones split in sub-squares, on the half-space
 // the displacement (mm) and rotation (rad) at the point, z into the body; on layers the
