@@ -347,15 +347,26 @@ impl Geometric {
         Some(e)
     }
 
-    /// Takes the estimate from `pins`, whose true pose relative to the edge is `known` (the
-    /// robot's start: on the edge, aligned with it), as the zero of every later estimate, as a
-    /// robot would at a known start: the straight edge of the fit sits a little off where an
-    /// edge's contact ends (the skin bends over it). Returns the tare (offset mm, angle deg);
-    /// none where the pins show no contact.
-    pub fn tare(&mut self, pins: &[tacsim_sim::PinPose], known: EdgeEstimate) -> (f64, f64) {
+    /// Takes the mean error of the estimates from `taps`, each the pins of a press whose true
+    /// pose relative to the edge is known, as the zero of every later estimate, as a robot
+    /// would tare at a known start: the straight edge of the fit sits off where the contact
+    /// ends (the skin bends over it), by an amount that swings by up to a millimetre with
+    /// where the edge falls among the contact's cells and the pins (on the default sensor at
+    /// 1.5 mm, a sawtooth of 0.6-0.7 mm period across the edge), so one tap's error is a
+    /// poor zero; several across the edge are averaged ([`crate::run`]'s taps span three
+    /// periods). Returns the tare (offset mm, angle deg); none where no tap shows contact.
+    pub fn tare(&mut self, taps: &[(Vec<tacsim_sim::PinPose>, EdgeEstimate)]) -> (f64, f64) {
         self.zero = (0.0, 0.0);
-        if let Some(e) = self.estimate(pins) {
-            self.zero = (e.offset_mm - known.offset_mm, wrap_deg(e.angle_deg - known.angle_deg));
+        let errors: Vec<(f64, f64)> = taps
+            .iter()
+            .filter_map(|(pins, known)| {
+                let e = self.estimate(pins)?;
+                Some((e.offset_mm - known.offset_mm, wrap_deg(e.angle_deg - known.angle_deg)))
+            })
+            .collect();
+        if !errors.is_empty() {
+            let n = errors.len() as f64;
+            self.zero = (errors.iter().map(|e| e.0).sum::<f64>() / n, errors.iter().map(|e| e.1).sum::<f64>() / n);
         }
         self.zero
     }

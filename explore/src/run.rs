@@ -236,10 +236,11 @@ pub fn run(
             fusion_pins.add_points(&centres, &g.touching(&centres), pose, reach);
         }
     };
-    // The robot starts on the edge, aligned with it: image-based perception takes its first
-    // estimate there as its zero (a tare), as a robot would at a known start.
+    // The robot starts on the edge, aligned with it: image-based perception takes its zero
+    // from taps across the edge there (a tare), as a robot would at a known start.
     if let Some(g) = &mut perceivers.pins {
-        g.tare(&sim.pins(), EdgeEstimate { offset_mm: r, angle_deg: 0.0 });
+        let taps = tare_taps(&mut sim, scenario, pose0, &mut substeps)?;
+        g.tare(&taps);
     }
     let mut tally = Tally::new(&course, &pose0);
     let perimeter = course.perimeter();
@@ -438,6 +439,36 @@ impl Perceivers {
         };
         Ok(Self { pins, learned })
     }
+}
+
+/// Lateral offsets (mm, off the material positive) of the tare's taps about the start: two
+/// millimetres across the edge every quarter, past three periods of the estimate's sawtooth
+/// ([`Geometric::tare`]).
+const TARE_OFFSETS_MM: [f64; 9] = [-1.0, -0.75, -0.5, -0.25, 0.0, 0.25, 0.5, 0.75, 1.0];
+
+/// The tare's taps: the pins and the true pose relative to the edge of a touch-down
+/// ([`touch_down`]) at each of [`TARE_OFFSETS_MM`] across the edge from `pose0`, the sensor
+/// lifted between them; then touches down at `pose0` again. Adds the sub-steps taken to
+/// `substeps`.
+fn tare_taps(
+    sim: &mut Simulation,
+    scenario: &Scenario,
+    pose0: SensorPose,
+    substeps: &mut usize,
+) -> Result<Vec<(Vec<tacsim_sim::PinPose>, EdgeEstimate)>> {
+    // The outward normal: the tangent turned clockwise (the material on its left).
+    let yaw = pose0.yaw_deg.to_radians();
+    let out = [yaw.sin(), -yaw.cos()];
+    let mut taps = Vec::with_capacity(TARE_OFFSETS_MM.len());
+    for d in TARE_OFFSETS_MM {
+        sim.lift();
+        let at = SensorPose { x_mm: pose0.x_mm + d * out[0], y_mm: pose0.y_mm + d * out[1], ..pose0 };
+        *substeps += touch_down(sim, scenario, at)?;
+        taps.push((sim.pins(), EdgeEstimate { offset_mm: scenario.control.offset_ref_mm + d, angle_deg: 0.0 }));
+    }
+    sim.lift();
+    *substeps += touch_down(sim, scenario, pose0)?;
+    Ok(taps)
 }
 
 /// Touches down one step back along the edge from `pose0` and slides onto it, so that the
