@@ -130,9 +130,8 @@ pub struct BenchReport {
     pub threads: usize,
     /// Cells across the footprint (sensor default).
     pub cells_across: usize,
-    /// Whether cells a sharp edge cuts carry their load on the covered part (`--edge-cuts`,
-    /// the sensor's `skin.cut_edges`), every grid's and the reference's.
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    /// Whether cells a sharp edge cuts carry their load on the covered part (the sensor's
+    /// `skin.cut_edges`, on unless `--no-edge-cuts`), every grid's and the reference's.
     pub cut_edges: bool,
     /// Taps per second on all threads (contact solve + pins + 256x256 render).
     pub tap_frames_per_s: f64,
@@ -403,7 +402,8 @@ pub fn run(
     Ok(if json { serde_json::to_string_pretty(&report)? + "\n" } else { report.table(plot) })
 }
 
-/// The calibrated sensor with the bench's `--cells`, `--skin` and `--edge-cuts`.
+/// The calibrated sensor with the bench's `--cells`, `--skin` and cut cells at edges unless
+/// `--no-edge-cuts`.
 fn bench_sensor(cells: Option<usize>, skin: Option<SkinModel>, edge_cuts: bool) -> Result<SensorParams> {
     let mut sensor = SensorParams::default();
     sensor.skin.cut_edges = edge_cuts;
@@ -560,7 +560,7 @@ impl BenchReport {
             self.threads,
             self.cells_across,
             self.mean_contact_cells,
-            if self.cut_edges { ", cut cells at edges" } else { "" },
+            if self.cut_edges { "" } else { ", whole cells at edges (--no-edge-cuts)" },
             self.tap_frames_per_s,
             self.slide_samples_per_s,
             b.footprint_ms,

@@ -54,7 +54,7 @@ pub const CANDIDATES: [Candidate; 11] = [
     candidate(0.0, None, Some(2.0)),
 ];
 /// Contact grid cells across (the `edge-2d` recipe's).
-const CELLS: usize = 17;
+const CELLS: usize = 13;
 /// The label map is fitted on one fitting tap in this many (the search runs the taps about
 /// 80 times per candidate).
 const FIT_STRIDE: usize = 3;

@@ -56,10 +56,11 @@ enum Command {
         /// GPU's speed) or auto.
         #[arg(long, value_enum, default_value = "cpu")]
         device: tacsim::device::DeviceChoice,
-        /// Cells a sharp edge cuts carry their load on the covered part (off by default;
-        /// `docs/guide/contact.md`, "Cut cells"), the reference grid's included.
+        /// Every cell wholly in or out of contact by the gap at its centre, the reference
+        /// grid's included (the sensor's `skin.cut_edges = false`; by default cells a sharp
+        /// edge cuts carry their load on the covered part, `docs/guide/contact.md`, "Cut cells").
         #[arg(long)]
-        edge_cuts: bool,
+        no_edge_cuts: bool,
     },
     /// Generate a dataset from a recipe (default: the built-in `quick`): images, targets.csv,
     /// meta.json. Deterministic for a seed, whatever the threads or shards.
@@ -197,8 +198,8 @@ fn main() -> Result<ExitCode> {
             print!("{text}");
             return Ok(exit_code(pass));
         }
-        Command::Bench { json, samples, plot, cells, skin, device, edge_cuts } => {
-            print!("{}", bench::run(samples, cells, skin, json, &plot, device, edge_cuts)?);
+        Command::Bench { json, samples, plot, cells, skin, device, no_edge_cuts } => {
+            print!("{}", bench::run(samples, cells, skin, json, &plot, device, !no_edge_cuts)?);
         }
         Command::Generate { recipe, out, sensor, size, seed, cells, threads, shard, resume, force, device, quiet } => {
             let opts = tacsim::dataset::GenerateOptions {

@@ -150,11 +150,11 @@ pub struct SkinParams {
     pub dome_slope: f64,
     /// Whether a contact cell that a stimulus's sharp edge crosses carries its load on the
     /// part over the stimulus (its gap at that part's centroid, its stiffness that of the
-    /// part, the pins feeling it there) instead of being wholly in or out by its centre. Off
-    /// by default: it takes the pins' error across edges 2-4x down on 13-33 cells, but moves
-    /// the closed loop's geometric perception on the clover by 0.8 mm (issue 31,
-    /// `docs/guide/contact.md`, "Cut cells").
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    /// part, the pins feeling it there) instead of being wholly in or out by its centre. On
+    /// by default: it takes the pins' error across edges 2-4x down on 13-33 cells (issue 31,
+    /// `docs/guide/contact.md`, "Cut cells"); `false` is the grid of before, each cell in or
+    /// out by the gap at its centre.
+    #[serde(skip_serializing_if = "is_true")]
     pub cut_edges: bool,
 }
 
@@ -170,7 +170,7 @@ impl Default for SkinParams {
             gel_youngs_modulus_mpa: 0.1,
             gel_poisson: 0.5,
             dome_slope: 0.0,
-            cut_edges: false,
+            cut_edges: true,
         }
     }
 }
@@ -234,6 +234,11 @@ pub const MAX_IMAGE_OFFSET: f64 = 0.05;
 /// Whether `v` is zero (serde: fields left out of a file when 0).
 pub(crate) fn is_zero(v: &f64) -> bool {
     *v == 0.0
+}
+
+/// Whether `v` is true (serde: fields left out of a file when on, their default).
+fn is_true(v: &bool) -> bool {
+    *v
 }
 
 /// Pinhole camera with optional radial distortion, on the dome axis looking along `+z`.

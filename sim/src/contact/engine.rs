@@ -1121,6 +1121,47 @@ mod tests {
         assert!(force_ratio < 5.0 && tip_ratio < 5.0, "force {force_ratio}, tip {tip_ratio}");
     }
 
+    /// Regression (issue 31, found by `contact_stress`'s proptest once cut cells became the
+    /// default): the normal solve stopped on the cells' relative pressure change, and a cut
+    /// cell's extra compliance (up to `1 / sqrt(phi)` times a whole cell's) turned the same
+    /// change into a larger gap: a loaded sliver was left 5.0e-5 mm open against the stress
+    /// test's 3.5e-5 (1e-4 of the 0.34 mm indentation). The change now counts each cell's own
+    /// compliance, and every loaded cell closes within the same bound as the whole cells.
+    #[test]
+    fn cut_cells_close_their_gaps_as_whole_cells_do() {
+        let catalogue = crate::builtin_catalogue().expect("shapes");
+        let mut scene = Scene::new();
+        scene.add(catalogue.get("spiral-2").expect("spiral-2"), ObjectPose::default()).expect("placed");
+        let mut sensor = SensorParams::default();
+        (sensor.skin.cells_across, sensor.skin.poisson, sensor.skin.model) = (11, 0.5, crate::SkinModel::Layer);
+        let model = ContactModel::new(&sensor);
+        // The proptest's case: a touch-down on the second spiral, tilted, then a slide and
+        // two presses.
+        let start = SensorPose {
+            rx_deg: -2.392364488704872,
+            ry_deg: -10.58115502725998,
+            ..SensorPose::new(13.391918450474307, -1.1280546752355975, 0.3361847328200847, -63.15251688985311)
+        };
+        let slid =
+            SensorPose { x_mm: start.x_mm - 0.47357201494022066, y_mm: start.y_mm - 0.1635167333462892, ..start };
+        let deeper = SensorPose { depth_mm: slid.depth_mm + 0.16673933286325188, ..slid };
+        let turned = SensorPose {
+            depth_mm: deeper.depth_mm + 0.16007199304821182,
+            yaw_deg: slid.yaw_deg - 4.716625474581112,
+            ..slid
+        };
+        // The path's footprint sets the grid.
+        let mut sim = Simulation::new(&model, &scene, &[start, slid, deeper, turned]);
+        sim.step(start).expect("solved");
+        assert!(sim.cuts.iter().any(Option::is_some), "the pose must cut cells");
+        let (p, g) = (sim.pressure(), sim.gap());
+        let pmax = p.iter().fold(0.0f64, |m, v| m.max(*v));
+        let tol = 1e-4 * start.depth_mm;
+        for k in (0..p.len()).filter(|&k| p[k] > 1e-6 * pmax) {
+            assert!(g[k].abs() <= tol, "cell {k}: p {} MPa, gap {} mm", p[k], g[k]);
+        }
+    }
+
     /// The footprint probe's rays end a margin past its threshold ([`PROBE_REACH_MARGIN_MM`]):
     /// every cell must fall on the same side of the threshold as with rays of full length, and
     /// every gap below it be the same bits, so the footprint grid and every image are
