@@ -138,7 +138,8 @@ impl Contour {
     /// The segments that come within `margin_mm` of the box `[lo, hi]` (mm): where
     /// [`NearContour::nearest`] answers [`Contour::nearest`]'s question for the points in the
     /// box, in time for those segments only (one pass over the contour's segments, comparing
-    /// boxes).
+    /// boxes), sorted into square buckets of about the margin's side over the box, each
+    /// listing the segments within the margin of it.
     pub fn near(&self, lo: [f64; 2], hi: [f64; 2], margin_mm: f64) -> NearContour {
         let (lo, hi) = ([lo[0] - margin_mm, lo[1] - margin_mm], [hi[0] + margin_mm, hi[1] + margin_mm]);
         let mut segments = Vec::new();
@@ -153,26 +154,100 @@ impl Contour {
                 segments.push([lp[(i + n - 1) % n], a, b, lp[(i + 2) % n]]);
             }
         }
-        NearContour { segments, margin_mm }
+        NearContour::bucketed(segments, lo, hi, margin_mm)
     }
 }
 
 /// The part of a [`Contour`] near a box ([`Contour::near`]): each segment with the vertices
-/// before and after it (object frame, mm).
+/// before and after it (object frame, mm), and the buckets that list them by place.
 #[derive(Clone, Debug, Default)]
 pub struct NearContour {
     segments: Vec<[[f64; 2]; 4]>,
     margin_mm: f64,
+    /// The buckets' grid: lower corner (mm), side (mm), columns and rows.
+    origin: [f64; 2],
+    side_mm: f64,
+    shape: [usize; 2],
+    /// Per bucket (row-major), the segments whose box comes within the margin of the bucket,
+    /// in increasing order: `items[starts[k]..starts[k + 1]]`.
+    starts: Vec<usize>,
+    items: Vec<u32>,
 }
 
+/// Most buckets along a side of [`NearContour`]'s grid.
+const MAX_BUCKETS_ACROSS: usize = 32;
+
 impl NearContour {
+    /// `segments` near the box `[lo, hi]` (grown by the margin already), in buckets of about
+    /// the margin's side.
+    fn bucketed(segments: Vec<[[f64; 2]; 4]>, lo: [f64; 2], hi: [f64; 2], margin_mm: f64) -> Self {
+        let extent = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(0.0);
+        let side_mm = margin_mm.max(extent / MAX_BUCKETS_ACROSS as f64).max(1e-9);
+        let shape = [0, 1].map(|k| (((hi[k] - lo[k]) / side_mm).ceil() as usize).clamp(1, MAX_BUCKETS_ACROSS + 1));
+        let bucket = |v: f64, k: usize| (((v - lo[k]) / side_mm).floor().max(0.0) as usize).min(shape[k] - 1);
+        // Each segment's bucket range: its box grown by the margin (and a hair more, so that
+        // rounding cannot leave out a segment at the margin's distance).
+        let grow = margin_mm * (1.0 + 1e-9) + 1e-12;
+        let ranges: Vec<[usize; 4]> = segments
+            .iter()
+            .map(|&[_, a, b, _]| {
+                let (x0, x1) = (a[0].min(b[0]) - grow, a[0].max(b[0]) + grow);
+                let (y0, y1) = (a[1].min(b[1]) - grow, a[1].max(b[1]) + grow);
+                [bucket(x0, 0), bucket(x1, 0), bucket(y0, 1), bucket(y1, 1)]
+            })
+            .collect();
+        let mut counts = vec![0usize; shape[0] * shape[1] + 1];
+        for r in &ranges {
+            for j in r[2]..=r[3] {
+                for i in r[0]..=r[1] {
+                    counts[j * shape[0] + i + 1] += 1;
+                }
+            }
+        }
+        for k in 1..counts.len() {
+            counts[k] += counts[k - 1];
+        }
+        let starts = counts.clone();
+        let mut items = vec![0u32; counts[counts.len() - 1]];
+        for (s, r) in ranges.iter().enumerate() {
+            for j in r[2]..=r[3] {
+                for i in r[0]..=r[1] {
+                    let at = &mut counts[j * shape[0] + i];
+                    items[*at] = s as u32;
+                    *at += 1;
+                }
+            }
+        }
+        Self { segments, margin_mm, origin: lo, side_mm, shape, starts, items }
+    }
+
+    /// The segments that can be within the margin of `p`, in increasing order: its bucket's;
+    /// `None` for a point outside the buckets' grid.
+    fn candidates(&self, p: [f64; 2]) -> Option<&[u32]> {
+        let (i, j) = ((p[0] - self.origin[0]) / self.side_mm, (p[1] - self.origin[1]) / self.side_mm);
+        if !(i >= 0.0 && j >= 0.0 && i < self.shape[0] as f64 && j < self.shape[1] as f64) || self.starts.len() < 2 {
+            return None;
+        }
+        let k = j as usize * self.shape[0] + i as usize;
+        Some(&self.items[self.starts[k]..self.starts[k + 1]])
+    }
+
     /// [`Contour::nearest`] for a point `p` of the box within the margin of the contour
     /// (`None` farther): the same nearest point and tangent, the sign from the side of the
     /// tangent `p` lies on (material on its left) instead of a winding number, which agree
     /// off the contour (test `near_contours_answer_as_the_whole`).
     pub fn nearest(&self, p: [f64; 2]) -> Option<EdgePoint> {
+        match self.candidates(p) {
+            Some(near) => self.nearest_of(p, near.iter().map(|&s| &self.segments[s as usize])),
+            None => self.nearest_of(p, self.segments.iter()),
+        }
+    }
+
+    /// [`NearContour::nearest`] among `segments`, taken in the contour's order (the first of
+    /// equally near ones wins, as in [`Contour::nearest`]).
+    fn nearest_of<'s>(&self, p: [f64; 2], segments: impl Iterator<Item = &'s [[f64; 2]; 4]>) -> Option<EdgePoint> {
         let mut best: Option<(f64, [f64; 2], [f64; 2])> = None;
-        for &[before, a, b, after] in &self.segments {
+        for &[before, a, b, after] in segments {
             // A segment whose box is farther than the best so far cannot be nearer.
             let gap = |lo: f64, hi: f64, v: f64| (lo - v).max(v - hi).max(0.0);
             let (gx, gy) = (gap(a[0].min(b[0]), a[0].max(b[0]), p[0]), gap(a[1].min(b[1]), a[1].max(b[1]), p[1]));
@@ -283,11 +358,13 @@ mod tests {
         for name in catalogue.names() {
             let c = &catalogue.get(&name).expect("a built-in").contour;
             for _ in 0..40 {
-                // A box about a random point near a random vertex.
+                // A box about a random point near a random vertex: 2 mm across, or one in four
+                // 20-60 mm (a grid of buckets wider than the margin).
                 let lp = &c.loops[rng.random_range(0..c.loops.len())];
                 let v = lp[rng.random_range(0..lp.len())];
                 let centre = [v[0] + rng.random_range(-3.0..3.0), v[1] + rng.random_range(-3.0..3.0)];
-                let (lo, hi) = ([centre[0] - 1.0, centre[1] - 1.0], [centre[0] + 1.0, centre[1] + 1.0]);
+                let half = if rng.random_bool(0.25) { rng.random_range(10.0..30.0) } else { 1.0 };
+                let (lo, hi) = ([centre[0] - half, centre[1] - half], [centre[0] + half, centre[1] + half]);
                 let near = c.near(lo, hi, 1.5);
                 for _ in 0..20 {
                     let p = [rng.random_range(lo[0]..hi[0]), rng.random_range(lo[1]..hi[1])];
