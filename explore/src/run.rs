@@ -221,7 +221,6 @@ pub fn run(
     // Without contact the image-based estimates say "the edge is a contact radius inward".
     let searching =
         EdgeEstimate { offset_mm: (sensor.dome.outer_radius_mm * scenario.depth_mm).sqrt(), angle_deg: 0.0 };
-    let mut substeps = touch_down(&mut sim, scenario, pose0)?;
     let centres = grid.centres();
     // Each visited pose adds its contact patch: the contact engine's to `fusion`, and, with
     // image-based perception, the one read off the image's pins to `fusion_pins`.
@@ -237,11 +236,15 @@ pub fn run(
         }
     };
     // The robot starts on the edge, aligned with it: image-based perception takes its zero
-    // from taps across the edge there (a tare), as a robot would at a known start.
+    // from taps across the edge there (a tare), as a robot would at a known start; either
+    // way the sensor then touches down onto the start.
+    let mut substeps = 0;
     if let Some(g) = &mut perceivers.pins {
         let taps = tare_taps(&mut sim, scenario, pose0, &mut substeps)?;
         g.tare(&taps);
     }
+    sim.lift();
+    substeps += touch_down(&mut sim, scenario, pose0)?;
     let mut tally = Tally::new(&course, &pose0);
     let perimeter = course.perimeter();
     let mut closed = false;
@@ -448,8 +451,7 @@ const TARE_OFFSETS_MM: [f64; 9] = [-1.0, -0.75, -0.5, -0.25, 0.0, 0.25, 0.5, 0.7
 
 /// The tare's taps: the pins and the true pose relative to the edge of a touch-down
 /// ([`touch_down`]) at each of [`TARE_OFFSETS_MM`] across the edge from `pose0`, the sensor
-/// lifted between them; then touches down at `pose0` again. Adds the sub-steps taken to
-/// `substeps`.
+/// lifted between them. Adds the sub-steps taken to `substeps`.
 fn tare_taps(
     sim: &mut Simulation,
     scenario: &Scenario,
@@ -466,8 +468,6 @@ fn tare_taps(
         *substeps += touch_down(sim, scenario, at)?;
         taps.push((sim.pins(), EdgeEstimate { offset_mm: scenario.control.offset_ref_mm + d, angle_deg: 0.0 }));
     }
-    sim.lift();
-    *substeps += touch_down(sim, scenario, pose0)?;
     Ok(taps)
 }
 
