@@ -53,8 +53,16 @@ pub const CANDIDATES: [Candidate; 11] = [
     candidate(0.0, None, Some(1.0)),
     candidate(0.0, None, Some(2.0)),
 ];
-/// Contact grid cells across (the `edge-2d` recipe's).
-const CELLS: usize = 13;
+/// Contact grid cells across the edge fit's taps: the built-in `edge-2d` recipe's, whose
+/// simulated taps the fitted preset goes on to make (read from the recipe, so that the two
+/// cannot drift apart).
+pub fn grid_cells() -> Result<usize> {
+    let (name, text) =
+        tacsim_sim::RECIPES.iter().find(|(n, _)| *n == "edge-2d").context("the built-in recipes lack edge-2d")?;
+    tacsim_sim::dataset::Recipe::from_toml_str(text, name)?
+        .cells_across
+        .context("the built-in edge-2d recipe names no cells_across")
+}
 /// The label map is fitted on one fitting tap in this many (the search runs the taps about
 /// 80 times per candidate).
 const FIT_STRIDE: usize = 3;
@@ -151,6 +159,7 @@ pub fn edge_fit(job: &EdgeFitJob) -> Result<String> {
         );
     }
     let fit_taps: Vec<usize> = job.split.train.iter().copied().step_by(FIT_STRIDE).collect();
+    let cells = grid_cells()?;
     let mut by_depth = job.split.held_out.clone();
     by_depth.sort_by(|&a, &b| job.obs.samples[a].sample.pose[2].total_cmp(&job.obs.samples[b].sample.pose[2]));
     let mut candidates = Vec::new();
@@ -174,7 +183,7 @@ pub fn edge_fit(job: &EdgeFitJob) -> Result<String> {
         ));
         let (scene, frame) = edge_scene(stimulus.with_edge_radius(Some(r)), contact)?;
         let deformation = Deformation::of(&sensor, stimulus.entry.friction);
-        let sim = Simulator::on_scene(&sensor, &deformation, CELLS, job.obs, scene)?;
+        let sim = Simulator::on_scene(&sensor, &deformation, cells, job.obs, scene)?;
         let (labels, fit_error) = fit_labels(&sim, &frame, job.obs, &fit_taps, start_labels(job.obs, &job.split.train))
             .with_context(|| {
                 format!("fitting the label map with the edge rounded to {r} mm, skin patch {a} mm, dome slope {g}")

@@ -1086,6 +1086,14 @@ mod tests {
     use super::*;
     use crate::scene::ObjectPose;
 
+    /// A scene of the built-in stimulus `name` at the origin.
+    fn scene_of(name: &str) -> Scene {
+        let catalogue = crate::builtin_catalogue().expect("shapes");
+        let mut scene = Scene::new();
+        scene.add(catalogue.get(name).expect("a built-in"), ObjectPose::default()).expect("placed");
+        scene
+    }
+
     /// Regression (issue 31): a cell was in or out of contact by the gap at its centre, so as
     /// a stimulus's sharp edge crossed a cell the contact's edge moved by a whole cell at
     /// once, and the force and the pins next to it jumped. With the cut cells
@@ -1096,9 +1104,7 @@ mod tests {
     /// 1.5 N at once: millions of times the median).
     #[test]
     fn an_edge_moves_the_contact_smoothly_across_a_cell() {
-        let catalogue = crate::builtin_catalogue().expect("shapes");
-        let mut scene = Scene::new();
-        scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("placed");
+        let scene = scene_of("disk");
         let mut sensor = SensorParams::default();
         sensor.skin.cells_across = 13;
         sensor.skin.cut_edges = true;
@@ -1129,9 +1135,7 @@ mod tests {
     /// compliance, and every loaded cell closes within the same bound as the whole cells.
     #[test]
     fn cut_cells_close_their_gaps_as_whole_cells_do() {
-        let catalogue = crate::builtin_catalogue().expect("shapes");
-        let mut scene = Scene::new();
-        scene.add(catalogue.get("spiral-2").expect("spiral-2"), ObjectPose::default()).expect("placed");
+        let scene = scene_of("spiral-2");
         let mut sensor = SensorParams::default();
         (sensor.skin.cells_across, sensor.skin.poisson, sensor.skin.model) = (11, 0.5, crate::SkinModel::Layer);
         let model = ContactModel::new(&sensor);
