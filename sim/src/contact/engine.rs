@@ -882,8 +882,9 @@ impl<'a> Simulation<'a> {
         // Every cell's gap is this solve's: a candidate's after deformation, any other's
         // `g0 + extra` (it is no candidate because that is >= 0; the pressures' displacement
         // only opens it further). Keeping an earlier round's value for a cell that has left
-        // the candidates left a stale overlap (regression test: `contact_stress`'s seed
-        // e9612148, a tilted lift-off on the layer skin, g = -0.011 mm).
+        // the candidates left a stale overlap (regression test
+        // `a_cell_that_leaves_the_candidates_keeps_no_stale_overlap`: a tilted lift-off on the
+        // layer skin, g = -0.011 mm).
         for (k, g) in sol.gap.iter().enumerate() {
             if g.is_finite() {
                 self.gap[k] = *g;

@@ -131,7 +131,7 @@ impl CellMatrix {
     /// are skipped (they add nothing).
     pub fn apply(&self, x: &[f64], y: &mut [f64]) {
         assert_eq!((x.len(), y.len()), (self.cols, self.rows), "packed lengths of a cell matrix product");
-        // The same multiplies and adds in the same order on every vector unit: the same bits.
+        // The same fused multiply-adds in the same order on every vector unit: the same bits.
         pulp::Arch::new().dispatch(PanelSums { matrix: self, x, y });
     }
 }
