@@ -57,9 +57,8 @@ pub const CANDIDATES: [Candidate; 11] = [
 /// simulated taps the fitted preset goes on to make (read from the recipe, so that the two
 /// cannot drift apart).
 pub fn grid_cells() -> Result<usize> {
-    let (name, text) =
-        tacsim_sim::RECIPES.iter().find(|(n, _)| *n == "edge-2d").context("the built-in recipes lack edge-2d")?;
-    tacsim_sim::dataset::Recipe::from_toml_str(text, name)?
+    tacsim_sim::dataset::Recipe::builtin("edge-2d")?
+        .0
         .cells_across
         .context("the built-in edge-2d recipe names no cells_across")
 }

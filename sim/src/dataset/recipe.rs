@@ -334,14 +334,20 @@ impl Recipe {
         if path.exists() {
             return Ok((Self::load(path)?, path.display().to_string()));
         }
-        match crate::embedded::RECIPES.iter().find(|(n, _)| *n == arg) {
+        Self::builtin(arg)
+    }
+
+    /// The built-in recipe `name` ([`crate::embedded::RECIPES`]), whatever files there are;
+    /// with its source name for errors.
+    pub fn builtin(name: &str) -> Result<(Self, String)> {
+        match crate::embedded::RECIPES.iter().find(|(n, _)| *n == name) {
             Some((name, text)) => {
                 let source = format!("built-in recipe {name} (scenarios/datasets/{name}.toml)");
                 Ok((Self::from_toml_str(text, &source)?, source))
             }
             None => Err(SimError::Unknown {
                 kind: "recipe (neither a file nor a built-in recipe)",
-                name: arg.to_owned(),
+                name: name.to_owned(),
                 known: crate::embedded::RECIPES.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
             }),
         }
