@@ -150,8 +150,10 @@ fn pressed_pins(sensor: &SensorParams, opts: &RenderOptions) -> Result<(Vec<PinP
     let r = &frame.report;
     let summary = if r.in_contact {
         format!(
-            "; {} over `{shape}`: normal force {:.3} N, shear ({:.3}, {:.3}) N, {} contact cells ({} slipping)",
+            "; {} over `{shape}`: indentation {:.3} mm, normal force {:.3} N, shear ({:.3}, {:.3}) N, {} contact \
+             cells ({} slipping)",
             if opts.slide_from.is_some() { "slide" } else { "tap" },
+            r.indentation_mm,
             r.force_n[2],
             r.force_n[0],
             r.force_n[1],

@@ -146,6 +146,10 @@ pub struct StepReport {
     /// plane and normal (pressing) across it, the split Coulomb's law bounds (equal to
     /// `force_n` for an untilted path).
     pub contact_force_n: [f64; 3],
+    /// How far the stimulus reaches into the undeformed skin (mm): the largest overlap of
+    /// the two on the grid, `-min g0`. A tilted press reaches deeper than the pose's
+    /// `depth_mm`, which places the apex (test `a_tilted_press_is_held_to_its_indentation_not_its_depth`).
+    pub indentation_mm: f64,
     /// Cells in contact.
     pub contact_cells: usize,
     /// Cells slipping in this step.
@@ -636,6 +640,7 @@ impl<'a> Simulation<'a> {
             _ => (vec![0.0; g0.len()], vec![0.0; g0.len()]),
         };
         let mut report = self.solve_coupled(op, &g0, &mu, slip)?;
+        report.indentation_mm = -g0.iter().fold(0.0f64, |m, g| m.min(*g));
         self.finish_report(&mut report)?;
         Ok(report)
     }
