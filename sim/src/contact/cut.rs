@@ -18,7 +18,8 @@
 //!   `(phi asinh(1/phi) + asinh(phi)) / (2 phi asinh 1)`) and against `1 / phi` on the bench's
 //!   taps across the disk's rim, this one is closest to finer grids
 //!   (`docs/guide/contact.md`, "Cut cells");
-//! - the pins see its force at the centroid, near ones on the rectangle's sub-rectangles.
+//! - the pins see its force with the edge's singular profile across the rectangle, `w / 3`
+//!   from the edge (`pin_motion::edge_profile`).
 //!
 //! Every value is continuous in the edge's position, so the contact and the pins move
 //! smoothly as the edge crosses a cell.
@@ -37,6 +38,9 @@ pub(crate) struct Cut {
     /// Sides (mm, along the grid's `x` and `y`) of the rectangle that stands for the covered
     /// part: the cell's side across the edge, `fraction` of it along the other axis.
     pub sides_mm: [f64; 2],
+    /// Unit vector along the grid axis across the edge, from the covered part towards the
+    /// edge (one of `(+-1, 0)`, `(0, +-1)`).
+    pub toward_edge: [f64; 2],
 }
 
 impl Cut {
@@ -71,7 +75,9 @@ impl Cut {
         let (cw, cs) = (first_w / area, first_s / area);
         let (centroid_mm, sides_mm) =
             if along_x { ([cw, cs], [fraction * h, h]) } else { ([cs, cw], [h, fraction * h]) };
-        Some(Self { fraction, centroid_mm, sides_mm })
+        let toward = g_along.signum();
+        let toward_edge = if along_x { [toward, 0.0] } else { [0.0, toward] };
+        Some(Self { fraction, centroid_mm, sides_mm, toward_edge })
     }
 
     /// Extra compliance of the cell to its own traction, relative to the whole cell's

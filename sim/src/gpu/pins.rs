@@ -203,7 +203,7 @@ fn pack(states: &[&PinLoad<'_>]) -> Result<Packed> {
         let f = &s.forces;
         let (near2, _, _) = f.near_rule();
         p.reals.extend([f.far2, f.super_far2, near2, s.dome_radius_mm]);
-        let (block0, cell0) = (blocks.len() / 5, cells.len() / 9);
+        let (block0, cell0) = (blocks.len() / 5, cells.len() / 11);
         sample_ints.extend([(supers.len() / 5) as u32, f.supers.len() as u32, f.subsquares as u32, 0]);
         for g in &f.supers {
             supers.extend([g.x, g.y, g.f[0], g.f[1], g.f[2]]);

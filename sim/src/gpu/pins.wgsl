@@ -214,7 +214,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
             let cells_end = ints[params.block_members_at + 2u * b + 1u];
             for (var k = ints[params.block_members_at + 2u * b]; k < cells_end; k++) {
-                let ca = params.cells_at + 9u * k;
+                let ca = params.cells_at + 11u * k;
                 let x = reals[ca];
                 let y = reals[ca + 1u];
                 let f = group(ca);
@@ -223,14 +223,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     continue;
                 }
                 let part = f / f64(sub * sub);
-                // The cell's sub-squares: the first one's offset and their sides (`subs`).
+                // The cell's sub-squares (`subs`): sub-square (i, j) at the cell's point plus
+                // `first + i step + i^2 curve` along x (j along y).
                 let first_x = reals[ca + 5u];
                 let first_y = reals[ca + 6u];
-                let sub_x = reals[ca + 7u];
-                let sub_y = reals[ca + 8u];
+                let step_x = reals[ca + 7u];
+                let step_y = reals[ca + 8u];
+                let curve_x = reals[ca + 9u];
+                let curve_y = reals[ca + 10u];
                 for (var i = 0u; i < sub; i++) {
+                    let fi = f64(i);
                     for (var j = 0u; j < sub; j++) {
-                        add(x + first_x + f64(i) * sub_x, y + first_y + f64(j) * sub_y, part);
+                        let fj = f64(j);
+                        add(x + first_x + fi * step_x + fi * fi * curve_x, y + first_y + fj * step_y + fj * fj * curve_y, part);
                     }
                 }
             }
