@@ -1204,21 +1204,38 @@ mod tests {
             let even = err(coarse.pins());
             coarse.cuts = cuts.clone();
             let profiled = err(coarse.pins());
-            // The fine tractions kept inside the cut cells, summed and spread evenly elsewhere.
-            for k in 0..gf.len() {
-                let kc = coarse_of(k);
-                if cuts[kc].is_none() {
-                    (fine.pressure[k], fine.qx[k], fine.qy[k]) = (summed[0][kc], summed[1][kc], summed[2][kc]);
-                    if let Some(c) = fine.cuts.get_mut(k) {
-                        *c = None;
+            // The fine tractions kept inside the cut cells (and their neighbours), summed and
+            // spread evenly elsewhere.
+            let cut = |i: usize, j: usize| cuts[j * gc.nx + i].is_some();
+            let beside = |kc: usize| {
+                let (i, j) = gc.column_row(kc);
+                (i.saturating_sub(1)..(i + 2).min(gc.nx))
+                    .any(|a| (j.saturating_sub(1)..(j + 2).min(gc.ny)).any(|b| cut(a, b)))
+            };
+            let (kept_p, kept_qx, kept_qy, kept_cuts) =
+                (fine.pressure.clone(), fine.qx.clone(), fine.qy.clone(), fine.cuts.clone());
+            let mut spread_outside = |keep: &dyn Fn(usize) -> bool| {
+                fine.cuts.clone_from(&kept_cuts);
+                for k in 0..gf.len() {
+                    let kc = coarse_of(k);
+                    if keep(kc) {
+                        (fine.pressure[k], fine.qx[k], fine.qy[k]) = (kept_p[k], kept_qx[k], kept_qy[k]);
+                    } else {
+                        (fine.pressure[k], fine.qx[k], fine.qy[k]) = (summed[0][kc], summed[1][kc], summed[2][kc]);
+                        if let Some(c) = fine.cuts.get_mut(k) {
+                            *c = None;
+                        }
                     }
                 }
-            }
-            let fine_in_cuts = err(fine.pins_exact());
+                err(fine.pins_exact())
+            };
+            let fine_in_cuts = spread_outside(&|kc| cuts[kc].is_some());
+            let fine_beside = spread_outside(&beside);
             eprintln!(
                 "tap {pose:?}: largest pin error against 65 cells (mm): 13 cells solved {solved:.3}; 65 cells' \
                  tractions on 13 cells, spread evenly {even:.3}, with the edge profile {profiled:.3}, as 65 \
-                 cells spread them inside the cut cells {fine_in_cuts:.3}"
+                 cells spread them inside the cut cells {fine_in_cuts:.3}, inside the cut cells and their \
+                 neighbours {fine_beside:.3}"
             );
         }
     }
