@@ -1147,18 +1147,13 @@ mod tests {
         assert!(force_ratio < 5.0 && tip_ratio < 5.0, "force {force_ratio}, tip {tip_ratio}");
     }
 
-    /// Regression (issue 31, found by `contact_stress`'s proptest once cut cells became the
-    /// default): the normal solve stopped on the cells' relative pressure change, and a cut
-    /// cell's extra compliance (up to `1 / sqrt(phi)` times a whole cell's) turned the same
-    /// change into a larger gap: a loaded sliver was left 5.0e-5 mm open against the stress
-    /// test's 3.5e-5 (1e-4 of the 0.34 mm indentation). The change now counts each cell's own
-    /// compliance, and every loaded cell closes within the same bound as the whole cells.
     /// Where the pin error across a sharp edge comes from, on the bench's worst taps across the
     /// disk's rim (13 cells against 65 = 5 x 13 on the same footprint): 65 cells' tractions
     /// summed onto the 13 cells and placed as 13 cells place them (evenly, and with the cut
-    /// cells' edge profile), then placed as 65 cells do inside the cut cells only. A
-    /// diagnostic, not a check: `cargo test --release -p tacsim-sim --lib edge_pin_error_budget
-    /// -- --ignored --nocapture` (`docs/guide/contact.md`, "Cut cells").
+    /// cells' edge profile), then placed as 65 cells do inside the cut cells (and their
+    /// neighbours) only. A diagnostic, not a check: `cargo test --release -p tacsim-sim --lib
+    /// edge_pin_error_budget -- --ignored --nocapture` (`docs/guide/contact.md`, "The edge's
+    /// profile in the pins").
     #[test]
     #[ignore = "diagnostic: prints the edge error budget"]
     fn edge_pin_error_budget() {
@@ -1262,6 +1257,12 @@ mod tests {
         assert!(err < 0.31, "largest pin error {err} mm");
     }
 
+    /// Regression (issue 31, found by `contact_stress`'s proptest once cut cells became the
+    /// default): the normal solve stopped on the cells' relative pressure change, and a cut
+    /// cell's extra compliance (up to `1 / sqrt(phi)` times a whole cell's) turned the same
+    /// change into a larger gap: a loaded sliver was left 5.0e-5 mm open against the stress
+    /// test's 3.5e-5 (1e-4 of the 0.34 mm indentation). The change now counts each cell's own
+    /// compliance, and every loaded cell closes within the same bound as the whole cells.
     #[test]
     fn cut_cells_close_their_gaps_as_whole_cells_do() {
         let scene = scene_of("spiral-2");

@@ -330,7 +330,7 @@ impl CellForces {
 /// an edge: on the bench's worst tap across the disk's rim, 13 cells were 0.46 mm off 65
 /// cells, and 0.045 mm with each cut cell's force spread as 65 cells spread it; with this
 /// profile 0.30 mm (test `a_cut_cells_force_leans_to_the_edge_for_the_pins`,
-/// `docs/guide/contact.md`, "Cut cells").
+/// `docs/guide/contact.md`, "The edge's profile in the pins").
 fn edge_profile(cut: &Cut, n: usize) -> ([f64; 2], [f64; 6]) {
     let nf = n as f64;
     let mut point = cut.centroid_mm;
