@@ -142,12 +142,10 @@ fn a_cell_that_leaves_the_candidates_keeps_no_stale_overlap() {
     let scene = scene_with(&names[0]);
     let m = model_of(11, 0.5, SkinModel::ALL[1].0);
     let start = SensorPose {
-        x_mm: 0.0,
-        y_mm: 0.0,
         depth_mm: 2.3889101147427367,
-        yaw_deg: 0.0,
         rx_deg: 5.856413122873717,
         ry_deg: -8.49115049253562,
+        ..Default::default()
     };
     let moves = [
         (0.0, 0.0, 0.21324950026444536),
@@ -176,14 +174,8 @@ fn a_tilted_press_is_held_to_its_indentation_not_its_depth() {
     let names = catalogue().names();
     let scene = scene_with(&names[0]);
     let m = model_of(11, 0.5, SkinModel::ALL[0].0);
-    let start = SensorPose {
-        x_mm: 0.0,
-        y_mm: 0.0,
-        depth_mm: 0.05,
-        yaw_deg: 0.0,
-        rx_deg: 12.580644942393397,
-        ry_deg: -11.148117666348002,
-    };
+    let start =
+        SensorPose { depth_mm: 0.05, rx_deg: 12.580644942393397, ry_deg: -11.148117666348002, ..Default::default() };
     let poses = [start, SensorPose { depth_mm: 0.05 + 0.2752649276059783, ..start }, start];
     let mut sim = Simulation::new(&m, &scene, &poses);
     for (i, pose) in poses.iter().enumerate() {

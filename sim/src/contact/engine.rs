@@ -1114,6 +1114,27 @@ mod tests {
         scene
     }
 
+    /// The default (calibrated) sensor's contact at `cells` across the footprint.
+    fn default_model(cells: usize) -> ContactModel {
+        let mut sensor = SensorParams::default();
+        sensor.skin.cells_across = cells;
+        ContactModel::new(&sensor)
+    }
+
+    /// The bench's worst taps across the disk's rim (its edge at `x = 50` mm), worst first.
+    fn worst_rim_taps() -> [SensorPose; 3] {
+        [
+            SensorPose::new(50.212111996651636, 1.9034683064035818, 4.112017682582, -104.13378902911502),
+            SensorPose::new(47.34907172405703, -4.448277587450935, 3.8926758544961624, 97.68117019787599),
+            SensorPose::new(52.59794120780816, -1.0569866164366326, 2.922351496197967, -111.97804110201162),
+        ]
+    }
+
+    /// The largest distance between corresponding pin tips (mm).
+    fn largest_tip_difference(a: &[PinPose], b: &[PinPose]) -> f64 {
+        a.iter().zip(b).map(|(p, q)| (p.tip - q.tip).norm()).fold(0.0, f64::max)
+    }
+
     /// Regression (issue 31): a cell was in or out of contact by the gap at its centre, so as
     /// a stimulus's sharp edge crossed a cell the contact's edge moved by a whole cell at
     /// once, and the force and the pins next to it jumped. With the cut cells
@@ -1158,17 +1179,8 @@ mod tests {
     #[ignore = "diagnostic: prints the edge error budget"]
     fn edge_pin_error_budget() {
         let scene = scene_of("disk");
-        let model = |cells: usize| {
-            let mut sensor = SensorParams::default();
-            sensor.skin.cells_across = cells;
-            ContactModel::new(&sensor)
-        };
-        let (coarse_model, fine_model) = (model(13), model(65));
-        for pose in [
-            SensorPose::new(50.212111996651636, 1.9034683064035818, 4.112017682582, -104.13378902911502),
-            SensorPose::new(47.34907172405703, -4.448277587450935, 3.8926758544961624, 97.68117019787599),
-            SensorPose::new(52.59794120780816, -1.0569866164366326, 2.922351496197967, -111.97804110201162),
-        ] {
+        let (coarse_model, fine_model) = (default_model(13), default_model(65));
+        for pose in worst_rim_taps() {
             let mut coarse = Simulation::new(&coarse_model, &scene, &[pose]);
             coarse.step(pose).expect("solved");
             let mut fine = Simulation::new(&fine_model, &scene, &[pose]);
@@ -1178,9 +1190,7 @@ mod tests {
                 gf.nx == 5 * gc.nx && (gf.cell_mm * 5.0 - gc.cell_mm).abs() < 1e-12 && gf.centre_mm == gc.centre_mm
             );
             let reference = fine.pins_exact();
-            let err = |pins: Vec<PinPose>| {
-                pins.iter().zip(&reference).map(|(a, b)| (a.tip - b.tip).norm()).fold(0.0, f64::max)
-            };
+            let err = |pins: Vec<PinPose>| largest_tip_difference(&pins, &reference);
             let coarse_of = |k: usize| {
                 let (i, j) = gf.column_row(k);
                 (j / 5) * gc.nx + i / 5
@@ -1242,18 +1252,15 @@ mod tests {
     #[test]
     fn a_cut_cells_force_leans_to_the_edge_for_the_pins() {
         let scene = scene_of("disk");
-        let pose = SensorPose::new(50.212111996651636, 1.9034683064035818, 4.112017682582, -104.13378902911502);
+        let pose = worst_rim_taps()[0];
         let pins = |cells: usize, exact: bool| {
-            let mut sensor = SensorParams::default();
-            sensor.skin.cells_across = cells;
-            let model = ContactModel::new(&sensor);
+            let model = default_model(cells);
             let mut sim = Simulation::new(&model, &scene, &[pose]);
             sim.step(pose).expect("solved");
             assert!(sim.cuts.iter().any(Option::is_some), "the tap must cut cells");
             if exact { sim.pins_exact() } else { sim.pins() }
         };
-        let reference = pins(65, true);
-        let err = pins(13, false).iter().zip(&reference).map(|(a, b)| (a.tip - b.tip).norm()).fold(0.0, f64::max);
+        let err = largest_tip_difference(&pins(13, false), &pins(65, true));
         assert!(err < 0.31, "largest pin error {err} mm");
     }
 
