@@ -89,6 +89,23 @@ impl Kernel {
         }
     }
 
+    /// All six antiderivatives at `(x, y)`, in [`Kernel::ALL`]'s order, sharing their
+    /// logarithms and arc tangents (each equals [`Kernel::antiderivative`]'s).
+    pub(crate) fn antiderivatives(x: f64, y: f64) -> [f64; 6] {
+        let (ax, ay) = (x.abs(), y.abs());
+        let (sx, sy) = (sign(x), sign(y));
+        let r = x.hypot(y);
+        let (xy, yx) = (a_asinh_b_over_a(ax, ay), a_asinh_b_over_a(ay, ax));
+        [
+            sx * sy * (xy + yx),
+            sx * sy * yx,
+            sx * sy * xy,
+            ax + ay - r,
+            sy * (half_a_ln1p_b2_over_a2(ay, ax) + a_atan_b_over_a(ax, ay)),
+            sx * (half_a_ln1p_b2_over_a2(ax, ay) + a_atan_b_over_a(ay, ax)),
+        ]
+    }
+
     /// Exact integral of the kernel over a `w x h` rectangle centred at the load point, seen from
     /// the field point at offset `(dx, dy)` from the rectangle's centre:
     /// `int int k(dx - s, dy - t) ds dt` over `|s| <= w/2, |t| <= h/2`.
@@ -270,6 +287,17 @@ mod tests {
                 let exact = k.rectangle(dx, dy, 1.0, 0.8);
                 let quad = quadrature(k, dx, dy, 1.0, 0.8);
                 assert!((exact - quad).abs() < 1e-5 * (1.0 + quad.abs()), "{k:?} at ({dx},{dy}): {exact} vs {quad}");
+            }
+        }
+    }
+
+    /// The shared antiderivatives are each kernel's own, in every quadrant and on the axes.
+    #[test]
+    fn shared_antiderivatives_equal_each_kernels() {
+        for &(x, y) in &[(0.7, 0.3), (-0.7, 0.3), (0.2, -1.4), (-2.0, -0.1), (0.0, 0.5), (0.4, 0.0), (0.0, 0.0)] {
+            let all = Kernel::antiderivatives(x, y);
+            for (k, v) in Kernel::ALL.iter().zip(all) {
+                assert!((k.antiderivative(x, y) - v).abs() < 1e-15, "{k:?} at ({x}, {y})");
             }
         }
     }

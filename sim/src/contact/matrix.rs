@@ -18,6 +18,7 @@
 
 use std::sync::Arc;
 
+use super::cut::CutCoupling;
 use super::grid::Grid;
 use super::operator::{Component, Operator, Product};
 
@@ -157,6 +158,9 @@ pub(crate) struct CellProduct<'a, const B: usize> {
     /// Compliance added to the diagonal blocks' diagonals (mm/MPa, packed), where edges cut
     /// cells ([`CellProduct::with_cut`]).
     cut: Option<Vec<f64>>,
+    /// The cut cells' coupling to the cells next to them, a change of the operator's
+    /// coefficients: `(row, column, change)` (packed, mm/MPa; [`CutCoupling::near`]).
+    near: Vec<(usize, usize, f64)>,
 }
 
 impl<'a, const B: usize> CellProduct<'a, B> {
@@ -189,14 +193,31 @@ impl<'a, const B: usize> CellProduct<'a, B> {
             positions,
             fields: std::cell::RefCell::new(fields),
             cut: None,
+            near: Vec::new(),
         }
     }
 
-    /// The same products with each cut cell's extra compliance to its own traction
-    /// (`extra` per grid cell, relative to the operator's diagonal: [`super::cut`]) added on
-    /// the diagonal blocks. `None`, or no cut among the cells: unchanged.
-    pub(crate) fn with_cut(mut self, extra: Option<&[f64]>) -> Self {
-        let Some(extra) = extra else { return self };
+    /// The same products with the cut cells' `coupling` ([`super::cut`]): each one's extra
+    /// compliance to its own traction (relative to the operator's diagonal) added on the
+    /// diagonal blocks' diagonals ([`CellProduct::cut`]), and its coupling to the cells next
+    /// to it added to the operator's coefficients ([`CellProduct::apply_operator`]). `None`,
+    /// or no cut among the cells: unchanged.
+    pub(crate) fn with_cut(mut self, coupling: Option<&CutCoupling>) -> Self {
+        let Some(coupling) = coupling else { return self };
+        let (cells, m) = (self.cells, self.cells.len());
+        let sorted = cells.is_sorted();
+        let at = |k: usize| if sorted { cells.binary_search(&k).ok() } else { cells.iter().position(|&c| c == k) };
+        for &(a, b, change) in &coupling.near {
+            let (Some(i), Some(j)) = (at(a), at(b)) else { continue };
+            let back: [f64; 6] = std::array::from_fn(|k| if k >= 4 { -change[k] } else { change[k] });
+            for (r, row) in self.blocks.iter().enumerate() {
+                for (s, &c) in row.iter().enumerate() {
+                    self.near.push((r * m + i, s * m + j, self.op.from_unit_integrals(c, &change)));
+                    self.near.push((r * m + j, s * m + i, self.op.from_unit_integrals(c, &back)));
+                }
+            }
+        }
+        let extra = &coupling.extra;
         if self.cells.iter().all(|&k| extra[k] == 0.0) {
             return self;
         }
@@ -241,8 +262,40 @@ impl<'a, const B: usize> CellProduct<'a, B> {
         }
     }
 
-    /// [`CellProduct::apply`] without the cut cells' compliance.
+    /// [`CellProduct::apply`] without the cut cells' own compliance (their coupling to the
+    /// cells next to them is in).
     pub(crate) fn apply_operator(&self, src: Option<&[usize]>, x: &[f64], y: &mut [f64]) {
+        self.apply_whole(src, x, y);
+        for &(r, c, v) in &self.near {
+            y[r] += v * x[c];
+        }
+    }
+
+    /// `y += C x`, `C` what the cut cells change of the whole cells' operator (their own
+    /// compliance and their coupling).
+    pub(crate) fn add_cut(&self, x: &[f64], y: &mut [f64]) {
+        if let Some(cut) = &self.cut {
+            for ((y, x), c) in y.iter_mut().zip(x).zip(cut) {
+                *y += c * x;
+            }
+        }
+        for &(r, c, v) in &self.near {
+            y[r] += v * x[c];
+        }
+    }
+
+    /// A bound of the largest eigenvalue's change by the cut cells' coupling (mm/MPa): its
+    /// largest absolute row sum (Gershgorin; 0 without).
+    pub(crate) fn coupling_bound(&self) -> f64 {
+        let mut rows = vec![0.0; B * self.cells.len()];
+        for &(r, _, v) in &self.near {
+            rows[r] += v.abs();
+        }
+        rows.into_iter().fold(0.0, f64::max)
+    }
+
+    /// The whole cells' operator, by the matrix or the operator's own product.
+    fn apply_whole(&self, src: Option<&[usize]>, x: &[f64], y: &mut [f64]) {
         let m = self.cells.len();
         if let Some(matrix) = &self.matrix {
             let Some(positions) = &self.positions else { return matrix.apply(x, y) };

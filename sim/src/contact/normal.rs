@@ -8,6 +8,7 @@
 //! every cell. Products are dense on the candidates when there are few, FFT otherwise
 //! ([`ProductChoice`]).
 
+use super::cut::CutCoupling;
 use super::matrix::{CellProduct, MatrixCache};
 use super::operator::{Component, Operator};
 use crate::error::{Result, SimError};
@@ -85,9 +86,9 @@ impl NormalSolution {
 pub struct Extra<'a> {
     /// A normal displacement per cell (mm, e.g. from tangential tractions).
     pub displacement: Option<&'a [f64]>,
-    /// Each cell's compliance to its own pressure beyond the operator's diagonal, relative to
-    /// it (a cell an edge cuts: [`super::cut`]; 0 elsewhere).
-    pub cut: Option<&'a [f64]>,
+    /// The cells an edge cuts ([`super::cut`]): their own compliance beyond the operator's
+    /// diagonal, and their coupling to the cells next to them.
+    pub(crate) cut: Option<&'a CutCoupling>,
 }
 
 /// Solves for the pressures. `g0` is the gap per cell (mm, `+inf` where nothing can touch),

@@ -322,6 +322,13 @@ impl Operator {
         &self.coefficients[c as usize]
     }
 
+    /// Component `c`'s half-space coefficient (mm/MPa) from the six kernels' integrals `t`
+    /// ([`Kernel::ALL`]) in cell units (a unit cell's force, lengths in cells), as the
+    /// tables' (a layered body's correction, smooth over a cell, is not in it).
+    pub(crate) fn from_unit_integrals(&self, c: Component, t: &[f64; 6]) -> f64 {
+        Self::combine(self.factors, c, t)
+    }
+
     /// Self-influence `A_c(0, 0)` (mm/MPa).
     pub fn diagonal(&self, c: Component) -> f64 {
         self.coefficient(c, 0, 0)

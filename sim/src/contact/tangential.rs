@@ -17,6 +17,7 @@
 //! dissipation of the step, `-sum q_i . s_i h^2 >= 0` (N mm), follows. Normal-tangential
 //! coupling is left to the caller, which alternates the two solves (see [`super::engine`]).
 
+use super::cut::CutCoupling;
 use super::matrix::{CellProduct, MatrixCache};
 use super::operator::{Component, Operator, Product};
 use crate::error::{Result, SimError};
@@ -164,9 +165,9 @@ pub struct StepInput<'a> {
     /// An upper bound of the largest eigenvalue of `A_t` on the contact cells (mm/MPa), e.g.
     /// [`largest_eigenvalue`] on a superset of them; `None` computes it.
     pub lipschitz: Option<f64>,
-    /// Each cell's compliance to its own traction beyond the operator's diagonal, relative to
-    /// it (a cell an edge cuts: [`super::cut`]; 0 elsewhere), `None` without.
-    pub cut: Option<&'a [f64]>,
+    /// The cells an edge cuts ([`super::cut`]): their own compliance beyond the operator's
+    /// diagonal, and their coupling to the cells next to them; `None` without.
+    pub(crate) cut: Option<&'a CutCoupling>,
 }
 
 /// The in-plane blocks of the operator: `(u_x, u_y)` from `(q_x, q_y)`.
@@ -201,7 +202,7 @@ pub fn solve_step(
     }
     let bound: Vec<f64> = contact.iter().map(|&k| input.mu[k] * input.pressure[k]).collect();
     let product = CellProduct::new(op, &SHEAR_BLOCKS, &contact, settings.dense_max_cells, cache).with_cut(input.cut);
-    let b = slip_offset(op, &contact, settings.dense_max_cells, input, kept);
+    let b = slip_offset(&product, settings.dense_max_cells, input, kept);
     let (q, iterations) = minimise(&product, input, &b, &bound, settings, cache)?;
     Ok(settle(&product, &b, &bound, q, iterations))
 }
@@ -221,12 +222,12 @@ pub struct PrevProduct {
 /// each cell would have with the previous tractions kept. `A_t q'` comes from `kept` where it
 /// holds these cells.
 fn slip_offset(
-    op: &Operator,
-    contact: &[usize],
+    product: &CellProduct<'_, 2>,
     dense_max_cells: usize,
     input: &StepInput<'_>,
     kept: &mut PrevProduct,
 ) -> Vec<f64> {
+    let (op, contact) = (product.operator(), product.cells());
     let n = input.pressure.len();
     let (prev, w) = (input.prev, input.slip);
     if kept.contact != contact || kept.u.0.len() != n {
@@ -237,12 +238,15 @@ fn slip_offset(
             op.apply(&[(Component::Xx, prev.0), (Component::Xy, prev.1)], &mut ux, product);
             op.apply(&[(Component::Xy, prev.0), (Component::Yy, prev.1)], &mut uy, product);
         }
-        if let Some(cut) = input.cut {
-            let (dx, dy) = (op.diagonal(Component::Xx), op.diagonal(Component::Yy));
-            for &k in contact {
-                ux[k] += dx * cut[k] * prev.0[k];
-                uy[k] += dy * cut[k] * prev.1[k];
-            }
+        // The cut cells' change of the operator, on the previous tractions of the contact
+        // cells (as the solve's products take it).
+        let m = contact.len();
+        let packed: Vec<f64> = contact.iter().map(|&k| prev.0[k]).chain(contact.iter().map(|&k| prev.1[k])).collect();
+        let mut cut = vec![0.0; 2 * m];
+        product.add_cut(&packed, &mut cut);
+        for (i, &k) in contact.iter().enumerate() {
+            ux[k] += cut[i];
+            uy[k] += cut[m + i];
         }
         *kept = PrevProduct { contact: contact.to_vec(), u: (ux, uy) };
     }
@@ -273,7 +277,8 @@ fn minimise(
         Some(l) => l,
         None => largest_eigenvalue(op, contact, settings.dense_max_cells, cache),
     };
-    let step = 1.0 / lipschitz;
+    // The cut cells' coupling is in the gradient's products: its bound is added.
+    let step = 1.0 / (lipschitz + product.coupling_bound());
     // The cut cells' own compliance `D` (diagonal, [`super::cut`]) is not in the gradient
     // step but in the projection, exactly: the minimiser of `q.D q / 2 + |q - z|^2 / (2 step)`
     // on a disc is `z / (1 + step d)` projected on it (Xx and Yy have one diagonal, so `d` is
