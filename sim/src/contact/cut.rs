@@ -24,8 +24,8 @@
 //! Every value is continuous in the edge's position, so the contact and the pins move
 //! smoothly as the edge crosses a cell.
 
-use super::grid::Grid;
 use super::kernel::Kernel;
+use super::operator::Operator;
 
 /// Lines across the cell on which the covered length is taken exactly (the covered fraction
 /// and centroid are their midpoint sums, continuous in `d`).
@@ -99,7 +99,7 @@ pub(crate) fn compliance_ratio(phi: f64) -> f64 {
 /// Strips of equal force a cut cell's load is taken in across the edge for the solves' near
 /// field ([`CutCoupling`]): the edge's profile, as the pins see it
 /// (`pin_motion::edge_profile`), strip `i` from `s = w (i / n)^2` to `w ((i + 1) / n)^2`.
-const STRIPS: usize = 4;
+const STRIPS: usize = 3;
 
 /// The cells around a cut cell whose coupling to it is taken from the covered part: those
 /// within this many cells (sides and corners).
@@ -109,55 +109,53 @@ const NEAR_CELLS: usize = 1;
 /// the cells next to it.
 ///
 /// Without the coupling a cut cell acts on the other cells from its centre, as a whole cell;
-/// only its own compliance knew the cut, and on the bench's taps across the disk's rim half
-/// of the pins' error at 13 cells came from the solve (`docs/guide/contact.md`, "The near
-/// field of cut cells"). Here the coefficient between a cut cell and a cell next to it is
-/// the covered part's: its load with the edge's profile over the covered rectangle
+/// only its own compliance knew the cut, and on the bench's worst tap across the disk's rim
+/// half of the pins' error at 13 cells came from the solve (`docs/guide/contact.md`, "The
+/// near field of cut cells"). Here the coefficient between a cut cell and a cell next to it
+/// is the covered part's: its load with the edge's profile over the covered rectangle
 /// ([`STRIPS`] strips), its displacement at the covered part's centroid, the two ways of a
 /// pair averaged so that the operator stays symmetric (reciprocity). Farther cells keep the
-/// whole cells' coefficient.
+/// whole cells' coefficients. Only the normal and in-plane blocks take it (the
+/// normal-tangential coupling's odd components keep the whole cells').
 #[derive(Clone, Debug, Default, PartialEq)]
 pub(crate) struct CutCoupling {
     /// Per grid cell, its compliance to its own traction beyond the operator's diagonal,
     /// relative to it ([`Cut::extra_compliance`]; 0 for a whole cell).
     pub extra: Vec<f64>,
     /// Pairs of grid cells `(a, b)` next to each other, one at least cut, with the change of
-    /// the six kernels' integrals ([`Kernel::ALL`], in cell units: a unit cell's traction, a
-    /// unit cell's side) for field cell `a` and source `b`. Field `b` from source `a` is the
-    /// same for the even kernels and the opposite for the odd ones (`x / r^2`, `y / r^2`).
-    pub near: Vec<(usize, usize, [f64; 6])>,
+    /// the even kernels' integrals ([`Kernel::even_antiderivatives`], in cell units: a unit
+    /// cell's force, lengths in cells) between them, the same both ways.
+    pub near: Vec<(usize, usize, [f64; 4])>,
 }
 
 impl CutCoupling {
-    /// The coupling of the cut cells `cuts` (a field of `grid`); `None` without a cut.
-    pub(crate) fn new(grid: &Grid, cuts: &[Option<Cut>]) -> Option<Self> {
+    /// The coupling of the cut cells `cuts` (a field of `op`'s grid) among the cells the
+    /// stimulus reaches into (`g0 < 0`, mm: only they can carry a load or a gap the solves
+    /// use); `None` without a cut.
+    pub(crate) fn new(op: &Operator, cuts: &[Option<Cut>], g0: &[f64]) -> Option<Self> {
         if cuts.iter().all(Option::is_none) {
             return None;
         }
         let extra = cuts.iter().map(|c| c.as_ref().map_or(0.0, Cut::extra_compliance)).collect();
+        let grid = op.grid();
         let (nx, ny, h) = (grid.nx, grid.ny, grid.cell_mm);
         let patch = |k: usize| Patch::of(k % nx, k / nx, cuts[k].as_ref(), h);
         let mut near = Vec::new();
-        for (k, _) in cuts.iter().enumerate().filter(|(_, c)| c.is_some()) {
+        for (k, _) in cuts.iter().enumerate().filter(|(k, c)| c.is_some() && g0[*k] < 0.0) {
             let (i, j) = (k % nx, k / nx);
             for nj in j.saturating_sub(NEAR_CELLS)..(j + NEAR_CELLS + 1).min(ny) {
                 for ni in i.saturating_sub(NEAR_CELLS)..(i + NEAR_CELLS + 1).min(nx) {
                     let other = nj * nx + ni;
                     // Each pair once: from its cut cell of lower index.
-                    if other == k || (cuts[other].is_some() && other < k) {
+                    if other == k || g0[other] >= 0.0 || (cuts[other].is_some() && other < k) {
                         continue;
                     }
                     let (a, b) = (k.min(other), k.max(other));
                     let (pa, pb) = (patch(a), patch(b));
                     let (ab, ba) = (pa.seen_from(&pb), pb.seen_from(&pa));
-                    let whole = Patch::of(a % nx, a / nx, None, h).seen_from(&Patch::of(b % nx, b / nx, None, h));
-                    let mut change = [0.0; 6];
-                    for (m, c) in change.iter_mut().enumerate() {
-                        // `x / r^2` and `y / r^2` are odd: the way back is the opposite.
-                        let back = if m >= 4 { -ba[m] } else { ba[m] };
-                        *c = 0.5 * (ab[m] + back) - whole[m];
-                    }
-                    near.push((a, b, change));
+                    let whole =
+                        op.unit_integrals((a % nx) as isize - (b % nx) as isize, (a / nx) as isize - (b / nx) as isize);
+                    near.push((a, b, std::array::from_fn(|m| 0.5 * (ab[m] + ba[m]) - whole[m])));
                 }
             }
         }
@@ -192,10 +190,10 @@ impl Patch {
         }
     }
 
-    /// The six kernels' integrals at this patch's centre from the unit force (a whole cell's
-    /// at unit traction) on `source`: uniform over a whole cell, with the edge's profile over
-    /// a covered part.
-    fn seen_from(&self, source: &Patch) -> [f64; 6] {
+    /// The even kernels' integrals at this patch's centre from the unit force (a whole
+    /// cell's at unit traction) on `source`: uniform over a whole cell, with the edge's
+    /// profile over a covered part.
+    fn seen_from(&self, source: &Patch) -> [f64; 4] {
         let d = [self.centre[0] - source.centre[0], self.centre[1] - source.centre[1]];
         let [w, l] = source.sides;
         let Some((axis, toward)) = source.toward_edge else {
@@ -211,12 +209,12 @@ impl Patch {
             } else {
                 ([d[0] + 0.5 * along, d[0] - 0.5 * along], [d[1] - u; 2])
             };
-            let (p, q) = (Kernel::antiderivatives(x[0], y[0]), Kernel::antiderivatives(x[1], y[1]));
-            std::array::from_fn::<f64, 6, _>(|m| p[m] - q[m])
+            let (p, q) = (Kernel::even_antiderivatives(x[0], y[0]), Kernel::even_antiderivatives(x[1], y[1]));
+            std::array::from_fn::<f64, 4, _>(|m| p[m] - q[m])
         };
         let edge = 0.5 * toward * across;
         let at = |b: usize| edge - toward * across * (b as f64 / STRIPS as f64).powi(2);
-        let mut sum = [0.0; 6];
+        let mut sum = [0.0; 4];
         let mut last = (at(0), g(at(0)));
         for b in 1..=STRIPS {
             let u = at(b);
@@ -233,18 +231,20 @@ impl Patch {
     }
 }
 
-/// The six kernels' integrals over a `w x l` rectangle (cell units) at offset `d` from its
+/// The even kernels' integrals over a `w x l` rectangle (cell units) at offset `d` from its
 /// centre, per unit area of it (a unit force).
-fn rectangle(d: [f64; 2], w: f64, l: f64) -> [f64; 6] {
+fn rectangle(d: [f64; 2], w: f64, l: f64) -> [f64; 4] {
     let (x1, x2) = (d[0] - 0.5 * w, d[0] + 0.5 * w);
     let (y1, y2) = (d[1] - 0.5 * l, d[1] + 0.5 * l);
     let f = [(x2, y2, 1.0), (x1, y2, -1.0), (x2, y1, -1.0), (x1, y1, 1.0)]
-        .map(|(x, y, s)| (Kernel::antiderivatives(x, y), s));
+        .map(|(x, y, s)| (Kernel::even_antiderivatives(x, y), s));
     std::array::from_fn(|m| f.iter().map(|(v, s)| s * v[m]).sum::<f64>() / (w * l))
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::grid::Grid;
     use crate::contact::kernel::Elastic;
     use crate::contact::matrix::{CellProduct, MatrixCache};
     use crate::contact::operator::{Component, HalfSpace, Operator, Pairing};
@@ -308,7 +308,7 @@ mod tests {
     }
 
     /// A whole cell is seen as the operator's tables see it (`Kernel::rectangle` on the unit
-    /// cell).
+    /// cell; the even kernels).
     #[test]
     fn a_whole_cell_is_seen_as_the_tables_see_it() {
         let source = Patch::of(3, 4, None, 0.7);
@@ -322,9 +322,9 @@ mod tests {
     }
 
     /// Far from a cut cell its load acts as one force where the edge's profile puts it, a
-    /// third of the covered width in from the edge (the strips' own centroid is 0.344 of it,
-    /// `11 / 32`: within the tolerance's 1e-3 at 40 cells), not at the covered part's
-    /// centroid (half the width in, 2.5e-3 off here).
+    /// third of the covered width in from the edge (the strips' own centroid is 0.352 of it,
+    /// `19 / 54`: within the tolerance's 1e-3 at 40 cells), not at the covered part's
+    /// centroid (half the width in, about 3e-3 off here).
     #[test]
     fn a_cut_cells_load_acts_a_third_of_its_width_in_from_the_edge() {
         let h = 0.5;
@@ -336,7 +336,7 @@ mod tests {
         for (i, j) in [(90, 50), (50, 90), (20, 75), (10, 50)] {
             let seen = Patch::of(i, j, None, h).seen_from(&source);
             let (x, y) = (i as f64 - force_at[0], j as f64 - force_at[1]);
-            let point = Kernel::ALL.map(|k| k.value(x, y));
+            let point: [f64; 4] = std::array::from_fn(|m| Kernel::ALL[m].value(x, y));
             let scale = point.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             for ((k, v), want) in Kernel::ALL.iter().zip(seen).zip(point) {
                 assert!((v - want).abs() < 1e-3 * scale, "{k:?} at ({i}, {j}): {v} vs {want}");
@@ -361,9 +361,6 @@ mod tests {
             })
             .collect();
         assert!(cuts.iter().filter(|c| c.is_some()).count() >= n, "the edge must cut a row of cells");
-        let coupling = CutCoupling::new(&grid, &cuts).expect("cut cells");
-        assert!(!coupling.near.is_empty());
-        assert_eq!(CutCoupling::new(&grid, &vec![None; n * n]), None);
         let op = Operator::new(
             &HalfSpace {
                 material: Elastic { shear_modulus_mpa: 0.1, poisson: 0.436 },
@@ -371,6 +368,16 @@ mod tests {
             },
             grid,
         );
+        let reached = vec![-0.1; n * n];
+        let coupling = CutCoupling::new(&op, &cuts, &reached).expect("cut cells");
+        assert!(!coupling.near.is_empty());
+        assert_eq!(CutCoupling::new(&op, &vec![None; n * n], &reached), None);
+        // Cells the stimulus does not reach into (the last column) take no coupling.
+        let mut last_open = reached.clone();
+        (0..n).for_each(|j| last_open[j * n + n - 1] = 0.0);
+        let partial = CutCoupling::new(&op, &cuts, &last_open).expect("cut cells");
+        assert!(partial.near.iter().all(|&(a, b, _)| a % n != n - 1 && b % n != n - 1));
+        assert!(partial.near.len() < coupling.near.len());
         let cells: Vec<usize> = (0..n * n).collect();
         let field = |seed: u64, len: usize| -> Vec<f64> {
             (0..len).map(|k| (((k as u64 * 2654435761 + seed) % 1000) as f64) / 1000.0 - 0.4).collect()

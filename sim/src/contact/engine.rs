@@ -617,8 +617,8 @@ impl<'a> Simulation<'a> {
     fn solve_at(&mut self, op: &Operator, pose: SensorPose, previous: Option<SensorPose>) -> Result<StepReport> {
         let mut hits = gaps_below(self.model, self.scene, &pose, &self.frame, &self.dome, f64::INFINITY);
         self.cuts = self.cut_cells(op.grid(), &pose, &mut hits);
-        self.cut_coupling = CutCoupling::new(op.grid(), &self.cuts);
         let (g0, mu): (Vec<f64>, Vec<f64>) = hits.iter().map(|h| (h.gap, h.friction)).unzip();
+        self.cut_coupling = CutCoupling::new(op, &self.cuts, &g0);
         self.friction.clone_from(&mu);
         self.gap.clone_from(&g0);
         if g0.iter().all(|g| *g >= 0.0) {
@@ -1255,8 +1255,8 @@ mod tests {
     /// whole cell, and half of the pins' error across an edge at 13 cells was the solve's: on
     /// the bench's worst tap across the disk's rim the pins were 0.302 mm off 65 cells where
     /// 65 cells' own forces, summed onto the 13 and placed with the edge's profile, give
-    /// 0.151. With the covered parts' coupling ([`super::super::cut::CutCoupling`]) 0.171,
-    /// and on the two next taps 0.108 and 0.057 (0.122 and 0.071 before).
+    /// 0.151. With the covered parts' coupling ([`super::super::cut::CutCoupling`]) 0.174,
+    /// and on the two next taps 0.109 and 0.057 (0.122 and 0.071 before).
     #[test]
     fn a_cut_cell_acts_on_its_neighbours_from_its_covered_part() {
         let bounds = [0.19, 0.12, 0.065];

@@ -207,13 +207,13 @@ impl<'a, const B: usize> CellProduct<'a, B> {
         let (cells, m) = (self.cells, self.cells.len());
         let sorted = cells.is_sorted();
         let at = |k: usize| if sorted { cells.binary_search(&k).ok() } else { cells.iter().position(|&c| c == k) };
-        for &(a, b, change) in &coupling.near {
-            let (Some(i), Some(j)) = (at(a), at(b)) else { continue };
-            let back: [f64; 6] = std::array::from_fn(|k| if k >= 4 { -change[k] } else { change[k] });
+        for (a, b, change) in &coupling.near {
+            let (Some(i), Some(j)) = (at(*a), at(*b)) else { continue };
             for (r, row) in self.blocks.iter().enumerate() {
                 for (s, &c) in row.iter().enumerate() {
-                    self.near.push((r * m + i, s * m + j, self.op.from_unit_integrals(c, &change)));
-                    self.near.push((r * m + j, s * m + i, self.op.from_unit_integrals(c, &back)));
+                    let v = self.op.from_even_integrals(c, change);
+                    self.near.push((r * m + i, s * m + j, v));
+                    self.near.push((r * m + j, s * m + i, v));
                 }
             }
         }

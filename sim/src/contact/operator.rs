@@ -322,11 +322,22 @@ impl Operator {
         &self.coefficients[c as usize]
     }
 
-    /// Component `c`'s half-space coefficient (mm/MPa) from the six kernels' integrals `t`
-    /// ([`Kernel::ALL`]) in cell units (a unit cell's force, lengths in cells), as the
-    /// tables' (a layered body's correction, smooth over a cell, is not in it).
-    pub(crate) fn from_unit_integrals(&self, c: Component, t: &[f64; 6]) -> f64 {
-        Self::combine(self.factors, c, t)
+    /// The even kernels' unit-cell integrals ([`Kernel::ALL`]'s first four, in cell units) at
+    /// a field cell offset `(dx, dy)` cells from the loaded one: the tables' values.
+    pub(crate) fn unit_integrals(&self, dx: isize, dy: isize) -> [f64; 4] {
+        let wx = 2 * self.grid.nx - 1;
+        let idx = (dy + self.grid.ny as isize - 1) as usize * wx + (dx + self.grid.nx as isize - 1) as usize;
+        let t = &self.tables.values[idx];
+        [t[0], t[1], t[2], t[3]]
+    }
+
+    /// Component `c`'s half-space coefficient (mm/MPa) from the even kernels' integrals `t`
+    /// in cell units (a unit cell's force, lengths in cells), as the tables' (a layered body's
+    /// correction, smooth over a cell, is not in it). `c` is one of the normal and in-plane
+    /// components (`Zz`, `Xx`, `Yy`, `Xy`), which take no odd kernel.
+    pub(crate) fn from_even_integrals(&self, c: Component, t: &[f64; 4]) -> f64 {
+        debug_assert!(matches!(c, Component::Zz | Component::Xx | Component::Yy | Component::Xy), "{c:?}");
+        Self::combine(self.factors, c, &[t[0], t[1], t[2], t[3], 0.0, 0.0])
     }
 
     /// Self-influence `A_c(0, 0)` (mm/MPa).
