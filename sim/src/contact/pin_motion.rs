@@ -344,9 +344,8 @@ fn edge_profile(cut: &Cut, n: usize) -> ([f64; 2], [f64; 6]) {
             subs[axis] = 0.5 * (step - side);
             subs[2 + axis] = step;
         } else {
-            // Across: the edge at the rectangle's side towards it, the point w / 3 in from it.
-            let edge = cut.centroid_mm[axis] + 0.5 * t * side;
-            point[axis] = edge - t * side / 3.0;
+            // Across: the point w / 3 in from the edge ([`Cut::load_point_mm`]).
+            point[axis] = cut.load_point_mm()[axis];
             // s_i - w / 3 = w (3 i^2 + 3 i + 1 - n^2) / (3 n^2), away from the edge (-t).
             let unit = -t * side / (nf * nf);
             subs[axis] = unit * (1.0 - nf * nf) / 3.0;
