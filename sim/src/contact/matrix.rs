@@ -271,6 +271,11 @@ impl<'a, const B: usize> CellProduct<'a, B> {
         }
     }
 
+    /// Whether the cut cells change these products ([`CellProduct::with_cut`]).
+    pub(crate) fn has_cut(&self) -> bool {
+        self.cut.is_some() || !self.near.is_empty()
+    }
+
     /// `y += C x`, `C` what the cut cells change of the whole cells' operator (their own
     /// compliance and their coupling).
     pub(crate) fn add_cut(&self, x: &[f64], y: &mut [f64]) {

@@ -240,13 +240,16 @@ fn slip_offset(
         }
         // The cut cells' change of the operator, on the previous tractions of the contact
         // cells (as the solve's products take it).
-        let m = contact.len();
-        let packed: Vec<f64> = contact.iter().map(|&k| prev.0[k]).chain(contact.iter().map(|&k| prev.1[k])).collect();
-        let mut cut = vec![0.0; 2 * m];
-        product.add_cut(&packed, &mut cut);
-        for (i, &k) in contact.iter().enumerate() {
-            ux[k] += cut[i];
-            uy[k] += cut[m + i];
+        if product.has_cut() {
+            let m = contact.len();
+            let packed: Vec<f64> =
+                contact.iter().map(|&k| prev.0[k]).chain(contact.iter().map(|&k| prev.1[k])).collect();
+            let mut cut = vec![0.0; 2 * m];
+            product.add_cut(&packed, &mut cut);
+            for (i, &k) in contact.iter().enumerate() {
+                ux[k] += cut[i];
+                uy[k] += cut[m + i];
+            }
         }
         *kept = PrevProduct { contact: contact.to_vec(), u: (ux, uy) };
     }
