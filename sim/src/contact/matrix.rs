@@ -211,7 +211,7 @@ impl<'a, const B: usize> CellProduct<'a, B> {
             let (Some(i), Some(j)) = (at(*a), at(*b)) else { continue };
             for (r, row) in self.blocks.iter().enumerate() {
                 for (s, &c) in row.iter().enumerate() {
-                    let v = self.op.from_even_integrals(c, change);
+                    let v = self.op.coefficient_of_even_integrals(c, change);
                     self.near.push((r * m + i, s * m + j, v));
                     self.near.push((r * m + j, s * m + i, v));
                 }

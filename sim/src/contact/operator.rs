@@ -335,7 +335,7 @@ impl Operator {
     /// in cell units (a unit cell's force, lengths in cells), as the tables' (a layered body's
     /// correction, smooth over a cell, is not in it). `c` is one of the normal and in-plane
     /// components (`Zz`, `Xx`, `Yy`, `Xy`), which take no odd kernel.
-    pub(crate) fn from_even_integrals(&self, c: Component, t: &[f64; 4]) -> f64 {
+    pub(crate) fn coefficient_of_even_integrals(&self, c: Component, t: &[f64; 4]) -> f64 {
         debug_assert!(matches!(c, Component::Zz | Component::Xx | Component::Yy | Component::Xy), "{c:?}");
         Self::combine(self.factors, c, &[t[0], t[1], t[2], t[3], 0.0, 0.0])
     }
