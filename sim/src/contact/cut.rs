@@ -131,8 +131,9 @@ const NEAR_CELLS: usize = 1;
 /// half of the pins' error at 13 cells came from the solve (`docs/guide/contact.md`, "The
 /// near field of cut cells"). Here the coefficient between a cut cell and a cell next to it
 /// is the covered part's: its load with the edge's profile over the covered rectangle
-/// ([`STRIPS`] strips), its displacement at the covered part's centroid, the two ways of a
-/// pair averaged so that the operator stays symmetric (reciprocity). Farther cells keep the
+/// ([`STRIPS`] strips), its displacement at its load point ([`Cut::load_point_mm`], where its
+/// gap is taken), the two ways of a pair averaged so that the operator stays symmetric
+/// (reciprocity). Farther cells keep the
 /// whole cells' coefficients. Only the normal and in-plane blocks take it (the
 /// normal-tangential coupling's odd components keep the whole cells').
 #[derive(Clone, Debug, Default, PartialEq)]
