@@ -95,10 +95,16 @@ impl Cut {
     /// (`pin_motion::edge_profile`), and the cell's gap and displacement are taken there.
     pub(crate) fn load_point_mm(&self) -> [f64; 2] {
         let mut point = self.centroid_mm;
-        let axis = if self.toward_edge[0] != 0.0 { 0 } else { 1 };
-        let (t, w) = (self.toward_edge[axis], self.sides_mm[axis]);
-        point[axis] += t * w * (0.5 - 1.0 / 3.0);
+        let (axis, t) = self.across();
+        point[axis] += t * self.sides_mm[axis] * (0.5 - 1.0 / 3.0);
         point
+    }
+
+    /// The grid axis across the edge (0 for `x`, 1 for `y`) and the direction along it from
+    /// the covered part towards the edge (`+-1`): [`Cut::toward_edge`] as an axis and a sign.
+    pub(crate) fn across(&self) -> (usize, f64) {
+        let axis = if self.toward_edge[0] != 0.0 { 0 } else { 1 };
+        (axis, self.toward_edge[axis])
     }
 
     /// Extra compliance of the cell to its own traction, relative to the whole cell's
@@ -201,25 +207,25 @@ impl Patch {
         match cut {
             None => Self { centre, field: centre, sides: [1.0, 1.0], toward_edge: None },
             Some(c) => {
-                let axis = if c.toward_edge[0] != 0.0 { 0 } else { 1 };
+                let in_cells =
+                    |offset_mm: [f64; 2]| [centre[0] + offset_mm[0] / cell_mm, centre[1] + offset_mm[1] / cell_mm];
                 Self {
-                    centre: [centre[0] + c.centroid_mm[0] / cell_mm, centre[1] + c.centroid_mm[1] / cell_mm],
-                    field: [centre[0] + c.load_point_mm()[0] / cell_mm, centre[1] + c.load_point_mm()[1] / cell_mm],
-                    sides: [c.sides_mm[0] / cell_mm, c.sides_mm[1] / cell_mm],
-                    toward_edge: Some((axis, c.toward_edge[axis])),
+                    centre: in_cells(c.centroid_mm),
+                    field: in_cells(c.load_point_mm()),
+                    sides: c.sides_mm.map(|v| v / cell_mm),
+                    toward_edge: Some(c.across()),
                 }
             }
         }
     }
 
-    /// The even kernels' integrals at this patch's centre from the unit force (a whole
+    /// The even kernels' integrals at this patch's field point from the unit force (a whole
     /// cell's at unit traction) on `source`: uniform over a whole cell, with the edge's
     /// profile over a covered part.
     fn seen_from(&self, source: &Patch) -> [f64; 4] {
         let d = [self.field[0] - source.centre[0], self.field[1] - source.centre[1]];
-        let [w, l] = source.sides;
         let Some((axis, toward)) = source.toward_edge else {
-            return rectangle(d, w, l);
+            return Kernel::even_rectangles(d[0], d[1], source.sides[0], source.sides[1]);
         };
         // Across the edge (`u` along `axis`, from the centre), `G(u)` is the antiderivatives'
         // difference over the other axis, and a strip from `lo` to `hi` integrates to
@@ -251,16 +257,6 @@ impl Patch {
         }
         sum
     }
-}
-
-/// The even kernels' integrals over a `w x l` rectangle (cell units) at offset `d` from its
-/// centre, per unit area of it (a unit force).
-fn rectangle(d: [f64; 2], w: f64, l: f64) -> [f64; 4] {
-    let (x1, x2) = (d[0] - 0.5 * w, d[0] + 0.5 * w);
-    let (y1, y2) = (d[1] - 0.5 * l, d[1] + 0.5 * l);
-    let f = [(x2, y2, 1.0), (x1, y2, -1.0), (x2, y1, -1.0), (x1, y1, 1.0)]
-        .map(|(x, y, s)| (Kernel::even_antiderivatives(x, y), s));
-    std::array::from_fn(|m| f.iter().map(|(v, s)| s * v[m]).sum::<f64>() / (w * l))
 }
 
 #[cfg(test)]

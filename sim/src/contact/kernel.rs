@@ -105,6 +105,17 @@ impl Kernel {
         [s * (xy + yx), s * yx, s * xy, ax + ay - r]
     }
 
+    /// The even kernels' [`Kernel::rectangle`] integrals over a `w x h` rectangle at offset
+    /// `(dx, dy)` from its centre, per unit area (a unit force), from one set of
+    /// [`Kernel::even_antiderivatives`] per corner.
+    pub(crate) fn even_rectangles(dx: f64, dy: f64, w: f64, h: f64) -> [f64; 4] {
+        let (x1, x2) = (dx - 0.5 * w, dx + 0.5 * w);
+        let (y1, y2) = (dy - 0.5 * h, dy + 0.5 * h);
+        let corners = [(x2, y2, 1.0), (x1, y2, -1.0), (x2, y1, -1.0), (x1, y1, 1.0)]
+            .map(|(x, y, s)| (Self::even_antiderivatives(x, y), s));
+        std::array::from_fn(|m| corners.iter().map(|(v, s)| s * v[m]).sum::<f64>() / (w * h))
+    }
+
     /// Exact integral of the kernel over a `w x h` rectangle centred at the load point, seen from
     /// the field point at offset `(dx, dy)` from the rectangle's centre:
     /// `int int k(dx - s, dy - t) ds dt` over `|s| <= w/2, |t| <= h/2`.

@@ -333,7 +333,6 @@ impl CellForces {
 /// `docs/guide/contact.md`, "The edge's profile in the pins").
 fn edge_profile(cut: &Cut, n: usize) -> ([f64; 2], [f64; 6]) {
     let nf = n as f64;
-    let mut point = cut.centroid_mm;
     let mut subs = [0.0; 6];
     for axis in 0..2 {
         let t = cut.toward_edge[axis];
@@ -344,8 +343,7 @@ fn edge_profile(cut: &Cut, n: usize) -> ([f64; 2], [f64; 6]) {
             subs[axis] = 0.5 * (step - side);
             subs[2 + axis] = step;
         } else {
-            // Across: the point w / 3 in from the edge ([`Cut::load_point_mm`]).
-            point[axis] = cut.load_point_mm()[axis];
+            // Across: from the load point, w / 3 in from the edge ([`Cut::load_point_mm`]),
             // s_i - w / 3 = w (3 i^2 + 3 i + 1 - n^2) / (3 n^2), away from the edge (-t).
             let unit = -t * side / (nf * nf);
             subs[axis] = unit * (1.0 - nf * nf) / 3.0;
@@ -353,7 +351,7 @@ fn edge_profile(cut: &Cut, n: usize) -> ([f64; 2], [f64; 6]) {
             subs[4 + axis] = unit;
         }
     }
-    (point, subs)
+    (cut.load_point_mm(), subs)
 }
 
 /// The point forces one point sees, as offsets from it (mm) and forces (N), in lane-sized
@@ -571,8 +569,7 @@ mod tests {
         let h = 1.2;
         for (d, a, b) in [(-0.1, 1.0, 0.0), (-0.1, -1.0, 0.0), (0.3, 0.1, 1.0), (0.3, 0.1, -1.0)] {
             let cut = Cut::of_half_plane(h, d, a, b).expect("cut");
-            let axis = if cut.toward_edge[0] != 0.0 { 0 } else { 1 };
-            let t = cut.toward_edge[axis];
+            let (axis, t) = cut.across();
             let w = cut.sides_mm[axis];
             let edge = cut.centroid_mm[axis] + 0.5 * t * w;
             for n in [1usize, 3, 5] {
