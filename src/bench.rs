@@ -459,7 +459,9 @@ fn grid_curve(
     let at_grid = |cells: usize, subsquares: usize| {
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
-        ContactModel { pin_subsquares: subsquares, ..ContactModel::new(&s) }
+        let mut model = ContactModel::new(&s);
+        model.pin_subsquares = subsquares;
+        model
     };
     let tap_pins = |m: &ContactModel, pose: SensorPose, exact: bool| -> Result<Vec<_>> {
         let mut sim = Simulation::new(m, scene, &[pose]);

@@ -50,6 +50,9 @@ pub(crate) struct Cut {
     /// Unit vector along the grid axis across the edge, from the covered part towards the
     /// edge (one of `(+-1, 0)`, `(0, +-1)`).
     pub toward_edge: [f64; 2],
+    /// The edge's line `d + a u + b v = 0` as `[d, a, b]` (mm, and per mm of the offsets
+    /// `(u, v)` from the cell's centre): the half-plane it was found from.
+    pub line: [f64; 3],
 }
 
 impl Cut {
@@ -86,7 +89,7 @@ impl Cut {
             if along_x { ([cw, cs], [fraction * h, h]) } else { ([cs, cw], [h, fraction * h]) };
         let toward = g_along.signum();
         let toward_edge = if along_x { [toward, 0.0] } else { [0.0, toward] };
-        Some(Self { fraction, centroid_mm, sides_mm, toward_edge })
+        Some(Self { fraction, centroid_mm, sides_mm, toward_edge, line: [d, a, b] })
     }
 
     /// Where the edge's profile puts the cell's force (offset from the cell's centre, mm, grid

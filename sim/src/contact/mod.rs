@@ -26,6 +26,7 @@ mod normal;
 mod operator;
 mod pin_motion;
 pub(crate) mod pose;
+mod refine;
 mod tangential;
 pub(crate) mod trajectory;
 pub mod validate;

@@ -40,6 +40,7 @@ use super::kernel::DepthKernel;
 use super::lanes::Avx2Lanes;
 use super::lanes::{LANES, Lanes, Real};
 use super::layered::LayeredKernels;
+use super::refine::Refinement;
 use crate::pins::{Pin, PinLayout, PinPose};
 
 /// Finite-difference step for the rotation (mm).
@@ -143,19 +144,24 @@ pub struct CellForces {
     /// curve_y]` (mm): sub-square `(i, j)` sits at the cell's point plus `first + i step +
     /// i^2 curve` along `x` (`j` along `y`), each with an equal share of the force:
     /// [`CellForces::near_rule`]'s squares for a whole cell (no curve), [`edge_profile`]'s
-    /// strips for one an edge cuts ([`super::cut`]).
+    /// strips for one an edge cuts ([`super::cut`]). No step (`[start, count, 0, 0, 0, 0]`):
+    /// a refined cell ([`super::refine`]), whose sub-cells are `count` of [`CellForces::points`]
+    /// from `start`.
     pub(crate) subs: Vec<[f64; 6]>,
+    /// The refined cells' sub-cells as point forces: `[x, y, Qx, Qy, P]` (mm, N).
+    pub(crate) points: Vec<[f64; 5]>,
 }
 
 impl CellForces {
     /// Collects the cells with non-zero traction; cells near a pin act as `subsquares` x
     /// `subsquares` sub-squares (at least 1). A cell an edge cuts (`cuts`, per grid cell)
     /// acts at its covered part's centroid, near ones as sub-rectangles of its covered
-    /// rectangle.
+    /// rectangle. A refined cell (`refined`) acts as its sub-cells' point forces instead.
     pub(crate) fn new(
         grid: &Grid,
         (pressure, qx, qy): (&[f64], &[f64], &[f64]),
         cuts: Option<&[Option<Cut>]>,
+        refined: Option<&Refinement>,
         subsquares: usize,
     ) -> Self {
         let area = grid.cell_area_mm2();
@@ -175,6 +181,15 @@ impl CellForces {
                             for i in bi..(bi + BLOCK).min(grid.nx) {
                                 let k = j * grid.nx + i;
                                 if pressure[k] == 0.0 && qx[k] == 0.0 && qy[k] == 0.0 {
+                                    continue;
+                                }
+                                if let Some(range) = refined.and_then(|r| r.of(k)) {
+                                    let r = refined.expect("a refined cell's refinement");
+                                    let (x, y, f, subs) = out.refined_cell(r, range);
+                                    out.x.push(x);
+                                    out.y.push(y);
+                                    out.f.push(f);
+                                    out.subs.push(subs);
                                     continue;
                                 }
                                 let c = grid.centre(k);
@@ -208,6 +223,19 @@ impl CellForces {
             }
         }
         out
+    }
+
+    /// A refined cell's entry from its sub-cells' forces `range` of `refined`: their total at
+    /// their centroid (weighted by force, as [`Group::of`]), and near a pin the sub-cells'
+    /// own point forces (appended to [`CellForces::points`]; `subs` says where).
+    fn refined_cell(&mut self, refined: &Refinement, range: std::ops::Range<usize>) -> (f64, f64, [f64; 3], [f64; 6]) {
+        let start = self.points.len();
+        for s in range.clone() {
+            let f = refined.f[s];
+            self.points.push([refined.x[s], refined.y[s], f[0], f[1], f[2]]);
+        }
+        let whole = Group::of(range, |s| (refined.x[s], refined.y[s], refined.f[s]));
+        (whole.x, whole.y, whole.f, [start as f64, (self.points.len() - start) as f64, 0.0, 0.0, 0.0, 0.0])
     }
 
     /// The near cells' rule: squared distance (mm^2) within which a cell acts as sub-squares,
@@ -300,8 +328,15 @@ impl CellForces {
                         add(x, y, f);
                         continue;
                     }
-                    let part = sub_force(f);
                     let [first_x, first_y, step_x, step_y, curve_x, curve_y] = self.subs[k];
+                    if step_x == 0.0 && step_y == 0.0 {
+                        // A refined cell: its sub-cells.
+                        for p in &self.points[first_x as usize..(first_x + first_y) as usize] {
+                            add(p[0], p[1], [p[2], p[3], p[4]]);
+                        }
+                        continue;
+                    }
+                    let part = sub_force(f);
                     for i in 0..sub {
                         let i = i as f64;
                         for j in 0..sub {
@@ -648,7 +683,7 @@ mod tests {
                 qy[k] = 0.02 * c[0];
             }
         }
-        CellForces::new(&grid, (&p, &qx, &qy), None, PIN_SUBSQUARES)
+        CellForces::new(&grid, (&p, &qx, &qy), None, None, PIN_SUBSQUARES)
     }
 
     /// What changed: the kernel is evaluated on `LANES` forces at once, in `LANES` running
@@ -731,7 +766,7 @@ mod tests {
                 qy[k] = -0.02 * c[0];
             }
         }
-        let forces = CellForces::new(&grid, (&p, &qx, &qy), None, PIN_SUBSQUARES);
+        let forces = CellForces::new(&grid, (&p, &qx, &qy), None, None, PIN_SUBSQUARES);
         let step = 1e-5;
         for (at, depth) in [
             (Vector3::new(0.1, -0.2, 0.0), 0.66),
@@ -769,7 +804,7 @@ mod tests {
         let (mut p, mut qx, qy) = (vec![0.0; 25], vec![0.0; 25], vec![0.0; 25]);
         p[centre] = 0.2;
         qx[centre] = 0.05;
-        let forces = CellForces::new(&grid, (&p, &qx, &qy), None, PIN_SUBSQUARES);
+        let forces = CellForces::new(&grid, (&p, &qx, &qy), None, None, PIN_SUBSQUARES);
         let force = [0.05 * h * h, 0.0, 0.2 * h * h];
         for (x, depth) in [(0.0, 0.66), (0.3, 0.66), (0.8, 1.0), (0.2, 0.4)] {
             let at = Vector3::new(x, 0.1, 0.0);

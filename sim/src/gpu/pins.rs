@@ -55,7 +55,7 @@ struct Params {
     sample_ints_at: u32,
     super_members_at: u32,
     block_members_at: u32,
-    pad0: u32,
+    points_near_at: u32,
     pad1: u32,
 }
 
@@ -197,7 +197,7 @@ fn pack(states: &[&PinLoad<'_>]) -> Result<Packed> {
     }
     // Per state: its scalars and its super-blocks; blocks and cells with global indices.
     p.params.samples_at = p.reals.len() as u32;
-    let (mut supers, mut blocks, mut cells) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut supers, mut blocks, mut cells, mut near_points) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let (mut super_members, mut block_members, mut sample_ints) = (Vec::new(), Vec::new(), Vec::new());
     for s in states {
         let f = &s.forces;
@@ -213,14 +213,23 @@ fn pack(states: &[&PinLoad<'_>]) -> Result<Packed> {
             blocks.extend([g.x, g.y, g.f[0], g.f[1], g.f[2]]);
             block_members.extend([(cell0 + g.members.start) as u32, (cell0 + g.members.end) as u32]);
         }
+        // A refined cell's sub-cells (`subs` without a step: first and count) with global
+        // indices.
+        let point0 = near_points.len() / 5;
         for k in 0..f.x.len() {
             cells.extend([f.x[k], f.y[k], f.f[k][0], f.f[k][1], f.f[k][2]]);
-            cells.extend(f.subs[k]);
+            let mut subs = f.subs[k];
+            if subs[2] == 0.0 && subs[3] == 0.0 {
+                subs[0] += point0 as f64;
+            }
+            cells.extend(subs);
         }
+        near_points.extend(f.points.iter().flatten());
     }
     p.params.supers_at = append(&mut p.reals, supers);
     p.params.blocks_at = append(&mut p.reals, blocks);
     p.params.cells_at = append(&mut p.reals, cells);
+    p.params.points_near_at = append(&mut p.reals, near_points);
     // Per pin point: base and the point's stencil (mm, grid frame, 15 f64s), and its state.
     let (mut points, mut point_sample) = (Vec::new(), Vec::new());
     for (k, s) in states.iter().enumerate() {

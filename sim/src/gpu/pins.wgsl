@@ -20,7 +20,7 @@ struct Params {
     sample_ints_at: u32,
     super_members_at: u32,
     block_members_at: u32,
-    pad0: u32,
+    points_near_at: u32,
     pad1: u32,
 };
 
@@ -222,15 +222,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     add(x, y, f);
                     continue;
                 }
-                let part = f / f64(sub * sub);
                 // The cell's sub-squares (`subs`): sub-square (i, j) at the cell's point plus
-                // `first + i step + i^2 curve` along x (j along y).
+                // `first + i step + i^2 curve` along x (j along y); without a step, a refined
+                // cell's sub-cells: `count` (second) point forces from `first`.
                 let first_x = reals[ca + 5u];
                 let first_y = reals[ca + 6u];
                 let step_x = reals[ca + 7u];
                 let step_y = reals[ca + 8u];
                 let curve_x = reals[ca + 9u];
                 let curve_y = reals[ca + 10u];
+                if (step_x == 0.0lf && step_y == 0.0lf) {
+                    let first = u32(first_x);
+                    for (var q = first; q < first + u32(first_y); q++) {
+                        let pa = params.points_near_at + 5u * q;
+                        add(reals[pa], reals[pa + 1u], vec3<f64>(reals[pa + 2u], reals[pa + 3u], reals[pa + 4u]));
+                    }
+                    continue;
+                }
+                let part = f / f64(sub * sub);
                 for (var i = 0u; i < sub; i++) {
                     let fi = f64(i);
                     for (var j = 0u; j < sub; j++) {

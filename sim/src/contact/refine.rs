@@ -1,0 +1,424 @@
+//! Sub-cells along a sharp edge, for the pins (issue 31).
+//!
+//! A cut cell ([`super::cut`]) carries the right force for its neighbours and itself, but the
+//! pins, 0.66 mm under the skin on the calibrated sensor, also see *where* in the cell it
+//! acts, and on a coarse grid a cell is 1.5-2 mm wide: the dome's pressure rises several-fold
+//! across it towards the contact's centre, and the edge runs at a slant through it. The edge's
+//! one-dimensional profile (`pin_motion::edge_profile`) cannot place that. Here the cells next
+//! to an edge are solved again at [`SUBCELLS`] x [`SUBCELLS`] sub-cells each, with the coarse
+//! solution around them held (a global-local step):
+//! - the refined cells: every loaded cell that is cut or next to a loaded cut cell (sides and
+//!   corners);
+//! - each sub-cell's initial gap is its own ray's (the engine's rays, at the sub-cell's
+//!   centre), and what the coarse tractions around make it: the pressure of the cells not
+//!   refined and the shear of all cells (each uniform over its cell), through the fine grid's
+//!   operator summed over a cell's sub-cells ([`FineGrid`]);
+//! - the sub-cells' pressures are the normal contact problem on them
+//!   ([`super::normal::solve`]) under the refined cells' total force (load control: the coarse
+//!   solve's force stays, its rigid offset is found);
+//! - each refined cell's shear follows its sub-cells' pressure (`q_s = q p_s / mean p_s`).
+//!
+//! The pins then see each loaded sub-cell as one point force at its centre
+//! ([`Refinement`], `pin_motion::CellForces`); the solve's tractions, its report and forces
+//! are the coarse ones. On the bench's three worst taps across the disk's rim, 13 cells were
+//! 0.141 / 0.077 / 0.032 mm off 65 cells' pins; so refined ... (`docs/guide/contact.md`,
+//! "Sub-cells along an edge").
+
+use std::ops::Range;
+
+use super::cut::{Cut, CutCoupling};
+use super::grid::Grid;
+use super::matrix::MatrixCache;
+use super::normal::{self, Control, NormalSettings, ProductChoice};
+use super::operator::{Component, Operator};
+use crate::error::Result;
+
+/// Sub-cells per side of a refined cell (odd: the cell's centre is a sub-cell's).
+pub(crate) const SUBCELLS: usize = 3;
+
+/// A sub-cell is solved for when its initial gap is below this many coarse cell sides (a ray
+/// past the edge that reaches the stimulus's side or the ground is farther).
+const CANDIDATE_GAP_SIDES: f64 = 0.5;
+
+/// The normal components the refinement needs, in [`FineGrid::boxes`]' order: `u_z` from `p`,
+/// `q_x` and `q_y`.
+const BOX_COMPONENTS: [Component; 3] = [Component::Zz, Component::Zx, Component::Zy];
+
+/// The solve's tolerance on the sub-cells' pressures (relative change, as
+/// [`NormalSettings::tolerance`]): looser than the coarse solve's 1e-5, which moved no pin by
+/// more than 1e-3 mm on the bench's worst taps across the disk's rim and took a third more
+/// iterations.
+const TOLERANCE: f64 = 1e-3;
+
+/// A coarse grid's shape `r` times finer, for every step of every path on grids of that shape:
+/// the operator on the sub-cells, and the displacements of a coarse cell's uniform traction at
+/// each sub-cell (the operator's tables summed over the cell's sub-cells). The operator is at
+/// the cell side `side_mm` it was built for: a half-space's coefficients scale with the cell
+/// side, so one built at 1 mm serves every grid of the shape ([`FineGrid::scale`]); a layered
+/// body's do not, and it is built at the grid's own side.
+#[derive(Debug)]
+pub(crate) struct FineGrid {
+    /// Sub-cells per side of a cell.
+    r: usize,
+    op: Operator,
+    /// Per [`BOX_COMPONENTS`], the displacement (mm/MPa) at sub-cell `(fi, fj)` of a unit
+    /// traction on the coarse cell whose first sub-cell is `(si, sj)`, at the offset
+    /// `(dx, dy) = (fi - si, fj - sj)`: row-major from `(-(N - r), -(M - r))`, `2 N - r` wide
+    /// (`N x M` sub-cells).
+    boxes: [Vec<f64>; 3],
+}
+
+impl FineGrid {
+    /// The sub-cells of grids of `nx x ny` cells, `r` a side; `op` the operator on them (a
+    /// grid of `r nx x r ny` cells, any side).
+    pub(crate) fn new(nx: usize, ny: usize, r: usize, op: Operator) -> Self {
+        let fine = *op.grid();
+        assert!(fine.nx == r * nx && fine.ny == r * ny, "the operator's grid is the sub-cells'");
+        let (n, m) = (fine.nx as isize, fine.ny as isize);
+        let ri = r as isize;
+        let (wx, wy) = (2 * n - ri, 2 * m - ri);
+        let boxes = BOX_COMPONENTS.map(|c| {
+            let table = op.table(c);
+            let tx = (2 * n - 1) as usize;
+            // Along x first (every table row), then along y.
+            let rows = (2 * m - 1) as usize;
+            let mut along_x = vec![0.0; wx as usize * rows];
+            for row in 0..rows {
+                let line = &table[row * tx..(row + 1) * tx];
+                for col in 0..wx as usize {
+                    // Offset `dx = col - (n - r)`; the table's `dx - a` sits at `dx - a + n - 1`.
+                    let at = col + ri as usize - 1;
+                    along_x[row * wx as usize + col] = line[at + 1 - r..=at].iter().sum();
+                }
+            }
+            let mut out = vec![0.0; (wx * wy) as usize];
+            for row in 0..wy as usize {
+                let at = row + ri as usize - 1;
+                for b in 0..r {
+                    let src = &along_x[(at - b) * wx as usize..(at - b + 1) * wx as usize];
+                    for (o, v) in out[row * wx as usize..(row + 1) * wx as usize].iter_mut().zip(src) {
+                        *o += v;
+                    }
+                }
+            }
+            out
+        });
+        Self { r, op, boxes }
+    }
+
+    /// The factor from this fine grid's operator to a grid of cell side `cell_mm`: its
+    /// coefficients times it are the grid's (1 where it was built for that grid).
+    fn scale(&self, cell_mm: f64) -> f64 {
+        cell_mm / self.r as f64 / self.op.grid().cell_mm
+    }
+}
+
+/// The fine grids of a model's paths ([`FineGrid`]), shared by its simulations: a half-space's
+/// per grid shape, a layered body's per shape and cell side (the last [`KEPT`] of them). A
+/// clone of the model starts with none.
+#[derive(Debug, Default)]
+pub(crate) struct FineGrids(std::sync::Mutex<Vec<(FineKey, std::sync::Arc<FineGrid>)>>);
+
+/// A fine grid's shape, sub-cells and cell side (its bits).
+type FineKey = (usize, usize, usize, u64);
+
+/// Fine grids kept per model.
+const KEPT: usize = 8;
+
+impl Clone for FineGrids {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl FineGrids {
+    /// The fine grid of `coarse` at `r` sub-cells a side; `scale_free` when the operator's
+    /// coefficients scale with the cell side (a half-space), `operator` builds one on a grid.
+    pub(crate) fn get(
+        &self,
+        coarse: &Grid,
+        r: usize,
+        scale_free: bool,
+        operator: impl FnOnce(Grid) -> Operator,
+    ) -> std::sync::Arc<FineGrid> {
+        let side = if scale_free { 1.0 } else { coarse.cell_mm / r as f64 };
+        let key = (coarse.nx, coarse.ny, r, side.to_bits());
+        let mut kept = self.0.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some((_, f)) = kept.iter().find(|(k, _)| *k == key) {
+            return f.clone();
+        }
+        let grid = Grid { nx: r * coarse.nx, ny: r * coarse.ny, cell_mm: side, centre_mm: [0.0; 2] };
+        let fine = std::sync::Arc::new(FineGrid::new(coarse.nx, coarse.ny, r, operator(grid)));
+        if kept.len() == KEPT {
+            kept.remove(0);
+        }
+        kept.push((key, fine.clone()));
+        fine
+    }
+}
+
+/// The coarse solution a refinement starts from (grid fields: MPa, and the cut cells).
+pub(crate) struct Coarse<'a> {
+    pub grid: &'a Grid,
+    pub pressure: &'a [f64],
+    pub qx: &'a [f64],
+    pub qy: &'a [f64],
+    pub cuts: &'a [Option<Cut>],
+}
+
+/// A step's refined cells: each one's loaded sub-cells as point forces (grid frame: positions
+/// mm, forces `(Qx, Qy, P)` N), for the pins.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct Refinement {
+    /// The refined cells (coarse indices, ascending) and the range of their sub-cells' forces.
+    cells: Vec<(usize, Range<usize>)>,
+    pub x: Vec<f64>,
+    pub y: Vec<f64>,
+    pub f: Vec<[f64; 3]>,
+}
+
+impl Refinement {
+    /// The range of coarse cell `k`'s sub-cell forces, `None` when it is not refined.
+    pub(crate) fn of(&self, k: usize) -> Option<Range<usize>> {
+        self.cells.binary_search_by_key(&k, |(c, _)| *c).ok().map(|i| self.cells[i].1.clone())
+    }
+}
+
+/// The cells a step refines (coarse indices, ascending): every loaded cell that is cut or next
+/// to a loaded cut cell (sides and corners). Empty without a loaded cut cell.
+fn refined_cells(coarse: &Coarse<'_>) -> Vec<usize> {
+    let grid = coarse.grid;
+    let loaded_cut = |k: usize| coarse.pressure[k] > 0.0 && coarse.cuts.get(k).is_some_and(Option::is_some);
+    if !(0..grid.len()).any(loaded_cut) {
+        return Vec::new();
+    }
+    (0..grid.len())
+        .filter(|&k| {
+            let (i, j) = grid.column_row(k);
+            coarse.pressure[k] > 0.0
+                && (i.saturating_sub(1)..(i + 2).min(grid.nx))
+                    .any(|a| (j.saturating_sub(1)..(j + 2).min(grid.ny)).any(|b| loaded_cut(b * grid.nx + a)))
+        })
+        .collect()
+}
+
+/// A sub-cell of a refined cell.
+#[derive(Clone, Copy, Debug)]
+struct Sub {
+    /// Column and row on the fine grid.
+    at: (usize, usize),
+    /// The refined cell (coarse index).
+    cell: usize,
+    /// Its cut by the cell's edge, in the fine operator's units (its cell side).
+    cut: Option<Cut>,
+}
+
+/// Refines the cells along the loaded cut cells of `coarse` (module docs) on `fine`; `gaps`
+/// gives the initial gap (mm, `+inf` where nothing can touch) at points of the contact plane
+/// (grid frame, mm). `None` without a loaded cut cell.
+pub(crate) fn refine(
+    fine: &FineGrid,
+    coarse: &Coarse<'_>,
+    gaps: impl FnOnce(&[[f64; 2]]) -> Vec<f64>,
+    settings: &NormalSettings,
+) -> Result<Option<Refinement>> {
+    let grid = coarse.grid;
+    let cells = refined_cells(coarse);
+    if cells.is_empty() {
+        return Ok(None);
+    }
+    let op_grid = *fine.op.grid();
+    // Lengths (mm) per unit of the fine operator's, and its coefficients' factor.
+    let (unit_mm, scale) = (grid.cell_mm / fine.r as f64 / op_grid.cell_mm, fine.scale(grid.cell_mm));
+    let subs = subcells(fine, coarse, &cells);
+    let points: Vec<[f64; 2]> = subs.iter().map(|s| point_mm(grid, fine.r, unit_mm, s)).collect();
+    let g0 = gaps(&points);
+    let limit = CANDIDATE_GAP_SIDES * grid.cell_mm;
+    let refined = |k: usize| cells.binary_search(&k).is_ok();
+    // The coarse tractions held: the pressure of the cells not refined, all cells' shear
+    // (traction and first sub-cell's column and row).
+    let held: Vec<([f64; 3], isize, isize)> = (0..grid.len())
+        .filter_map(|k| {
+            let p = if refined(k) { 0.0 } else { coarse.pressure[k] };
+            let t = [p, coarse.qx[k], coarse.qy[k]];
+            let (i, j) = grid.column_row(k);
+            t.iter().any(|v| *v != 0.0).then_some((t, (fine.r * i) as isize, (fine.r * j) as isize))
+        })
+        .collect();
+    let (n, m, r) = (op_grid.nx as isize, op_grid.ny as isize, fine.r as isize);
+    let width = 2 * n - r;
+    let mut gap = vec![f64::INFINITY; op_grid.len()];
+    let mut warm = vec![0.0; op_grid.len()];
+    // Where the sub-cells' cut coupling is taken: the candidates.
+    let mut reach = vec![f64::INFINITY; op_grid.len()];
+    let mut cuts: Vec<Option<Cut>> = vec![None; op_grid.len()];
+    for (s, g) in subs.iter().zip(&g0) {
+        if !(g.is_finite() && *g < limit) {
+            continue;
+        }
+        let (fi, fj) = (s.at.0 as isize, s.at.1 as isize);
+        let mut u = 0.0;
+        for (t, si, sj) in &held {
+            let at = ((fj - sj + m - r) * width + fi - si + n - r) as usize;
+            u += fine.boxes[0][at] * t[0] + fine.boxes[1][at] * t[1] + fine.boxes[2][at] * t[2];
+        }
+        let f = s.at.1 * op_grid.nx + s.at.0;
+        // In the fine operator's units: its displacements are `1 / scale` of the grid's.
+        gap[f] = (g + scale * u) / scale;
+        warm[f] = coarse.pressure[s.cell];
+        reach[f] = -1.0;
+        cuts[f] = s.cut;
+    }
+    let coupling = CutCoupling::new(&fine.op, &cuts, &reach);
+    // The refined cells' force, as the fine operator's cell area carries it.
+    let load = cells.iter().map(|&k| coarse.pressure[k]).sum::<f64>() * grid.cell_area_mm2() / (unit_mm * unit_mm);
+    // Dense products on any number of sub-cells: the fine grid's FFT would transform the
+    // whole footprint for a few hundred of them.
+    let settings =
+        NormalSettings { products: ProductChoice { dense_max_cells: usize::MAX }, tolerance: TOLERANCE, ..*settings };
+    let sol = normal::solve(
+        &fine.op,
+        &gap,
+        normal::Extra { displacement: None, cut: coupling.as_ref() },
+        Control::Load(load),
+        Some(&warm),
+        &settings,
+        &mut MatrixCache::default(),
+    )?;
+    Ok(Some(forces(coarse, fine.r, unit_mm, &cells, &subs, &sol.pressure)))
+}
+
+/// The sub-cells of the refined `cells` (cell after cell, row by row), each with its cut where
+/// its cell's edge ([`Cut::line`]) crosses it; a sub-cell wholly past the edge is left out.
+fn subcells(fine: &FineGrid, coarse: &Coarse<'_>, cells: &[usize]) -> Vec<Sub> {
+    let grid = coarse.grid;
+    let r = fine.r;
+    let side = fine.op.grid().cell_mm;
+    // Millimetres per unit of the fine operator's lengths.
+    let unit_mm = grid.cell_mm / r as f64 / side;
+    let mut subs = Vec::new();
+    for &cell in cells {
+        let (ci, cj) = grid.column_row(cell);
+        let cut = coarse.cuts.get(cell).copied().flatten();
+        for b in 0..r {
+            for a in 0..r {
+                let offset_mm =
+                    [(a as f64 + 0.5) / r as f64 - 0.5, (b as f64 + 0.5) / r as f64 - 0.5].map(|o| o * grid.cell_mm);
+                let sub_cut = match cut {
+                    None => None,
+                    Some(c) => {
+                        let [d, da, db] = c.line;
+                        let d = d + da * offset_mm[0] + db * offset_mm[1];
+                        match Cut::of_half_plane(side, d / unit_mm, da, db) {
+                            Some(sub) => Some(sub),
+                            // Wholly past the edge.
+                            None if d > 0.0 => continue,
+                            None => None,
+                        }
+                    }
+                };
+                subs.push(Sub { at: (r * ci + a, r * cj + b), cell, cut: sub_cut });
+            }
+        }
+    }
+    subs
+}
+
+/// Where a sub-cell's gap is taken and its force acts (grid frame, mm): its centre, or a cut
+/// one's load point ([`Cut::load_point_mm`], in the fine operator's units of `unit_mm`).
+fn point_mm(grid: &Grid, r: usize, unit_mm: f64, sub: &Sub) -> [f64; 2] {
+    let h = grid.cell_mm / r as f64;
+    let [u, v] = sub.cut.map_or([0.0; 2], |c| c.load_point_mm().map(|o| o * unit_mm));
+    let first = [0, 1].map(|a| grid.centre_mm[a] - 0.5 * h * (r * [grid.nx, grid.ny][a] - 1) as f64);
+    [first[0] + sub.at.0 as f64 * h + u, first[1] + sub.at.1 as f64 * h + v]
+}
+
+/// The refined cells' sub-cell forces from the sub-cells' pressures `pressure` (a field of
+/// the fine operator's grid, MPa): each cell's shear follows its sub-cells' pressure; a cell
+/// the solve left unloaded keeps its shear evenly over its sub-cells.
+fn forces(coarse: &Coarse<'_>, r: usize, unit_mm: f64, cells: &[usize], subs: &[Sub], pressure: &[f64]) -> Refinement {
+    let grid = coarse.grid;
+    let nx = r * grid.nx;
+    let area = (grid.cell_mm / r as f64).powi(2);
+    let p = |s: &Sub| pressure[s.at.1 * nx + s.at.0];
+    let mut out = Refinement::default();
+    let mut rest = subs;
+    for &cell in cells {
+        let count = rest.iter().take_while(|s| s.cell == cell).count();
+        let (own, next) = rest.split_at(count);
+        rest = next;
+        let start = out.f.len();
+        let total: f64 = own.iter().map(p).sum();
+        for s in own {
+            let share = (r * r) as f64 * if total > 0.0 { p(s) / total } else { 1.0 / count as f64 };
+            let t = [coarse.qx[cell] * share, coarse.qy[cell] * share, p(s)];
+            if t.iter().all(|v| *v == 0.0) {
+                continue;
+            }
+            let [x, y] = point_mm(grid, r, unit_mm, s);
+            out.x.push(x);
+            out.y.push(y);
+            out.f.push(t.map(|v| v * area));
+        }
+        out.cells.push((cell, start..out.f.len()));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::kernel::Elastic;
+    use crate::contact::operator::{HalfSpace, Pairing};
+
+    fn half_space(grid: Grid) -> Operator {
+        let material = Elastic::from_young(1.0, 0.436);
+        Operator::new(&HalfSpace { material, pairing: Pairing::RigidIndenter }, grid)
+    }
+
+    /// A coarse cell's box coefficient is the sum of the fine operator's coefficients over its
+    /// sub-cells, at every sub-cell of the grid, for the three components.
+    #[test]
+    fn a_cells_box_sums_its_subcells() {
+        let (nx, ny, r) = (4, 3, 3);
+        let fine =
+            FineGrid::new(nx, ny, r, half_space(Grid { nx: r * nx, ny: r * ny, cell_mm: 0.4, centre_mm: [0.0; 2] }));
+        let g = *fine.op.grid();
+        let (n, m, ri) = (g.nx as isize, g.ny as isize, r as isize);
+        for (ci, cj) in (0..nx).flat_map(|i| (0..ny).map(move |j| (i, j))) {
+            for f in 0..g.len() {
+                let (fi, fj) = g.column_row(f);
+                for (c, comp) in BOX_COMPONENTS.iter().enumerate() {
+                    let mut direct = 0.0;
+                    for (a, b) in (0..r).flat_map(|a| (0..r).map(move |b| (a, b))) {
+                        let (dx, dy) = (fi as isize - (r * ci + a) as isize, fj as isize - (r * cj + b) as isize);
+                        direct += fine.op.coefficient(*comp, dx, dy);
+                    }
+                    let (dx, dy) = (fi as isize - ri * ci as isize, fj as isize - ri * cj as isize);
+                    let boxed = fine.boxes[c][((dy + m - ri) * (2 * n - ri) + dx + n - ri) as usize];
+                    // Relative to the largest coefficient: the odd components cancel to 0.
+                    let scale = fine.op.diagonal(Component::Zz);
+                    assert!((boxed - direct).abs() <= 1e-12 * scale, "{comp:?} {ci} {cj} {f}: {boxed} vs {direct}");
+                }
+            }
+        }
+    }
+
+    /// The refinement's sub-cell centres tile each cell of the coarse grid: they average to
+    /// its centre, a sub-cell side apart.
+    #[test]
+    fn subcells_tile_their_cell() {
+        let grid = Grid { nx: 3, ny: 5, cell_mm: 2.0, centre_mm: [1.0, 0.5] };
+        let r = 5;
+        for k in 0..grid.len() {
+            let (ci, cj) = grid.column_row(k);
+            let c = grid.centre(k);
+            let subs: Vec<[f64; 2]> = (0..r * r)
+                .map(|s| point_mm(&grid, r, 1.0, &Sub { at: (r * ci + s % r, r * cj + s / r), cell: k, cut: None }))
+                .collect();
+            let mean = [0, 1].map(|a| subs.iter().map(|s| s[a]).sum::<f64>() / subs.len() as f64);
+            assert!((mean[0] - c[0]).abs() < 1e-12 && (mean[1] - c[1]).abs() < 1e-12, "{k}: {mean:?} {c:?}");
+            assert!((subs[1][0] - subs[0][0] - 0.4).abs() < 1e-12 && (subs[r][1] - subs[0][1] - 0.4).abs() < 1e-12);
+        }
+    }
+}
