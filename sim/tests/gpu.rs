@@ -118,6 +118,8 @@ fn the_gpu_moves_the_pins_as_the_cpu_does() {
         let mut lifted = Simulation::new(&model, &scene, &[off]);
         lifted.step(off).expect("off");
         sims.push(lifted);
+        // The taps on the edge refine the cells along it (their sub-cells' own point forces).
+        assert!(sims.iter().any(|s| s.refined_cells() > 0), "{name}: no state refines the cells along the edge");
         let refs: Vec<&Simulation<'_>> = sims.iter().collect();
         let got = gpu.pins_batch(&refs).expect("GPU pins");
         assert_eq!(got.len(), sims.len());

@@ -590,6 +590,12 @@ impl<'a> Simulation<'a> {
         &self.gap
     }
 
+    /// How many cells along a sharp edge the last step solved again at sub-cells for the
+    /// pins (`refine.rs`; 0 without a loaded cut cell).
+    pub fn refined_cells(&self) -> usize {
+        self.refinement.as_ref().map_or(0, Refinement::len)
+    }
+
     /// Friction coefficient of the stimulus under each grid cell at the last step.
     pub fn friction(&self) -> &[f64] {
         &self.friction

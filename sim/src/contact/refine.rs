@@ -178,6 +178,11 @@ pub(crate) struct Refinement {
 }
 
 impl Refinement {
+    /// The number of refined cells.
+    pub(crate) fn len(&self) -> usize {
+        self.cells.len()
+    }
+
     /// The range of coarse cell `k`'s sub-cell forces, `None` when it is not refined.
     pub(crate) fn of(&self, k: usize) -> Option<Range<usize>> {
         self.cells.binary_search_by_key(&k, |(c, _)| *c).ok().map(|i| self.cells[i].1.clone())
