@@ -2,10 +2,12 @@
 //! the largest pin-tip difference from the finest grid given, per grid.
 //!
 //! ```text
-//! cargo run --release -p tacsim-sim --example edge_convergence -- X DEPTH YAW [CELLS,...] [cuts]
+//! cargo run --release -p tacsim-sim --example edge_convergence -- X DEPTH YAW [CELLS[/SUB],...] [cuts]
 //! ```
 //! With `cuts`, cells the edge cuts carry their load on the covered part
-//! (the sensor's `skin.cut_edges`).
+//! (the sensor's `skin.cut_edges`). A grid written `CELLS/SUB` solves the cells along the edge
+//! again at `SUB x SUB` sub-cells for the pins (`ContactModel::edge_subcells`; 0: none);
+//! without it, the model's default.
 //! The tap: the calibrated default sensor over the built-in `disk` (its sharp rim at
 //! `x = 50` mm), apex at `(X, 0.3)` mm, `DEPTH` mm deep, yaw `YAW` deg; grids of `CELLS`
 //! cells across the footprint (default `13,17,25,33,65,97`; the last is the reference), every
@@ -20,12 +22,16 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         args.get(i).map_or(Ok(default), |s| s.parse().map_err(|_| format!("argument {}: `{s}` is not a number", i + 1)))
     };
     let (x, depth, yaw) = (number(0, 50.0)?, number(1, 2.0)?, number(2, 0.0)?);
-    let grids: Vec<usize> = match args.get(3) {
+    let whole = |v: &str| v.trim().parse::<usize>().map_err(|_| format!("CELLS: `{v}` is not a whole number"));
+    let grids: Vec<(usize, Option<usize>)> = match args.get(3) {
         Some(s) => s
             .split(',')
-            .map(|v| v.trim().parse().map_err(|_| format!("CELLS: `{v}` is not a whole number")))
-            .collect::<Result<_, _>>()?,
-        None => vec![13, 17, 25, 33, 65, 97],
+            .map(|v| match v.split_once('/') {
+                Some((n, sub)) => Ok((whole(n)?, Some(whole(sub)?))),
+                None => Ok((whole(v)?, None)),
+            })
+            .collect::<Result<_, String>>()?,
+        None => [13, 17, 25, 33, 65, 97].map(|n| (n, None)).to_vec(),
     };
     let cut_edges = args.get(4).is_some_and(|a| a == "cuts");
     let catalogue = tacsim_sim::builtin_catalogue()?;
@@ -33,22 +39,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     scene.add(catalogue.get("disk")?, ObjectPose::default())?;
     let pose = SensorPose::new(x, 0.3, depth, yaw);
     let mut runs = Vec::new();
-    for &n in &grids {
+    for &(n, sub) in &grids {
         let mut sensor = SensorParams::default();
         sensor.skin.cells_across = n;
         sensor.validate("CELLS")?;
         sensor.skin.cut_edges = cut_edges;
-        let model = ContactModel::new(&sensor);
+        let mut model = ContactModel::new(&sensor);
+        if let Some(sub) = sub {
+            model.edge_subcells = sub;
+        }
         let mut sim = Simulation::new(&model, &scene, &[pose]);
         let force = sim.step(pose)?.force_n[2];
         let cell = sim.grid().map_or(0.0, |g| g.cell_mm);
-        runs.push((n, cell, force, sim.pins_exact()));
+        runs.push((n, sub.unwrap_or(model.edge_subcells), cell, force, sim.pins_exact()));
     }
-    let Some((_, _, _, reference)) = runs.last() else { return Ok(()) };
-    println!("cells  cell (mm)  force (N)  largest pin error vs the last (mm)");
-    for (n, cell, force, pins) in &runs {
+    let Some((_, _, _, _, reference)) = runs.last() else { return Ok(()) };
+    println!("cells  sub-cells  cell (mm)  force (N)  largest pin error vs the last (mm)");
+    for (n, sub, cell, force, pins) in &runs {
         let err = pins.iter().zip(reference).map(|(a, b)| (a.tip - b.tip).norm()).fold(0.0, f64::max);
-        println!("{n:>5}  {cell:>9.3}  {force:>9.3}  {err:.4}");
+        println!("{n:>5}  {sub:>9}  {cell:>9.3}  {force:>9.3}  {err:.4}");
     }
     Ok(())
 }

@@ -7,8 +7,7 @@
 //! one-dimensional profile (`pin_motion::edge_profile`) cannot place that. Here the cells next
 //! to an edge are solved again at [`SUBCELLS`] x [`SUBCELLS`] sub-cells each, with the coarse
 //! solution around them held (a global-local step):
-//! - the refined cells: every loaded cell that is cut or next to a loaded cut cell (sides and
-//!   corners);
+//! - the refined cells: every loaded cell that is cut or shares a side with a loaded cut cell;
 //! - each sub-cell's initial gap is its own ray's (the engine's rays, at the sub-cell's
 //!   centre), and what the coarse tractions around make it: the pressure of the cells not
 //!   refined and the shear of all cells (each uniform over its cell), through the fine grid's
@@ -189,8 +188,10 @@ impl Refinement {
     }
 }
 
-/// The cells a step refines (coarse indices, ascending): every loaded cell that is cut or next
-/// to a loaded cut cell (sides and corners). Empty without a loaded cut cell.
+/// The cells a step refines (coarse indices, ascending): every loaded cell that is cut or
+/// shares a side with a loaded cut cell (with the corners too, the bench's worst rim taps were
+/// 0.058 / 0.032 / 0.025 mm off 65 cells against 0.056 / 0.030 / 0.023, at 4% more
+/// instructions on a `paper` pose). Empty without a loaded cut cell.
 fn refined_cells(coarse: &Coarse<'_>) -> Vec<usize> {
     let grid = coarse.grid;
     let loaded_cut = |k: usize| coarse.pressure[k] > 0.0 && coarse.cuts.get(k).is_some_and(Option::is_some);
@@ -200,9 +201,10 @@ fn refined_cells(coarse: &Coarse<'_>) -> Vec<usize> {
     (0..grid.len())
         .filter(|&k| {
             let (i, j) = grid.column_row(k);
+            let side = |a: usize, b: usize| (a == i || b == j) && loaded_cut(b * grid.nx + a);
             coarse.pressure[k] > 0.0
                 && (i.saturating_sub(1)..(i + 2).min(grid.nx))
-                    .any(|a| (j.saturating_sub(1)..(j + 2).min(grid.ny)).any(|b| loaded_cut(b * grid.nx + a)))
+                    .any(|a| (j.saturating_sub(1)..(j + 2).min(grid.ny)).any(|b| side(a, b)))
         })
         .collect()
 }
