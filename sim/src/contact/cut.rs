@@ -22,8 +22,9 @@
 //!   `(phi asinh(1/phi) + asinh(phi)) / (2 phi asinh 1)`) and against `1 / phi` on the bench's
 //!   taps across the disk's rim, this one is closest to finer grids
 //!   (`docs/guide/contact.md`, "Cut cells");
-//! - the pins see its force with that profile (`pin_motion::edge_profile`), and the cells
-//!   next to it its coupling to them ([`CutCoupling`]).
+//! - the cells next to it see its coupling to them ([`CutCoupling`]); the pins see its force
+//!   at the sub-cells of a second solve along the edge ([`super::refine`]; with the profile
+//!   of `pin_motion::edge_profile` without it).
 //!
 //! Every value is continuous in the edge's position as long as the edge stays in the cell; as
 //! the cell becomes whole its load point moves from a third of the side in from its border to

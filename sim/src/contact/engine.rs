@@ -76,7 +76,7 @@ pub struct ContactModel {
     /// 1: one point force per cell).
     pub pin_subsquares: usize,
     /// Sub-cells per side of the cells along a sharp edge, solved again for the pins
-    /// ([`super::refine`]; 0 or 1: none).
+    /// (`refine.rs`; 0 or 1: none).
     pub edge_subcells: usize,
     /// The sub-cells' fine grids, shared by the model's simulations.
     fine_grids: FineGrids,
@@ -617,7 +617,8 @@ impl<'a> Simulation<'a> {
     /// ([`initial_gap`]; lift-off when nothing overlaps), the skin's rigid slip over the
     /// stimulus since the previous pose (`rigid_slip`), the coupled solve
     /// (`solve_coupled`: normal, then tangential, alternated until the tractions settle
-    /// for a coupled material), and the report turned into the sensor frame
+    /// for a coupled material), the cells along a sharp edge solved again at sub-cells for the
+    /// pins (`refine`, `refine.rs`), and the report turned into the sensor frame
     /// (`finish_report`).
     pub fn step(&mut self, pose: SensorPose) -> Result<&StepReport> {
         pose.validate("trajectory", self.model.dome_radius())?;
@@ -1212,9 +1213,10 @@ mod tests {
     /// along the edge): 65 cells' tractions summed onto the 13 cells and placed as 13 cells
     /// place them (evenly, and with the cut cells' edge profile), then placed as 65 cells do
     /// inside the cut cells (and their neighbours) only; last, 13 and 17 cells solved with
-    /// sub-cells along the edge ([`super::refine`]) against the default 65 cells. A diagnostic, not a check: `cargo test --release -p tacsim-sim --lib
+    /// 0-5 sub-cells a side along the edge ([`super::refine`]) against the default 65 cells.
+    /// A diagnostic, not a check: `cargo test --release -p tacsim-sim --lib
     /// edge_pin_error_budget -- --ignored --nocapture` (`docs/guide/contact.md`, "The edge's
-    /// profile in the pins").
+    /// profile in the pins" and "Sub-cells along an edge").
     #[test]
     #[ignore = "diagnostic: prints the edge error budget"]
     fn edge_pin_error_budget() {

@@ -28,7 +28,9 @@
 //! midpoint rule on the cell). On the bench's taps this takes the largest pin error against a
 //! 65-cell reference from 0.77 to 0.026 mm on 13 cells (`tacsim bench`,
 //! `docs/guide/contact.md`). A cell a sharp edge cuts ([`super::cut`]) carries the edge's
-//! singular pressure over its covered rectangle ([`edge_profile`]).
+//! singular pressure over its covered rectangle ([`edge_profile`]); the loaded cells along an
+//! edge, solved again at sub-cells ([`super::refine`]), act as their sub-cells' point forces
+//! near a pin instead.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
@@ -184,6 +186,11 @@ impl CellForces {
                                     continue;
                                 }
                                 if let Some(range) = refined.and_then(|r| r.of(k)) {
+                                    // Its force went to the other refined cells' sub-cells
+                                    // where the second solve left none of its own loaded.
+                                    if range.is_empty() {
+                                        continue;
+                                    }
                                     let r = refined.expect("a refined cell's refinement");
                                     let (x, y, f, subs) = out.refined_cell(r, range);
                                     out.x.push(x);

@@ -17,11 +17,12 @@
 //!   solve's force stays, its rigid offset is found);
 //! - each refined cell's shear follows its sub-cells' pressure (`q_s = q p_s / mean p_s`).
 //!
-//! The pins then see each loaded sub-cell as one point force at its centre
-//! ([`Refinement`], `pin_motion::CellForces`); the solve's tractions, its report and forces
-//! are the coarse ones. On the bench's three worst taps across the disk's rim, 13 cells were
-//! 0.141 / 0.077 / 0.032 mm off 65 cells' pins; so refined ... (`docs/guide/contact.md`,
-//! "Sub-cells along an edge").
+//! The pins then see each loaded sub-cell as one point force when near (at its centre, a cut
+//! one at its load point), the cell's total at its centroid farther off ([`Refinement`],
+//! `pin_motion::CellForces`); the solve's tractions, its report and forces are the coarse
+//! ones. On the bench's three worst taps across the disk's rim, 13 cells were 0.137 / 0.077 /
+//! 0.032 mm off 65 cells' pins; with 3 x 3 sub-cells 0.056 / 0.030 / 0.023, at 0.17 ms more
+//! solve on such a tap (`docs/guide/contact.md`, "Sub-cells along an edge").
 
 use std::ops::Range;
 
@@ -32,7 +33,9 @@ use super::normal::{self, Control, NormalSettings, ProductChoice};
 use super::operator::{Component, Operator};
 use crate::error::Result;
 
-/// Sub-cells per side of a refined cell (odd: the cell's centre is a sub-cell's).
+/// Sub-cells per side of a refined cell, by default (`ContactModel::edge_subcells`): 4 and 5
+/// take the worst rim tap at 13 cells from 0.056 to 0.043 and 0.037 mm, at 1.7 and 3 times
+/// the solve's time (`docs/guide/contact.md`).
 pub(crate) const SUBCELLS: usize = 3;
 
 /// A sub-cell is solved for when its initial gap is below this many coarse cell sides (a ray
@@ -52,9 +55,9 @@ const TOLERANCE: f64 = 1e-3;
 /// A coarse grid's shape `r` times finer, for every step of every path on grids of that shape:
 /// the operator on the sub-cells, and the displacements of a coarse cell's uniform traction at
 /// each sub-cell (the operator's tables summed over the cell's sub-cells). The operator is at
-/// the cell side `side_mm` it was built for: a half-space's coefficients scale with the cell
-/// side, so one built at 1 mm serves every grid of the shape ([`FineGrid::scale`]); a layered
-/// body's do not, and it is built at the grid's own side.
+/// the cell side it was built for: a half-space's coefficients scale with the cell side, so
+/// one built at 1 mm serves every grid of the shape ([`FineGrid::scale`]); a layered body's
+/// do not, and it is built at the grid's own side.
 #[derive(Debug)]
 pub(crate) struct FineGrid {
     /// Sub-cells per side of a cell.
