@@ -1344,6 +1344,28 @@ mod tests {
         assert_worst_rim_taps_within(refine::SUBCELLS, [0.06, 0.034, 0.026]);
     }
 
+    /// Regression (issue 31, found by the edge quick fit, `tacsim calibrate --edge square
+    /// --quick` on the edge recordings): on this tap the sub-cells' normal solve (three
+    /// sub-cells, all cut, 0.019 N) did not converge in 2,000 iterations and the step, and the
+    /// whole fit, failed. Such a step keeps the coarse placement for the pins (3 of the fit's
+    /// taps).
+    #[test]
+    fn a_refinement_that_does_not_converge_leaves_the_coarse_placement() {
+        let catalogue = crate::builtin_catalogue().expect("shapes");
+        let mut scene = Scene::new();
+        scene.add(catalogue.get("square").expect("a built-in"), ObjectPose::default()).expect("placed");
+        let mut sensor = SensorParams::preset("tactip-331-edge2d").expect("preset");
+        sensor.skin.cells_across = 13;
+        let model = ContactModel::new(&sensor);
+        let pose = SensorPose::new(39.068618820809355, 0.0, 0.7219355606675195, 30.843697719879216);
+        let mut sim = Simulation::new(&model, &scene, &[pose]);
+        sim.step(pose).expect("the step solves");
+        let loaded_cut = sim.cuts.iter().zip(&sim.pressure).any(|(c, p)| c.is_some() && *p > 0.0);
+        assert!(loaded_cut, "the tap must load a cut cell");
+        assert_eq!(sim.refined_cells(), 0, "{:?}", sim.grid());
+        assert!(sim.pins().iter().all(|p| p.tip.iter().all(|v| v.is_finite())));
+    }
+
     /// The sub-cells carry their cells' force, normal and shear (the solve's report and every
     /// cell not refined are the coarse solution's), on a slide across the disk's rim.
     #[test]
