@@ -700,7 +700,6 @@ impl<'a> Simulation<'a> {
         }
         let Some(top) = self.scene.top_height_mm() else { return cuts };
         let rays = PoseRays::new(self.model, top, pose, &self.frame);
-        let radius = self.model.dome_radius();
         if rays.dir.z > -1e-6 {
             // Rays that do not go down cross no top.
             return cuts;
@@ -722,7 +721,8 @@ impl<'a> Simulation<'a> {
             .collect();
         // The edges near them, per stimulus: only an edge within a cell side can cut a cell.
         let mut near: Vec<(usize, NearEdges)> = Vec::new();
-        let mut load_points = Vec::new();
+        // Per cut cell, its load point (grid frame, mm) and whether the cell counts.
+        let mut load_points: Vec<(usize, [f64; 2], bool)> = Vec::new();
         for &(k, id, at) in &crossings {
             if !near.iter().any(|(i, _)| *i == id) {
                 let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
@@ -746,20 +746,13 @@ impl<'a> Simulation<'a> {
             let (a, b) = (normal.dot(&ux.xy()), normal.dot(&uy.xy()));
             if let Some(cut) = Cut::of_half_plane(h, d, a, b) {
                 cuts[k] = Some(cut);
-                let c = grid.centre(k);
-                let x = self
-                    .frame
-                    .to_sensor(dome_point(radius, [c[0] + cut.load_point_mm()[0], c[1] + cut.load_point_mm()[1]]));
-                load_points.push((k, x));
+                let (c, at) = (grid.centre(k), cut.load_point_mm());
+                load_points.push((k, [c[0] + at[0], c[1] + at[1]], self.dome.inside[k]));
             }
         }
         // The cut parts' own rays, from their load points.
-        let dome = DomeCells {
-            inside: load_points.iter().map(|(k, _)| self.dome.inside[*k]).collect(),
-            points: load_points.iter().map(|(_, x)| *x).collect(),
-        };
-        let found = gaps_below(self.model, self.scene, pose, &self.frame, &dome, f64::INFINITY);
-        for ((k, _), hit) in load_points.iter().zip(found) {
+        let found = self.hits_at(pose, load_points.iter().map(|(_, at, inside)| (*at, *inside)));
+        for ((k, _, _), hit) in load_points.iter().zip(found) {
             if hit.gap.is_finite() {
                 hits[*k] = hit;
             } else {
@@ -778,15 +771,17 @@ impl<'a> Simulation<'a> {
         let scale_free = matches!(self.model.influence, Influence::HalfSpace(_));
         let fine = self.model.fine_grids.get(grid, self.model.edge_subcells, scale_free, |g| self.model.operator(g));
         let coarse = refine::Coarse { grid, pressure: &self.pressure, qx: &self.qx, qy: &self.qy, cuts: &self.cuts };
-        let radius = self.model.dome_radius();
-        let gaps = |points: &[[f64; 2]]| {
-            let dome = DomeCells {
-                points: points.iter().map(|c| self.frame.to_sensor(dome_point(radius, *c))).collect(),
-                inside: vec![true; points.len()],
-            };
-            gaps_below(self.model, self.scene, pose, &self.frame, &dome, f64::INFINITY).iter().map(|h| h.gap).collect()
-        };
+        let gaps =
+            |points: &[[f64; 2]]| self.hits_at(pose, points.iter().map(|c| (*c, true))).iter().map(|h| h.gap).collect();
         refine::refine(&fine, &coarse, gaps, &self.model.normal)
+    }
+
+    /// The rays' hits at points of the contact plane (grid frame, mm; with whether each counts,
+    /// as [`DomeCells::inside`]) under `pose`: a cut cell's load point, a sub-cell's centre.
+    fn hits_at(&self, pose: &SensorPose, at: impl Iterator<Item = ([f64; 2], bool)>) -> Vec<CellHit> {
+        let radius = self.model.dome_radius();
+        let (points, inside) = at.map(|(c, inside)| (self.frame.to_sensor(dome_point(radius, c)), inside)).unzip();
+        gaps_below(self.model, self.scene, pose, &self.frame, &DomeCells { points, inside }, f64::INFINITY)
     }
 
     /// Rigid slip increment (mm) of the skin over the stimulus per cell (contact frame), from

@@ -56,7 +56,7 @@ const TOLERANCE: f64 = 1e-3;
 /// the operator on the sub-cells, and the displacements of a coarse cell's uniform traction at
 /// each sub-cell (the operator's tables summed over the cell's sub-cells). The operator is at
 /// the cell side it was built for: a half-space's coefficients scale with the cell side, so
-/// one built at 1 mm serves every grid of the shape ([`FineGrid::scale`]); a layered body's
+/// one built at 1 mm serves every grid of the shape ([`FineGrid::unit_mm`]); a layered body's
 /// do not, and it is built at the grid's own side.
 #[derive(Debug)]
 pub(crate) struct FineGrid {
@@ -108,9 +108,10 @@ impl FineGrid {
         Self { r, op, boxes }
     }
 
-    /// The factor from this fine grid's operator to a grid of cell side `cell_mm`: its
-    /// coefficients times it are the grid's (1 where it was built for that grid).
-    fn scale(&self, cell_mm: f64) -> f64 {
+    /// Millimetres per unit of the operator's lengths for a coarse grid of cell side
+    /// `cell_mm`; also the factor from the operator's coefficients to that grid's (a
+    /// half-space's scale with the cell side; 1 where it was built for that grid).
+    fn unit_mm(&self, cell_mm: f64) -> f64 {
         cell_mm / self.r as f64 / self.op.grid().cell_mm
     }
 }
@@ -238,8 +239,8 @@ pub(crate) fn refine(
         return Ok(None);
     }
     let op_grid = *fine.op.grid();
-    // Lengths (mm) per unit of the fine operator's, and its coefficients' factor.
-    let (unit_mm, scale) = (grid.cell_mm / fine.r as f64 / op_grid.cell_mm, fine.scale(grid.cell_mm));
+    // Lengths (mm) per unit of the fine operator's, and its coefficients' factor to the grid's.
+    let unit_mm = fine.unit_mm(grid.cell_mm);
     let subs = subcells(fine, coarse, &cells);
     let points: Vec<[f64; 2]> = subs.iter().map(|s| point_mm(grid, fine.r, unit_mm, s)).collect();
     let g0 = gaps(&points);
@@ -273,8 +274,8 @@ pub(crate) fn refine(
             u += fine.boxes[0][at] * t[0] + fine.boxes[1][at] * t[1] + fine.boxes[2][at] * t[2];
         }
         let f = s.at.1 * op_grid.nx + s.at.0;
-        // In the fine operator's units: its displacements are `1 / scale` of the grid's.
-        gap[f] = (g + scale * u) / scale;
+        // In the fine operator's units: its displacements are `1 / unit_mm` of the grid's.
+        gap[f] = (g + unit_mm * u) / unit_mm;
         warm[f] = coarse.pressure[s.cell];
         reach[f] = -1.0;
         cuts[f] = s.cut;
@@ -312,8 +313,7 @@ fn subcells(fine: &FineGrid, coarse: &Coarse<'_>, cells: &[usize]) -> Vec<Sub> {
     let grid = coarse.grid;
     let r = fine.r;
     let side = fine.op.grid().cell_mm;
-    // Millimetres per unit of the fine operator's lengths.
-    let unit_mm = grid.cell_mm / r as f64 / side;
+    let unit_mm = fine.unit_mm(grid.cell_mm);
     let mut subs = Vec::new();
     for &cell in cells {
         let (ci, cj) = grid.column_row(cell);
