@@ -2,7 +2,7 @@
 //! against error (grid size against the Hertz and Cattaneo errors, slide step size against the
 //! pin error of a fine-step reference), with an SVG plot.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -133,6 +133,9 @@ pub struct BenchReport {
     /// Whether cells a sharp edge cuts carry their load on the covered part (the sensor's
     /// `skin.cut_edges`, on unless `--no-edge-cuts`), every grid's and the reference's.
     pub cut_edges: bool,
+    /// Sub-cells per side of the cells along a sharp edge (the sensor's `skin.edge_subcells`,
+    /// `--edge-subcells`), every grid's; the reference's stay at the default, 3.
+    pub edge_subcells: usize,
     /// Taps per second on all threads (contact solve + pins + 256x256 render).
     pub tap_frames_per_s: f64,
     /// Slides per second on all threads (touch down 2.5 mm away, slide in 0.25 mm steps, capture
@@ -344,23 +347,52 @@ fn ms_single<T>(n: usize, mut f: impl FnMut(usize) -> Result<T>) -> Result<f64> 
 /// Cells across the footprint of the reference taps for the grid rows' pin error.
 const PIN_REFERENCE_CELLS: usize = 65;
 
-/// Runs the benchmark with `cells` across the footprint (`None`: the sensor's default);
-/// returns the text to print.
-pub fn run(
-    samples_n: usize,
-    cells: Option<usize>,
-    skin: Option<SkinModel>,
-    json: bool,
-    plot: &Path,
-    device: crate::device::DeviceChoice,
-    edge_cuts: bool,
-) -> Result<String> {
-    anyhow::ensure!(samples_n >= 4, "--samples must be at least 4");
+/// `tacsim bench`'s flags.
+#[derive(Clone, Debug, clap::Args)]
+pub struct BenchOptions {
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Taps and slides to time.
+    #[arg(long, default_value_t = 200)]
+    pub samples: usize,
+    /// Write the run-time-vs-error plot (SVG) here.
+    #[arg(long, default_value = "bench.svg")]
+    pub plot: PathBuf,
+    /// Cells across the contact footprint for the throughput figures (odd; default: the
+    /// sensor's, 25).
+    #[arg(long)]
+    pub cells: Option<usize>,
+    /// Elastic model behind the skin for the throughput figures: half-space, layer or
+    /// skin-on-gel (default: the sensor's).
+    #[arg(long)]
+    pub skin: Option<SkinModel>,
+    /// Sub-cells per side of the cells along a sharp edge (the sensor's `skin.edge_subcells`,
+    /// 0 to 6; default 3), for the throughput figures and every grid's row; the 65-cell
+    /// reference keeps the default.
+    #[arg(long)]
+    pub edge_subcells: Option<usize>,
+    /// Also time the batched GPU raster and pin product against the CPU's: gpu (a build
+    /// with `--features wgpu` and a GPU adapter; a software one's figures say nothing of a
+    /// GPU's speed) or auto.
+    #[arg(long, value_enum, default_value = "cpu")]
+    pub device: crate::device::DeviceChoice,
+    /// Every cell wholly in or out of contact by the gap at its centre, the reference
+    /// grid's included (the sensor's `skin.cut_edges = false`; by default cells a sharp
+    /// edge cuts carry their load on the covered part, `docs/guide/contact.md`, "Cut cells").
+    #[arg(long)]
+    pub no_edge_cuts: bool,
+}
+
+/// Runs the benchmark; returns the text to print.
+pub fn run(o: &BenchOptions) -> Result<String> {
+    let (samples_n, json, plot) = (o.samples, o.json, o.plot.as_path());
+    anyhow::ensure!(samples_n >= 4, "--samples must be at least 4, got {samples_n}");
     #[cfg(feature = "wgpu")]
-    let gpu = crate::device::gpu(device)?;
+    let gpu = crate::device::gpu(o.device)?;
     #[cfg(not(feature = "wgpu"))]
-    crate::device::check(device)?;
-    let sensor = bench_sensor(cells, skin, edge_cuts)?;
+    crate::device::check(o.device)?;
+    let sensor = bench_sensor(o)?;
     let scene = disk_scene()?;
     let model = ContactModel::new(&sensor);
     let renderer = PinRenderer::new(&sensor, 256)?;
@@ -387,6 +419,7 @@ pub fn run(
     let report = BenchReport {
         threads: rayon::current_num_threads(),
         cut_edges: sensor.skin.cut_edges,
+        edge_subcells: sensor.skin.edge_subcells,
         cells_across: sensor.skin.cells_across,
         tap_frames_per_s: tap_fps,
         slide_samples_per_s: slide_sps,
@@ -402,16 +435,20 @@ pub fn run(
     Ok(if json { serde_json::to_string_pretty(&report)? + "\n" } else { report.table(plot) })
 }
 
-/// The calibrated sensor with the bench's `--cells`, `--skin` and cut cells at edges unless
-/// `--no-edge-cuts`.
-fn bench_sensor(cells: Option<usize>, skin: Option<SkinModel>, edge_cuts: bool) -> Result<SensorParams> {
+/// The calibrated sensor with the bench's `--cells`, `--skin`, `--edge-subcells` and cut cells
+/// at edges unless `--no-edge-cuts`.
+fn bench_sensor(o: &BenchOptions) -> Result<SensorParams> {
     let mut sensor = SensorParams::default();
-    sensor.skin.cut_edges = edge_cuts;
-    if let Some(n) = cells {
+    sensor.skin.cut_edges = !o.no_edge_cuts;
+    if let Some(n) = o.cells {
         sensor.skin.cells_across = n;
         sensor.validate("--cells")?;
     }
-    if let Some(m) = skin {
+    if let Some(r) = o.edge_subcells {
+        sensor.skin.edge_subcells = r;
+        sensor.validate("--edge-subcells")?;
+    }
+    if let Some(m) = o.skin {
         sensor.skin.model = m;
     }
     Ok(sensor)
@@ -471,7 +508,8 @@ fn grid_curve(
     // Pin reference: the same taps on a fine grid, every cell on every pin, with the same
     // pin product (sub-squares near the pins, or one point force per cell).
     let reference = |subsquares: usize, poses: &[(SensorPose, [f64; 2])]| -> Result<Vec<Vec<PinPose>>> {
-        let fine = at_grid(PIN_REFERENCE_CELLS, subsquares);
+        let mut fine = at_grid(PIN_REFERENCE_CELLS, subsquares);
+        fine.edge_subcells = tacsim_sim::DEFAULT_EDGE_SUBCELLS;
         poses.par_iter().map(|(p, _)| tap_pins(&fine, *p, true)).collect()
     };
     let largest_error =
@@ -555,13 +593,15 @@ impl BenchReport {
     fn table(&self, plot: &Path) -> String {
         let b = &self.tap_breakdown;
         let mut out = format!(
-            "{} threads, {} cells across the footprint (mean {:.0} in contact){}\n\
+            "{} threads, {} cells across the footprint (mean {:.0} in contact), {} x {} sub-cells along edges{}\n\
              taps:   {:>9.1} frames/s  (solve + pins + 256x256 render)\n\
              slides: {:>9.1} samples/s (touch down {SLIDE_MM} mm away, {STEP_MM} mm steps, capture)\n\
              a tap, one thread: footprint {:.3} ms, gap + solve {:.3} ms, pins {:.3} ms, render {:.3} ms\n",
             self.threads,
             self.cells_across,
             self.mean_contact_cells,
+            self.edge_subcells,
+            self.edge_subcells,
             if self.cut_edges { "" } else { ", whole cells at edges (--no-edge-cuts)" },
             self.tap_frames_per_s,
             self.slide_samples_per_s,

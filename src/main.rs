@@ -7,7 +7,6 @@ use anyhow::Result;
 use clap::{Parser, Subcommand};
 use tacsim::commands::{self, RenderOptions};
 use tacsim::{bench, validation};
-use tacsim_sim::SkinModel;
 
 #[derive(Parser)]
 #[command(name = "tacsim", version, about = "Physics-simulated TacTip data generator and test harness")]
@@ -33,35 +32,7 @@ enum Command {
         convergence: bool,
     },
     /// Benchmark taps and slides on all cores, and run time against error.
-    Bench {
-        /// Print one JSON object instead of a table.
-        #[arg(long)]
-        json: bool,
-        /// Taps and slides to time.
-        #[arg(long, default_value_t = 200)]
-        samples: usize,
-        /// Write the run-time-vs-error plot (SVG) here.
-        #[arg(long, default_value = "bench.svg")]
-        plot: PathBuf,
-        /// Cells across the contact footprint for the throughput figures (odd; default: the
-        /// sensor's, 25).
-        #[arg(long)]
-        cells: Option<usize>,
-        /// Elastic model behind the skin for the throughput figures: half-space, layer or
-        /// skin-on-gel (default: the sensor's).
-        #[arg(long)]
-        skin: Option<SkinModel>,
-        /// Also time the batched GPU raster and pin product against the CPU's: gpu (a build
-        /// with `--features wgpu` and a GPU adapter; a software one's figures say nothing of a
-        /// GPU's speed) or auto.
-        #[arg(long, value_enum, default_value = "cpu")]
-        device: tacsim::device::DeviceChoice,
-        /// Every cell wholly in or out of contact by the gap at its centre, the reference
-        /// grid's included (the sensor's `skin.cut_edges = false`; by default cells a sharp
-        /// edge cuts carry their load on the covered part, `docs/guide/contact.md`, "Cut cells").
-        #[arg(long)]
-        no_edge_cuts: bool,
-    },
+    Bench(tacsim::bench::BenchOptions),
     /// Generate a dataset from a recipe (default: the built-in `quick`): images, targets.csv,
     /// meta.json. Deterministic for a seed, whatever the threads or shards.
     Generate {
@@ -198,8 +169,8 @@ fn main() -> Result<ExitCode> {
             print!("{text}");
             return Ok(exit_code(pass));
         }
-        Command::Bench { json, samples, plot, cells, skin, device, no_edge_cuts } => {
-            print!("{}", bench::run(samples, cells, skin, json, &plot, device, !no_edge_cuts)?);
+        Command::Bench(o) => {
+            print!("{}", bench::run(&o)?);
         }
         Command::Generate { recipe, out, sensor, size, seed, cells, threads, shard, resume, force, device, quiet } => {
             let opts = tacsim::dataset::GenerateOptions {

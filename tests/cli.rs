@@ -252,6 +252,7 @@ fn bench_json_reports_rates_breakdown_skips_and_curve() {
         assert!(v.pointer(key).and_then(|x| x.as_f64()).is_some_and(|x| x > 0.0), "{key}");
     }
     assert_eq!(v["cells_across"], 9);
+    assert_eq!(v["edge_subcells"], 3);
     for key in
         ["no_contact_step_ms", "tap_without_tangential_ms", "footprint_grid_ms", "no_render_ms", "far_stimuli_ms"]
     {
@@ -263,6 +264,9 @@ fn bench_json_reports_rates_breakdown_skips_and_curve() {
     assert!(std::fs::read_to_string(&plot).expect("plot written").contains("<svg"));
     let bad = tacsim(&["bench", "--cells", "10", "--plot", plot.to_str().expect("utf-8")]);
     assert!(!bad.status.success() && String::from_utf8_lossy(&bad.stderr).contains("skin.cells_across"));
+    let bad = tacsim(&["bench", "--edge-subcells", "7", "--plot", plot.to_str().expect("utf-8")]);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && err.contains("skin.edge_subcells") && err.contains("[0, 6]"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -58,8 +58,8 @@ pub use render::PinRenderer;
 pub use rig::{Press, RigFrame};
 pub use scene::{NearEdges, ObjectId, ObjectPose, Scene, SceneObject, SurfaceHit, flat_scene};
 pub use sensor::{
-    CameraParams, DomeParams, FramingParams, MAX_IMAGE_OFFSET, PRESETS, PinParams, SensorParams, SkinModel, SkinParams,
-    pin_count,
+    CameraParams, DEFAULT_EDGE_SUBCELLS, DomeParams, FramingParams, MAX_EDGE_SUBCELLS, MAX_IMAGE_OFFSET, PRESETS,
+    PinParams, SensorParams, SkinModel, SkinParams, pin_count,
 };
 pub use tracking::{Tracking, Warp, global_shift, global_warp, nearest_neighbours, track};
 pub use variation::Variation;

@@ -156,6 +156,13 @@ pub struct SkinParams {
     /// out by the gap at its centre.
     #[serde(skip_serializing_if = "is_true")]
     pub cut_edges: bool,
+    /// Sub-cells per side of the loaded cells along a sharp edge, solved again for the pins
+    /// (`contact/refine.rs`), in [0, 6]; 0 or 1: none. Default 3: on the bench's taps across
+    /// the disk's rim it takes the pins' error at 13 cells from 0.20 to 0.088 mm (`tacsim
+    /// bench --edge-subcells`, `docs/guide/contact.md`, "Sub-cells along an edge"); the
+    /// second solve's cost grows about as its square.
+    #[serde(skip_serializing_if = "is_default_subcells")]
+    pub edge_subcells: usize,
 }
 
 impl Default for SkinParams {
@@ -171,8 +178,19 @@ impl Default for SkinParams {
             gel_poisson: 0.5,
             dome_slope: 0.0,
             cut_edges: true,
+            edge_subcells: DEFAULT_EDGE_SUBCELLS,
         }
     }
+}
+
+/// Default [`SkinParams::edge_subcells`].
+pub const DEFAULT_EDGE_SUBCELLS: usize = 3;
+
+/// Largest [`SkinParams::edge_subcells`].
+pub const MAX_EDGE_SUBCELLS: usize = 6;
+
+fn is_default_subcells(v: &usize) -> bool {
+    *v == DEFAULT_EDGE_SUBCELLS
 }
 
 /// Largest factor on the dome's slope ([`SkinParams::dome_slope`]).
@@ -668,6 +686,10 @@ impl SensorParams {
         if !(5..=401).contains(&k.cells_across) || k.cells_across.is_multiple_of(2) {
             return check.bad("skin.cells_across", format!("must be odd and in [5, 401], got {}", k.cells_across));
         }
+        if k.edge_subcells > MAX_EDGE_SUBCELLS {
+            return check
+                .bad("skin.edge_subcells", format!("must be in [0, {MAX_EDGE_SUBCELLS}], got {}", k.edge_subcells));
+        }
         check.finite("skin.base_depth_mm", k.base_depth_mm)?;
         check.finite("skin.gel_youngs_modulus_mpa", k.gel_youngs_modulus_mpa)?;
         check.finite("skin.gel_poisson", k.gel_poisson)?;
@@ -784,6 +806,8 @@ mod tests {
             ("[skin]\ndome_slope = 4.0\n", "skin.dome_slope"),
             ("[skin]\ndome_slope = -0.5\n", "skin.dome_slope"),
             ("[skin]\ndome_slope = nan\n", "skin.dome_slope"),
+            ("[skin]\nedge_subcells = 7\n", "skin.edge_subcells"),
+            ("[skin]\nedge_subcells = -1\n", "edge_subcells = -1"),
             ("[skin]\ncut_edges = 1\n", "cut_edges"),
             ("[pins]\nimage_offsets = [[0.0, 0.0]]\n", "pins.image_offsets"),
             (

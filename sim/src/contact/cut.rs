@@ -125,9 +125,10 @@ pub(crate) fn compliance_ratio(phi: f64) -> f64 {
 }
 
 /// Strips of equal force a cut cell's load is taken in across the edge for the solves' near
-/// field ([`CutCoupling`]): the edge's profile, as the pins see it
+/// field on the contact grid ([`CutCoupling`]; the sub-cells along an edge take fewer,
+/// `refine.rs`): the edge's profile, as the pins see it
 /// (`pin_motion::edge_profile`), strip `i` from `s = w (i / n)^2` to `w ((i + 1) / n)^2`.
-const STRIPS: usize = 3;
+pub(crate) const STRIPS: usize = 3;
 
 /// The cells around a cut cell whose coupling to it is taken from the covered part: those
 /// within this many cells (sides and corners).
@@ -160,8 +161,9 @@ pub(crate) struct CutCoupling {
 impl CutCoupling {
     /// The coupling of the cut cells `cuts` (a field of `op`'s grid) among the cells the
     /// stimulus reaches into (`g0 < 0`, mm: only they can carry a load or a gap the solves
-    /// use); `None` without a cut.
-    pub(crate) fn new(op: &Operator, cuts: &[Option<Cut>], g0: &[f64]) -> Option<Self> {
+    /// use), a cut cell's load taken in `strips` strips of the edge's profile ([`STRIPS`] on
+    /// the contact grid); `None` without a cut.
+    pub(crate) fn new(op: &Operator, cuts: &[Option<Cut>], g0: &[f64], strips: usize) -> Option<Self> {
         if cuts.iter().all(Option::is_none) {
             return None;
         }
@@ -181,7 +183,7 @@ impl CutCoupling {
                     }
                     let (a, b) = (k.min(other), k.max(other));
                     let (pa, pb) = (patch(a), patch(b));
-                    let (ab, ba) = (pa.seen_from(&pb), pb.seen_from(&pa));
+                    let (ab, ba) = (pa.seen_from(&pb, strips), pb.seen_from(&pa, strips));
                     let whole =
                         op.unit_integrals((a % nx) as isize - (b % nx) as isize, (a / nx) as isize - (b / nx) as isize);
                     near.push((a, b, std::array::from_fn(|m| 0.5 * (ab[m] + ba[m]) - whole[m])));
@@ -225,8 +227,8 @@ impl Patch {
 
     /// The even kernels' integrals at this patch's field point from the unit force (a whole
     /// cell's at unit traction) on `source`: uniform over a whole cell, with the edge's
-    /// profile over a covered part.
-    fn seen_from(&self, source: &Patch) -> [f64; 4] {
+    /// profile over a covered part (in `strips` strips).
+    fn seen_from(&self, source: &Patch, strips: usize) -> [f64; 4] {
         let d = [self.field[0] - source.centre[0], self.field[1] - source.centre[1]];
         let Some((axis, toward)) = source.toward_edge else {
             return Kernel::even_rectangles(d[0], d[1], source.sides[0], source.sides[1]);
@@ -245,15 +247,15 @@ impl Patch {
             std::array::from_fn::<f64, 4, _>(|m| p[m] - q[m])
         };
         let edge = 0.5 * toward * across;
-        let at = |b: usize| edge - toward * across * (b as f64 / STRIPS as f64).powi(2);
+        let at = |b: usize| edge - toward * across * (b as f64 / strips as f64).powi(2);
         let mut sum = [0.0; 4];
         let mut last = (at(0), g(at(0)));
-        for b in 1..=STRIPS {
+        for b in 1..=strips {
             let u = at(b);
             let next = (u, g(u));
             let ((lo, g_lo), (hi, g_hi)) = if last.0 < next.0 { (last, next) } else { (next, last) };
-            // A unit force, `1 / STRIPS` of it on the strip: its traction over the strip's area.
-            let traction = 1.0 / (STRIPS as f64 * (hi - lo) * along);
+            // A unit force, `1 / strips` of it on the strip: its traction over the strip's area.
+            let traction = 1.0 / (strips as f64 * (hi - lo) * along);
             for (s, (a, b)) in sum.iter_mut().zip(g_lo.iter().zip(&g_hi)) {
                 *s += traction * (a - b);
             }
@@ -335,7 +337,7 @@ mod tests {
     fn a_whole_cell_is_seen_as_the_tables_see_it() {
         let source = Patch::of(3, 4, None, 0.7);
         for (i, j) in [(3, 4), (4, 4), (2, 6), (9, 1)] {
-            let seen = Patch::of(i, j, None, 0.7).seen_from(&source);
+            let seen = Patch::of(i, j, None, 0.7).seen_from(&source, STRIPS);
             for (k, v) in Kernel::ALL.iter().zip(seen) {
                 let want = k.rectangle(i as f64 - 3.0, j as f64 - 4.0, 1.0, 1.0);
                 assert!((v - want).abs() < 1e-12 * (1.0 + want.abs()), "{k:?} at ({i}, {j}): {v} vs {want}");
@@ -356,7 +358,7 @@ mod tests {
         let source = Patch::of(50, 50, Some(&cut), h);
         let force_at = [50.0 + (0.1 - 0.35 / 3.0) / h, 50.0];
         for (i, j) in [(90, 50), (50, 90), (20, 75), (10, 50)] {
-            let seen = Patch::of(i, j, None, h).seen_from(&source);
+            let seen = Patch::of(i, j, None, h).seen_from(&source, STRIPS);
             let (x, y) = (i as f64 - force_at[0], j as f64 - force_at[1]);
             let point: [f64; 4] = std::array::from_fn(|m| Kernel::ALL[m].value(x, y));
             let scale = point.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -391,13 +393,13 @@ mod tests {
             grid,
         );
         let reached = vec![-0.1; n * n];
-        let coupling = CutCoupling::new(&op, &cuts, &reached).expect("cut cells");
+        let coupling = CutCoupling::new(&op, &cuts, &reached, STRIPS).expect("cut cells");
         assert!(!coupling.near.is_empty());
-        assert_eq!(CutCoupling::new(&op, &vec![None; n * n], &reached), None);
+        assert_eq!(CutCoupling::new(&op, &vec![None; n * n], &reached, STRIPS), None);
         // Cells the stimulus does not reach into (the last column) take no coupling.
         let mut last_open = reached.clone();
         (0..n).for_each(|j| last_open[j * n + n - 1] = 0.0);
-        let partial = CutCoupling::new(&op, &cuts, &last_open).expect("cut cells");
+        let partial = CutCoupling::new(&op, &cuts, &last_open, STRIPS).expect("cut cells");
         assert!(partial.near.iter().all(|&(a, b, _)| a % n != n - 1 && b % n != n - 1));
         assert!(partial.near.len() < coupling.near.len());
         let cells: Vec<usize> = (0..n * n).collect();

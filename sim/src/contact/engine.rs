@@ -76,7 +76,7 @@ pub struct ContactModel {
     /// 1: one point force per cell).
     pub pin_subsquares: usize,
     /// Sub-cells per side of the cells along a sharp edge, solved again for the pins
-    /// (`refine.rs`; 0 or 1: none).
+    /// (`refine.rs`; 0 or 1: none): the sensor's `skin.edge_subcells`.
     pub edge_subcells: usize,
     /// The sub-cells' fine grids, shared by the model's simulations.
     fine_grids: FineGrids,
@@ -116,7 +116,7 @@ impl ContactModel {
             tangential: TangentialSettings { tolerance: 1e-4, ..TangentialSettings::default() },
             coupling_iterations: 4,
             pin_subsquares: PIN_SUBSQUARES,
-            edge_subcells: refine::SUBCELLS,
+            edge_subcells: sensor.skin.edge_subcells,
             fine_grids: FineGrids::default(),
         }
     }
@@ -638,7 +638,7 @@ impl<'a> Simulation<'a> {
         let mut hits = gaps_below(self.model, self.scene, &pose, &self.frame, &self.dome, f64::INFINITY);
         self.cuts = self.cut_cells(op.grid(), &pose, &mut hits);
         let (g0, mu): (Vec<f64>, Vec<f64>) = hits.iter().map(|h| (h.gap, h.friction)).unzip();
-        self.cut_coupling = CutCoupling::new(op, &self.cuts, &g0);
+        self.cut_coupling = CutCoupling::new(op, &self.cuts, &g0, super::cut::STRIPS);
         self.refinement = None;
         self.friction.clone_from(&mu);
         self.gap.clone_from(&g0);
@@ -1336,7 +1336,7 @@ mod tests {
     /// solved again at 3 x 3 sub-cells (`refine.rs`) 0.056 / 0.030 / 0.023.
     #[test]
     fn the_cells_along_an_edge_are_solved_again_at_sub_cells_for_the_pins() {
-        assert_worst_rim_taps_within(refine::SUBCELLS, [0.06, 0.034, 0.026]);
+        assert_worst_rim_taps_within(crate::DEFAULT_EDGE_SUBCELLS, [0.06, 0.034, 0.026]);
     }
 
     /// Regression (issue 31, found by the edge quick fit, `tacsim calibrate --edge square
@@ -1395,6 +1395,25 @@ mod tests {
             }
         }
         assert!(refined_steps >= 2, "the slide must cross the edge: {refined_steps} steps refined");
+    }
+
+    /// The sensor's `skin.edge_subcells` sets the model's sub-cells: none refine with 0, and
+    /// a tap across the disk's rim refines its cells along the edge with the default.
+    #[test]
+    fn the_sensors_edge_subcells_set_the_models() {
+        let scene = scene_of("disk");
+        let pose = worst_rim_taps()[0];
+        let refined = |subcells: usize| {
+            let mut sensor = SensorParams::default();
+            (sensor.skin.cells_across, sensor.skin.edge_subcells) = (13, subcells);
+            let model = ContactModel::new(&sensor);
+            assert_eq!(model.edge_subcells, subcells);
+            let mut sim = Simulation::new(&model, &scene, &[pose]);
+            sim.step(pose).expect("solved");
+            sim.refined_cells()
+        };
+        assert_eq!(refined(0), 0);
+        assert!(refined(crate::DEFAULT_EDGE_SUBCELLS) > 0);
     }
 
     /// Each of [`worst_rim_taps`] on 13 cells with `subcells` sub-cells along the edge within
