@@ -1340,12 +1340,13 @@ mod tests {
     }
 
     /// Regression (issue 31, found by the edge quick fit, `tacsim calibrate --edge square
-    /// --quick` on the edge recordings): on this tap the sub-cells' normal solve (three
-    /// sub-cells, all cut, 0.019 N) did not converge in 2,000 iterations and the step, and the
-    /// whole fit, failed. Such a step keeps the coarse placement for the pins (3 of the fit's
-    /// taps).
+    /// --quick` on the edge recordings): on this tap the sub-cells' normal solve (five
+    /// sub-cells, four of them cut, 0.019 N) did not converge in 2,000 iterations, and the step,
+    /// and the whole fit, failed; then it fell back to the coarse placement. Its conjugate
+    /// gradient swapped two contact sets for ever (one sub-cell loaded, two others taking
+    /// turns); with damped steps after a stall it converges, and the step refines.
     #[test]
-    fn a_refinement_that_does_not_converge_leaves_the_coarse_placement() {
+    fn a_sub_cell_solve_that_swapped_two_contact_sets_converges() {
         let catalogue = crate::builtin_catalogue().expect("shapes");
         let mut scene = Scene::new();
         scene.add(catalogue.get("square").expect("a built-in"), ObjectPose::default()).expect("placed");
@@ -1357,7 +1358,7 @@ mod tests {
         sim.step(pose).expect("the step solves");
         let loaded_cut = sim.cuts.iter().zip(&sim.pressure).any(|(c, p)| c.is_some() && *p > 0.0);
         assert!(loaded_cut, "the tap must load a cut cell");
-        assert_eq!(sim.refined_cells(), 0, "{:?}", sim.grid());
+        assert!(sim.refined_cells() > 0, "{:?}", sim.grid());
         assert!(sim.pins().iter().all(|p| p.tip.iter().all(|v| v.is_finite())));
     }
 

@@ -115,6 +115,12 @@ pub fn solve(
     problem.conjugate_gradient(pressure, &product)
 }
 
+/// Iterations without a new smallest residual after which the conjugate gradient turns to
+/// damped steepest descent ([`Problem::conjugate_gradient`]). No `paper` solve (shard 250)
+/// stalls so long, and 2 of `edge-2d`'s (their images the same); it is for the few contact
+/// sets a full step keeps swapping.
+const STALL_ITERATIONS: usize = 20;
+
 /// The normal block: `u_z` from `p`.
 const NORMAL_BLOCK: [[Component; 1]; 1] = [[Component::Zz]];
 
@@ -232,6 +238,13 @@ impl<'a> Problem<'a> {
     /// a whole cell's own): what bounds is the change of each cell's own displacement, and a
     /// sliver's pressure moves its gap that many times more (regression test
     /// `cut_cells_close_their_gaps_as_whole_cells_do`).
+    ///
+    /// Where the residual finds no new low in [`STALL_ITERATIONS`] iterations the steps are
+    /// halved and their conjugacy dropped (halved again at each further stall), and the
+    /// residual is the change a full step would make. A full step can swap two contact sets
+    /// for ever: on the edge quick fit's taps a few cut sub-cells under 0.02 N, one cell
+    /// loaded while two others took turns to re-enter and leave, each at a full step's length
+    /// (regression test `a_sub_cell_solve_that_swapped_two_contact_sets_converges`).
     fn conjugate_gradient(&self, mut pressure: Vec<f64>, product: &CellProduct<'_, 1>) -> Result<NormalSolution> {
         let base = &self.base;
         let m = base.len();
@@ -241,6 +254,7 @@ impl<'a> Problem<'a> {
         let (mut u, mut r, mut t, mut g) = (vec![0.0; m], vec![0.0; m], vec![0.0; m], vec![0.0; m]);
         let (mut delta, mut g_old) = (0.0, 1.0);
         let mut residual = f64::INFINITY;
+        let (mut best, mut since_best, mut damped) = (f64::INFINITY, 0usize, 0.0f64);
         let (mut active, mut cells) = (Vec::with_capacity(m), Vec::new());
         for iteration in 1..=self.settings.max_iterations {
             self.active(&pressure, product, &mut active, &mut cells);
@@ -268,7 +282,10 @@ impl<'a> Problem<'a> {
             }
             let num: f64 = active.iter().map(|&i| g[i] * t[i]).sum();
             let den: f64 = active.iter().map(|&i| r[i] * t[i]).sum();
-            let tau = if den > 0.0 { num / den } else { 0.0 };
+            let mut tau = if den > 0.0 { num / den } else { 0.0 };
+            if damped > 0.0 {
+                tau *= damped;
+            }
             let mut change = 0.0;
             let mut overlap = false;
             for i in 0..m {
@@ -286,15 +303,25 @@ impl<'a> Problem<'a> {
                     None => (p - old).abs(),
                 };
             }
-            delta = if overlap { 0.0 } else { 1.0 };
+            delta = if overlap || damped > 0.0 { 0.0 } else { 1.0 };
             self.rescale_to_load(&mut pressure);
             let total: f64 = pressure.iter().sum();
-            residual = if total > 0.0 { change / total } else { 0.0 };
+            // A damped step's change, as the full step's would be: damping does not converge.
+            residual = if total > 0.0 { change / total } else { 0.0 } / if damped > 0.0 { damped } else { 1.0 };
             if !residual.is_finite() {
                 break;
             }
             if residual < self.settings.tolerance {
                 return Ok(self.finish(pressure, total, iteration, product));
+            }
+            if residual < best {
+                (best, since_best) = (residual, 0);
+            } else {
+                since_best += 1;
+                if since_best == STALL_ITERATIONS {
+                    damped = if damped > 0.0 { 0.5 * damped } else { 0.5 };
+                    since_best = 0;
+                }
             }
         }
         Err(SimError::NoConvergence { solver: "normal", iterations: self.settings.max_iterations, residual })

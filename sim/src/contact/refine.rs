@@ -303,8 +303,9 @@ pub(crate) fn refine(
     let sol = match solved {
         Ok(sol) => sol,
         // The coarse placement stands where the sub-cells' solve does not converge (seen on a
-        // few sub-cells, all cut, under a small load: the edge quick fit's taps; regression
-        // test `a_refinement_that_does_not_converge_leaves_the_coarse_placement`).
+        // few sub-cells, all cut, under a small load, the edge quick fit's taps, before the
+        // normal solve damped its steps after a stall; test
+        // `a_refinement_that_does_not_converge_leaves_the_coarse_placement`).
         Err(SimError::NoConvergence { .. }) => return Ok(None),
         Err(e) => return Err(e),
     };
@@ -424,6 +425,28 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Where the sub-cells' normal solve does not converge (here: one iteration allowed) the
+    /// step keeps the coarse placement: no refinement, and no error.
+    #[test]
+    fn a_refinement_that_does_not_converge_leaves_the_coarse_placement() {
+        let (n, r) = (3, 3);
+        let grid = Grid { nx: n, ny: n, cell_mm: 1.0, centre_mm: [0.0; 2] };
+        let fine = FineGrid::new(n, n, r, half_space(Grid { nx: r * n, ny: r * n, cell_mm: 1.0, centre_mm: [0.0; 2] }));
+        // Every cell loaded, the middle one cut by an edge at a slant.
+        let pressure = vec![0.1; n * n];
+        let shear = vec![0.0; n * n];
+        let mut cuts = vec![None; n * n];
+        cuts[4] = Cut::of_half_plane(1.0, 0.1, 0.8, 0.6);
+        assert!(cuts[4].is_some());
+        let coarse = Coarse { grid: &grid, pressure: &pressure, qx: &shear, qy: &shear, cuts: &cuts };
+        // A dome's gap: deeper towards the centre.
+        let gaps = |points: &[[f64; 2]]| points.iter().map(|[x, y]| 0.02 * (x * x + y * y) - 0.05).collect();
+        let converged = NormalSettings::default();
+        assert!(refine(&fine, &coarse, gaps, &converged).expect("solved").is_some());
+        let one = NormalSettings { max_iterations: 1, ..converged };
+        assert_eq!(refine(&fine, &coarse, gaps, &one).expect("no error"), None);
     }
 
     /// The refinement's sub-cell centres tile each cell of the coarse grid: they average to
