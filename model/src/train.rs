@@ -307,8 +307,12 @@ fn check_side(corpus: &Corpus, size: usize) -> Result<()> {
 /// A device's random stream is one per process (`Device::seed` sets it for every user of the
 /// device), so seeding and drawing the initial weights happen under one lock: two trainings
 /// started at once in one process (tests on parallel threads, a library user's threads) would
-/// otherwise interleave their draws and each start from weights no seed gives.
-fn seeded<M>(
+/// otherwise interleave their draws and each start from weights no seed gives. burn's
+/// parameters are lazy (drawn at their first use), so every one is drawn before the lock is
+/// let go: otherwise the draws happened at the first forward pass, after another training's
+/// `seed` (regression test `trainings_started_at_once_start_from_their_own_seeds`, which
+/// failed one run in several under a loaded machine).
+fn seeded<M: Module>(
     backend: Backend,
     seed: u64,
     build: impl FnOnce(&burn::tensor::Device) -> Result<M>,
@@ -319,7 +323,18 @@ fn seeded<M>(
     let _draws = DRAWS.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     device.seed(seed);
     let model = build(&device)?;
+    model.visit(&mut DrawEvery);
     Ok((device, model))
+}
+
+/// Draws every lazy float parameter of a module ([`seeded`]).
+struct DrawEvery;
+
+impl burn::module::ModuleVisitor for DrawEvery {
+    fn visit_float<const D: usize>(&mut self, param: &burn::module::Param<Tensor<D>>) {
+        // `val` draws an uninitialised parameter once; the clone it returns is dropped.
+        let _ = param.val();
+    }
 }
 
 /// Trains the shear-removal model on `corpus` into the run directory `out`.
