@@ -254,7 +254,8 @@ impl<'a> Problem<'a> {
         let (mut u, mut r, mut t, mut g) = (vec![0.0; m], vec![0.0; m], vec![0.0; m], vec![0.0; m]);
         let (mut delta, mut g_old) = (0.0, 1.0);
         let mut residual = f64::INFINITY;
-        let (mut best, mut since_best, mut damped) = (f64::INFINITY, 0usize, 0.0f64);
+        // The steps' factor: 1 until the residual stalls, halved at each stall.
+        let (mut best, mut since_best, mut step) = (f64::INFINITY, 0usize, 1.0f64);
         let (mut active, mut cells) = (Vec::with_capacity(m), Vec::new());
         for iteration in 1..=self.settings.max_iterations {
             self.active(&pressure, product, &mut active, &mut cells);
@@ -282,10 +283,7 @@ impl<'a> Problem<'a> {
             }
             let num: f64 = active.iter().map(|&i| g[i] * t[i]).sum();
             let den: f64 = active.iter().map(|&i| r[i] * t[i]).sum();
-            let mut tau = if den > 0.0 { num / den } else { 0.0 };
-            if damped > 0.0 {
-                tau *= damped;
-            }
+            let tau = if den > 0.0 { step * num / den } else { 0.0 };
             let mut change = 0.0;
             let mut overlap = false;
             for i in 0..m {
@@ -303,11 +301,11 @@ impl<'a> Problem<'a> {
                     None => (p - old).abs(),
                 };
             }
-            delta = if overlap || damped > 0.0 { 0.0 } else { 1.0 };
+            delta = if overlap || step < 1.0 { 0.0 } else { 1.0 };
             self.rescale_to_load(&mut pressure);
             let total: f64 = pressure.iter().sum();
             // A damped step's change, as the full step's would be: damping does not converge.
-            residual = if total > 0.0 { change / total } else { 0.0 } / if damped > 0.0 { damped } else { 1.0 };
+            residual = if total > 0.0 { change / total / step } else { 0.0 };
             if !residual.is_finite() {
                 break;
             }
@@ -319,8 +317,7 @@ impl<'a> Problem<'a> {
             } else {
                 since_best += 1;
                 if since_best == STALL_ITERATIONS {
-                    damped = if damped > 0.0 { 0.5 * damped } else { 0.5 };
-                    since_best = 0;
+                    (step, since_best) = (0.5 * step, 0);
                 }
             }
         }
