@@ -1,13 +1,13 @@
 //! Influence-operator products, dense on a disc of cells against zero-padded FFT over the grid,
 //! for the grid sizes the sensor uses: the measurement behind
 //! `contact::normal::DENSE_MAX_CELLS`; and the tangential product on a tap's contact cells, by
-//! the operator's dense product against a prebuilt [`CellMatrix`] (and what building one
-//! costs). Run with `cargo bench -p tacsim-sim --bench contact`.
+//! the operator's dense product against a prebuilt [`CellMatrix`], in double and in single
+//! precision (and what building one costs). Run with `cargo bench -p tacsim-sim --bench contact`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use tacsim_sim::contact::Elastic;
 use tacsim_sim::contact::Grid;
-use tacsim_sim::contact::{CellMatrix, Component, HalfSpace, Operator, Pairing, Product};
+use tacsim_sim::contact::{CellMatrix, Component, HalfSpace, Operator, Pairing, Precision, Product};
 
 fn bench_products(c: &mut Criterion) {
     let model = HalfSpace { material: Elastic::from_young(1.0, 0.5), pairing: Pairing::RigidIndenter };
@@ -62,6 +62,9 @@ fn bench_shear_products(c: &mut Criterion) {
         let packed: Vec<f64> = [&qx, &qy].iter().flat_map(|q| cells.iter().map(|&k| q[k])).collect();
         let mut out = vec![0.0; 2 * m];
         group.bench_function(format!("matrix/{m}-cells"), |b| b.iter(|| matrix.apply(&packed, &mut out)));
+        // The engine's: single precision at the model's tangential tolerance.
+        let single = CellMatrix::in_precision(&op, &blocks, &cells, Precision::Single);
+        group.bench_function(format!("matrix-single/{m}-cells"), |b| b.iter(|| single.apply(&packed, &mut out)));
         group.bench_function(format!("matrix-build/{m}-cells"), |b| b.iter(|| CellMatrix::new(&op, &blocks, &cells)));
     }
     group.finish();

@@ -23,7 +23,7 @@ use super::frame::ContactFrame;
 use super::grid::Grid;
 use super::kernel::{DepthKernel, Elastic};
 use super::layered::{Layer, LayeredBody, LayeredKernels};
-use super::matrix::MatrixCache;
+use super::matrix::{MatrixCache, Precision};
 use super::normal::{self, Control, NormalSettings};
 use super::operator::{Component, HalfSpace, Operator, Pairing, Product};
 use super::pin_motion::{CellForces, PIN_SUBSQUARES, PinKernel, PinLoad, displaced_pins};
@@ -532,7 +532,7 @@ impl<'a> Simulation<'a> {
             seen: vec![false; n],
             eigenvector: None,
             normal_matrix: MatrixCache::default(),
-            shear_matrix: MatrixCache::default(),
+            shear_matrix: Self::shear_cache(model),
             prev_product: PrevProduct::default(),
             cuts: Vec::new(),
             cut_coupling: None,
@@ -542,6 +542,12 @@ impl<'a> Simulation<'a> {
             pose: None,
             report: StepReport::default(),
         }
+    }
+
+    /// The tangential products' matrices: single precision at the model's tangential
+    /// tolerance (`1e-4`, [`Precision::for_tolerance`]), double for a tight one.
+    fn shear_cache(model: &ContactModel) -> MatrixCache {
+        MatrixCache::in_precision(Precision::for_tolerance(model.tangential.tolerance))
     }
 
     /// Lifts the sensor off: no contact and no history, as [`Simulation::new`] left it (the
@@ -555,7 +561,7 @@ impl<'a> Simulation<'a> {
         self.seen.fill(false);
         self.eigenvector = None;
         self.normal_matrix = MatrixCache::default();
-        self.shear_matrix = MatrixCache::default();
+        self.shear_matrix = Self::shear_cache(self.model);
         self.closure.fill(0.0);
         self.cuts.fill(None);
         self.cut_coupling = None;

@@ -15,6 +15,11 @@
 //! the vector width: the same bits on every CPU. Fused, a column is 8 instructions on AVX2
 //! instead of 16 multiplies and adds and the register moves LLVM added around them (issue 31:
 //! a `paper` pose 2.237 -> 2.107 G instructions, `docs/guide/contact.md`).
+//!
+//! The tangential solver's matrices are single precision ([`Precision`]): half the bytes, so
+//! a 25-cell tap's contact (about 220 cells, 0.77 MB) fits under [`MAX_BYTES`] where its
+//! double matrix (1.5 MB) did not, and twice the lanes per instruction (issue 31: a 25-cell
+//! tap's solve 3.75 -> 2.13 ms, `cargo bench -p tacsim-sim --bench tap -- tap-solve`).
 
 use std::sync::Arc;
 
@@ -38,6 +43,69 @@ const MAX_BYTES: usize = 1 << 20;
 /// from 656 to 540; instructions 2.907 -> 2.865 G (1.5 and 2.0: 2.874 G).
 const SUPERSET_RATIO: f64 = 1.25;
 
+/// How a [`CellMatrix`] stores its coefficients, and so what its products add in.
+///
+/// Single precision halves the bytes a product streams and doubles the lanes of each vector
+/// instruction; each row's sum is then accumulated in `f32` (a relative rounding of about
+/// `1e-7` per term, a few `1e-6` over a row of hundreds), the inputs rounded to `f32` and the
+/// sums widened back. It serves solvers whose tolerance is far above that
+/// ([`Precision::for_tolerance`]): the tangential iterations at the model's `1e-4`, not the
+/// normal conjugate gradient (`1e-5` on the pressure the pins read) nor the validation's tight
+/// solves.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Precision {
+    /// `f64` coefficients and sums.
+    #[default]
+    Double,
+    /// `f32` coefficients and sums.
+    Single,
+}
+
+impl Precision {
+    /// The tolerance from which a solver's products may be single (relative to the solver's
+    /// own measure): 100 times the rounding of a single-precision row sum of a few hundred
+    /// terms.
+    pub const SINGLE_FROM_TOLERANCE: f64 = 1e-5;
+
+    /// Single for a solver that stops at `tolerance` of at least
+    /// [`Precision::SINGLE_FROM_TOLERANCE`], double below.
+    pub fn for_tolerance(tolerance: f64) -> Self {
+        if tolerance >= Self::SINGLE_FROM_TOLERANCE { Self::Single } else { Self::Double }
+    }
+
+    /// Bytes per coefficient.
+    fn bytes(self) -> usize {
+        match self {
+            Self::Double => std::mem::size_of::<f64>(),
+            Self::Single => std::mem::size_of::<f32>(),
+        }
+    }
+}
+
+/// A [`CellMatrix`]'s panels in its [`Precision`].
+#[derive(Clone, Debug)]
+enum Panels {
+    Double(Vec<f64>),
+    Single(Vec<f32>),
+}
+
+/// A coefficient type of the panels.
+trait Coefficient: Copy + Default {
+    fn of(v: f64) -> Self;
+}
+
+impl Coefficient for f64 {
+    fn of(v: f64) -> Self {
+        v
+    }
+}
+
+impl Coefficient for f32 {
+    fn of(v: f64) -> Self {
+        v as f32
+    }
+}
+
 /// The matrix of an operator's components on a cell set (see the module).
 #[derive(Clone, Debug)]
 pub struct CellMatrix {
@@ -52,7 +120,7 @@ pub struct CellMatrix {
     /// Input components times cells.
     cols: usize,
     /// `ceil(rows / LANES)` panels of `cols * LANES` coefficients (mm/MPa), zero-padded.
-    panels: Vec<f64>,
+    panels: Panels,
 }
 
 impl CellMatrix {
@@ -60,57 +128,88 @@ impl CellMatrix {
     /// component `blocks[a][b]`. Inputs and outputs are packed: component block after
     /// component block, cells in the order of `cells`.
     pub fn new<const B: usize>(op: &Operator, blocks: &[[Component; B]], cells: &[usize]) -> Self {
-        let grid = op.grid();
-        let (nx, ny) = (grid.nx, grid.ny);
-        let wx = 2 * nx - 1;
-        let m = cells.len();
-        let (rows, cols) = (blocks.len() * m, B * m);
-        let panel_count = rows.div_ceil(LANES);
-        let mut panels = Vec::with_capacity(panel_count * cols * LANES);
-        // The coefficient for field cell i from source cell j sits at `at_i - at_j` of the
-        // component's table ([`Operator::table`]), with `at_k = (y_k + ny - 1) wx + x_k + nx - 1`
-        // for the field cell and `y_k wx + x_k` for the source.
-        let field_at: Vec<usize> = cells.iter().map(|&k| (k / nx + ny - 1) * wx + k % nx + nx - 1).collect();
-        let source_at: Vec<usize> = cells.iter().map(|&k| (k / nx) * wx + k % nx).collect();
-        // Pushed panel by panel, column by column, in storage order (no zero fill first: on
-        // the small matrices that fill cost as much as the gathering), the last panel's
-        // missing rows as zeros. A panel's lanes that are cells side by side in a grid row
-        // read one component at consecutive places of its table: each such segment of a
-        // column is one slice copy (issue 31: a third of the build's time on a `paper` pose).
-        let mut segments: Vec<(&[f64], usize, usize)> = Vec::new(); // (table, first place, lanes)
-        for p in 0..panel_count {
-            let lanes = p * LANES..((p + 1) * LANES).min(rows);
-            // Input block `b`: each lane's row `a` reads component `blocks[a][b]`.
-            (0..B).for_each(|b| {
-                segments.clear();
-                for r in lanes.clone() {
-                    let (table, at) = (op.table(blocks[r / m][b]), field_at[r % m]);
-                    match segments.last_mut() {
-                        Some((t, first, len)) if std::ptr::eq(*t, table) && *first + *len == at => *len += 1,
-                        _ => segments.push((table, at, 1)),
-                    }
-                }
-                for &src in &source_at {
-                    for &(table, first, len) in &segments {
-                        panels.extend_from_slice(&table[first - src..first - src + len]);
-                    }
-                    panels.extend(std::iter::repeat_n(0.0, LANES - lanes.len()));
-                }
-            });
-        }
+        Self::in_precision(op, blocks, cells, Precision::Double)
+    }
+
+    /// [`CellMatrix::new`], its coefficients stored in `precision`.
+    pub fn in_precision<const B: usize>(
+        op: &Operator,
+        blocks: &[[Component; B]],
+        cells: &[usize],
+        precision: Precision,
+    ) -> Self {
+        let (rows, cols) = (blocks.len() * cells.len(), B * cells.len());
+        let panels = match precision {
+            Precision::Double => Panels::Double(gather(op, blocks, cells)),
+            Precision::Single => Panels::Single(gather(op, blocks, cells)),
+        };
         let components = blocks.iter().flatten().copied().collect();
         Self { grid: *op.grid(), components, cells: cells.to_vec(), rows, cols, panels }
     }
 
+    /// The precision of its coefficients.
+    pub fn precision(&self) -> Precision {
+        match self.panels {
+            Panels::Double(_) => Precision::Double,
+            Panels::Single(_) => Precision::Single,
+        }
+    }
+}
+
+/// The panels of `op`'s `blocks` on `cells` ([`CellMatrix::new`]), each coefficient as `T`.
+fn gather<T: Coefficient, const B: usize>(op: &Operator, blocks: &[[Component; B]], cells: &[usize]) -> Vec<T> {
+    let grid = op.grid();
+    let (nx, ny) = (grid.nx, grid.ny);
+    let wx = 2 * nx - 1;
+    let m = cells.len();
+    let (rows, cols) = (blocks.len() * m, B * m);
+    let panel_count = rows.div_ceil(LANES);
+    let mut panels = Vec::with_capacity(panel_count * cols * LANES);
+    // The coefficient for field cell i from source cell j sits at `at_i - at_j` of the
+    // component's table ([`Operator::table`]), with `at_k = (y_k + ny - 1) wx + x_k + nx - 1`
+    // for the field cell and `y_k wx + x_k` for the source.
+    let field_at: Vec<usize> = cells.iter().map(|&k| (k / nx + ny - 1) * wx + k % nx + nx - 1).collect();
+    let source_at: Vec<usize> = cells.iter().map(|&k| (k / nx) * wx + k % nx).collect();
+    // Pushed panel by panel, column by column, in storage order (no zero fill first: on
+    // the small matrices that fill cost as much as the gathering), the last panel's
+    // missing rows as zeros. A panel's lanes that are cells side by side in a grid row
+    // read one component at consecutive places of its table: each such segment of a
+    // column is one slice copy (issue 31: a third of the build's time on a `paper` pose).
+    let mut segments: Vec<(&[f64], usize, usize)> = Vec::new(); // (table, first place, lanes)
+    for p in 0..panel_count {
+        let lanes = p * LANES..((p + 1) * LANES).min(rows);
+        // Input block `b`: each lane's row `a` reads component `blocks[a][b]`.
+        (0..B).for_each(|b| {
+            segments.clear();
+            for r in lanes.clone() {
+                let (table, at) = (op.table(blocks[r / m][b]), field_at[r % m]);
+                match segments.last_mut() {
+                    Some((t, first, len)) if std::ptr::eq(*t, table) && *first + *len == at => *len += 1,
+                    _ => segments.push((table, at, 1)),
+                }
+            }
+            for &src in &source_at {
+                for &(table, first, len) in &segments {
+                    panels.extend(table[first - src..first - src + len].iter().map(|&v| T::of(v)));
+                }
+                panels.extend(std::iter::repeat_n(T::default(), LANES - lanes.len()));
+            }
+        });
+    }
+    panels
+}
+
+impl CellMatrix {
     /// Whether the matrix of `blocks` (`outputs x inputs` components) on `cells` cells is
-    /// small enough to be worth building ([`MAX_BYTES`]).
-    pub fn worth_building(outputs: usize, inputs: usize, cells: usize) -> bool {
-        outputs * inputs * cells * cells * std::mem::size_of::<f64>() <= MAX_BYTES
+    /// small enough to be worth building ([`MAX_BYTES`]) in `precision`.
+    pub fn worth_building(outputs: usize, inputs: usize, cells: usize, precision: Precision) -> bool {
+        outputs * inputs * cells * cells * precision.bytes() <= MAX_BYTES
     }
 
-    /// Whether this is the matrix of `blocks` of an operator on `grid`.
-    fn has<const B: usize>(&self, grid: &Grid, blocks: &[[Component; B]]) -> bool {
+    /// Whether this is the matrix of `blocks` of an operator on `grid`, in `precision`.
+    fn has<const B: usize>(&self, grid: &Grid, blocks: &[[Component; B]], precision: Precision) -> bool {
         self.grid == *grid
+            && self.precision() == precision
             && self.components.len() == blocks.len() * B
             && self.components.iter().eq(blocks.iter().flatten())
     }
@@ -133,7 +232,10 @@ impl CellMatrix {
     pub fn apply(&self, x: &[f64], y: &mut [f64]) {
         assert_eq!((x.len(), y.len()), (self.cols, self.rows), "packed lengths of a cell matrix product");
         // The same fused multiply-adds in the same order on every vector unit: the same bits.
-        pulp::Arch::new().dispatch(PanelSums { matrix: self, x, y });
+        match &self.panels {
+            Panels::Double(panels) => pulp::Arch::new().dispatch(PanelSums { panels, cols: self.cols, x, y }),
+            Panels::Single(panels) => pulp::Arch::new().dispatch(SinglePanelSums { panels, cols: self.cols, x, y }),
+        }
     }
 }
 
@@ -174,7 +276,7 @@ impl<'a, const B: usize> CellProduct<'a, B> {
         cache: &mut MatrixCache,
     ) -> Self {
         let dense = !cells.is_empty() && cells.len() <= dense_max_cells;
-        let (matrix, positions) = if dense && CellMatrix::worth_building(B, B, cells.len()) {
+        let (matrix, positions) = if dense && CellMatrix::worth_building(B, B, cells.len(), cache.precision()) {
             let (matrix, positions) = cache.get(op, blocks, cells);
             (Some(matrix), positions)
         } else {
@@ -364,7 +466,8 @@ fn positions_in(big: &[usize], cells: &[usize]) -> Option<Vec<usize>> {
 /// Each panel's sums over the non-zero columns of `x` into `y`, compiled for each vector unit
 /// ([`pulp::WithSimd`]).
 struct PanelSums<'a> {
-    matrix: &'a CellMatrix,
+    panels: &'a [f64],
+    cols: usize,
     x: &'a [f64],
     y: &'a mut [f64],
 }
@@ -374,8 +477,8 @@ impl pulp::WithSimd for PanelSums<'_> {
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, simd: S) {
-        let Self { matrix, x, y } = self;
-        for (panel, out) in matrix.panels.chunks_exact(matrix.cols * LANES).zip(y.chunks_mut(LANES)) {
+        let Self { panels, cols, x, y } = self;
+        for (panel, out) in panels.chunks_exact(cols * LANES).zip(y.chunks_mut(LANES)) {
             let mut acc = [0.0; LANES];
             // `LANES` is a multiple of every vector width: no tails.
             let (sums, _) = S::as_mut_simd_f64s(&mut acc);
@@ -394,6 +497,41 @@ impl pulp::WithSimd for PanelSums<'_> {
     }
 }
 
+/// [`PanelSums`] in single precision: each input rounded to `f32`, the sums in `f32`, widened
+/// into `y`.
+struct SinglePanelSums<'a> {
+    panels: &'a [f32],
+    cols: usize,
+    x: &'a [f64],
+    y: &'a mut [f64],
+}
+
+impl pulp::WithSimd for SinglePanelSums<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, simd: S) {
+        let Self { panels, cols, x, y } = self;
+        for (panel, out) in panels.chunks_exact(cols * LANES).zip(y.chunks_mut(LANES)) {
+            let mut acc = [0.0f32; LANES];
+            let (sums, _) = S::as_mut_simd_f32s(&mut acc);
+            for (column, &v) in panel.chunks_exact(LANES).zip(x) {
+                if v == 0.0 {
+                    continue;
+                }
+                let (column, _) = S::as_simd_f32s(column);
+                let v = simd.splat_f32s(v as f32);
+                for (a, c) in sums.iter_mut().zip(column) {
+                    *a = simd.mul_add_f32s(*c, v, *a);
+                }
+            }
+            for (o, a) in out.iter_mut().zip(acc) {
+                *o = f64::from(a);
+            }
+        }
+    }
+}
+
 /// The last [`CellMatrix`] built, handed out again while the operator's grid, the blocks and
 /// the cells stay the same (the coupling rounds of a step mostly solve on the same cells).
 #[derive(Clone, Debug, Default)]
@@ -401,9 +539,21 @@ pub struct MatrixCache {
     last: Option<Arc<CellMatrix>>,
     /// Matrices built and handed out again.
     counts: [usize; 2],
+    /// The precision of the matrices it builds.
+    precision: Precision,
 }
 
 impl MatrixCache {
+    /// A cache whose matrices store their coefficients in `precision`.
+    pub fn in_precision(precision: Precision) -> Self {
+        Self { precision, ..Self::default() }
+    }
+
+    /// The precision of the matrices it builds.
+    pub fn precision(&self) -> Precision {
+        self.precision
+    }
+
     /// Matrices built and matrices handed out again so far (for tests and tuning).
     pub fn counts(&self) -> [usize; 2] {
         self.counts
@@ -417,13 +567,13 @@ impl MatrixCache {
         blocks: &[[Component; B]],
         cells: &[usize],
     ) -> (Arc<CellMatrix>, Option<Vec<usize>>) {
-        let kept = self.last.as_ref().filter(|m| m.has(op.grid(), blocks));
+        let kept = self.last.as_ref().filter(|m| m.has(op.grid(), blocks, self.precision));
         if let Some((m, positions)) = kept.and_then(|m| m.serves(cells).map(|p| (m.clone(), p))) {
             self.counts[1] += 1;
             return (m, positions);
         }
         self.counts[0] += 1;
-        let m = Arc::new(CellMatrix::new(op, blocks, cells));
+        let m = Arc::new(CellMatrix::in_precision(op, blocks, cells, self.precision));
         self.last = Some(m.clone());
         (m, None)
     }
@@ -522,6 +672,36 @@ mod tests {
         let few: Vec<usize> = outside.iter().copied().take(outside.len() / 2).collect();
         let _ = CellProduct::new(&op, &blocks, &few, 300, &mut cache);
         assert_eq!(cache.counts(), [3, 1]);
+    }
+
+    /// Single precision ([`Precision::Single`]): every row within its rounding of the double
+    /// matrix's (a few `1e-7` of the row's largest sum here, bounded at `1e-5`), the same
+    /// bits on a second product, zero inputs skipped; a cache builds in its own precision,
+    /// and the precision follows the solver's tolerance.
+    #[test]
+    fn a_single_precision_matrix_is_within_its_rounding_of_the_double_one() {
+        let op = op();
+        let n = op.grid().len();
+        let cells: Vec<usize> = (0..n).filter(|k| k % 4 != 2).collect();
+        let blocks = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy]];
+        let mut x = field(2 * cells.len(), 5);
+        x[7] = 0.0;
+        let double = CellMatrix::new(&op, &blocks, &cells);
+        let single = CellMatrix::in_precision(&op, &blocks, &cells, Precision::Single);
+        assert_eq!((double.precision(), single.precision()), (Precision::Double, Precision::Single));
+        let (mut a, mut b, mut again) = (vec![0.0; x.len()], vec![0.0; x.len()], vec![0.0; x.len()]);
+        double.apply(&x, &mut a);
+        single.apply(&x, &mut b);
+        single.apply(&x, &mut again);
+        assert_eq!(b, again);
+        let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let worst = a.iter().zip(&b).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+        assert!(worst > 0.0 && worst <= 1e-5 * scale, "largest difference {worst:e} of {scale:e}");
+        let mut cache = MatrixCache::in_precision(Precision::Single);
+        assert_eq!(cache.get(&op, &blocks, &cells).0.precision(), Precision::Single);
+        assert_eq!(MatrixCache::default().get(&op, &blocks, &cells).0.precision(), Precision::Double);
+        assert_eq!(Precision::for_tolerance(1e-4), Precision::Single);
+        assert_eq!(Precision::for_tolerance(1e-9), Precision::Double);
     }
 
     #[test]

@@ -35,7 +35,7 @@ pub use engine::{ContactModel, Footprint, Influence, Simulation, StepReport, con
 pub use frame::{ContactFrame, press_direction};
 pub use grid::Grid;
 pub use kernel::{Elastic, Kernel, point_load_displacement};
-pub use matrix::{CellMatrix, MatrixCache};
+pub use matrix::{CellMatrix, MatrixCache, Precision};
 pub use operator::{Component, HalfSpace, Operator, Pairing, Product};
 pub use pin_motion::PIN_SUBSQUARES;
 #[cfg(feature = "wgpu")]
