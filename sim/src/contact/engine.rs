@@ -531,7 +531,7 @@ impl<'a> Simulation<'a> {
             friction: vec![0.0; n],
             seen: vec![false; n],
             eigenvector: None,
-            normal_matrix: MatrixCache::default(),
+            normal_matrix: Self::normal_cache(model),
             shear_matrix: Self::shear_cache(model),
             prev_product: PrevProduct::default(),
             cuts: Vec::new(),
@@ -544,10 +544,18 @@ impl<'a> Simulation<'a> {
         }
     }
 
-    /// The tangential products' matrices: single precision at the model's tangential
-    /// tolerance (`1e-4`, [`Precision::for_tolerance`]), double for a tight one.
+    /// The tangential products' matrices: single precision where a double one would not fit,
+    /// at the model's tangential tolerance (`1e-4`, [`Precision::for_tolerance`]); all double
+    /// for a tight one.
     fn shear_cache(model: &ContactModel) -> MatrixCache {
-        MatrixCache::in_precision(Precision::for_tolerance(model.tangential.tolerance))
+        MatrixCache::down_to(Precision::for_tolerance(model.tangential.tolerance))
+    }
+
+    /// The normal solve's matrices: single precision where a double one would not fit, at
+    /// the model's normal tolerance (`1e-5`, [`Precision::for_tolerance`]); all double for a
+    /// tight one.
+    fn normal_cache(model: &ContactModel) -> MatrixCache {
+        MatrixCache::down_to(Precision::for_tolerance(model.normal.tolerance))
     }
 
     /// Lifts the sensor off: no contact and no history, as [`Simulation::new`] left it (the
@@ -560,7 +568,7 @@ impl<'a> Simulation<'a> {
         self.friction.fill(0.0);
         self.seen.fill(false);
         self.eigenvector = None;
-        self.normal_matrix = MatrixCache::default();
+        self.normal_matrix = Self::normal_cache(self.model);
         self.shear_matrix = Self::shear_cache(self.model);
         self.closure.fill(0.0);
         self.cuts.fill(None);

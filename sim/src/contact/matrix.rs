@@ -16,10 +16,12 @@
 //! instead of 16 multiplies and adds and the register moves LLVM added around them (issue 31:
 //! a `paper` pose 2.237 -> 2.107 G instructions, `docs/guide/contact.md`).
 //!
-//! The tangential solver's matrices are single precision ([`Precision`]): half the bytes, so
-//! a 25-cell tap's contact (about 220 cells, 0.77 MB) fits under [`MAX_BYTES`] where its
-//! double matrix (1.5 MB) did not, and twice the lanes per instruction (issue 31: a 25-cell
-//! tap's solve 3.75 -> 2.13 ms, `cargo bench -p tacsim-sim --bench tap -- tap-solve`).
+//! At the model's tolerances the solvers' matrices are single precision ([`Precision`]): half
+//! the bytes, so a 25-cell tap's contact (about 220 cells, 0.77 MB for the shear) and its
+//! normal candidates (385, 0.59 MB) fit under [`MAX_BYTES`] where their double matrices (1.5
+//! and 1.2 MB) did not, and twice the lanes per instruction (issue 31: a 25-cell tap's solve
+//! on the disk's top 3.75 -> 2.13 ms with the shear's, 1.36 ms with the normal's too;
+//! `cargo bench -p tacsim-sim --bench tap -- tap-solve`, `docs/guide/contact.md`).
 
 use std::sync::Arc;
 
@@ -48,10 +50,12 @@ const SUPERSET_RATIO: f64 = 1.25;
 /// Single precision halves the bytes a product streams and doubles the lanes of each vector
 /// instruction; each row's sum is then accumulated in `f32` (a relative rounding of about
 /// `1e-7` per term, a few `1e-6` over a row of hundreds), the inputs rounded to `f32` and the
-/// sums widened back. It serves solvers whose tolerance is far above that
-/// ([`Precision::for_tolerance`]): the tangential iterations at the model's `1e-4`, not the
-/// normal conjugate gradient (`1e-5` on the pressure the pins read) nor the validation's tight
-/// solves.
+/// sums widened back (6.6e-7 of the largest row at most on the test's 47-cell shear product).
+/// It serves solvers whose tolerance is well above that ([`Precision::for_tolerance`]): the
+/// tangential iterations at the model's `1e-4` and the normal conjugate gradient at its
+/// `1e-5`, not the validation's and the tests' tight solves. At the model's tolerances the
+/// pins stay within a tenth of a micron of a tight solve's in double precision (test
+/// `default_tolerances_keep_the_pins_within_a_tenth_of_a_micron_of_a_tight_solve`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Precision {
     /// `f64` coefficients and sums.
@@ -63,8 +67,8 @@ pub enum Precision {
 
 impl Precision {
     /// The tolerance from which a solver's products may be single (relative to the solver's
-    /// own measure): 100 times the rounding of a single-precision row sum of a few hundred
-    /// terms.
+    /// own measure): the model's normal tolerance, about 15 times the largest rounding of a
+    /// single-precision row sum the tests measure.
     pub const SINGLE_FROM_TOLERANCE: f64 = 1e-5;
 
     /// Single for a solver that stops at `tolerance` of at least
@@ -91,18 +95,21 @@ enum Panels {
 
 /// A coefficient type of the panels.
 trait Coefficient: Copy + Default {
-    fn of(v: f64) -> Self;
+    /// Appends `from` (the operator's tables) to `panels`, each rounded to `Self`.
+    fn extend(panels: &mut Vec<Self>, from: &[f64]);
 }
 
 impl Coefficient for f64 {
-    fn of(v: f64) -> Self {
-        v
+    fn extend(panels: &mut Vec<Self>, from: &[f64]) {
+        // A slice copy: element by element, the sub-cells' solves (a matrix built for each)
+        // took 60 M more instructions on a `paper` pose (+1.6%).
+        panels.extend_from_slice(from);
     }
 }
 
 impl Coefficient for f32 {
-    fn of(v: f64) -> Self {
-        v as f32
+    fn extend(panels: &mut Vec<Self>, from: &[f64]) {
+        panels.extend(from.iter().map(|&v| v as f32));
     }
 }
 
@@ -190,7 +197,7 @@ fn gather<T: Coefficient, const B: usize>(op: &Operator, blocks: &[[Component; B
             }
             for &src in &source_at {
                 for &(table, first, len) in &segments {
-                    panels.extend(table[first - src..first - src + len].iter().map(|&v| T::of(v)));
+                    T::extend(&mut panels, &table[first - src..first - src + len]);
                 }
                 panels.extend(std::iter::repeat_n(T::default(), LANES - lanes.len()));
             }
@@ -266,8 +273,9 @@ pub(crate) struct CellProduct<'a, const B: usize> {
 }
 
 impl<'a, const B: usize> CellProduct<'a, B> {
-    /// Products of `blocks` (output block `a`, input block `b`: `blocks[a][b]`) on `cells`,
-    /// dense up to `dense_max_cells` cells; the matrix comes from `cache`.
+    /// Products of `blocks` (output block `a`, input block `b`: `blocks[a][b]`) on `cells`:
+    /// by a matrix from `cache` where one is worth building, else by the operator's dense
+    /// product up to `dense_max_cells` cells, by FFT above (0: FFT only, no matrix).
     pub(crate) fn new(
         op: &'a Operator,
         blocks: &'a [[Component; B]; B],
@@ -275,12 +283,17 @@ impl<'a, const B: usize> CellProduct<'a, B> {
         dense_max_cells: usize,
         cache: &mut MatrixCache,
     ) -> Self {
-        let dense = !cells.is_empty() && cells.len() <= dense_max_cells;
-        let (matrix, positions) = if dense && CellMatrix::worth_building(B, B, cells.len(), cache.precision()) {
-            let (matrix, positions) = cache.get(op, blocks, cells);
-            (Some(matrix), positions)
-        } else {
-            (None, None)
+        // A matrix wherever it fits, whatever `dense_max_cells` (the crossover of the
+        // operator's own products) unless that is 0 (FFT only): a 25-cell tap's normal
+        // solve on 385 candidates took its products by FFT until the single-precision
+        // matrix (0.59 MB) served it.
+        let precision = cache.precision_for(B, cells.len());
+        let (matrix, positions) = match precision.filter(|_| !cells.is_empty() && dense_max_cells > 0) {
+            Some(precision) => {
+                let (matrix, positions) = cache.get(op, blocks, cells, precision);
+                (Some(matrix), positions)
+            }
+            None => (None, None),
         };
         let fields = match (&matrix, &positions) {
             (Some(m), Some(_)) => [vec![0.0; m.cols], vec![0.0; m.rows]],
@@ -539,19 +552,21 @@ pub struct MatrixCache {
     last: Option<Arc<CellMatrix>>,
     /// Matrices built and handed out again.
     counts: [usize; 2],
-    /// The precision of the matrices it builds.
-    precision: Precision,
+    /// The lowest precision it builds in.
+    lowest: Precision,
 }
 
 impl MatrixCache {
-    /// A cache whose matrices store their coefficients in `precision`.
-    pub fn in_precision(precision: Precision) -> Self {
-        Self { precision, ..Self::default() }
+    /// A cache that builds its matrices in double precision where they fit ([`MAX_BYTES`]),
+    /// else in `lowest` where that fits: the default's are all double.
+    pub fn down_to(lowest: Precision) -> Self {
+        Self { lowest, ..Self::default() }
     }
 
-    /// The precision of the matrices it builds.
-    pub fn precision(&self) -> Precision {
-        self.precision
+    /// The precision of a matrix of `blocks x blocks` components on `cells` cells: double where
+    /// it fits, else the lowest allowed where that fits; `None`: none worth building.
+    pub fn precision_for(&self, blocks: usize, cells: usize) -> Option<Precision> {
+        [Precision::Double, self.lowest].into_iter().find(|&p| CellMatrix::worth_building(blocks, blocks, cells, p))
     }
 
     /// Matrices built and matrices handed out again so far (for tests and tuning).
@@ -559,21 +574,23 @@ impl MatrixCache {
         self.counts
     }
 
-    /// The matrix of `op`'s `blocks` on `cells`, built unless the last one serves them (its
-    /// own cells, or a superset: then with the cells' positions among its own).
+    /// The matrix of `op`'s `blocks` on `cells` in `precision`, built unless the last one
+    /// serves them (its own cells, or a superset: then with the cells' positions among its
+    /// own).
     pub fn get<const B: usize>(
         &mut self,
         op: &Operator,
         blocks: &[[Component; B]],
         cells: &[usize],
+        precision: Precision,
     ) -> (Arc<CellMatrix>, Option<Vec<usize>>) {
-        let kept = self.last.as_ref().filter(|m| m.has(op.grid(), blocks, self.precision));
+        let kept = self.last.as_ref().filter(|m| m.has(op.grid(), blocks, precision));
         if let Some((m, positions)) = kept.and_then(|m| m.serves(cells).map(|p| (m.clone(), p))) {
             self.counts[1] += 1;
             return (m, positions);
         }
         self.counts[0] += 1;
-        let m = Arc::new(CellMatrix::in_precision(op, blocks, cells, self.precision));
+        let m = Arc::new(CellMatrix::in_precision(op, blocks, cells, precision));
         self.last = Some(m.clone());
         (m, None)
     }
@@ -655,7 +672,7 @@ mod tests {
         let mut x = field(2 * cells.len(), 4);
         x[3] = 0.0;
         let mut cache = MatrixCache::default();
-        let _ = cache.get(&op, &blocks, &big);
+        let _ = cache.get(&op, &blocks, &big, Precision::Double);
         let shared = CellProduct::new(&op, &blocks, &cells, 300, &mut cache);
         assert_eq!(cache.counts(), [1, 1], "the superset's matrix is handed out");
         let own = CellProduct::new(&op, &blocks, &cells, 300, &mut MatrixCache::default());
@@ -676,8 +693,8 @@ mod tests {
 
     /// Single precision ([`Precision::Single`]): every row within its rounding of the double
     /// matrix's (a few `1e-7` of the row's largest sum here, bounded at `1e-5`), the same
-    /// bits on a second product, zero inputs skipped; a cache builds in its own precision,
-    /// and the precision follows the solver's tolerance.
+    /// bits on a second product, zero inputs skipped; a cache builds single only where a
+    /// double matrix would not fit, and the precision follows the solver's tolerance.
     #[test]
     fn a_single_precision_matrix_is_within_its_rounding_of_the_double_one() {
         let op = op();
@@ -697,9 +714,17 @@ mod tests {
         let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let worst = a.iter().zip(&b).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         assert!(worst > 0.0 && worst <= 1e-5 * scale, "largest difference {worst:e} of {scale:e}");
-        let mut cache = MatrixCache::in_precision(Precision::Single);
-        assert_eq!(cache.get(&op, &blocks, &cells).0.precision(), Precision::Single);
-        assert_eq!(MatrixCache::default().get(&op, &blocks, &cells).0.precision(), Precision::Double);
+        // A cache builds double where it fits, single only where that alone fits.
+        let cache = MatrixCache::down_to(Precision::Single);
+        assert_eq!(cache.precision_for(2, cells.len()), Some(Precision::Double));
+        assert_eq!(cache.precision_for(2, 220), Some(Precision::Single));
+        assert_eq!(cache.precision_for(2, 300), None);
+        assert_eq!(MatrixCache::default().precision_for(2, 220), None);
+        assert_eq!(MatrixCache::default().precision_for(1, 362), Some(Precision::Double));
+        let mut cache = MatrixCache::default();
+        assert_eq!(cache.get(&op, &blocks, &cells, Precision::Single).0.precision(), Precision::Single);
+        assert_eq!(cache.get(&op, &blocks, &cells, Precision::Double).0.precision(), Precision::Double);
+        assert_eq!(cache.counts(), [2, 0], "a kept matrix serves only its own precision");
         assert_eq!(Precision::for_tolerance(1e-4), Precision::Single);
         assert_eq!(Precision::for_tolerance(1e-9), Precision::Double);
     }

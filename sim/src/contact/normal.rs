@@ -26,6 +26,8 @@ pub enum Control {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ProductChoice {
     /// Dense products up to this many candidate cells, FFT above; see [`DENSE_MAX_CELLS`].
+    /// A matrix of the candidates serves them at any size where it fits (`CellMatrix`),
+    /// unless this is 0: FFT products only.
     pub dense_max_cells: usize,
 }
 

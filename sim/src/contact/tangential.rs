@@ -30,7 +30,8 @@ pub struct TangentialSettings {
     pub tolerance: f64,
     /// Give up after this many iterations.
     pub max_iterations: usize,
-    /// Dense products up to this many contact cells, FFT above.
+    /// Dense products up to this many contact cells, FFT above; a matrix of the cells
+    /// serves them at any size where it fits, unless this is 0: FFT products only.
     pub dense_max_cells: usize,
 }
 
