@@ -381,17 +381,12 @@ fn a_tap_through_the_contact_matrices_equals_one_through_fft_products() {
 /// every pin within 1e-4 mm of the same paths solved tightly (1e-10, 1e-9, rounds until they
 /// move the shear by less than 1e-9 of the pressure's sum): a tap on the disk's top and a
 /// slide across its rim in 1 mm steps, as the `paper` recipe's (17 cells), and a tap without
-/// friction (no tangential solve).
+/// friction (no tangential solve); and the same at the default 25 cells, where the default
+/// model's larger matrices are single precision and the tight model's double
+/// (`contact::Precision`).
 #[test]
 fn default_tolerances_keep_the_pins_within_a_tenth_of_a_micron_of_a_tight_solve() {
     let scene = scene_with("disk");
-    let mut sensor = SensorParams::default();
-    sensor.skin.cells_across = 17;
-    let default = ContactModel::new(&sensor);
-    let mut tight = default.clone();
-    tight.normal.tolerance = 1e-10;
-    tight.tangential.tolerance = 1e-9;
-    tight.coupling_iterations = 12;
     let tap = SensorPath::tap(SensorPose::new(5.0, -3.0, 3.0, 30.0));
     let slide = SensorPath::slide(SensorPose::new(49.0, 1.0, 2.5, 20.0), [-2.5, -1.0], 1.0).expect("path");
     // Without friction there is no tangential solve: the first round's normal solve is the last.
@@ -399,18 +394,27 @@ fn default_tolerances_keep_the_pins_within_a_tenth_of_a_micron_of_a_tight_solve(
     let mut frictionless = Scene::new();
     let disk = cat.get("disk").expect("shape").with_friction(Some(0.0));
     frictionless.add(disk, ObjectPose::default()).expect("add");
-    for (name, path, scene) in
-        [("tap", &tap, &scene), ("slide", &slide, &scene), ("frictionless tap", &tap, &frictionless)]
-    {
-        let a = path.run(&default, scene).expect("default");
-        let b = path.run(&tight, scene).expect("tight");
-        let (ra, rb) = (&a[a.len() - 1].report, &b[b.len() - 1].report);
-        assert!(ra.in_contact && ra.tangential_solved == (name != "frictionless tap"), "{name}: {ra:?}");
-        let shift = max_pin_shift(&a[a.len() - 1].pins, &b[b.len() - 1].pins);
-        println!(
-            "{name}: pins {shift:.2e} mm from the tight solve; iterations normal {} / {}, tangential {} / {}",
-            ra.normal_iterations, rb.normal_iterations, ra.tangential_iterations, rb.tangential_iterations
-        );
-        assert!(shift < 1e-4, "{name}: pins {shift} mm from the tight solve");
+    for cells in [17, 25] {
+        let mut sensor = SensorParams::default();
+        sensor.skin.cells_across = cells;
+        let default = ContactModel::new(&sensor);
+        let mut tight = default.clone();
+        tight.normal.tolerance = 1e-10;
+        tight.tangential.tolerance = 1e-9;
+        tight.coupling_iterations = 12;
+        for (name, path, scene) in
+            [("tap", &tap, &scene), ("slide", &slide, &scene), ("frictionless tap", &tap, &frictionless)]
+        {
+            let a = path.run(&default, scene).expect("default");
+            let b = path.run(&tight, scene).expect("tight");
+            let (ra, rb) = (&a[a.len() - 1].report, &b[b.len() - 1].report);
+            assert!(ra.in_contact && ra.tangential_solved == (name != "frictionless tap"), "{name}: {ra:?}");
+            let shift = max_pin_shift(&a[a.len() - 1].pins, &b[b.len() - 1].pins);
+            println!(
+                "{cells} cells, {name}: pins {shift:.2e} mm from the tight solve; iterations normal {} / {}, tangential {} / {}",
+                ra.normal_iterations, rb.normal_iterations, ra.tangential_iterations, rb.tangential_iterations
+            );
+            assert!(shift < 1e-4, "{cells} cells, {name}: pins {shift} mm from the tight solve");
+        }
     }
 }
