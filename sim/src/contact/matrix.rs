@@ -16,12 +16,14 @@
 //! instead of 16 multiplies and adds and the register moves LLVM added around them (issue 31:
 //! a `paper` pose 2.237 -> 2.107 G instructions, `docs/guide/contact.md`).
 //!
-//! At the model's tolerances the solvers' matrices are single precision ([`Precision`]): half
-//! the bytes, so a 25-cell tap's contact (about 220 cells, 0.77 MB for the shear) and its
-//! normal candidates (385, 0.59 MB) fit under [`MAX_BYTES`] where their double matrices (1.5
-//! and 1.2 MB) did not, and twice the lanes per instruction (issue 31: a 25-cell tap's solve
-//! on the disk's top 3.75 -> 2.13 ms with the shear's, 1.36 ms with the normal's too;
-//! `cargo bench -p tacsim-sim --bench tap -- tap-solve`, `docs/guide/contact.md`).
+//! At the model's tolerances a matrix too large in double precision is built in single
+//! ([`Precision`], [`MatrixCache::down_to`]): half the bytes, so a 25-cell tap's contact (about
+//! 220 cells, 0.77 MB for the shear) and its normal candidates (385, 0.59 MB) fit under
+//! [`MAX_BYTES`] where their double matrices (1.5 and 1.2 MB) did not, and twice the lanes per
+//! instruction (issue 31: a 25-cell tap's solve on the disk's top 3.75 -> 1.51 ms; `cargo
+//! bench -p tacsim-sim --bench tap -- tap-solve`, `docs/guide/contact.md`, "Single-precision
+//! matrices"). Smaller matrices stay double: built often and used for few products, they
+//! would cost more to round than they save.
 
 use std::sync::Arc;
 
@@ -161,6 +163,43 @@ impl CellMatrix {
             Panels::Single(_) => Precision::Single,
         }
     }
+    /// Whether the matrix of `blocks` (`outputs x inputs` components) on `cells` cells is
+    /// small enough to be worth building ([`MAX_BYTES`]) in `precision`.
+    pub fn worth_building(outputs: usize, inputs: usize, cells: usize, precision: Precision) -> bool {
+        outputs * inputs * cells * cells * precision.bytes() <= MAX_BYTES
+    }
+
+    /// Whether this is the matrix of `blocks` of an operator on `grid`, in `precision`.
+    fn has<const B: usize>(&self, grid: &Grid, blocks: &[[Component; B]], precision: Precision) -> bool {
+        self.grid == *grid
+            && self.precision() == precision
+            && self.components.len() == blocks.len() * B
+            && self.components.iter().eq(blocks.iter().flatten())
+    }
+
+    /// Where `cells` sit among this matrix's when it serves them: `Some(None)` for its own
+    /// cells, `Some(Some(positions))` for a subset (both in increasing order, at most
+    /// [`SUPERSET_RATIO`] times fewer), `None` otherwise.
+    fn serves(&self, cells: &[usize]) -> Option<Option<Vec<usize>>> {
+        if self.cells == cells {
+            return Some(None);
+        }
+        let subset = self.cells.len() as f64 <= SUPERSET_RATIO * cells.len() as f64
+            && cells.is_sorted()
+            && self.cells.is_sorted();
+        if subset { positions_in(&self.cells, cells).map(Some) } else { None }
+    }
+
+    /// `y = M x` (x packed by input blocks, `y` by output blocks). Columns where `x` is zero
+    /// are skipped (they add nothing).
+    pub fn apply(&self, x: &[f64], y: &mut [f64]) {
+        assert_eq!((x.len(), y.len()), (self.cols, self.rows), "packed lengths of a cell matrix product");
+        // The same fused multiply-adds in the same order on every vector unit: the same bits.
+        match &self.panels {
+            Panels::Double(panels) => pulp::Arch::new().dispatch(PanelSums { panels, cols: self.cols, x, y }),
+            Panels::Single(panels) => pulp::Arch::new().dispatch(SinglePanelSums { panels, cols: self.cols, x, y }),
+        }
+    }
 }
 
 /// The panels of `op`'s `blocks` on `cells` ([`CellMatrix::new`]), each coefficient as `T`.
@@ -204,46 +243,6 @@ fn gather<T: Coefficient, const B: usize>(op: &Operator, blocks: &[[Component; B
         });
     }
     panels
-}
-
-impl CellMatrix {
-    /// Whether the matrix of `blocks` (`outputs x inputs` components) on `cells` cells is
-    /// small enough to be worth building ([`MAX_BYTES`]) in `precision`.
-    pub fn worth_building(outputs: usize, inputs: usize, cells: usize, precision: Precision) -> bool {
-        outputs * inputs * cells * cells * precision.bytes() <= MAX_BYTES
-    }
-
-    /// Whether this is the matrix of `blocks` of an operator on `grid`, in `precision`.
-    fn has<const B: usize>(&self, grid: &Grid, blocks: &[[Component; B]], precision: Precision) -> bool {
-        self.grid == *grid
-            && self.precision() == precision
-            && self.components.len() == blocks.len() * B
-            && self.components.iter().eq(blocks.iter().flatten())
-    }
-
-    /// Where `cells` sit among this matrix's when it serves them: `Some(None)` for its own
-    /// cells, `Some(Some(positions))` for a subset (both in increasing order, at most
-    /// [`SUPERSET_RATIO`] times fewer), `None` otherwise.
-    fn serves(&self, cells: &[usize]) -> Option<Option<Vec<usize>>> {
-        if self.cells == cells {
-            return Some(None);
-        }
-        let subset = self.cells.len() as f64 <= SUPERSET_RATIO * cells.len() as f64
-            && cells.is_sorted()
-            && self.cells.is_sorted();
-        if subset { positions_in(&self.cells, cells).map(Some) } else { None }
-    }
-
-    /// `y = M x` (x packed by input blocks, `y` by output blocks). Columns where `x` is zero
-    /// are skipped (they add nothing).
-    pub fn apply(&self, x: &[f64], y: &mut [f64]) {
-        assert_eq!((x.len(), y.len()), (self.cols, self.rows), "packed lengths of a cell matrix product");
-        // The same fused multiply-adds in the same order on every vector unit: the same bits.
-        match &self.panels {
-            Panels::Double(panels) => pulp::Arch::new().dispatch(PanelSums { panels, cols: self.cols, x, y }),
-            Panels::Single(panels) => pulp::Arch::new().dispatch(SinglePanelSums { panels, cols: self.cols, x, y }),
-        }
-    }
 }
 
 /// Products of an operator's blocks on one fixed cell set, on packed vectors (component block
