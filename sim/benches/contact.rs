@@ -62,7 +62,8 @@ fn bench_shear_products(c: &mut Criterion) {
         let packed: Vec<f64> = [&qx, &qy].iter().flat_map(|q| cells.iter().map(|&k| q[k])).collect();
         let mut out = vec![0.0; 2 * m];
         group.bench_function(format!("matrix/{m}-cells"), |b| b.iter(|| matrix.apply(&packed, &mut out)));
-        // The engine's: single precision at the model's tangential tolerance.
+        // What the engine builds at the model's tolerance where a double matrix would not fit
+        // (above 181 cells).
         let single = CellMatrix::in_precision(&op, &blocks, &cells, Precision::Single);
         group.bench_function(format!("matrix-single/{m}-cells"), |b| b.iter(|| single.apply(&packed, &mut out)));
         group.bench_function(format!("matrix-build/{m}-cells"), |b| b.iter(|| CellMatrix::new(&op, &blocks, &cells)));

@@ -531,8 +531,10 @@ impl<'a> Simulation<'a> {
             friction: vec![0.0; n],
             seen: vec![false; n],
             eigenvector: None,
-            normal_matrix: Self::normal_cache(model),
-            shear_matrix: Self::shear_cache(model),
+            // Single precision where a double matrix would not fit, at the model's tolerances
+            // (normal 1e-5, tangential 1e-4); all double for tight ones.
+            normal_matrix: MatrixCache::down_to(Precision::for_tolerance(model.normal.tolerance)),
+            shear_matrix: MatrixCache::down_to(Precision::for_tolerance(model.tangential.tolerance)),
             prev_product: PrevProduct::default(),
             cuts: Vec::new(),
             cut_coupling: None,
@@ -542,20 +544,6 @@ impl<'a> Simulation<'a> {
             pose: None,
             report: StepReport::default(),
         }
-    }
-
-    /// The tangential products' matrices: single precision where a double one would not fit,
-    /// at the model's tangential tolerance (`1e-4`, [`Precision::for_tolerance`]); all double
-    /// for a tight one.
-    fn shear_cache(model: &ContactModel) -> MatrixCache {
-        MatrixCache::down_to(Precision::for_tolerance(model.tangential.tolerance))
-    }
-
-    /// The normal solve's matrices: single precision where a double one would not fit, at
-    /// the model's normal tolerance (`1e-5`, [`Precision::for_tolerance`]); all double for a
-    /// tight one.
-    fn normal_cache(model: &ContactModel) -> MatrixCache {
-        MatrixCache::down_to(Precision::for_tolerance(model.normal.tolerance))
     }
 
     /// Lifts the sensor off: no contact and no history, as [`Simulation::new`] left it (the
@@ -568,8 +556,8 @@ impl<'a> Simulation<'a> {
         self.friction.fill(0.0);
         self.seen.fill(false);
         self.eigenvector = None;
-        self.normal_matrix = Self::normal_cache(self.model);
-        self.shear_matrix = Self::shear_cache(self.model);
+        self.normal_matrix.clear();
+        self.shear_matrix.clear();
         self.closure.fill(0.0);
         self.cuts.fill(None);
         self.cut_coupling = None;

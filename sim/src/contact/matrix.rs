@@ -286,12 +286,10 @@ impl<'a, const B: usize> CellProduct<'a, B> {
         // operator's own products) unless that is 0 (FFT only): a 25-cell tap's normal
         // solve on 385 candidates took its products by FFT until the single-precision
         // matrix (0.59 MB) served it.
-        let precision = cache.precision_for(B, cells.len());
-        let (matrix, positions) = match precision.filter(|_| !cells.is_empty() && dense_max_cells > 0) {
-            Some(precision) => {
-                let (matrix, positions) = cache.get(op, blocks, cells, precision);
-                (Some(matrix), positions)
-            }
+        let dense = !cells.is_empty() && dense_max_cells > 0;
+        let precision = if dense { cache.precision_for(B, cells.len()) } else { None };
+        let (matrix, positions) = match precision.map(|p| cache.get(op, blocks, cells, p)) {
+            Some((matrix, positions)) => (Some(matrix), positions),
             None => (None, None),
         };
         let fields = match (&matrix, &positions) {
@@ -560,6 +558,11 @@ impl MatrixCache {
     /// else in `lowest` where that fits: the default's are all double.
     pub fn down_to(lowest: Precision) -> Self {
         Self { lowest, ..Self::default() }
+    }
+
+    /// Forgets the kept matrix and the counts; the precision stays.
+    pub fn clear(&mut self) {
+        *self = Self::down_to(self.lowest);
     }
 
     /// The precision of a matrix of `blocks x blocks` components on `cells` cells: double where
