@@ -1014,7 +1014,7 @@ impl<'a> Simulation<'a> {
         if grown || self.eigenvector.is_none() {
             let cells: Vec<usize> = (0..self.seen.len()).filter(|&k| self.seen[k]).collect();
             let dense = self.model.tangential.dense_max_cells;
-            let e = Eigenvector::power_iteration(op, &cells, dense, &mut self.shear_matrix, self.eigenvector.as_ref());
+            let e = Eigenvector::lanczos(op, &cells, dense, &mut self.shear_matrix, self.eigenvector.as_ref());
             self.eigenvector = Some(e);
         }
         let minus = |q: &[f64], o: &[f64]| -> Vec<f64> { q.iter().zip(o).map(|(q, o)| q - o).collect() };

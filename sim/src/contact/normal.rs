@@ -123,6 +123,10 @@ pub fn solve(
 /// sets a full step keeps swapping.
 const STALL_ITERATIONS: usize = 20;
 
+/// Iterations after which the conjugate gradient takes the displacement from a whole product
+/// again instead of its update in place, so that the updates' rounding does not build up.
+const REFRESH_ITERATIONS: usize = 10;
+
 /// The normal block: `u_z` from `p`.
 const NORMAL_BLOCK: [[Component; 1]; 1] = [[Component::Zz]];
 
@@ -186,15 +190,19 @@ impl<'a> Problem<'a> {
     }
 
     /// Under load control, scales the candidates' pressures to the load.
-    fn rescale_to_load(&self, pressure: &mut [f64]) {
+    /// Returns the factor (1 without).
+    fn rescale_to_load(&self, pressure: &mut [f64]) -> f64 {
         if let Control::Load(load) = self.control {
             let total: f64 = pressure.iter().sum::<f64>() * self.area;
             if total > 0.0 {
+                let factor = load / total;
                 for p in pressure.iter_mut() {
-                    *p *= load / total;
+                    *p *= factor;
                 }
+                return factor;
             }
         }
+        1.0
     }
 
     /// The starting pressures on the candidates: the warm ones, else a Jacobi guess (half the
@@ -259,9 +267,13 @@ impl<'a> Problem<'a> {
         // The steps' factor: 1 until the residual stalls, halved at each stall.
         let (mut best, mut since_best, mut step) = (f64::INFINITY, 0usize, 1.0f64);
         let (mut active, mut cells) = (Vec::with_capacity(m), Vec::new());
+        // The pressures' jumps off the line `p - tau t` (packed) and where they are.
+        let (mut jump, mut jumped) = (vec![0.0; m], Vec::new());
         for iteration in 1..=self.settings.max_iterations {
             self.active(&pressure, product, &mut active, &mut cells);
-            product.apply(Some(&cells), &pressure, &mut u);
+            if iteration % REFRESH_ITERATIONS == 1 {
+                product.apply(Some(&cells), &pressure, &mut u);
+            }
             for i in 0..m {
                 g[i] = u[i] + base[i];
             }
@@ -277,25 +289,33 @@ impl<'a> Problem<'a> {
             }
             g_old = gg;
             product.apply(Some(&cells), &t, &mut r);
+            let mut r_mean = 0.0;
             if load_control && !active.is_empty() {
-                let r_mean = active.iter().map(|&i| r[i]).sum::<f64>() / active.len() as f64;
-                for &i in &active {
-                    r[i] -= r_mean;
-                }
+                r_mean = active.iter().map(|&i| r[i]).sum::<f64>() / active.len() as f64;
             }
             let num: f64 = active.iter().map(|&i| g[i] * t[i]).sum();
-            let den: f64 = active.iter().map(|&i| r[i] * t[i]).sum();
+            // `r` is kept as the product (for the update of `u`); the load's mean is taken
+            // off here.
+            let den: f64 = active.iter().map(|&i| (r[i] - r_mean) * t[i]).sum();
             let tau = if den > 0.0 { step * num / den } else { 0.0 };
             let mut change = 0.0;
             let mut overlap = false;
+            jumped.clear();
             for i in 0..m {
                 let old = pressure[i];
                 let mut p = old;
                 if old > 0.0 {
-                    p = (old - tau * t[i]).max(0.0);
+                    let stepped = old - tau * t[i];
+                    p = stepped.max(0.0);
+                    if p != stepped {
+                        jump[i] = p - stepped;
+                        jumped.push(i);
+                    }
                 } else if g[i] < 0.0 {
                     p = -tau.max(diag.recip() * 1e-3) * g[i];
                     overlap = true;
+                    jump[i] = p;
+                    jumped.push(i);
                 }
                 pressure[i] = p;
                 change += match &weight {
@@ -304,7 +324,28 @@ impl<'a> Problem<'a> {
                 };
             }
             delta = if overlap || step < 1.0 { 0.0 } else { 1.0 };
-            self.rescale_to_load(&mut pressure);
+            // The new displacement is `u - tau A t` plus the product of the jumps off that
+            // line (cells clipped to zero, cells re-entered), scaled with the pressures under
+            // load control: one product of the few jumped cells instead of a whole one
+            // (issue 31), a whole one every [`REFRESH_ITERATIONS`].
+            for i in 0..m {
+                u[i] -= tau * r[i];
+            }
+            if !jumped.is_empty() {
+                cells.clear();
+                if !product.has_matrix() {
+                    cells.extend(jumped.iter().map(|&i| self.candidates[i]));
+                }
+                product.apply(Some(&cells), &jump, &mut r);
+                for i in 0..m {
+                    u[i] += r[i];
+                }
+                jumped.iter().for_each(|&i| jump[i] = 0.0);
+            }
+            let factor = self.rescale_to_load(&mut pressure);
+            if factor != 1.0 {
+                u.iter_mut().for_each(|u| *u *= factor);
+            }
             let total: f64 = pressure.iter().sum();
             // A damped step's change, as the full step's would be: damping does not converge.
             residual = if total > 0.0 { change / total / step } else { 0.0 };
