@@ -551,6 +551,8 @@ pub struct MatrixCache {
     counts: [usize; 2],
     /// The lowest precision it builds in.
     lowest: Precision,
+    /// Whether it builds in `lowest` wherever that fits, not only where double does not.
+    only: bool,
 }
 
 impl MatrixCache {
@@ -560,15 +562,21 @@ impl MatrixCache {
         Self { lowest, ..Self::default() }
     }
 
+    /// A cache that builds its matrices in `precision` (double where that does not fit).
+    pub fn only(precision: Precision) -> Self {
+        Self { lowest: precision, only: true, ..Self::default() }
+    }
+
     /// Forgets the kept matrix and the counts; the precision stays.
     pub fn clear(&mut self) {
-        *self = Self::down_to(self.lowest);
+        *self = Self { last: None, counts: [0; 2], ..*self };
     }
 
     /// The precision of a matrix of `blocks x blocks` components on `cells` cells: double where
     /// it fits, else the lowest allowed where that fits; `None`: none worth building.
     pub fn precision_for(&self, blocks: usize, cells: usize) -> Option<Precision> {
-        [Precision::Double, self.lowest].into_iter().find(|&p| CellMatrix::worth_building(blocks, blocks, cells, p))
+        let order = if self.only { [self.lowest, Precision::Double] } else { [Precision::Double, self.lowest] };
+        order.into_iter().find(|&p| CellMatrix::worth_building(blocks, blocks, cells, p))
     }
 
     /// Matrices built and matrices handed out again so far (for tests and tuning).

@@ -9,6 +9,7 @@
 //! ([`ProductChoice`]).
 
 use super::cut::CutCoupling;
+use super::lanes::lane_sum;
 use super::matrix::{CellProduct, MatrixCache};
 use super::operator::{Component, Operator};
 use crate::error::{Result, SimError};
@@ -269,6 +270,8 @@ impl<'a> Problem<'a> {
         let (mut active, mut cells) = (Vec::with_capacity(m), Vec::new());
         // The pressures' jumps off the line `p - tau t` (packed) and where they are.
         let (mut jump, mut jumped) = (vec![0.0; m], Vec::new());
+        // Each candidate's change of pressure in an iteration (weighted for a cut cell).
+        let mut moved = vec![0.0; m];
         for iteration in 1..=self.settings.max_iterations {
             self.active(&pressure, product, &mut active, &mut cells);
             if iteration % REFRESH_ITERATIONS == 1 {
@@ -278,12 +281,12 @@ impl<'a> Problem<'a> {
                 g[i] = u[i] + base[i];
             }
             if load_control && !active.is_empty() {
-                let g_mean = active.iter().map(|&i| g[i]).sum::<f64>() / active.len() as f64;
+                let g_mean = lane_sum(active.iter().map(|&i| g[i])) / active.len() as f64;
                 for gi in g.iter_mut() {
                     *gi -= g_mean;
                 }
             }
-            let gg: f64 = active.iter().map(|&i| g[i] * g[i]).sum();
+            let gg = lane_sum(active.iter().map(|&i| g[i] * g[i]));
             for i in 0..m {
                 t[i] = if pressure[i] > 0.0 { g[i] + delta * (gg / g_old) * t[i] } else { 0.0 };
             }
@@ -291,16 +294,15 @@ impl<'a> Problem<'a> {
             product.apply(Some(&cells), &t, &mut r);
             let mut r_mean = 0.0;
             if load_control && !active.is_empty() {
-                r_mean = active.iter().map(|&i| r[i]).sum::<f64>() / active.len() as f64;
+                r_mean = lane_sum(active.iter().map(|&i| r[i])) / active.len() as f64;
             }
-            let num: f64 = active.iter().map(|&i| g[i] * t[i]).sum();
+            let num = lane_sum(active.iter().map(|&i| g[i] * t[i]));
             // `r` is kept as the product (for the update of `u`); the load's mean is taken
             // off here.
-            let den: f64 = active.iter().map(|&i| (r[i] - r_mean) * t[i]).sum();
+            let den = lane_sum(active.iter().map(|&i| (r[i] - r_mean) * t[i]));
             let tau = if den > 0.0 { step * num / den } else { 0.0 };
-            let mut change = 0.0;
             let mut overlap = false;
-            jumped.clear();
+            let mut any_jump = false;
             for i in 0..m {
                 let old = pressure[i];
                 let mut p = old;
@@ -309,20 +311,21 @@ impl<'a> Problem<'a> {
                     p = stepped.max(0.0);
                     if p != stepped {
                         jump[i] = p - stepped;
-                        jumped.push(i);
+                        any_jump = true;
                     }
                 } else if g[i] < 0.0 {
                     p = -tau.max(diag.recip() * 1e-3) * g[i];
                     overlap = true;
                     jump[i] = p;
-                    jumped.push(i);
+                    any_jump = true;
                 }
-                pressure[i] = p;
-                change += match &weight {
+                moved[i] = match &weight {
                     Some(w) => (p - old).abs() * w[i],
                     None => (p - old).abs(),
                 };
+                pressure[i] = p;
             }
+            let change = lane_sum(moved.iter().copied());
             delta = if overlap || step < 1.0 { 0.0 } else { 1.0 };
             // The new displacement is `u - tau A t` plus the product of the jumps off that
             // line (cells clipped to zero, cells re-entered), scaled with the pressures under
@@ -331,7 +334,9 @@ impl<'a> Problem<'a> {
             for i in 0..m {
                 u[i] -= tau * r[i];
             }
-            if !jumped.is_empty() {
+            jumped.clear();
+            if any_jump {
+                jumped.extend((0..m).filter(|&i| jump[i] != 0.0));
                 cells.clear();
                 if !product.has_matrix() {
                     cells.extend(jumped.iter().map(|&i| self.candidates[i]));
@@ -346,7 +351,7 @@ impl<'a> Problem<'a> {
             if factor != 1.0 {
                 u.iter_mut().for_each(|u| *u *= factor);
             }
-            let total: f64 = pressure.iter().sum();
+            let total = lane_sum(pressure.iter().copied());
             // A damped step's change, as the full step's would be: damping does not converge.
             residual = if total > 0.0 { change / total / step } else { 0.0 };
             if !residual.is_finite() {

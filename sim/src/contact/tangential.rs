@@ -18,6 +18,7 @@
 //! coupling is left to the caller, which alternates the two solves (see [`super::engine`]).
 
 use super::cut::CutCoupling;
+use super::lanes::lane_sum;
 use super::matrix::{CellProduct, MatrixCache};
 use super::operator::{Component, Operator, Product};
 use crate::error::{Result, SimError};
@@ -135,7 +136,7 @@ impl Eigenvector {
 /// `v` (packed), and its Ritz vector (unit length; zero, with a value of 0, from a zero
 /// start). It stops early once a step raises the value by less than [`RITZ_SETTLED`].
 fn ritz_pair(product: &CellProduct<'_, 2>, mut v: Vec<f64>, steps: usize) -> (f64, Vec<f64>) {
-    let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(a, b)| a * b).sum::<f64>();
+    let dot = |a: &[f64], b: &[f64]| lane_sum(a.iter().zip(b).map(|(a, b)| a * b));
     let norm = dot(&v, &v).sqrt();
     if norm == 0.0 {
         return (0.0, v);
@@ -374,9 +375,9 @@ fn minimise(
                 }
             }
         }
-        // Summed in cell order, whatever computed the terms: the same bits.
-        let kkt = kkt_terms.iter().fold(0.0, |s, t| s + t);
-        let restart = restart_terms.iter().fold(0.0, |s, t| s + t);
+        // Summed in the same order whatever computed the terms: the same bits.
+        let kkt = lane_sum(kkt_terms.iter().copied());
+        let restart = lane_sum(restart_terms.iter().copied());
         let residual = kkt / total_bound;
         let momentum = if restart > 0.0 { 0.0 } else { beta };
         theta = if restart > 0.0 { 1.0 } else { theta_next };
