@@ -40,6 +40,14 @@ const LANES: usize = 32;
 /// cells, 1.0 MB; slower on 241, 1.9 MB).
 const MAX_BYTES: usize = 1 << 20;
 
+/// The largest matrix kept in double precision where a cache allows single (bytes in double,
+/// [`MatrixCache::down_to`]). Below it a matrix is built for few products (a 13-cell contact's
+/// 60 cells, 0.12 MB), and rounding its coefficients to `f32` costs more than its products
+/// gain: single everywhere made a `paper` shard (13 cells, `tacsim generate paper --shard
+/// 250/600 --threads 1`) 10% slower. Above it, on a 25-cell grid's slides (partial contacts of
+/// 100-180 cells, 0.3-1 MB in double) single made them 10% faster.
+const DOUBLE_MAX_BYTES: usize = 1 << 18;
+
 /// How many times more cells a kept matrix may have than a solve asks for and still serve it
 /// (its other rows are computed and not read). On a `paper` pose (`tacsim generate paper
 /// --shard 250/600 --threads 1`) the shear matrices built fall from 1,007 to 534 at 1.25 (the
@@ -551,20 +559,13 @@ pub struct MatrixCache {
     counts: [usize; 2],
     /// The lowest precision it builds in.
     lowest: Precision,
-    /// Whether it builds in `lowest` wherever that fits, not only where double does not.
-    only: bool,
 }
 
 impl MatrixCache {
-    /// A cache that builds its matrices in double precision where they fit ([`MAX_BYTES`]),
-    /// else in `lowest` where that fits: the default's are all double.
+    /// A cache that builds its matrices in double precision up to [`DOUBLE_MAX_BYTES`], else
+    /// in `lowest` where that fits ([`MAX_BYTES`]): the default's are all double.
     pub fn down_to(lowest: Precision) -> Self {
         Self { lowest, ..Self::default() }
-    }
-
-    /// A cache that builds its matrices in `precision` (double where that does not fit).
-    pub fn only(precision: Precision) -> Self {
-        Self { lowest: precision, only: true, ..Self::default() }
     }
 
     /// Forgets the kept matrix and the counts; the precision stays.
@@ -572,10 +573,12 @@ impl MatrixCache {
         *self = Self { last: None, counts: [0; 2], ..*self };
     }
 
-    /// The precision of a matrix of `blocks x blocks` components on `cells` cells: double where
-    /// it fits, else the lowest allowed where that fits; `None`: none worth building.
+    /// The precision of a matrix of `blocks x blocks` components on `cells` cells: double up
+    /// to [`DOUBLE_MAX_BYTES`], else the lowest allowed where that fits (double where that is
+    /// all it allows); `None`: none worth building.
     pub fn precision_for(&self, blocks: usize, cells: usize) -> Option<Precision> {
-        let order = if self.only { [self.lowest, Precision::Double] } else { [Precision::Double, self.lowest] };
+        let small = blocks * blocks * cells * cells * Precision::Double.bytes() <= DOUBLE_MAX_BYTES;
+        let order = if small { [Precision::Double, self.lowest] } else { [self.lowest, Precision::Double] };
         order.into_iter().find(|&p| CellMatrix::worth_building(blocks, blocks, cells, p))
     }
 
@@ -703,8 +706,9 @@ mod tests {
 
     /// Single precision ([`Precision::Single`]): every row within its rounding of the double
     /// matrix's (a few `1e-7` of the row's largest sum here, bounded at `1e-5`), the same
-    /// bits on a second product, zero inputs skipped; a cache builds single only where a
-    /// double matrix would not fit, and the precision follows the solver's tolerance.
+    /// bits on a second product, zero inputs skipped; a cache that allows single builds double
+    /// up to [`DOUBLE_MAX_BYTES`] and single above, and the precision follows the solver's
+    /// tolerance.
     #[test]
     fn a_single_precision_matrix_is_within_its_rounding_of_the_double_one() {
         let op = op();
@@ -724,9 +728,11 @@ mod tests {
         let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let worst = a.iter().zip(&b).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         assert!(worst > 0.0 && worst <= 1e-5 * scale, "largest difference {worst:e} of {scale:e}");
-        // A cache builds double where it fits, single only where that alone fits.
+        // A cache builds double up to 256 KB (90 cells of shear), single above where it fits.
         let cache = MatrixCache::down_to(Precision::Single);
         assert_eq!(cache.precision_for(2, cells.len()), Some(Precision::Double));
+        assert_eq!(cache.precision_for(2, 90), Some(Precision::Double));
+        assert_eq!(cache.precision_for(2, 91), Some(Precision::Single));
         assert_eq!(cache.precision_for(2, 220), Some(Precision::Single));
         assert_eq!(cache.precision_for(2, 300), None);
         assert_eq!(MatrixCache::default().precision_for(2, 220), None);

@@ -302,7 +302,7 @@ pub(crate) fn refine(
         Control::Load(load),
         Some(&warm),
         &settings,
-        &mut MatrixCache::only(Precision::for_tolerance(TOLERANCE)),
+        &mut MatrixCache::down_to(Precision::for_tolerance(TOLERANCE)),
     );
     let sol = match solved {
         Ok(sol) => sol,
