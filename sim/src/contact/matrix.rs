@@ -16,14 +16,14 @@
 //! instead of 16 multiplies and adds and the register moves LLVM added around them (issue 31:
 //! a `paper` pose 2.237 -> 2.107 G instructions, `docs/guide/contact.md`).
 //!
-//! At the model's tolerances a matrix too large in double precision is built in single
-//! ([`Precision`], [`MatrixCache::down_to`]): half the bytes, so a 25-cell tap's contact (about
-//! 220 cells, 0.77 MB for the shear) and its normal candidates (385, 0.59 MB) fit under
-//! [`MAX_BYTES`] where their double matrices (1.5 and 1.2 MB) did not, and twice the lanes per
-//! instruction (issue 31: a 25-cell tap's solve on the disk's top 3.75 -> 1.51 ms; `cargo
-//! bench -p tacsim-sim --bench tap -- tap-solve`, `docs/guide/contact.md`, "Single-precision
-//! matrices"). Smaller matrices stay double: built often and used for few products, they
-//! would cost more to round than they save.
+//! At the model's tolerances a matrix over [`DOUBLE_MAX_BYTES`] in double precision is built
+//! in single ([`Precision`], [`MatrixCache::down_to`]): half the bytes, so a 25-cell tap's
+//! contact (about 220 cells, 0.77 MB for the shear) and its normal candidates (385, 0.59 MB)
+//! fit under [`MAX_BYTES`] where their double matrices (1.5 and 1.2 MB) did not, and twice the
+//! lanes per instruction (issue 31: a 25-cell tap's solve on the disk's top 3.75 -> 1.51 ms;
+//! `cargo bench -p tacsim-sim --bench tap -- tap-solve`, `docs/guide/contact.md`,
+//! "Single-precision matrices"). Smaller matrices stay double: built often and used for few
+//! products, they would cost more to round than they save.
 
 use std::sync::Arc;
 

@@ -1,0 +1,50 @@
+//! The criterion bench's two taps (`cargo bench -p tacsim-sim --bench tap -- tap-solve`) solved
+//! many times in a row on one thread, for timing a change with the shell's `time` where
+//! criterion's runs spread too far on a noisy machine (issue 31): the first solve's normal and
+//! tangential iterations and a hash of its tractions' bits, then `REPEATS` more solves.
+//!
+//! ```text
+//! cargo run --release -p tacsim-sim --example tap_solves -- [CELLS] [REPEATS] [flat|rim]
+//! ```
+//! `CELLS` cells across the footprint (default 25); `REPEATS` solves of each tap after the
+//! first (default 0); only the named tap (default both). The taps: the calibrated default
+//! sensor on the built-in `disk` (100 mm across, centred at the origin), pressed 3 mm on its
+//! flat top at `(5, -3)` mm, yaw 30 deg, and across its rim at `(48, 0)` mm.
+
+use tacsim_sim::contact::{ContactModel, Simulation};
+use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPose};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let whole = |i: usize, default: usize| -> Result<usize, String> {
+        args.get(i)
+            .map_or(Ok(default), |s| s.parse().map_err(|_| format!("argument {}: `{s}` is not a whole number", i + 1)))
+    };
+    let (cells, repeats) = (whole(0, 25)?, whole(1, 0)?);
+    let only = args.get(2).map(String::as_str);
+    if !matches!(only, None | Some("flat" | "rim")) {
+        return Err(format!("argument 3: `{}` is neither `flat` nor `rim`", args[2]).into());
+    }
+    let catalogue = tacsim_sim::builtin_catalogue()?;
+    let mut scene = Scene::new();
+    scene.add(catalogue.get("disk")?, ObjectPose::default())?;
+    let mut sensor = SensorParams::default();
+    sensor.skin.cells_across = cells;
+    let model = ContactModel::new(&sensor);
+    let taps = [("flat", SensorPose::new(5.0, -3.0, 3.0, 30.0)), ("rim", SensorPose::new(48.0, 0.0, 3.0, 0.0))];
+    for (name, pose) in taps.into_iter().filter(|(name, _)| only.is_none_or(|o| o == *name)) {
+        let mut sim = Simulation::new(&model, &scene, &[pose]);
+        let report = sim.step(pose)?.clone();
+        let (qx, qy) = sim.shear();
+        let hash = sim.pressure().iter().chain(qx).chain(qy).fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits());
+        println!(
+            "{name}, {cells} cells: {} in contact, iterations normal {} tangential {}, tractions' hash {hash:016x}",
+            report.contact_cells, report.normal_iterations, report.tangential_iterations
+        );
+        for _ in 0..repeats {
+            sim.lift();
+            sim.step(pose)?;
+        }
+    }
+    Ok(())
+}
