@@ -573,6 +573,14 @@ mod tests {
     use crate::contact::operator::{HalfSpace, Pairing};
     use crate::contact::{Elastic, Grid};
 
+    /// A 17 x 17 grid of `cell_mm` cells and the operator of a skin like the calibrated
+    /// sensor's (Poisson 0.436) on it.
+    fn calibrated_skin(cell_mm: f64) -> (Grid, Operator) {
+        let grid = Grid { nx: 17, ny: 17, cell_mm, centre_mm: [0.0, 0.0] };
+        let skin = HalfSpace { material: Elastic::from_young(0.3, 0.436), pairing: Pairing::RigidIndenter };
+        (grid, Operator::new(&skin, grid))
+    }
+
     /// A path's contact grows a step at a time: the bound found from the last vector in
     /// [`Eigenvector::WARM_STEPS`] lies within 0.3% of a cold start's on the grown cells
     /// (here a disc sliding 0.4 mm and growing a step; the power iteration's that Lanczos
@@ -580,11 +588,7 @@ mod tests {
     /// largest eigenvalue, which ten more warm starts find.
     #[test]
     fn a_warm_bound_on_a_grown_contact_matches_a_cold_one() {
-        let grid = Grid { nx: 17, ny: 17, cell_mm: 0.5, centre_mm: [0.0, 0.0] };
-        let op = Operator::new(
-            &HalfSpace { material: Elastic::from_young(0.3, 0.436), pairing: Pairing::RigidIndenter },
-            grid,
-        );
+        let (grid, op) = calibrated_skin(0.5);
         let disc = |cx: f64, r: f64| -> Vec<usize> {
             (0..grid.len()).filter(|&k| (grid.centre(k)[0] - cx).hypot(grid.centre(k)[1]) < r).collect()
         };
@@ -615,11 +619,7 @@ mod tests {
     /// two discs of different sizes), which the 2% margin covers.
     #[test]
     fn lanczos_bounds_the_largest_eigenvalue_on_irregular_contacts() {
-        let grid = Grid { nx: 17, ny: 17, cell_mm: 0.4, centre_mm: [0.0, 0.0] };
-        let op = Operator::new(
-            &HalfSpace { material: Elastic::from_young(0.3, 0.436), pairing: Pairing::RigidIndenter },
-            grid,
-        );
+        let (grid, op) = calibrated_skin(0.4);
         let shapes: [fn([f64; 2]) -> bool; 5] = [
             |c| c[0].hypot(c[1]) < 2.5,
             |c| c[0].abs() < 0.5,
