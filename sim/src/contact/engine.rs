@@ -461,7 +461,7 @@ pub struct Simulation<'a> {
     /// Every cell that has been in contact on this path, and the eigenvalue bound of the
     /// tangential operator on them (reused while the contact stays inside).
     seen: Vec<bool>,
-    /// The power iteration's last vector and bound on those cells (where the next bound
+    /// The last Lanczos bound and Ritz vector on those cells (where the next bound
     /// starts when they grow).
     eigenvector: Option<Eigenvector>,
     /// The last normal (`A_zz` on the candidates) and tangential (`A_t` on the contact

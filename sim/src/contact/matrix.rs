@@ -51,7 +51,7 @@ const DOUBLE_MAX_BYTES: usize = 1 << 18;
 /// How many times more cells a kept matrix may have than a solve asks for and still serve it
 /// (its other rows are computed and not read). On a `paper` pose (`tacsim generate paper
 /// --shard 250/600 --threads 1`) the shear matrices built fall from 1,007 to 534 at 1.25 (the
-/// power iteration's on all cells seen serves the contact cells of the step), the normal ones
+/// eigenvalue bound's on all cells seen serves the contact cells of the step), the normal ones
 /// from 656 to 540; instructions 2.907 -> 2.865 G (1.5 and 2.0: 2.874 G).
 const SUPERSET_RATIO: f64 = 1.25;
 
