@@ -531,8 +531,8 @@ impl<'a> Simulation<'a> {
             friction: vec![0.0; n],
             seen: vec![false; n],
             eigenvector: None,
-            // Single precision where a double matrix would not fit, at the model's tolerances
-            // (normal 1e-5, tangential 1e-4); all double for tight ones.
+            // Single precision above 256 KB in double (`matrix.rs`, `DOUBLE_MAX_BYTES`), at
+            // the model's tolerances (normal 1e-5, tangential 1e-4); all double for tight ones.
             normal_matrix: MatrixCache::down_to(Precision::for_tolerance(model.normal.tolerance)),
             shear_matrix: MatrixCache::down_to(Precision::for_tolerance(model.tangential.tolerance)),
             prev_product: PrevProduct::default(),

@@ -174,7 +174,13 @@ impl CellMatrix {
     /// Whether the matrix of `blocks` (`outputs x inputs` components) on `cells` cells is
     /// small enough to be worth building ([`MAX_BYTES`]) in `precision`.
     pub fn worth_building(outputs: usize, inputs: usize, cells: usize, precision: Precision) -> bool {
-        outputs * inputs * cells * cells * precision.bytes() <= MAX_BYTES
+        Self::bytes(outputs, inputs, cells, precision) <= MAX_BYTES
+    }
+
+    /// The coefficients' bytes of the matrix of `outputs x inputs` components on `cells` cells
+    /// in `precision`.
+    fn bytes(outputs: usize, inputs: usize, cells: usize, precision: Precision) -> usize {
+        outputs * inputs * cells * cells * precision.bytes()
     }
 
     /// Whether this is the matrix of `blocks` of an operator on `grid`, in `precision`.
@@ -577,7 +583,7 @@ impl MatrixCache {
     /// to [`DOUBLE_MAX_BYTES`], else the lowest allowed where that fits (double where that is
     /// all it allows); `None`: none worth building.
     pub fn precision_for(&self, blocks: usize, cells: usize) -> Option<Precision> {
-        let small = blocks * blocks * cells * cells * Precision::Double.bytes() <= DOUBLE_MAX_BYTES;
+        let small = CellMatrix::bytes(blocks, blocks, cells, Precision::Double) <= DOUBLE_MAX_BYTES;
         let order = if small { [Precision::Double, self.lowest] } else { [self.lowest, Precision::Double] };
         order.into_iter().find(|&p| CellMatrix::worth_building(blocks, blocks, cells, p))
     }

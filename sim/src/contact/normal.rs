@@ -268,8 +268,8 @@ impl<'a> Problem<'a> {
         // The steps' factor: 1 until the residual stalls, halved at each stall.
         let (mut best, mut since_best, mut step) = (f64::INFINITY, 0usize, 1.0f64);
         let (mut active, mut cells) = (Vec::with_capacity(m), Vec::new());
-        // The pressures' jumps off the line `p - tau t` (packed) and where they are.
-        let (mut jump, mut jumped) = (vec![0.0; m], Vec::new());
+        // The pressures' jumps off the line `p - tau t` (packed; zero elsewhere).
+        let mut jump = vec![0.0; m];
         // Each candidate's change of pressure in an iteration (weighted for a cut cell).
         let mut moved = vec![0.0; m];
         for iteration in 1..=self.settings.max_iterations {
@@ -334,18 +334,16 @@ impl<'a> Problem<'a> {
             for i in 0..m {
                 u[i] -= tau * r[i];
             }
-            jumped.clear();
             if any_jump {
-                jumped.extend((0..m).filter(|&i| jump[i] != 0.0));
                 cells.clear();
                 if !product.has_matrix() {
-                    cells.extend(jumped.iter().map(|&i| self.candidates[i]));
+                    cells.extend((0..m).filter(|&i| jump[i] != 0.0).map(|i| self.candidates[i]));
                 }
                 product.apply(Some(&cells), &jump, &mut r);
                 for i in 0..m {
                     u[i] += r[i];
                 }
-                jumped.iter().for_each(|&i| jump[i] = 0.0);
+                jump.fill(0.0);
             }
             let factor = self.rescale_to_load(&mut pressure);
             if factor != 1.0 {

@@ -159,6 +159,10 @@ fn ritz_pair(product: &CellProduct<'_, 2>, mut v: Vec<f64>, steps: usize) -> (f6
         alpha.push(dot(&w, &basis[step]));
         let last = theta;
         theta = tridiagonal(&alpha, &beta[..step]).symmetric_eigenvalues().max();
+        // Settled or the last step: `T` is complete, no next vector is needed.
+        if theta <= last * (1.0 + RITZ_SETTLED) || step + 1 == steps {
+            break;
+        }
         // Gram-Schmidt against the whole basis (twice, for orthogonality to rounding).
         for _ in 0..2 {
             for b in &basis {
@@ -167,8 +171,8 @@ fn ritz_pair(product: &CellProduct<'_, 2>, mut v: Vec<f64>, steps: usize) -> (f6
             }
         }
         let next = dot(&w, &w).sqrt();
-        // Settled, an invariant subspace, or the last step: `T` is complete.
-        if theta <= last * (1.0 + RITZ_SETTLED) || next <= 1e-12 * theta.abs() || step + 1 == steps {
+        // An invariant subspace: `T` is complete too.
+        if next <= 1e-12 * theta.abs() {
             break;
         }
         beta.push(next);
