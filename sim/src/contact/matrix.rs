@@ -24,6 +24,13 @@
 //! `cargo bench -p tacsim-sim --bench tap -- tap-solve`, `docs/guide/contact.md`,
 //! "Single-precision matrices"). Smaller matrices stay double: built often and used for few
 //! products, they would cost more to round than they save.
+//!
+//! A symmetric single matrix (the shear's `[[Xx, Xy], [Xy, Yy]]`, the normal's `Zz`) keeps
+//! only its lower panels: each panel's columns up to the end of its own rows, about half the
+//! coefficients. A product streams each stored column once and uses it twice ([`LowerSums`]):
+//! the products stream from L2 and are bound by its bandwidth, not by the multiply-adds
+//! (issue 31: `cargo bench -p tacsim-sim --bench contact -- shear-product/matrix-single`,
+//! 241 contact cells 11.0 -> 7.6 us; a 25-cell tap's solve on the disk's top 11% faster).
 
 use std::sync::Arc;
 
@@ -39,6 +46,14 @@ const LANES: usize = 32;
 /// (`cargo bench -p tacsim-sim --bench contact -- shear-product`: 2.2x faster on 177 contact
 /// cells, 1.0 MB; slower on 241, 1.9 MB).
 const MAX_BYTES: usize = 1 << 20;
+
+/// The largest symmetric single matrix worth building, in the bytes of its lower panels
+/// ([`Panels::Lower`]): twice [`MAX_BYTES`], since a product streams each coefficient once
+/// for two multiply-adds. On a 33-cell tap (contacts of about 400 cells: a shear matrix of
+/// 1.3 MB, the candidates' of 1 MB) the products by these matrices beat the operator's own
+/// (issue 31: `cargo run --release -p tacsim-sim --example tap_solves -- 33 200`, least of
+/// three, 1.33 s with a cap of 1 MB, 1.09 s with 2 MB, 2.24 s before the lower panels).
+const LOWER_MAX_BYTES: usize = 2 << 20;
 
 /// The largest matrix kept in double precision where a cache allows single (bytes in double,
 /// [`MatrixCache::down_to`]). Below it a matrix is built for few products (a 13-cell contact's
@@ -101,6 +116,9 @@ impl Precision {
 enum Panels {
     Double(Vec<f64>),
     Single(Vec<f32>),
+    /// A symmetric matrix in single precision: panel `P` stores only its columns up to the
+    /// end of its own rows, `min((P + 1) LANES, cols)` ([`LowerSums`]).
+    Lower(Vec<f32>),
 }
 
 /// A coefficient type of the panels.
@@ -157,8 +175,9 @@ impl CellMatrix {
     ) -> Self {
         let (rows, cols) = (blocks.len() * cells.len(), B * cells.len());
         let panels = match precision {
-            Precision::Double => Panels::Double(gather(op, blocks, cells)),
-            Precision::Single => Panels::Single(gather(op, blocks, cells)),
+            Precision::Double => Panels::Double(gather(op, blocks, cells, false)),
+            Precision::Single if symmetric(blocks) => Panels::Lower(gather(op, blocks, cells, true)),
+            Precision::Single => Panels::Single(gather(op, blocks, cells, false)),
         };
         let components = blocks.iter().flatten().copied().collect();
         Self { grid: *op.grid(), components, cells: cells.to_vec(), rows, cols, panels }
@@ -168,13 +187,20 @@ impl CellMatrix {
     pub fn precision(&self) -> Precision {
         match self.panels {
             Panels::Double(_) => Precision::Double,
-            Panels::Single(_) => Precision::Single,
+            Panels::Single(_) | Panels::Lower(_) => Precision::Single,
         }
     }
     /// Whether the matrix of `blocks` (`outputs x inputs` components) on `cells` cells is
-    /// small enough to be worth building ([`MAX_BYTES`]) in `precision`.
-    pub fn worth_building(outputs: usize, inputs: usize, cells: usize, precision: Precision) -> bool {
-        Self::bytes(outputs, inputs, cells, precision) <= MAX_BYTES
+    /// small enough to be worth building in `precision` ([`MAX_BYTES`]; its lower panels
+    /// only where `lower`, [`LOWER_MAX_BYTES`]).
+    pub fn worth_building(outputs: usize, inputs: usize, cells: usize, precision: Precision, lower: bool) -> bool {
+        if lower {
+            let (rows, cols) = (outputs * cells, inputs * cells);
+            let columns: usize = (0..rows.div_ceil(LANES)).map(|p| ((p + 1) * LANES).min(cols)).sum();
+            columns * LANES * precision.bytes() <= LOWER_MAX_BYTES
+        } else {
+            Self::bytes(outputs, inputs, cells, precision) <= MAX_BYTES
+        }
     }
 
     /// The coefficients' bytes of the matrix of `outputs x inputs` components on `cells` cells
@@ -212,19 +238,36 @@ impl CellMatrix {
         match &self.panels {
             Panels::Double(panels) => pulp::Arch::new().dispatch(PanelSums { panels, cols: self.cols, x, y }),
             Panels::Single(panels) => pulp::Arch::new().dispatch(SinglePanelSums { panels, cols: self.cols, x, y }),
+            Panels::Lower(panels) => pulp::Arch::new().dispatch(LowerSums { panels, x, y }),
         }
     }
 }
 
-/// The panels of `op`'s `blocks` on `cells` ([`CellMatrix::new`]), each coefficient as `T`.
-fn gather<T: Coefficient, const B: usize>(op: &Operator, blocks: &[[Component; B]], cells: &[usize]) -> Vec<T> {
+/// Whether `blocks` make a symmetric matrix on any cell set: block `(a, b)` the transpose of
+/// block `(b, a)`. Each of `Zz`, `Xx`, `Yy` and `Xy` is an even function of the offset
+/// between two cells (a symmetric block), and `Xy` is also `Yx`.
+fn symmetric<const B: usize>(blocks: &[[Component; B]]) -> bool {
+    use Component::{Xx, Xy, Yy, Zz};
+    blocks.len() == B
+        && (0..B).all(|a| (0..B).all(|b| blocks[a][b] == blocks[b][a] && matches!(blocks[a][b], Zz | Xx | Yy | Xy)))
+}
+
+/// The panels of `op`'s `blocks` on `cells` ([`CellMatrix::new`]), each coefficient as `T`;
+/// with `lower`, each panel's columns only up to the end of its own rows ([`Panels::Lower`]).
+fn gather<T: Coefficient, const B: usize>(
+    op: &Operator,
+    blocks: &[[Component; B]],
+    cells: &[usize],
+    lower: bool,
+) -> Vec<T> {
     let grid = op.grid();
     let (nx, ny) = (grid.nx, grid.ny);
     let wx = 2 * nx - 1;
     let m = cells.len();
     let (rows, cols) = (blocks.len() * m, B * m);
     let panel_count = rows.div_ceil(LANES);
-    let mut panels = Vec::with_capacity(panel_count * cols * LANES);
+    let columns_of = |p: usize| if lower { ((p + 1) * LANES).min(cols) } else { cols };
+    let mut panels = Vec::with_capacity((0..panel_count).map(columns_of).sum::<usize>() * LANES);
     // The coefficient for field cell i from source cell j sits at `at_i - at_j` of the
     // component's table ([`Operator::table`]), with `at_k = (y_k + ny - 1) wx + x_k + nx - 1`
     // for the field cell and `y_k wx + x_k` for the source.
@@ -238,8 +281,10 @@ fn gather<T: Coefficient, const B: usize>(op: &Operator, blocks: &[[Component; B
     let mut segments: Vec<(&[f64], usize, usize)> = Vec::new(); // (table, first place, lanes)
     for p in 0..panel_count {
         let lanes = p * LANES..((p + 1) * LANES).min(rows);
+        let columns = columns_of(p);
         // Input block `b`: each lane's row `a` reads component `blocks[a][b]`.
         (0..B).for_each(|b| {
+            let sources = &source_at[..columns.saturating_sub(b * m).min(m)];
             segments.clear();
             for r in lanes.clone() {
                 let (table, at) = (op.table(blocks[r / m][b]), field_at[r % m]);
@@ -248,7 +293,7 @@ fn gather<T: Coefficient, const B: usize>(op: &Operator, blocks: &[[Component; B
                     _ => segments.push((table, at, 1)),
                 }
             }
-            for &src in &source_at {
+            for &src in sources {
                 for &(table, first, len) in &segments {
                     T::extend(&mut panels, &table[first - src..first - src + len]);
                 }
@@ -301,7 +346,7 @@ impl<'a, const B: usize> CellProduct<'a, B> {
         // solve on 385 candidates took its products by FFT until the single-precision
         // matrix (0.59 MB) served it.
         let dense = !cells.is_empty() && dense_max_cells > 0;
-        let precision = if dense { cache.precision_for(B, cells.len()) } else { None };
+        let precision = if dense { cache.precision_for(blocks, cells.len()) } else { None };
         let (matrix, positions) = match precision.map(|p| cache.get(op, blocks, cells, p)) {
             Some((matrix, positions)) => (Some(matrix), positions),
             None => (None, None),
@@ -556,6 +601,131 @@ impl pulp::WithSimd for SinglePanelSums<'_> {
     }
 }
 
+/// [`SinglePanelSums`] on a symmetric matrix stored as its lower panels ([`Panels::Lower`]):
+/// half the coefficients to stream. Panel `P`'s column `j` before its own rows serves twice:
+/// its rows' sums take `M[P, j] x_j` as [`SinglePanelSums`] does (then its diagonal block's
+/// columns), and row `j` takes the column's products with panel `P`'s inputs, `M[j, P] x_P`,
+/// into eight partial sums of its own (lane `l` adds the column's rows `l, l + 8, ...` with
+/// fused multiply-adds, panel after panel), added pairwise at the end. Whatever the vector
+/// unit: one register of eight lanes on AVX2, else the same lanes one by one (a correctly
+/// rounded `mul_add`), the same bits on every CPU. A row's sum is its panel's `f32` sum plus
+/// its partial sums', in `f64`.
+struct LowerSums<'a> {
+    panels: &'a [f32],
+    x: &'a [f64],
+    y: &'a mut [f64],
+}
+
+/// The partial sums of a row in [`LowerSums`].
+const PARTIALS: usize = 8;
+
+impl pulp::WithSimd for LowerSums<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, simd: S) {
+        let Self { panels, x, y } = self;
+        let n = x.len();
+        let wide = std::mem::size_of::<S::f32s>() == std::mem::size_of::<[f32; PARTIALS]>();
+        let mut partial = vec![0.0f32; n * PARTIALS];
+        let mut start = 0;
+        for p in 0..n.div_ceil(LANES) {
+            let first = p * LANES;
+            let columns = (first + LANES).min(n);
+            let panel = &panels[start..start + columns * LANES];
+            start += columns * LANES;
+            // The panel's inputs, zero past the last row.
+            let mut own = [0.0f32; LANES];
+            for (o, v) in own.iter_mut().zip(&x[first..columns]) {
+                *o = *v as f32;
+            }
+            let transposed = own.iter().any(|v| *v != 0.0);
+            let (lower, diagonal) = panel.split_at(first * LANES);
+            let (lower_x, diagonal_x) = x[..columns].split_at(first);
+            let mut acc = [0.0f32; LANES];
+            if wide {
+                // AVX2: a panel column is four registers, the partial sums one.
+                const K: usize = LANES / PARTIALS;
+                let vectors = |c: &[f32]| -> [S::f32s; K] {
+                    let (v, _) = S::as_simd_f32s(c);
+                    std::array::from_fn(|k| v[k])
+                };
+                let own_v = vectors(&own);
+                let mut sums = [simd.splat_f32s(0.0); K];
+                for ((column, &v), slot) in
+                    lower.chunks_exact(LANES).zip(lower_x).zip(partial.chunks_exact_mut(PARTIALS))
+                {
+                    let c = vectors(column);
+                    if v != 0.0 {
+                        let v = simd.splat_f32s(v as f32);
+                        for k in 0..K {
+                            sums[k] = simd.mul_add_f32s(c[k], v, sums[k]);
+                        }
+                    }
+                    if transposed {
+                        let (slot, _) = S::as_mut_simd_f32s(slot);
+                        let mut d = slot[0];
+                        for k in 0..K {
+                            d = simd.mul_add_f32s(c[k], own_v[k], d);
+                        }
+                        slot[0] = d;
+                    }
+                }
+                for (column, &v) in diagonal.chunks_exact(LANES).zip(diagonal_x) {
+                    if v != 0.0 {
+                        let c = vectors(column);
+                        let v = simd.splat_f32s(v as f32);
+                        for k in 0..K {
+                            sums[k] = simd.mul_add_f32s(c[k], v, sums[k]);
+                        }
+                    }
+                }
+                let (out, _) = S::as_mut_simd_f32s(&mut acc);
+                out.copy_from_slice(&sums);
+            } else {
+                // Other vector units: the same sums, lane by lane.
+                for ((column, &v), slot) in
+                    lower.chunks_exact(LANES).zip(lower_x).zip(partial.chunks_exact_mut(PARTIALS))
+                {
+                    if v != 0.0 {
+                        for (a, c) in acc.iter_mut().zip(column) {
+                            *a = c.mul_add(v as f32, *a);
+                        }
+                    }
+                    if transposed {
+                        for (c, x) in column.chunks_exact(PARTIALS).zip(own.chunks_exact(PARTIALS)) {
+                            for l in 0..PARTIALS {
+                                slot[l] = c[l].mul_add(x[l], slot[l]);
+                            }
+                        }
+                    }
+                }
+                for (column, &v) in diagonal.chunks_exact(LANES).zip(diagonal_x) {
+                    if v != 0.0 {
+                        for (a, c) in acc.iter_mut().zip(column) {
+                            *a = c.mul_add(v as f32, *a);
+                        }
+                    }
+                }
+            }
+            for (o, a) in y[first..columns].iter_mut().zip(acc) {
+                *o = f64::from(a);
+            }
+        }
+        if wide {
+            // pulp's AVX2 sum: the halves, then the pairs, as below.
+            for (y, d) in y.iter_mut().zip(partial.chunks_exact(PARTIALS)) {
+                let (d, _) = S::as_simd_f32s(d);
+                *y += f64::from(simd.reduce_sum_f32s(d[0]));
+            }
+        } else {
+            for (y, d) in y.iter_mut().zip(partial.chunks_exact(PARTIALS)) {
+                *y += f64::from(((d[0] + d[4]) + (d[2] + d[6])) + ((d[1] + d[5]) + (d[3] + d[7])));
+            }
+        }
+    }
+}
+
 /// The last [`CellMatrix`] built, handed out again while the operator's grid, the blocks and
 /// the cells stay the same (the coupling rounds of a step mostly solve on the same cells).
 #[derive(Clone, Debug, Default)]
@@ -582,10 +752,12 @@ impl MatrixCache {
     /// The precision of a matrix of `blocks x blocks` components on `cells` cells: double up
     /// to [`DOUBLE_MAX_BYTES`], else the lowest allowed where that fits (double where that is
     /// all it allows); `None`: none worth building.
-    pub fn precision_for(&self, blocks: usize, cells: usize) -> Option<Precision> {
-        let small = CellMatrix::bytes(blocks, blocks, cells, Precision::Double) <= DOUBLE_MAX_BYTES;
+    pub fn precision_for<const B: usize>(&self, blocks: &[[Component; B]], cells: usize) -> Option<Precision> {
+        let n = blocks.len();
+        let small = CellMatrix::bytes(n, B, cells, Precision::Double) <= DOUBLE_MAX_BYTES;
         let order = if small { [Precision::Double, self.lowest] } else { [self.lowest, Precision::Double] };
-        order.into_iter().find(|&p| CellMatrix::worth_building(blocks, blocks, cells, p))
+        let lower = |p: Precision| p == Precision::Single && symmetric(blocks);
+        order.into_iter().find(|&p| CellMatrix::worth_building(n, B, cells, p, lower(p)))
     }
 
     /// Matrices built and matrices handed out again so far (for tests and tuning).
@@ -735,14 +907,18 @@ mod tests {
         let worst = a.iter().zip(&b).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         assert!(worst > 0.0 && worst <= 1e-5 * scale, "largest difference {worst:e} of {scale:e}");
         // A cache builds double up to 256 KB (90 cells of shear), single above where it fits.
+        // Single ones are symmetric here: their lower panels up to 2 MB (496 cells of shear).
         let cache = MatrixCache::down_to(Precision::Single);
-        assert_eq!(cache.precision_for(2, cells.len()), Some(Precision::Double));
-        assert_eq!(cache.precision_for(2, 90), Some(Precision::Double));
-        assert_eq!(cache.precision_for(2, 91), Some(Precision::Single));
-        assert_eq!(cache.precision_for(2, 220), Some(Precision::Single));
-        assert_eq!(cache.precision_for(2, 300), None);
-        assert_eq!(MatrixCache::default().precision_for(2, 220), None);
-        assert_eq!(MatrixCache::default().precision_for(1, 362), Some(Precision::Double));
+        assert_eq!(cache.precision_for(&blocks, cells.len()), Some(Precision::Double));
+        assert_eq!(cache.precision_for(&blocks, 90), Some(Precision::Double));
+        assert_eq!(cache.precision_for(&blocks, 91), Some(Precision::Single));
+        assert_eq!(cache.precision_for(&blocks, 220), Some(Precision::Single));
+        assert_eq!(cache.precision_for(&blocks, 496), Some(Precision::Single));
+        assert_eq!(cache.precision_for(&blocks, 497), None);
+        // Double ones up to 1 MB, all of them.
+        assert_eq!(MatrixCache::default().precision_for(&blocks, 220), None);
+        assert_eq!(MatrixCache::default().precision_for(&[[Component::Zz]], 362), Some(Precision::Double));
+        assert_eq!(MatrixCache::default().precision_for(&[[Component::Zz]], 363), None);
         let mut cache = MatrixCache::default();
         assert_eq!(cache.get(&op, &blocks, &cells, Precision::Single).0.precision(), Precision::Single);
         assert_eq!(cache.get(&op, &blocks, &cells, Precision::Double).0.precision(), Precision::Double);
@@ -780,5 +956,62 @@ mod tests {
             });
         }
         assert_eq!(sparse, dense);
+    }
+
+    /// The symmetric single matrices (the shear's and the normal's at the model's tolerances)
+    /// keep only their lower panels, and every row's sum is the one [`LowerSums`] writes down:
+    /// its panel's `f32` sum in column order, then eight partial sums, lane by lane and panel
+    /// after panel, added pairwise. Written out here one lane at a time, as a CPU without AVX2
+    /// runs it: the same bits as the vector unit's.
+    #[test]
+    fn a_symmetric_single_matrix_keeps_its_lower_panels_and_sums_them_as_written() {
+        let op = op();
+        let n = op.grid().len();
+        let cells: Vec<usize> = (0..n).collect();
+        let blocks = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy]];
+        let matrix = CellMatrix::in_precision(&op, &blocks, &cells, Precision::Single);
+        let Panels::Lower(panels) = &matrix.panels else { panic!("a symmetric single matrix keeps its lower panels") };
+        let rows = 2 * n;
+        let stored: usize = (0..rows.div_ceil(LANES)).map(|p| ((p + 1) * LANES).min(rows)).sum();
+        assert_eq!(panels.len(), stored * LANES);
+        assert!(4 * panels.len() < 3 * rows * rows, "about half the full matrix's coefficients");
+        // Packed row `r` and column `c`: the coefficient rounded to `f32`.
+        let coefficient = |r: usize, c: usize| -> f32 {
+            let (i, j) = (cells[r % n], cells[c % n]);
+            let (dx, dy) = ((i % 9) as isize - (j % 9) as isize, (i / 9) as isize - (j / 9) as isize);
+            op.coefficient(blocks[r / n][c / n], dx, dy) as f32
+        };
+        let mut x = field(rows, 9);
+        // Zero inputs: single columns, and the whole of the third panel.
+        x[3] = 0.0;
+        x[40] = 0.0;
+        x[64..96].fill(0.0);
+        let mut y = vec![0.0; rows];
+        matrix.apply(&x, &mut y);
+        // The scalar fallback, whatever this CPU has.
+        let mut scalar = vec![0.0; rows];
+        pulp::Simd::vectorize(pulp::Scalar::new(), LowerSums { panels, x: &x, y: &mut scalar });
+        assert_eq!(scalar, y);
+        let input = |r: usize| if r < rows { x[r] as f32 } else { 0.0 };
+        for (r, got) in y.iter().enumerate() {
+            let own = r / LANES;
+            let end = ((own + 1) * LANES).min(rows);
+            let sum = (0..end).filter(|&c| x[c] != 0.0).fold(0.0f32, |s, c| coefficient(r, c).mul_add(x[c] as f32, s));
+            let mut d = [0.0f32; PARTIALS];
+            for q in own + 1..rows.div_ceil(LANES) {
+                if (q * LANES..q * LANES + LANES).all(|k| input(k) == 0.0) {
+                    continue;
+                }
+                for k in 0..LANES / PARTIALS {
+                    for (l, d) in d.iter_mut().enumerate() {
+                        let row = q * LANES + k * PARTIALS + l;
+                        let c = if row < rows { coefficient(row, r) } else { 0.0 };
+                        *d = c.mul_add(input(row), *d);
+                    }
+                }
+            }
+            let tail = ((d[0] + d[4]) + (d[2] + d[6])) + ((d[1] + d[5]) + (d[3] + d[7]));
+            assert_eq!(*got, f64::from(sum) + f64::from(tail), "row {r}");
+        }
     }
 }
