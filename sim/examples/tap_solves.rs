@@ -11,26 +11,20 @@
 //! sensor on the built-in `disk` (100 mm across, centred at the origin), pressed 3 mm on its
 //! flat top at `(5, -3)` mm, yaw 30 deg, and across its rim at `(48, 0)` mm.
 
-use tacsim_sim::contact::{ContactModel, Simulation};
-use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPose};
+mod support;
+
+use tacsim_sim::SensorPose;
+use tacsim_sim::contact::Simulation;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let whole = |i: usize, default: usize| -> Result<usize, String> {
-        args.get(i)
-            .map_or(Ok(default), |s| s.parse().map_err(|_| format!("argument {}: `{s}` is not a whole number", i + 1)))
-    };
-    let (cells, repeats) = (whole(0, 25)?, whole(1, 0)?);
+    let (cells, repeats) = (support::whole(&args, 0, 25)?, support::whole(&args, 1, 0)?);
     let only = args.get(2).map(String::as_str);
     if !matches!(only, None | Some("flat" | "rim")) {
         return Err(format!("argument 3: `{}` is neither `flat` nor `rim`", args[2]).into());
     }
-    let catalogue = tacsim_sim::builtin_catalogue()?;
-    let mut scene = Scene::new();
-    scene.add(catalogue.get("disk")?, ObjectPose::default())?;
-    let mut sensor = SensorParams::default();
-    sensor.skin.cells_across = cells;
-    let model = ContactModel::new(&sensor);
+    let scene = support::disk_scene()?;
+    let model = support::model_at(cells)?;
     let taps = [("flat", SensorPose::new(5.0, -3.0, 3.0, 30.0)), ("rim", SensorPose::new(48.0, 0.0, 3.0, 0.0))];
     for (name, pose) in taps.into_iter().filter(|(name, _)| only.is_none_or(|o| o == *name)) {
         let mut sim = Simulation::new(&model, &scene, &[pose]);

@@ -1,0 +1,29 @@
+// Each example uses part of this.
+#![allow(dead_code)]
+//! What the timing examples share (`tap_solves`, `slide_solves`, `pin_errors`): their
+//! arguments and the bench's scene.
+
+use tacsim_sim::contact::ContactModel;
+use tacsim_sim::{ObjectPose, Scene, SensorParams};
+
+/// Argument `i` (from 0) as a whole number, `default` where it is absent.
+pub fn whole(args: &[String], i: usize, default: usize) -> Result<usize, String> {
+    args.get(i)
+        .map_or(Ok(default), |s| s.parse().map_err(|_| format!("argument {}: `{s}` is not a whole number", i + 1)))
+}
+
+/// The bench's scene: the built-in `disk` (100 mm across) at the origin.
+pub fn disk_scene() -> Result<Scene, Box<dyn std::error::Error>> {
+    let catalogue = tacsim_sim::builtin_catalogue()?;
+    let mut scene = Scene::new();
+    scene.add(catalogue.get("disk")?, ObjectPose::default())?;
+    Ok(scene)
+}
+
+/// The calibrated default sensor's contact model at `cells` cells across the footprint.
+pub fn model_at(cells: usize) -> Result<ContactModel, Box<dyn std::error::Error>> {
+    let mut sensor = SensorParams::default();
+    sensor.skin.cells_across = cells;
+    sensor.validate("CELLS")?;
+    Ok(ContactModel::new(&sensor))
+}
