@@ -1,7 +1,6 @@
-// Each example uses part of this.
-#![allow(dead_code)]
 //! What the timing examples share (`tap_solves`, `slide_solves`, `pin_errors`): their
-//! arguments and the bench's scene.
+//! arguments and the bench's scene. Each example uses part of it.
+#![allow(dead_code)]
 
 use tacsim_sim::contact::ContactModel;
 use tacsim_sim::{ObjectPose, Scene, SensorParams};
