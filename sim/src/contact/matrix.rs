@@ -176,8 +176,8 @@ impl CellMatrix {
     ) -> Self {
         let (rows, cols) = (blocks.len() * cells.len(), B * cells.len());
         let panels = match precision {
+            _ if keeps_lower(blocks, precision) => Panels::Lower(gather(op, blocks, cells, true)),
             Precision::Double => Panels::Double(gather(op, blocks, cells, false)),
-            Precision::Single if symmetric(blocks) => Panels::Lower(gather(op, blocks, cells, true)),
             Precision::Single => Panels::Single(gather(op, blocks, cells, false)),
         };
         let components = blocks.iter().flatten().copied().collect();
@@ -191,16 +191,15 @@ impl CellMatrix {
             Panels::Single(_) | Panels::Lower(_) => Precision::Single,
         }
     }
-    /// Whether the matrix of `blocks` (`outputs x inputs` components) on `cells` cells is
-    /// small enough to be worth building in `precision` ([`MAX_BYTES`]; its lower panels
-    /// only where `lower`, [`LOWER_MAX_BYTES`]).
-    pub fn worth_building(outputs: usize, inputs: usize, cells: usize, precision: Precision, lower: bool) -> bool {
-        if lower {
-            let (rows, cols) = (outputs * cells, inputs * cells);
-            let columns: usize = (0..rows.div_ceil(LANES)).map(|p| ((p + 1) * LANES).min(cols)).sum();
+    /// Whether the matrix of `blocks` on `cells` cells is small enough to be worth building in
+    /// `precision` ([`MAX_BYTES`]; [`LOWER_MAX_BYTES`] of lower panels where it keeps them).
+    pub fn worth_building<const B: usize>(blocks: &[[Component; B]], cells: usize, precision: Precision) -> bool {
+        if keeps_lower(blocks, precision) {
+            let cols = B * cells;
+            let columns: usize = (0..cols.div_ceil(LANES)).map(|p| lower_columns(p, cols)).sum();
             columns * LANES * precision.bytes() <= LOWER_MAX_BYTES
         } else {
-            Self::bytes(outputs, inputs, cells, precision) <= MAX_BYTES
+            Self::bytes(blocks.len(), B, cells, precision) <= MAX_BYTES
         }
     }
 
@@ -244,6 +243,18 @@ impl CellMatrix {
     }
 }
 
+/// Whether a matrix of `blocks` in `precision` keeps only its lower panels
+/// ([`Panels::Lower`]): a single one that is symmetric.
+fn keeps_lower<const B: usize>(blocks: &[[Component; B]], precision: Precision) -> bool {
+    precision == Precision::Single && symmetric(blocks)
+}
+
+/// The columns panel `p` of a [`Panels::Lower`] matrix of `cols` columns stores: up to the end
+/// of its own rows.
+fn lower_columns(p: usize, cols: usize) -> usize {
+    ((p + 1) * LANES).min(cols)
+}
+
 /// Whether `blocks` make a symmetric matrix on any cell set: block `(a, b)` the transpose of
 /// block `(b, a)`. Each of `Zz`, `Xx`, `Yy` and `Xy` is an even function of the offset
 /// between two cells (a symmetric block), and `Xy` is also `Yx`.
@@ -267,7 +278,7 @@ fn gather<T: Coefficient, const B: usize>(
     let m = cells.len();
     let (rows, cols) = (blocks.len() * m, B * m);
     let panel_count = rows.div_ceil(LANES);
-    let columns_of = |p: usize| if lower { ((p + 1) * LANES).min(cols) } else { cols };
+    let columns_of = |p: usize| if lower { lower_columns(p, cols) } else { cols };
     let mut panels = Vec::with_capacity((0..panel_count).map(columns_of).sum::<usize>() * LANES);
     // The coefficient for field cell i from source cell j sits at `at_i - at_j` of the
     // component's table ([`Operator::table`]), with `at_k = (y_k + ny - 1) wx + x_k + nx - 1`
@@ -628,11 +639,14 @@ impl pulp::WithSimd for LowerSums<'_> {
         let Self { panels, x, y } = self;
         let n = x.len();
         let wide = std::mem::size_of::<S::f32s>() == std::mem::size_of::<[f32; PARTIALS]>();
-        let mut partial = vec![0.0f32; n * PARTIALS];
+        // Taken out of the thread's slot, not used in a closure: a closure would lose the
+        // vector unit's target features (every `simd` call a function call, 20 times slower).
+        let mut partial = PARTIAL_SUMS.take();
+        partial.clear();
+        partial.resize(n * PARTIALS, 0.0);
         let mut start = 0;
         for p in 0..n.div_ceil(LANES) {
-            let first = p * LANES;
-            let columns = (first + LANES).min(n);
+            let (first, columns) = (p * LANES, lower_columns(p, n));
             let panel = &panels[start..start + columns * LANES];
             start += columns * LANES;
             // The panel's inputs, zero past the last row.
@@ -684,27 +698,19 @@ impl pulp::WithSimd for LowerSums<'_> {
                 let (out, _) = S::as_mut_simd_f32s(&mut acc);
                 out.copy_from_slice(&sums);
             } else {
-                // Other vector units: the same sums, lane by lane.
-                for ((column, &v), slot) in
-                    lower.chunks_exact(LANES).zip(lower_x).zip(partial.chunks_exact_mut(PARTIALS))
-                {
+                // Other vector units: the same sums, lane by lane, every stored column in turn.
+                for (j, (column, &v)) in panel.chunks_exact(LANES).zip(x).enumerate() {
                     if v != 0.0 {
                         for (a, c) in acc.iter_mut().zip(column) {
                             *a = c.mul_add(v as f32, *a);
                         }
                     }
-                    if transposed {
+                    if transposed && j < first {
+                        let slot = &mut partial[j * PARTIALS..(j + 1) * PARTIALS];
                         for (c, x) in column.chunks_exact(PARTIALS).zip(own.chunks_exact(PARTIALS)) {
                             for l in 0..PARTIALS {
                                 slot[l] = c[l].mul_add(x[l], slot[l]);
                             }
-                        }
-                    }
-                }
-                for (column, &v) in diagonal.chunks_exact(LANES).zip(diagonal_x) {
-                    if v != 0.0 {
-                        for (a, c) in acc.iter_mut().zip(column) {
-                            *a = c.mul_add(v as f32, *a);
                         }
                     }
                 }
@@ -724,7 +730,14 @@ impl pulp::WithSimd for LowerSums<'_> {
                 *y += f64::from(((d[0] + d[4]) + (d[2] + d[6])) + ((d[1] + d[5]) + (d[3] + d[7])));
             }
         }
+        PARTIAL_SUMS.set(partial);
     }
+}
+
+thread_local! {
+    /// Each worker's partial sums of [`LowerSums`], kept between products (a solver's
+    /// iterations allocate nothing).
+    static PARTIAL_SUMS: std::cell::Cell<Vec<f32>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 /// The last [`CellMatrix`] built, handed out again while the operator's grid, the blocks and
@@ -754,11 +767,9 @@ impl MatrixCache {
     /// to [`DOUBLE_MAX_BYTES`], else the lowest allowed where that fits (double where that is
     /// all it allows); `None`: none worth building.
     pub fn precision_for<const B: usize>(&self, blocks: &[[Component; B]], cells: usize) -> Option<Precision> {
-        let n = blocks.len();
-        let small = CellMatrix::bytes(n, B, cells, Precision::Double) <= DOUBLE_MAX_BYTES;
+        let small = CellMatrix::bytes(blocks.len(), B, cells, Precision::Double) <= DOUBLE_MAX_BYTES;
         let order = if small { [Precision::Double, self.lowest] } else { [self.lowest, Precision::Double] };
-        let lower = |p: Precision| p == Precision::Single && symmetric(blocks);
-        order.into_iter().find(|&p| CellMatrix::worth_building(n, B, cells, p, lower(p)))
+        order.into_iter().find(|&p| CellMatrix::worth_building(blocks, cells, p))
     }
 
     /// Matrices built and matrices handed out again so far (for tests and tuning).
