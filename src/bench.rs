@@ -27,9 +27,15 @@ impl Rng {
     }
 }
 
+/// The seed of the bench's taps and slides on the disk's top ([`samples`]).
+pub const SAMPLES_SEED: u64 = 1;
+/// The seed of the bench's taps across the disk's rim ([`rim_samples`]).
+pub const RIM_SEED: u64 = 2;
+
 /// Sample poses over the disk: the paper's tap ranges (depth 1-5 mm, any yaw), centre within
-/// 20 mm of the disk's centre, and a slide direction.
-fn samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
+/// 20 mm of the disk's centre, and a slide direction. The bench's: `n` from [`SAMPLES_SEED`]
+/// (its grid curve takes the first 40).
+pub fn samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
     let mut rng = Rng(tacsim_data::SplitMix64(seed));
     (0..n)
         .map(|_| {
@@ -46,8 +52,9 @@ fn samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
 }
 
 /// Taps across the disk's rim (its edge at x = 50 mm): centre 44-54 mm from the disk's centre
-/// (the edge 6 mm inside to 4 mm outside the apex), depth 1-5 mm, any yaw.
-fn rim_samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
+/// (the edge 6 mm inside to 4 mm outside the apex), depth 1-5 mm, any yaw. The bench's: 40
+/// from [`RIM_SEED`].
+pub fn rim_samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
     let mut rng = Rng(tacsim_data::SplitMix64(seed));
     (0..n)
         .map(|_| {
@@ -281,7 +288,8 @@ fn gpu_pins_bench(
     }))
 }
 
-fn disk_scene() -> Result<Scene> {
+/// The bench's scene: the built-in `disk` (100 mm across) at the origin.
+pub fn disk_scene() -> Result<Scene> {
     let catalogue = tacsim_sim::builtin_catalogue()?;
     let mut scene = Scene::new();
     scene.add(catalogue.get("disk")?, ObjectPose::default())?;
@@ -396,14 +404,14 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     let scene = disk_scene()?;
     let model = ContactModel::new(&sensor);
     let renderer = PinRenderer::new(&sensor, 256)?;
-    let poses = samples(samples_n, 1);
+    let poses = samples(samples_n, SAMPLES_SEED);
     let (tap_fps, mean_cells) = tap_rate(&model, &scene, &renderer, &poses)?;
     let slide_sps = slide_rate(&model, &scene, &renderer, &poses, STEP_MM)?;
     let few = &poses[..samples_n.min(40)];
     let single = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     let tap_breakdown = single.install(|| tap_breakdown(&model, &scene, &renderer, few))?;
     let skips = single.install(|| measure_skips(&sensor, &scene, few))?;
-    let rim = rim_samples(few.len(), 2);
+    let rim = rim_samples(few.len(), RIM_SEED);
     let mut curve = grid_curve(&sensor, &scene, &renderer, few, &rim, &single)?;
     curve.extend(step_curve(&model, &scene, &renderer, &poses[..samples_n.min(8)], &single)?);
     #[cfg(feature = "wgpu")]

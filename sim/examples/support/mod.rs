@@ -1,6 +1,5 @@
-//! What the timing examples share (`tap_solves`, `slide_solves`, `pin_errors`): their
-//! arguments and the bench's scene. Each example uses part of it.
-#![allow(dead_code)]
+//! What the timing examples share (`tap_solves`, `slide_solves`): their arguments, the
+//! bench's scene and the contact model at a grid.
 
 use tacsim_sim::contact::ContactModel;
 use tacsim_sim::{ObjectPose, Scene, SensorParams};

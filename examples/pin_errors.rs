@@ -5,36 +5,25 @@
 //! five largest taps' and the median tap's.
 //!
 //! ```text
-//! cargo run --release -p tacsim-sim --example pin_errors -- flat|rim REFERENCE GRIDS [--exact] [--subcells N]
+//! cargo run --release --example pin_errors -- flat|rim REFERENCE GRIDS [--exact] [--subcells N]
 //! ```
 //! `REFERENCE` cells across the footprint of the reference (the bench's: 65); `GRIDS` a
 //! comma-separated list (`17,25,33`); `--exact`: the grids' pins sum every cell too (the
 //! bench's and the datasets' pins group far cells); `--subcells N`: the grids' sub-cells
 //! along an edge (the sensor's `skin.edge_subcells`; the reference keeps the default).
-//! The taps are the bench's (`src/bench.rs`, `samples` and `rim_samples`: the same seeds and
-//! draws).
-
-mod support;
+//! The taps are the bench's own (`tacsim::bench::samples` and `rim_samples`, its seeds).
 
 use rayon::prelude::*;
+use tacsim::bench::{RIM_SEED, SAMPLES_SEED, disk_scene, rim_samples, samples};
 use tacsim_sim::contact::{ContactModel, Simulation};
-use tacsim_sim::{PinPose, SensorPose};
+use tacsim_sim::{PinPose, SensorParams, SensorPose};
 
-/// The bench's taps: `flat` draws a slide direction after each pose (seed 1), `rim` does not
-/// (seed 2).
-fn taps(flat: bool) -> Vec<SensorPose> {
-    let (seed, x, y) = if flat { (1, (-20.0, 20.0), (-20.0, 20.0)) } else { (2, (44.0, 54.0), (-5.0, 5.0)) };
-    let mut rng = tacsim_data::SplitMix64(seed);
-    let mut range = |(lo, hi): (f64, f64)| lo + (hi - lo) * rng.next_f64();
-    (0..40)
-        .map(|_| {
-            let pose = SensorPose::new(range(x), range(y), range((1.0, 5.0)), range((-180.0, 180.0)));
-            if flat {
-                range((0.0, 1.0));
-            }
-            pose
-        })
-        .collect()
+/// The calibrated default sensor's contact model at `cells` cells across the footprint.
+fn model_at(cells: usize) -> Result<ContactModel, Box<dyn std::error::Error>> {
+    let mut sensor = SensorParams::default();
+    sensor.skin.cells_across = cells;
+    sensor.validate("GRIDS")?;
+    Ok(ContactModel::new(&sensor))
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -57,17 +46,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(i) => Some(args.get(i + 1).and_then(|s| s.parse().ok()).ok_or(usage)?),
         None => None,
     };
-    let scene = support::disk_scene()?;
-    let poses = taps(flat);
+    let scene = disk_scene()?;
+    let poses: Vec<SensorPose> =
+        if flat { samples(40, SAMPLES_SEED) } else { rim_samples(40, RIM_SEED) }.into_iter().map(|(p, _)| p).collect();
     let pins = |m: &ContactModel, pose: SensorPose, exact: bool| -> tacsim_sim::Result<Vec<PinPose>> {
         let mut sim = Simulation::new(m, &scene, &[pose]);
         sim.step(pose)?;
         Ok(if exact { sim.pins_exact() } else { sim.pins() })
     };
-    let fine = support::model_at(reference)?;
+    let fine = model_at(reference)?;
     let refs: Vec<Vec<PinPose>> = poses.par_iter().map(|p| pins(&fine, *p, true)).collect::<Result<_, _>>()?;
     for &cells in &grids {
-        let mut model = support::model_at(cells)?;
+        let mut model = model_at(cells)?;
         if let Some(s) = subcells {
             model.edge_subcells = s;
         }
