@@ -195,6 +195,8 @@ pub struct Operator {
     /// The same with `dx` mirrored (`A(-dx, dy)` at the place of `(dx, dy)`), so that a row of
     /// sources is a forward, contiguous slice of the table.
     mirrored: [Vec<f64>; 8],
+    /// [`Operator::checkerboard`] (mm/MPa).
+    checkerboard: f64,
 }
 
 /// The layered correction of an operator.
@@ -216,7 +218,8 @@ impl Operator {
         let coefficients: [Vec<f64>; 8] =
             Component::ALL.map(|c| tables.values.iter().map(|t| Self::combine(factors, c, t)).collect());
         let mirrored = Self::mirror(&grid, &coefficients);
-        Self { grid, tables, factors, correction: None, coefficients, mirrored }
+        let checkerboard = Self::checkerboard_of(&grid, &coefficients);
+        Self { grid, tables, factors, correction: None, coefficients, mirrored, checkerboard }
     }
 
     /// The operator of layers on a rigid base (a rigid indenter on the top layer): the top
@@ -265,6 +268,7 @@ impl Operator {
             }
         }
         op.mirrored = Self::mirror(&grid, &op.coefficients);
+        op.checkerboard = Self::checkerboard_of(&grid, &op.coefficients);
         op.correction = Some(Arc::new(Correction { coefficients: corr, spectra: OnceLock::new() }));
         op
     }
@@ -280,6 +284,32 @@ impl Operator {
             }
             m
         })
+    }
+
+    /// The in-plane blocks' symbol at the grid's highest frequency, `sum_d A(d) (-1)^(dx + dy)`
+    /// over the table's offsets, the lesser of `Xx` and `Yy` (`Xy`'s is zero: it is odd in
+    /// `dx` and `dy`).
+    fn checkerboard_of(grid: &Grid, coefficients: &[Vec<f64>; 8]) -> f64 {
+        let wx = 2 * grid.nx - 1;
+        let alternating = |c: Component| {
+            let rows = coefficients[c as usize].chunks(wx).enumerate();
+            rows.map(|(j, row)| {
+                row.iter().enumerate().map(|(i, a)| if (i + j) % 2 == 0 { *a } else { -a }).sum::<f64>()
+            })
+            .sum::<f64>()
+        };
+        alternating(Component::Xx).min(alternating(Component::Yy))
+    }
+
+    /// How the in-plane blocks (`[[Xx, Xy], [Xy, Yy]]`, mm/MPa) act on a checkerboard of
+    /// tractions, cell against cell: their symbol at the grid's highest frequency `(pi, pi)`
+    /// (the lesser of its two eigenvalues). A uniform traction sinks every cell together (the
+    /// symbol at `(0, 0)`, which grows with the footprint); a checkerboard's cells mostly undo
+    /// each other's, so it is about the smallest response a cell set has, and the tangential
+    /// solver takes it for its smallest eigenvalue ([`super::tangential`]). It is an
+    /// estimate, not a bound: the truncated table's symbol dips below it elsewhere.
+    pub fn checkerboard(&self) -> f64 {
+        self.checkerboard
     }
 
     /// The grid.

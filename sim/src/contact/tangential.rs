@@ -12,8 +12,8 @@
 //! ```text
 //! minimise  1/2 q^T A_t q + q^T (w - A_t q')   subject to  |q_i| <= mu p_i
 //! ```
-//! (the gradient is the slip), solved here by projected gradient with Nesterov momentum and
-//! adaptive restart (O'Donoghue & Candes 2015), warm-started from `q'`. The frictional
+//! (the gradient is the slip), solved here by a projected heavy ball (Polyak's momentum) with
+//! restart, warm-started from the current tractions ([`minimise`]). The frictional
 //! dissipation of the step, `-sum q_i . s_i h^2 >= 0` (N mm), follows. Normal-tangential
 //! coupling is left to the caller, which alternates the two solves (see [`super::engine`]).
 
@@ -321,11 +321,44 @@ fn slip_offset(
     bx.chain(by).collect()
 }
 
-/// Projected gradient with Nesterov momentum and adaptive restart on the step's problem
-/// (gradient `A_t q + b`, the slip), from the warm start projected on the bounds, until the
-/// projected Jacobi step (local scale `1/A_t(0,0)`) summed over the cells falls below the
-/// tolerance relative to `mu sum p`. Vectors are packed on the contact cells (`x`, then `y`);
-/// returns the tractions and the iterations used.
+/// The heavy ball's step and momentum for eigenvalues in `[mu, l]` (Polyak 1964): step
+/// `4 / (sqrt(l) + sqrt(mu))^2` and momentum `((sqrt(l) - sqrt(mu)) / (sqrt(l) + sqrt(mu)))^2`.
+/// On a quadratic every error component then shrinks as `sqrt(momentum)` an iteration,
+/// `1 - 2 / sqrt(kappa)` for `kappa = l / mu`, against about `1 - 1 / sqrt(kappa)` for
+/// Nesterov's momentum; it stays stable up to eigenvalue `l + mu`, and components below `mu`
+/// converge, more slowly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct HeavyBall {
+    step: f64,
+    momentum: f64,
+}
+
+impl HeavyBall {
+    fn new(l: f64, mu: f64) -> Self {
+        let (a, b) = (l.sqrt(), mu.sqrt());
+        Self { step: 4.0 / ((a + b) * (a + b)), momentum: ((a - b) / (a + b)).powi(2) }
+    }
+}
+
+/// The largest condition number the heavy ball is tuned for: its momentum stays below
+/// `(1 - 2 / sqrt(MAX_CONDITION))^2` whatever [`Operator::checkerboard`] gives.
+const MAX_CONDITION: f64 = 1e4;
+
+/// Projected heavy ball with restart on the step's problem (gradient `A_t q + b`, the slip),
+/// from the warm start projected on the bounds, until the projected Jacobi step (local scale
+/// `1/A_t(0,0)`) at the iterate, summed over the cells, falls below the tolerance relative to
+/// `mu sum p`. Vectors are packed on the contact cells (`x`, then `y`); returns the tractions
+/// and the iterations (products) used.
+///
+/// Each iteration steps from `q + momentum (q - q_prev)` along the gradient at `q` and
+/// projects. Its parameters ([`HeavyBall`]) take the eigenvalue bound `l` for the largest
+/// eigenvalue and the operator's [`Operator::checkerboard`] for the smallest. Where the step
+/// would go uphill (`g . (next - q) > 0`, O'Donoghue & Candes' restart test) it is taken again
+/// from `q` without momentum and at `1 / l`, a plain projected gradient step, with the same
+/// gradient. Once the contact's stick set has settled the problem is linear on it, and there
+/// the heavy ball converges at about the rate of conjugate gradients (issue 31: the accelerated
+/// gradient it replaced, Nesterov's momentum with adaptive restart, took 42 products on the
+/// 25-cell tap on the disk's top where this takes 25; `docs/guide/contact.md`, "The heavy ball").
 fn minimise(
     product: &CellProduct<'_, 2>,
     input: &StepInput<'_>,
@@ -343,7 +376,8 @@ fn minimise(
         None => largest_eigenvalue(op, contact, settings.dense_max_cells, cache),
     };
     // The cut cells' coupling is in the gradient's products: its bound is added.
-    let step = 1.0 / (lipschitz + product.coupling_bound());
+    let l = lipschitz + product.coupling_bound();
+    let heavy = HeavyBall::new(l, op.checkerboard().clamp(l / MAX_CONDITION, l));
     // The cut cells' own compliance `D` (diagonal, [`super::cut`]) is not in the gradient
     // step but in the projection, exactly: the minimiser of `q.D q / 2 + |q - z|^2 / (2 step)`
     // on a disc is `z / (1 + step d)` projected on it (Xx and Yy have one diagonal, so `d` is
@@ -356,69 +390,56 @@ fn minimise(
     for (i, &k) in contact.iter().enumerate() {
         (q[i], q[m + i]) = project(start.0[k], start.1[k], bound[i]);
     }
-    let mut y = q.clone();
-    let mut u = vec![0.0; 2 * m];
-    let mut theta = 1.0f64;
+    let mut prev = q.clone();
+    let (mut from, mut u) = (vec![0.0; 2 * m], vec![0.0; 2 * m]);
     // Each cell's projected step (packed), its Jacobi step's length and its restart term.
     let (mut next, mut kkt_terms, mut restart_terms) = (vec![0.0; 2 * m], vec![0.0; m], vec![0.0; m]);
     for iteration in 1..=settings.max_iterations {
-        product.apply_operator(None, &y, &mut u);
-        let theta_next = 0.5 * (1.0 + (1.0 + 4.0 * theta * theta).sqrt());
-        let beta = (theta - 1.0) / theta_next;
-        let cells = CellSteps { u: &u, b, y: &y, q: &q, bound, step, local };
-        match cut {
-            None => cells.run(&mut next, &mut kkt_terms, &mut restart_terms),
-            Some(d) => {
-                for i in 0..m {
-                    let (ax, ay) = (u[i] + b[i], u[m + i] + b[m + i]);
-                    let (zx, zy) =
-                        ((y[i] - step * ax) / (1.0 + step * d[i]), (y[m + i] - step * ay) / (1.0 + step * d[m + i]));
-                    (next[i], next[m + i]) = project(zx, zy, bound[i]);
-                    let (gx, gy) = (ax + d[i] * y[i], ay + d[m + i] * y[m + i]);
-                    (kkt_terms[i], restart_terms[i]) = cells.terms(i, (gx, gy), (next[i], next[m + i]));
-                }
-            }
+        product.apply_operator(None, &q, &mut u);
+        for ((f, q), p) in from.iter_mut().zip(&q).zip(&prev) {
+            *f = q + heavy.momentum * (q - p);
         }
+        let mut cells = CellSteps { u: &u, b, from: &from, q: &q, bound, cut, step: heavy.step, local };
+        cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
         // Summed in the same order whatever computed the terms: the same bits.
-        let kkt = lane_sum(kkt_terms.iter().copied());
-        let restart = lane_sum(restart_terms.iter().copied());
-        let residual = kkt / total_bound;
-        let momentum = if restart > 0.0 { 0.0 } else { beta };
-        theta = if restart > 0.0 { 1.0 } else { theta_next };
-        for i in 0..m {
-            let (nx, ny) = (next[i], next[m + i]);
-            y[i] = nx + momentum * (nx - q[i]);
-            y[m + i] = ny + momentum * (ny - q[m + i]);
-            q[i] = nx;
-            q[m + i] = ny;
-        }
-        if momentum > 0.0 {
-            for i in 0..m {
-                (y[i], y[m + i]) = project(y[i], y[m + i], bound[i]);
-            }
-        }
+        let residual = lane_sum(kkt_terms.iter().copied()) / total_bound;
         if residual < settings.tolerance {
-            return Ok((q, iteration));
+            // The plain projected step from `q`: no worse than `q` (the step is `1 / l`),
+            // and on the bound wherever the slip pushes out of it, as a slip cell is.
+            cells.from = &q;
+            cells.step = 1.0 / l;
+            cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
+            return Ok((next, iteration));
         }
         if !residual.is_finite() || iteration == settings.max_iterations {
             return Err(SimError::NoConvergence { solver: "tangential", iterations: iteration, residual });
         }
+        if heavy.momentum > 0.0 && lane_sum(restart_terms.iter().copied()) > 0.0 {
+            // Uphill: the plain step from `q` instead, with the same gradient.
+            cells.from = &q;
+            cells.step = 1.0 / l;
+            cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
+        }
+        std::mem::swap(&mut prev, &mut q);
+        std::mem::swap(&mut q, &mut next);
     }
     // Only with `max_iterations` = 0: the projected start, no iteration.
     Ok((q, 0))
 }
 
-/// One iteration's work per cell without cut cells: the projected gradient step from `y`
-/// (gradient `u + b`, length `step`), the projected Jacobi step's length (`local`, for the
-/// stopping measure) and the restart term `g . (next - q)`. Vectors packed (`x`, then `y`).
-/// Four cells at a time on AVX2, each lane the scalar formula's bits (no fused operations;
-/// the projection's branches as selects).
+/// One iteration's work per cell: the projected step from `from` along the gradient `u + b`
+/// at `q` (length `step`; with cut cells' own compliance `d`, `(from - step g) / (1 + step d)`
+/// projected), the projected Jacobi step's length at `q` (`local`, for the stopping measure,
+/// with the gradient `u + b + d q`) and the restart term `g . (next - q)`. Vectors packed
+/// (`x`, then `y`). Without cut cells four cells at a time on AVX2, each lane the scalar
+/// formula's bits (no fused operations; the projection's branches as selects).
 struct CellSteps<'a> {
     u: &'a [f64],
     b: &'a [f64],
-    y: &'a [f64],
+    from: &'a [f64],
     q: &'a [f64],
     bound: &'a [f64],
+    cut: Option<&'a [f64]>,
     step: f64,
     local: f64,
 }
@@ -427,6 +448,20 @@ impl CellSteps<'_> {
     /// Fills `next` (packed), `kkt` and `restart` (per cell).
     fn run(&self, next: &mut [f64], kkt: &mut [f64], restart: &mut [f64]) {
         let m = self.bound.len();
+        if let Some(d) = self.cut {
+            for i in 0..m {
+                let (ax, ay) = (self.u[i] + self.b[i], self.u[m + i] + self.b[m + i]);
+                let (fx, fy) = (self.from[i], self.from[m + i]);
+                let (zx, zy) = (
+                    (fx - self.step * ax) / (1.0 + self.step * d[i]),
+                    (fy - self.step * ay) / (1.0 + self.step * d[m + i]),
+                );
+                (next[i], next[m + i]) = project(zx, zy, self.bound[i]);
+                let (gx, gy) = (ax + d[i] * self.q[i], ay + d[m + i] * self.q[m + i]);
+                (kkt[i], restart[i]) = self.terms(i, (gx, gy), (next[i], next[m + i]));
+            }
+            return;
+        }
         let mut done = 0;
         #[cfg(target_arch = "x86_64")]
         if let Some(simd) = pulp::x86::V3::try_new() {
@@ -434,21 +469,21 @@ impl CellSteps<'_> {
         }
         for i in done..m {
             let (ax, ay) = (self.u[i] + self.b[i], self.u[m + i] + self.b[m + i]);
-            let (y, r) = ((self.y[i], self.y[m + i]), self.bound[i]);
-            (next[i], next[m + i]) = project(y.0 - self.step * ax, y.1 - self.step * ay, r);
+            let (f, r) = ((self.from[i], self.from[m + i]), self.bound[i]);
+            (next[i], next[m + i]) = project(f.0 - self.step * ax, f.1 - self.step * ay, r);
             (kkt[i], restart[i]) = self.terms(i, (ax, ay), (next[i], next[m + i]));
         }
     }
 
-    /// Cell `i`'s Jacobi step length and restart term, for gradient `g` and step `n`.
+    /// Cell `i`'s Jacobi step length at `q` and restart term, for gradient `g` and step `n`.
     fn terms(&self, i: usize, (gx, gy): (f64, f64), (nx, ny): (f64, f64)) -> (f64, f64) {
         let m = self.bound.len();
-        let (yx, yy) = (self.y[i], self.y[m + i]);
-        let (jx, jy) = project(yx - self.local * gx, yy - self.local * gy, self.bound[i]);
+        let (qx, qy) = (self.q[i], self.q[m + i]);
+        let (jx, jy) = project(qx - self.local * gx, qy - self.local * gy, self.bound[i]);
         // `sqrt` of the squares, not `hypot` (4% of a `paper` run in libm's hypot):
         // tractions are far from overflow, and this sum only decides when to stop.
-        let (dx, dy) = (jx - yx, jy - yy);
-        ((dx * dx + dy * dy).sqrt(), gx * (nx - self.q[i]) + gy * (ny - self.q[m + i]))
+        let (dx, dy) = (jx - qx, jy - qy);
+        ((dx * dx + dy * dy).sqrt(), gx * (nx - qx) + gy * (ny - qy))
     }
 }
 
@@ -476,23 +511,24 @@ impl pulp::WithSimd for CellStepsAvx2<'_, '_> {
             let i = 4 * c;
             let ax = simd.add_f64x4(load4(cells.u, i), load4(cells.b, i));
             let ay = simd.add_f64x4(load4(cells.u, m + i), load4(cells.b, m + i));
-            let (yx, yy, r) = (load4(cells.y, i), load4(cells.y, m + i), load4(cells.bound, i));
+            let (fx, fy, r) = (load4(cells.from, i), load4(cells.from, m + i), load4(cells.bound, i));
+            let (qx, qy) = (load4(cells.q, i), load4(cells.q, m + i));
             let (nx, ny) = project4(
                 simd,
-                simd.sub_f64x4(yx, simd.mul_f64x4(step, ax)),
-                simd.sub_f64x4(yy, simd.mul_f64x4(step, ay)),
+                simd.sub_f64x4(fx, simd.mul_f64x4(step, ax)),
+                simd.sub_f64x4(fy, simd.mul_f64x4(step, ay)),
                 r,
             );
             let (jx, jy) = project4(
                 simd,
-                simd.sub_f64x4(yx, simd.mul_f64x4(local, ax)),
-                simd.sub_f64x4(yy, simd.mul_f64x4(local, ay)),
+                simd.sub_f64x4(qx, simd.mul_f64x4(local, ax)),
+                simd.sub_f64x4(qy, simd.mul_f64x4(local, ay)),
                 r,
             );
-            let (dx, dy) = (simd.sub_f64x4(jx, yx), simd.sub_f64x4(jy, yy));
+            let (dx, dy) = (simd.sub_f64x4(jx, qx), simd.sub_f64x4(jy, qy));
             let k = simd.sqrt_f64x4(simd.add_f64x4(simd.mul_f64x4(dx, dx), simd.mul_f64x4(dy, dy)));
-            let rx = simd.mul_f64x4(ax, simd.sub_f64x4(nx, load4(cells.q, i)));
-            let ry = simd.mul_f64x4(ay, simd.sub_f64x4(ny, load4(cells.q, m + i)));
+            let rx = simd.mul_f64x4(ax, simd.sub_f64x4(nx, qx));
+            let ry = simd.mul_f64x4(ay, simd.sub_f64x4(ny, qy));
             store(next, i, nx);
             store(next, m + i, ny);
             store(kkt, i, k);
@@ -583,6 +619,81 @@ mod tests {
         let grid = Grid { nx: 17, ny: 17, cell_mm, centre_mm: [0.0, 0.0] };
         let skin = HalfSpace { material: Elastic::from_young(0.3, 0.436), pairing: Pairing::RigidIndenter };
         (grid, Operator::new(&skin, grid))
+    }
+
+    /// An unbounded step (no cell reaches `mu p`: the linear solve `A_t q = -b`) on a disc of
+    /// the calibrated skin's cells: the heavy ball reaches the direct solution, within the
+    /// products its rate predicts from the eigenvalue bound and the operator's checkerboard
+    /// (`sqrt(momentum)` a product, [`HeavyBall`]), with a margin for its start.
+    #[test]
+    fn an_unbounded_step_reaches_the_direct_solution_at_the_heavy_balls_rate() {
+        let (grid, op) = calibrated_skin(0.5);
+        let n = grid.len();
+        let cells: Vec<usize> = (0..n).filter(|&k| grid.centre(k)[0].hypot(grid.centre(k)[1]) < 3.0).collect();
+        let mut pressure = vec![0.0; n];
+        for &k in &cells {
+            pressure[k] = 0.1;
+        }
+        // Tractions of about 1e-3 MPa under bounds of 1 MPa.
+        let mu = vec![10.0; n];
+        let zero = vec![0.0; n];
+        // A slip increment that varies over the cells: a shift, a twist and a stretch (mm).
+        let wx: Vec<f64> = (0..n).map(|k| 0.01 + 0.002 * grid.centre(k)[1] + 0.001 * grid.centre(k)[0]).collect();
+        let wy: Vec<f64> = (0..n).map(|k| -0.004 - 0.002 * grid.centre(k)[0]).collect();
+        let input = StepInput {
+            pressure: &pressure,
+            mu: &mu,
+            prev: (&zero, &zero),
+            slip: (&wx, &wy),
+            warm: None,
+            lipschitz: None,
+            cut: None,
+        };
+        let tolerance = 1e-9;
+        let settings = TangentialSettings { tolerance, ..TangentialSettings::default() };
+        let mut cache = MatrixCache::default();
+        let sol = solve_step(&op, &input, &settings, &mut cache, &mut PrevProduct::default()).expect("solved");
+        // The direct solution: the cells' matrix column by column, then Cholesky.
+        let m = cells.len();
+        let product = CellProduct::new(&op, &SHEAR_BLOCKS, &cells, 300, &mut cache);
+        let (mut unit, mut column) = (vec![0.0; 2 * m], vec![0.0; 2 * m]);
+        let matrix = nalgebra::DMatrix::from_fn(2 * m, 2 * m, |i, j| {
+            if i == 0 {
+                unit.fill(0.0);
+                unit[j] = 1.0;
+                product.apply(None, &unit, &mut column);
+            }
+            column[i]
+        });
+        let rhs =
+            nalgebra::DVector::from_iterator(2 * m, cells.iter().map(|&k| -wx[k]).chain(cells.iter().map(|&k| -wy[k])));
+        let direct = matrix.clone().cholesky().expect("positive definite").solve(&rhs);
+        let largest = direct.amax();
+        let off = cells
+            .iter()
+            .enumerate()
+            .map(|(i, &k)| (sol.qx[k] - direct[i]).abs().max((sol.qy[k] - direct[m + i]).abs()))
+            .fold(0.0, f64::max);
+        assert!(off < 1e-6 * largest, "{off} MPa off a direct solve whose largest traction is {largest}");
+        assert!(sol.slipping.iter().all(|s| !s), "no cell reaches its bound");
+        // The rate: the stopping measure falls from the start (q = 0) to the tolerance.
+        let l = largest_eigenvalue(&op, &cells, 300, &mut cache);
+        let heavy = HeavyBall::new(l, op.checkerboard());
+        let local = 1.0 / op.diagonal(Component::Xx).max(op.diagonal(Component::Yy));
+        let total: f64 = cells.iter().map(|&k| mu[k] * pressure[k]).sum();
+        let start: f64 = cells.iter().map(|&k| local * wx[k].hypot(wy[k])).sum::<f64>() / total;
+        let predicted = (tolerance / start).ln() / heavy.momentum.sqrt().ln();
+        println!(
+            "{} products, predicted {predicted:.1} (kappa {:.1}, rate {:.3}); {off:.2e} MPa off the direct solve",
+            sol.iterations,
+            l / op.checkerboard(),
+            heavy.momentum.sqrt()
+        );
+        assert!(
+            (sol.iterations as f64) < 1.5 * predicted + 5.0,
+            "{} products, predicted {predicted:.1}",
+            sol.iterations
+        );
     }
 
     /// A path's contact grows a step at a time: the bound found from the last vector in
