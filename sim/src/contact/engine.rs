@@ -1205,6 +1205,20 @@ mod tests {
         assert!(force_ratio < 5.0 && tip_ratio < 5.0, "force {force_ratio}, tip {tip_ratio}");
     }
 
+    /// Regression (issue 31): on this tap across the disk's rim at 65 cells (the bench's rim
+    /// tap 20, the pin reference) the tangential solver's heavy ball cycled with the objective
+    /// going up and down, 20,000 iterations at a residual of 1.45, until a momentum step that
+    /// raised the objective was taken back.
+    #[test]
+    fn a_momentum_step_that_goes_uphill_is_taken_back() {
+        let pose = SensorPose::new(52.12806085741059, -1.300799758941109, 1.6897821803044915, -153.1759169415759);
+        let model = default_model(65);
+        let scene = scene_of("disk");
+        let mut sim = Simulation::new(&model, &scene, &[pose]);
+        let report = sim.step(pose).expect("converged");
+        assert!(report.tangential_iterations < 200, "{} tangential iterations", report.tangential_iterations);
+    }
+
     /// Where the pin error across a sharp edge comes from, on the bench's worst taps across the
     /// disk's rim (13 cells against 65 = 5 x 13 on the same footprint, neither with sub-cells
     /// along the edge): 65 cells' tractions summed onto the 13 cells and placed as 13 cells

@@ -355,7 +355,13 @@ const MAX_CONDITION: f64 = 1e4;
 /// eigenvalue and the operator's [`Operator::checkerboard`] for the smallest. Where the step
 /// would go uphill (`g . (next - q) > 0`, O'Donoghue & Candes' restart test) it is taken again
 /// from `q` without momentum and at `1 / l`, a plain projected gradient step, with the same
-/// gradient. Once the contact's stick set has settled the problem is linear on it, and there
+/// gradient. And where a momentum step raised the objective ([`objective`], from the product
+/// the next iteration takes anyway) it is taken back: the plain step from the iterate before
+/// it. So the accepted iterates only go downhill and cannot cycle: without this the heavy
+/// ball cycled for 20,000 iterations on a 65-cell tap across the disk's rim (regression test
+/// `a_momentum_step_that_goes_uphill_is_taken_back`), as it can on problems that are not
+/// quadratic (Lessard, Recht & Packard 2016). Once the contact's stick set has settled the
+/// problem is linear on it, and there
 /// the heavy ball converges at about the rate of conjugate gradients (issue 31: the accelerated
 /// gradient it replaced, Nesterov's momentum with adaptive restart, took 42 products on the
 /// 25-cell tap on the disk's top where this takes 25; `docs/guide/contact.md`, "The heavy ball").
@@ -391,11 +397,27 @@ fn minimise(
         (q[i], q[m + i]) = project(start.0[k], start.1[k], bound[i]);
     }
     let mut prev = q.clone();
-    let (mut from, mut u) = (vec![0.0; 2 * m], vec![0.0; 2 * m]);
+    let (mut from, mut u, mut u_prev) = (vec![0.0; 2 * m], vec![0.0; 2 * m], vec![0.0; 2 * m]);
     // Each cell's projected step (packed), its Jacobi step's length and its restart term.
     let (mut next, mut kkt_terms, mut restart_terms) = (vec![0.0; 2 * m], vec![0.0; m], vec![0.0; m]);
+    // The objective at the last accepted iterate, and whether `q` came from a momentum step.
+    let (mut last, mut carried) = (f64::INFINITY, false);
     for iteration in 1..=settings.max_iterations {
         product.apply_operator(None, &q, &mut u);
+        let value = objective(&q, &u, b, cut);
+        if carried && value > last {
+            // The momentum step went uphill: back to the iterate before it (and its product),
+            // and the plain step from there.
+            std::mem::swap(&mut q, &mut prev);
+            std::mem::swap(&mut u, &mut u_prev);
+            let cells = CellSteps { u: &u, b, from: &q, q: &q, bound, cut, step: 1.0 / l, local };
+            cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
+            prev.copy_from_slice(&q);
+            std::mem::swap(&mut q, &mut next);
+            std::mem::swap(&mut u, &mut u_prev);
+            carried = false;
+            continue;
+        }
         for ((f, q), p) in from.iter_mut().zip(&q).zip(&prev) {
             *f = q + heavy.momentum * (q - p);
         }
@@ -414,17 +436,28 @@ fn minimise(
         if !residual.is_finite() || iteration == settings.max_iterations {
             return Err(SimError::NoConvergence { solver: "tangential", iterations: iteration, residual });
         }
-        if heavy.momentum > 0.0 && lane_sum(restart_terms.iter().copied()) > 0.0 {
-            // Uphill: the plain step from `q` instead, with the same gradient.
+        carried = heavy.momentum > 0.0;
+        if carried && lane_sum(restart_terms.iter().copied()) > 0.0 {
+            // Uphill at `q`: the plain step from `q` instead, with the same gradient.
             cells.from = &q;
             cells.step = 1.0 / l;
             cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
+            carried = false;
         }
+        last = value;
+        std::mem::swap(&mut u, &mut u_prev);
         std::mem::swap(&mut prev, &mut q);
         std::mem::swap(&mut q, &mut next);
     }
     // Only with `max_iterations` = 0: the projected start, no iteration.
     Ok((q, 0))
+}
+
+/// The step's objective `q.(A_t q / 2 + b) + q.D q / 2` (MPa mm) from `u = A_t q` (packed,
+/// with the cut cells' coupling; `d` their own compliance `D`).
+fn objective(q: &[f64], u: &[f64], b: &[f64], d: Option<&[f64]>) -> f64 {
+    let own = |i: usize| d.map_or(0.0, |d| 0.5 * d[i] * q[i]);
+    lane_sum((0..q.len()).map(|i| q[i] * (0.5 * u[i] + b[i] + own(i))))
 }
 
 /// One iteration's work per cell: the projected step from `from` along the gradient `u + b`
@@ -674,7 +707,8 @@ mod tests {
             .enumerate()
             .map(|(i, &k)| (sol.qx[k] - direct[i]).abs().max((sol.qy[k] - direct[m + i]).abs()))
             .fold(0.0, f64::max);
-        assert!(off < 1e-6 * largest, "{off} MPa off a direct solve whose largest traction is {largest}");
+        // The stop: the cells' Jacobi steps sum to 1e-9 of `mu sum p` (1 MPa a cell here).
+        assert!(off < 10.0 * tolerance, "{off} MPa off a direct solve whose largest traction is {largest}");
         assert!(sol.slipping.iter().all(|s| !s), "no cell reaches its bound");
         // The rate: the stopping measure falls from the start (q = 0) to the tolerance.
         let l = largest_eigenvalue(&op, &cells, 300, &mut cache);
