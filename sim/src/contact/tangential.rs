@@ -237,7 +237,7 @@ const SHEAR_BLOCKS: [[Component; 2]; 2] = [[Component::Xx, Component::Xy], [Comp
 
 /// Solves one step: the tractions within the bound `mu p` that minimise the step's energy
 /// (the module's problem). The stages: the slip offset `b = w - A_t q'`
-/// ([`slip_offset`]), the accelerated projected gradient from the warm start
+/// ([`slip_offset`]), the projected heavy ball from the warm start
 /// ([`minimise`]), and the slip, force and dissipation of the converged tractions
 /// ([`settle`]).
 /// Products on the contact cells go through `cache` ([`MatrixCache`]).
@@ -365,14 +365,14 @@ const MAX_CONDITION: f64 = 1e4;
 /// gradient. And where a momentum step left the objective ([`objective`], from the product
 /// the next iteration takes anyway) at or above the highest of the last [`UPHILL_WINDOW`]
 /// accepted iterates it is taken back: the plain step from the iterate before it. So the
-/// accepted iterates cannot cycle: without this the heavy
-/// ball cycled for 20,000 iterations on a 65-cell tap across the disk's rim (regression test
+/// accepted iterates cannot cycle: without this the heavy ball cycled for 20,000 iterations
+/// on a 65-cell tap across the disk's rim (regression test
 /// `a_momentum_step_that_goes_uphill_is_taken_back`), as it can on problems that are not
 /// quadratic (Lessard, Recht & Packard 2016). Once the contact's stick set has settled the
-/// problem is linear on it, and there
-/// the heavy ball converges at about the rate of conjugate gradients (issue 31: the accelerated
-/// gradient it replaced, Nesterov's momentum with adaptive restart, took 42 products on the
-/// 25-cell tap on the disk's top where this takes 25; `docs/guide/contact.md`, "The heavy ball").
+/// problem is linear on it, and there the heavy ball converges at about the rate of
+/// conjugate gradients (issue 31: the accelerated gradient it replaced, Nesterov's momentum
+/// with adaptive restart, took 42 products on the 25-cell tap on the disk's top where this
+/// takes 25; `docs/guide/contact.md`, "The heavy ball").
 fn minimise(
     product: &CellProduct<'_, 2>,
     input: &StepInput<'_>,
@@ -411,6 +411,7 @@ fn minimise(
     // The objective at the last accepted iterates (a ring), and whether `q` came from a
     // momentum step.
     let (mut recent, mut accepted, mut carried) = ([f64::INFINITY; UPHILL_WINDOW], 0usize, false);
+    let mut residual = f64::INFINITY;
     for iteration in 1..=settings.max_iterations {
         product.apply_operator(None, &q, &mut u);
         let value = objective(&q, &u, b, cut);
@@ -433,7 +434,7 @@ fn minimise(
         let mut cells = CellSteps { u: &u, b, from: &from, q: &q, bound, cut, step: heavy.step, local };
         cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
         // Summed in the same order whatever computed the terms: the same bits.
-        let residual = lane_sum(kkt_terms.iter().copied()) / total_bound;
+        residual = lane_sum(kkt_terms.iter().copied()) / total_bound;
         if residual < settings.tolerance {
             // The plain projected step from `q`: no worse than `q` (the step is `1 / l`),
             // and on the bound wherever the slip pushes out of it, as a slip cell is.
@@ -442,7 +443,7 @@ fn minimise(
             cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
             return Ok((next, iteration));
         }
-        if !residual.is_finite() || iteration == settings.max_iterations {
+        if !residual.is_finite() {
             return Err(SimError::NoConvergence { solver: "tangential", iterations: iteration, residual });
         }
         carried = heavy.momentum > 0.0;
@@ -459,7 +460,10 @@ fn minimise(
         std::mem::swap(&mut prev, &mut q);
         std::mem::swap(&mut q, &mut next);
     }
-    // Only with `max_iterations` = 0: the projected start, no iteration.
+    if settings.max_iterations > 0 {
+        return Err(SimError::NoConvergence { solver: "tangential", iterations: settings.max_iterations, residual });
+    }
+    // With `max_iterations` = 0: the projected start, no iteration.
     Ok((q, 0))
 }
 
