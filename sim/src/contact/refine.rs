@@ -270,20 +270,27 @@ pub(crate) fn refine(
     // Where the sub-cells' cut coupling is taken: the candidates.
     let mut reach = vec![f64::INFINITY; op_grid.len()];
     let mut cuts: Vec<Option<Cut>> = vec![None; op_grid.len()];
-    for (s, g) in subs.iter().zip(&g0) {
-        if !(g.is_finite() && *g < limit) {
-            continue;
+    // The sub-cells solved for, each with its place in the box tables less a held cell's
+    // `sj width + si`: the held cells' displacement at each, held cell after held cell in
+    // the same order for every sub-cell (the sums' bits), the sub-cells in the inner loop
+    // (the table rows they read lie side by side).
+    let chosen: Vec<(usize, isize)> = (0..subs.len())
+        .filter(|&i| g0[i].is_finite() && g0[i] < limit)
+        .map(|i| (i, (subs[i].at.1 as isize + m - r) * width + subs[i].at.0 as isize + n - r))
+        .collect();
+    let mut held_u = vec![0.0; chosen.len()];
+    for (t, si, sj) in &held {
+        let shift = sj * width + si;
+        for (u, (_, place)) in held_u.iter_mut().zip(&chosen) {
+            let b = fine.boxes[(place - shift) as usize];
+            *u += b[0] * t[0] + b[1] * t[1] + b[2] * t[2];
         }
-        let (fi, fj) = (s.at.0 as isize, s.at.1 as isize);
-        let mut u = 0.0;
-        for (t, si, sj) in &held {
-            let at = ((fj - sj + m - r) * width + fi - si + n - r) as usize;
-            let b = fine.boxes[at];
-            u += b[0] * t[0] + b[1] * t[1] + b[2] * t[2];
-        }
+    }
+    for (&(i, _), u) in chosen.iter().zip(&held_u) {
+        let s = &subs[i];
         let f = s.at.1 * op_grid.nx + s.at.0;
         // In the fine operator's units: its displacements are `1 / unit_mm` of the grid's.
-        gap[f] = (g + unit_mm * u) / unit_mm;
+        gap[f] = (g0[i] + unit_mm * u) / unit_mm;
         warm[f] = coarse.pressure[s.cell];
         reach[f] = -1.0;
         cuts[f] = s.cut;
