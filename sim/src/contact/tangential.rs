@@ -420,8 +420,8 @@ fn minimise(
             // before it (and its product), and the plain step from there.
             std::mem::swap(&mut q, &mut prev);
             std::mem::swap(&mut u, &mut u_prev);
-            let cells = CellSteps { u: &u, b, from: &q, q: &q, bound, cut, step: 1.0 / l, local };
-            cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
+            let cells = CellSteps { u: &u, b, from: &q, q: &q, bound, cut, step: heavy.step, local };
+            cells.plain(l).run(&mut next, &mut kkt_terms, &mut restart_terms);
             prev.copy_from_slice(&q);
             std::mem::swap(&mut q, &mut next);
             std::mem::swap(&mut u, &mut u_prev);
@@ -431,16 +431,14 @@ fn minimise(
         for ((f, q), p) in from.iter_mut().zip(&q).zip(&prev) {
             *f = q + heavy.momentum * (q - p);
         }
-        let mut cells = CellSteps { u: &u, b, from: &from, q: &q, bound, cut, step: heavy.step, local };
+        let cells = CellSteps { u: &u, b, from: &from, q: &q, bound, cut, step: heavy.step, local };
         cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
         // Summed in the same order whatever computed the terms: the same bits.
         residual = lane_sum(kkt_terms.iter().copied()) / total_bound;
         if residual < settings.tolerance {
             // The plain projected step from `q`: no worse than `q` (the step is `1 / l`),
             // and on the bound wherever the slip pushes out of it, as a slip cell is.
-            cells.from = &q;
-            cells.step = 1.0 / l;
-            cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
+            cells.plain(l).run(&mut next, &mut kkt_terms, &mut restart_terms);
             return Ok((next, iteration));
         }
         if !residual.is_finite() {
@@ -449,9 +447,7 @@ fn minimise(
         carried = heavy.momentum > 0.0;
         if carried && lane_sum(restart_terms.iter().copied()) > 0.0 {
             // Uphill at `q`: the plain step from `q` instead, with the same gradient.
-            cells.from = &q;
-            cells.step = 1.0 / l;
-            cells.run(&mut next, &mut kkt_terms, &mut restart_terms);
+            cells.plain(l).run(&mut next, &mut kkt_terms, &mut restart_terms);
             carried = false;
         }
         recent[accepted % UPHILL_WINDOW] = value;
@@ -480,6 +476,7 @@ fn objective(q: &[f64], u: &[f64], b: &[f64], d: Option<&[f64]>) -> f64 {
 /// with the gradient `u + b + d q`) and the restart term `g . (next - q)`. Vectors packed
 /// (`x`, then `y`). Without cut cells four cells at a time on AVX2, each lane the scalar
 /// formula's bits (no fused operations; the projection's branches as selects).
+#[derive(Clone, Copy)]
 struct CellSteps<'a> {
     u: &'a [f64],
     b: &'a [f64],
@@ -492,6 +489,12 @@ struct CellSteps<'a> {
 }
 
 impl CellSteps<'_> {
+    /// The plain projected gradient step from `q` for the eigenvalue bound `l` (step `1 / l`,
+    /// no momentum): the solver's step where momentum would go uphill, and its last one.
+    fn plain(&self, l: f64) -> Self {
+        Self { from: self.q, step: 1.0 / l, ..*self }
+    }
+
     /// Fills `next` (packed), `kkt` and `restart` (per cell).
     fn run(&self, next: &mut [f64], kkt: &mut [f64], restart: &mut [f64]) {
         let m = self.bound.len();
