@@ -197,6 +197,11 @@ pub struct Operator {
     mirrored: [Vec<f64>; 8],
     /// [`Operator::checkerboard`] (mm/MPa).
     checkerboard: f64,
+    /// Per component, its spectrum on the padded grid: the unit tables' spectra combined
+    /// with [`Operator::factors`] once, on the component's first FFT product, instead of at
+    /// every product (the same values, so the same bits; shared by clones, whose factors are
+    /// the same).
+    spectra: Arc<[OnceLock<Vec<Complex64>>; 8]>,
 }
 
 /// The layered correction of an operator.
@@ -219,7 +224,8 @@ impl Operator {
             Component::ALL.map(|c| tables.values.iter().map(|t| Self::combine(factors, c, t)).collect());
         let mirrored = Self::mirror(&grid, &coefficients);
         let checkerboard = Self::checkerboard_of(&grid, &coefficients);
-        Self { grid, tables, factors, correction: None, coefficients, mirrored, checkerboard }
+        let spectra = Arc::new(std::array::from_fn(|_| OnceLock::new()));
+        Self { grid, tables, factors, correction: None, coefficients, mirrored, checkerboard, spectra }
     }
 
     /// The operator of layers on a rigid base (a rigid indenter on the top layer): the top
@@ -506,9 +512,17 @@ impl Operator {
                 padded[j * m..j * m + nx].copy_from_slice(&t[j * nx..(j + 1) * nx]);
             }
             let ft = fft.forward(&padded);
-            for (k, (a, x)) in acc.iter_mut().zip(&ft).enumerate() {
-                let s = [spectra[0][k], spectra[1][k], spectra[2][k], spectra[3][k], spectra[4][k], spectra[5][k]];
-                *a += Self::combine(self.factors, c, &s) * x;
+            let spectrum = self.spectra[c as usize].get_or_init(|| {
+                (0..ft.len())
+                    .map(|k| {
+                        let s =
+                            [spectra[0][k], spectra[1][k], spectra[2][k], spectra[3][k], spectra[4][k], spectra[5][k]];
+                        Self::combine(self.factors, c, &s)
+                    })
+                    .collect()
+            });
+            for (a, (s, x)) in acc.iter_mut().zip(spectrum.iter().zip(&ft)) {
+                *a += s * x;
             }
             if let Some(corr) = corrections {
                 for (a, (s, x)) in acc.iter_mut().zip(corr[c as usize].iter().zip(&ft)) {
