@@ -32,8 +32,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let (qx, qy) = sim.shear();
         let hash = sim.pressure().iter().chain(qx).chain(qy).fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits());
         println!(
-            "{name}, {cells} cells: {} in contact, iterations normal {} tangential {}, tractions' hash {hash:016x}",
-            report.contact_cells, report.normal_iterations, report.tangential_iterations
+            "{name}, {cells} cells: {} in contact, iterations normal {} tangential {}, matrices built / reused \
+             normal {:?} shear {:?}, tractions' hash {hash:016x}",
+            report.contact_cells,
+            report.normal_iterations,
+            report.tangential_iterations,
+            sim.matrix_counts()[0],
+            sim.matrix_counts()[1]
         );
         for _ in 0..repeats {
             sim.lift();

@@ -843,8 +843,13 @@ impl<'a> Simulation<'a> {
             // `default_tolerances_keep_the_pins_within_a_tenth_of_a_micron_of_a_tight_solve`).
             let first = round == 0 && rounds > 1 && needs_tangential;
             let factor = if first { FIRST_ROUND_LOOSENESS } else { 1.0 };
-            let normal_settings =
-                NormalSettings { tolerance: self.model.normal.tolerance * factor, ..self.model.normal };
+            // A round after the first starts from the last round's contact, which mostly
+            // holds: solved on it first.
+            let normal_settings = NormalSettings {
+                tolerance: self.model.normal.tolerance * factor,
+                contact_first: round > 0,
+                ..self.model.normal
+            };
             let shear_settings =
                 TangentialSettings { tolerance: self.model.tangential.tolerance * factor, ..self.model.tangential };
             self.solve_normal(op, g0, extra.as_deref(), &normal_settings, &mut report)?;

@@ -740,11 +740,14 @@ thread_local! {
     static PARTIAL_SUMS: std::cell::Cell<Vec<f32>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
-/// The last [`CellMatrix`] built, handed out again while the operator's grid, the blocks and
-/// the cells stay the same (the coupling rounds of a step mostly solve on the same cells).
+/// The last two [`CellMatrix`]es used, handed out again while the operator's grid, the blocks
+/// and the cells stay the same (the coupling rounds of a step mostly solve on the same cells;
+/// a normal solve on its contact first checks the other candidates with their matrix,
+/// [`super::normal::NormalSettings::contact_first`]).
 #[derive(Clone, Debug, Default)]
 pub struct MatrixCache {
-    last: Option<Arc<CellMatrix>>,
+    /// The most recently used first.
+    kept: [Option<Arc<CellMatrix>>; 2],
     /// Matrices built and handed out again.
     counts: [usize; 2],
     /// The lowest precision it builds in.
@@ -760,7 +763,7 @@ impl MatrixCache {
 
     /// Forgets the kept matrix and the counts; the precision stays.
     pub fn clear(&mut self) {
-        *self = Self { last: None, counts: [0; 2], ..*self };
+        *self = Self { kept: [None, None], counts: [0; 2], ..*self };
     }
 
     /// The precision of a matrix of `blocks x blocks` components on `cells` cells: double up
@@ -777,7 +780,7 @@ impl MatrixCache {
         self.counts
     }
 
-    /// The matrix of `op`'s `blocks` on `cells` in `precision`, built unless the last one
+    /// The matrix of `op`'s `blocks` on `cells` in `precision`, built unless a kept one
     /// serves them (its own cells, or a superset: then with the cells' positions among its
     /// own).
     pub fn get<const B: usize>(
@@ -787,14 +790,18 @@ impl MatrixCache {
         cells: &[usize],
         precision: Precision,
     ) -> (Arc<CellMatrix>, Option<Vec<usize>>) {
-        let kept = self.last.as_ref().filter(|m| m.has(op.grid(), blocks, precision));
-        if let Some((m, positions)) = kept.and_then(|m| m.serves(cells).map(|p| (m.clone(), p))) {
-            self.counts[1] += 1;
-            return (m, positions);
+        for slot in 0..self.kept.len() {
+            let kept = self.kept[slot].as_ref().filter(|m| m.has(op.grid(), blocks, precision));
+            if let Some((m, positions)) = kept.and_then(|m| m.serves(cells).map(|p| (m.clone(), p))) {
+                self.counts[1] += 1;
+                self.kept[..=slot].rotate_right(1);
+                return (m, positions);
+            }
         }
         self.counts[0] += 1;
         let m = Arc::new(CellMatrix::in_precision(op, blocks, cells, precision));
-        self.last = Some(m.clone());
+        self.kept.rotate_right(1);
+        self.kept[0] = Some(m.clone());
         (m, None)
     }
 }
