@@ -101,8 +101,10 @@ pub struct Extra<'a> {
 /// Solves for the pressures. `g0` is the gap per cell (mm, `+inf` where nothing can touch),
 /// `extra` what else adds to the gap ([`Extra`]), `warm` a
 /// starting pressure field (MPa). The stages: the candidate cells ([`Problem::new`]), the
-/// start (warm or a Jacobi guess, [`Problem::start`]), then the constrained conjugate
-/// gradient to convergence ([`Problem::conjugate_gradient`]). Dense products go through
+/// start (warm or a Jacobi guess, [`Problem::start`]), with [`NormalSettings::contact_first`]
+/// a solve on the start's contact ([`Problem::on_contact_first`]), then the constrained
+/// conjugate gradient to convergence ([`Problem::conjugate_gradient`]) and the gaps
+/// ([`Problem::finish`]). Dense products go through
 /// `cache` ([`MatrixCache`]).
 pub fn solve(
     op: &Operator,
@@ -121,8 +123,8 @@ pub fn solve(
     let mut iterations = 0;
     if settings.contact_first {
         match problem.on_contact_first(pressure, extra.cut, cache)? {
-            Ok(solution) => return Ok(solution),
-            Err((p, used)) => (pressure, iterations) = (p, used),
+            ContactFirst::Solved(solution) => return Ok(solution),
+            ContactFirst::GoOn(p, used) => (pressure, iterations) = (p, used),
         }
     }
     let product = problem.product(cache).with_cut(extra.cut);
@@ -141,6 +143,14 @@ const STALL_ITERATIONS: usize = 20;
 /// Iterations after which the conjugate gradient takes the displacement from a whole product
 /// again instead of its update in place, so that the updates' rounding does not build up.
 const REFRESH_ITERATIONS: usize = 10;
+
+/// What a solve on the start's contact first ([`Problem::on_contact_first`]) leaves.
+enum ContactFirst {
+    /// No other candidate overlaps: the solution.
+    Solved(NormalSolution),
+    /// The pressures to go on from over all the candidates, and the iterations used so far.
+    GoOn(Vec<f64>, usize),
+}
 
 /// The normal block: `u_z` from `p`.
 const NORMAL_BLOCK: [[Component; 1]; 1] = [[Component::Zz]];
@@ -194,10 +204,10 @@ impl<'a> Problem<'a> {
         pressure: Vec<f64>,
         cut: Option<&CutCoupling>,
         cache: &mut MatrixCache,
-    ) -> Result<std::result::Result<NormalSolution, (Vec<f64>, usize)>> {
+    ) -> Result<ContactFirst> {
         let inside: Vec<usize> = (0..pressure.len()).filter(|&i| pressure[i] > 0.0).collect();
         if inside.is_empty() || inside.len() == pressure.len() {
-            return Ok(Err((pressure, 0)));
+            return Ok(ContactFirst::GoOn(pressure, 0));
         }
         let contact = Problem {
             candidates: inside.iter().map(|&i| self.candidates[i]).collect(),
@@ -209,7 +219,7 @@ impl<'a> Problem<'a> {
         let (packed, iterations) = match solved {
             Ok(solved) => solved,
             // Over all the candidates from the start, as without this stage.
-            Err(SimError::NoConvergence { .. }) => return Ok(Err((pressure, 0))),
+            Err(SimError::NoConvergence { .. }) => return Ok(ContactFirst::GoOn(pressure, 0)),
             Err(e) => return Err(e),
         };
         let mut pressure = vec![0.0; self.base.len()];
@@ -221,7 +231,11 @@ impl<'a> Problem<'a> {
         self.displacement(&pressure, &product, &mut u);
         let approach = self.approach(&pressure, &u);
         let overlap = (0..pressure.len()).any(|i| pressure[i] == 0.0 && u[i] + self.base[i] - approach < 0.0);
-        Ok(if overlap { Err((pressure, iterations)) } else { Ok(self.finish(pressure, iterations, &u)) })
+        Ok(if overlap {
+            ContactFirst::GoOn(pressure, iterations)
+        } else {
+            ContactFirst::Solved(self.finish(pressure, iterations, &u))
+        })
     }
 
     /// A grid field from values on the candidates, `fill` elsewhere.
