@@ -30,15 +30,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut sim = Simulation::new(&model, &scene, &[pose]);
         let report = sim.step(pose)?.clone();
         let (qx, qy) = sim.shear();
+        let [normal, shear] = sim.matrix_counts();
         let hash = sim.pressure().iter().chain(qx).chain(qy).fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits());
         println!(
             "{name}, {cells} cells: {} in contact, iterations normal {} tangential {}, matrices built / reused \
-             normal {:?} shear {:?}, tractions' hash {hash:016x}",
-            report.contact_cells,
-            report.normal_iterations,
-            report.tangential_iterations,
-            sim.matrix_counts()[0],
-            sim.matrix_counts()[1]
+             normal {normal:?} shear {shear:?}, tractions' hash {hash:016x}",
+            report.contact_cells, report.normal_iterations, report.tangential_iterations
         );
         for _ in 0..repeats {
             sim.lift();

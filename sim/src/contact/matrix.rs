@@ -761,7 +761,7 @@ impl MatrixCache {
         Self { lowest, ..Self::default() }
     }
 
-    /// Forgets the kept matrix and the counts; the precision stays.
+    /// Forgets the kept matrices and the counts; the precision stays.
     pub fn clear(&mut self) {
         *self = Self { kept: [None, None], counts: [0; 2], ..*self };
     }

@@ -448,11 +448,13 @@ impl<'a> Problem<'a> {
     /// Under load control, the rigid approach: the mean of `u + g0` over the cells in contact
     /// (mm); 0 under indentation control.
     fn approach(&self, pressure: &[f64], u: &[f64]) -> f64 {
-        let active: Vec<usize> = (0..pressure.len()).filter(|&i| pressure[i] > 0.0).collect();
-        if matches!(self.control, Control::Load(_)) && !active.is_empty() {
-            active.iter().map(|&i| u[i] + self.base[i]).sum::<f64>() / active.len() as f64
-        } else {
-            0.0
+        if !matches!(self.control, Control::Load(_)) {
+            return 0.0;
+        }
+        let active = || (0..pressure.len()).filter(|&i| pressure[i] > 0.0);
+        match active().count() {
+            0 => 0.0,
+            count => active().map(|i| u[i] + self.base[i]).sum::<f64>() / count as f64,
         }
     }
 
