@@ -1074,7 +1074,8 @@ impl<'a> Simulation<'a> {
     }
 
     /// Normal displacement (mm) of the cells with a finite gap from the shear tractions, for
-    /// the next normal solve of a coupled material.
+    /// the next normal solve of a coupled material: dense where the contact's cells are few
+    /// for the cells seen ([`Product::by_pairs`]), by FFT else.
     fn normal_from_shear(&self, op: &Operator, g0: &[f64]) -> Vec<f64> {
         let n = g0.len();
         let src: Vec<usize> = (0..n).filter(|&k| self.qx[k] != 0.0 || self.qy[k] != 0.0).collect();
@@ -1083,7 +1084,7 @@ impl<'a> Simulation<'a> {
         op.apply(
             &[(Component::Zx, &self.qx), (Component::Zy, &self.qy)],
             &mut uz,
-            Product::by_size(dst.len(), self.model.normal.products.dense_max_cells, &src, &dst),
+            Product::by_pairs(2, self.model.normal.products.dense_max_cells, &src, &dst),
         );
         uz
     }
