@@ -7,7 +7,8 @@
 //! instructions a ray that reaches a built-in stimulus (`docs/guide/contact.md`), whose flat
 //! tops are long thin triangles (a constrained Delaunay triangulation of the outline alone)
 //! with overlapping boxes; the triangles a ray tests over its bin (about 0.5 mm) are about
-//! five. Each goes through parry's own triangle ray cast and, where it hits, parry's own box
+//! five. Those whose footprint, grown by [`MARGIN_MM`], does not hold the ray are skipped
+//! (parry's test misses them too); each other goes through parry's own triangle ray cast and, where it hits, parry's own box
 //! test, and the nearest hit is kept; where parry's traversal could keep another (near-equal
 //! hits) the caller asks the BVH instead: the same time of impact to the bit (`scene.rs`, test
 //! `straight_down_rays_hit_what_parrys_bvh_hits`).
@@ -45,7 +46,15 @@ pub(crate) struct ColumnIndex {
     triangles: Vec<Triangle>,
     /// The highest `z` of each triangle (mm).
     top_mm: Vec<f64>,
+    /// Each triangle's footprint as its three sides' lines `[a, b, c]`, `a x + b y + c` the
+    /// signed distance (mm) of `(x, y)` from the side, positive inwards; `None` for a
+    /// footprint narrower than [`FLAT_MM`] (a wall's), which every ray over its bin tests.
+    sides: Vec<Option<[[f64; 3]; 3]>>,
 }
+
+/// A triangle whose footprint is narrower than this (mm, its least height) has no sides
+/// ([`ColumnIndex::sides`]).
+const FLAT_MM: f64 = 1e-6;
 
 impl ColumnIndex {
     /// The index of `mesh` (its own frame).
@@ -91,7 +100,15 @@ impl ColumnIndex {
                 cursor[b] += 1;
             });
         }
-        Self { min, bin_mm, nx, ny, starts, items, triangles, top_mm }
+        let sides = triangles.iter().map(footprint_sides).collect();
+        Self { min, bin_mm, nx, ny, starts, items, triangles, top_mm, sides }
+    }
+
+    /// Whether a ray straight down at `(x, y)` (mesh frame, mm) can hit triangle `t`: its
+    /// footprint, grown by [`MARGIN_MM`] (far above parry's f32 rounding), holds the point.
+    /// One that does not is missed by parry's own test too, so it is skipped before it.
+    fn over(&self, t: usize, x: f64, y: f64) -> bool {
+        self.sides[t].is_none_or(|sides| sides.iter().all(|[a, b, c]| a * x + b * y + c >= -MARGIN_MM))
     }
 
     /// The time of impact of `ray` (mesh frame, direction exactly `-z`) on the nearest triangle
@@ -118,6 +135,9 @@ impl ColumnIndex {
             let best = nearest.best();
             if ray.origin.z as f64 - self.top_mm[t as usize] > best.unwrap_or(reach_mm) as f64 + MARGIN_MM {
                 break;
+            }
+            if !self.over(t as usize, ray.origin.x as f64, ray.origin.y as f64) {
+                continue;
             }
             let triangle = &self.triangles[t as usize];
             // Hits up to a tie above the best are looked at too.
@@ -200,6 +220,32 @@ fn reaches_box(triangle: &Triangle, ray: &Ray, inv_dir: [f32; 3]) -> bool {
     tmax >= tmin && tmax >= 0.0
 }
 
+/// The sides of `triangle`'s footprint ([`ColumnIndex::sides`]), `None` where it is narrower
+/// than [`FLAT_MM`].
+fn footprint_sides(triangle: &Triangle) -> Option<[[f64; 3]; 3]> {
+    let corners = [triangle.a, triangle.b, triangle.c].map(|v| [v.x as f64, v.y as f64]);
+    let edge = |k: usize| {
+        let (p, q) = (corners[k], corners[(k + 1) % 3]);
+        ([q[0] - p[0], q[1] - p[1]], p)
+    };
+    // Twice the signed area: positive when the corners run anticlockwise.
+    let ([ux, uy], _) = edge(0);
+    let ([vx, vy], _) = edge(1);
+    let twice_area = ux * vy - uy * vx;
+    let longest = (0..3).map(|k| edge(k).0[0].hypot(edge(k).0[1])).fold(0.0, f64::max);
+    if twice_area.abs() <= FLAT_MM * longest {
+        return None;
+    }
+    let inwards = twice_area.signum();
+    Some(std::array::from_fn(|k| {
+        let ([dx, dy], p) = edge(k);
+        let length = dx.hypot(dy);
+        // The inward normal of an anticlockwise side is its direction turned left.
+        let (a, b) = (-dy * inwards / length, dx * inwards / length);
+        [a, b, -(a * p[0] + b * p[1])]
+    }))
+}
+
 /// The lesser of two finite values.
 fn least(a: f32, b: f32) -> f32 {
     if b < a { b } else { a }
@@ -238,4 +284,42 @@ fn x_extent(corners: &[[f64; 2]; 3], band: [f64; 2]) -> Option<(f64, f64)> {
         }
     }
     (xs.0 <= xs.1).then_some(xs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ray whose point lies outside a triangle's footprint by more than the margin is one
+    /// parry misses too; inside, both take it; a wall (a footprint without width) is always
+    /// tested.
+    #[test]
+    fn a_ray_off_a_footprint_is_one_parry_misses() {
+        let v = |x: f32, y: f32, z: f32| Vector::new(x, y, z);
+        let triangle = Triangle::new(v(40.0, -3.0, 5.0), v(60.0, -2.0, 5.0), v(41.0, 30.0, 5.0));
+        let mesh = TriMesh::new(vec![triangle.a, triangle.b, triangle.c], vec![[0, 1, 2]]).expect("mesh");
+        let index = ColumnIndex::new(&mesh);
+        let sides = index.sides[0].expect("a footprint");
+        let mut checked = 0;
+        for i in 0..=80 {
+            for j in 0..=80 {
+                let (x, y) = (38.0 + 0.3 * i as f32, -5.0 + 0.45 * j as f32);
+                let ray = Ray::new(v(x, y, 100.0), v(0.0, 0.0, -1.0));
+                let hit = triangle.cast_local_ray(&ray, 1000.0, true);
+                if !index.over(0, x as f64, y as f64) {
+                    assert_eq!(hit, None, "({x}, {y})");
+                    checked += 1;
+                } else if sides.iter().all(|[a, b, c]| a * x as f64 + b * y as f64 + c > 1e-3) {
+                    assert!(hit.is_some(), "({x}, {y})");
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked}");
+        // Just outside the side from (40, -3) to (60, -2): more than the margin off, skipped.
+        let (a, b, c) = ([40.0, -3.0], [60.0, -2.0], 1.0 / 401f64.sqrt());
+        let off = [0.5 * (a[0] + b[0]) + 2e-3 * c, 0.5 * (a[1] + b[1]) - 2e-3 * 20.0 * c];
+        assert!(!index.over(0, off[0], off[1]));
+        let wall = Triangle::new(v(0.0, 0.0, 0.0), v(10.0, 0.0, 0.0), v(10.0, 0.0, 5.0));
+        assert_eq!(footprint_sides(&wall), None);
+    }
 }
