@@ -8,10 +8,10 @@
 //! tops are long thin triangles (a constrained Delaunay triangulation of the outline alone)
 //! with overlapping boxes; the triangles a ray tests over its bin (about 0.5 mm) are about
 //! five. Those whose footprint, grown by [`MARGIN_MM`], does not hold the ray are skipped
-//! (parry's test misses them too); each other goes through parry's own triangle ray cast and, where it hits, parry's own box
-//! test, and the nearest hit is kept; where parry's traversal could keep another (near-equal
-//! hits) the caller asks the BVH instead: the same time of impact to the bit (`scene.rs`, test
-//! `straight_down_rays_hit_what_parrys_bvh_hits`).
+//! (parry's test misses them too); each other goes through parry's own triangle ray cast
+//! and, where it hits, parry's own box test, and the nearest hit is kept; where parry's
+//! traversal could keep another (near-equal hits) the caller asks the BVH instead: the same
+//! time of impact to the bit (`scene.rs`, test `straight_down_rays_hit_what_parrys_bvh_hits`).
 //!
 //! Binning is conservative: a triangle goes in every bin whose square, grown by
 //! [`MARGIN_MM`], its footprint overlaps (row by row: the triangle's `x` extent
