@@ -130,13 +130,14 @@ impl ColumnIndex {
         let inv_dir =
             ray.dir.to_array().map(|r| if r.abs() < f32::EPSILON { r.signum() / f32::EPSILON } else { 1.0 / r });
         let b = y as usize * self.nx + x as usize;
+        let at = [ray.origin.x as f64, ray.origin.y as f64];
         let mut nearest = Nearest::default();
         for &t in &self.items[self.starts[b] as usize..self.starts[b + 1] as usize] {
             let best = nearest.best();
             if ray.origin.z as f64 - self.top_mm[t as usize] > best.unwrap_or(reach_mm) as f64 + MARGIN_MM {
                 break;
             }
-            if !self.over(t as usize, ray.origin.x as f64, ray.origin.y as f64) {
+            if !self.over(t as usize, at[0], at[1]) {
                 continue;
             }
             let triangle = &self.triangles[t as usize];
@@ -232,16 +233,16 @@ fn footprint_sides(triangle: &Triangle) -> Option<[[f64; 3]; 3]> {
     let ([ux, uy], _) = edge(0);
     let ([vx, vy], _) = edge(1);
     let twice_area = ux * vy - uy * vx;
-    let longest = (0..3).map(|k| edge(k).0[0].hypot(edge(k).0[1])).fold(0.0, f64::max);
+    let lengths = [0, 1, 2].map(|k| edge(k).0[0].hypot(edge(k).0[1]));
+    let longest = lengths.iter().copied().fold(0.0, f64::max);
     if twice_area.abs() <= FLAT_MM * longest {
         return None;
     }
     let inwards = twice_area.signum();
     Some(std::array::from_fn(|k| {
         let ([dx, dy], p) = edge(k);
-        let length = dx.hypot(dy);
         // The inward normal of an anticlockwise side is its direction turned left.
-        let (a, b) = (-dy * inwards / length, dx * inwards / length);
+        let (a, b) = (-dy * inwards / lengths[k], dx * inwards / lengths[k]);
         [a, b, -(a * p[0] + b * p[1])]
     }))
 }
