@@ -159,26 +159,37 @@ pub(crate) struct CutCoupling {
 }
 
 impl CutCoupling {
-    /// The coupling of the cut cells `cuts` (a field of `op`'s grid) among the cells the
-    /// stimulus reaches into (`g0 < 0`, mm: only they can carry a load or a gap the solves
-    /// use), a cut cell's load taken in `strips` strips of the edge's profile ([`STRIPS`] on
-    /// the contact grid); `None` without a cut.
-    pub(crate) fn new(op: &Operator, cuts: &[Option<Cut>], g0: &[f64], strips: usize) -> Option<Self> {
-        if cuts.iter().all(Option::is_none) {
+    /// The coupling of the cut cells `cuts` (cells of `op`'s grid, ascending, each with its
+    /// cut) among the cells the stimulus reaches into (`reached`: only they can carry a load
+    /// or a gap the solves use), a cut cell's load taken in `strips` strips of the edge's
+    /// profile ([`STRIPS`] on the contact grid); `None` without a cut. A list, not a grid
+    /// field: the sub-cells along an edge are a few hundred of a fine grid's thousands.
+    pub(crate) fn new(
+        op: &Operator,
+        cuts: &[(usize, Cut)],
+        reached: impl Fn(usize) -> bool,
+        strips: usize,
+    ) -> Option<Self> {
+        if cuts.is_empty() {
             return None;
         }
-        let extra = cuts.iter().map(|c| c.as_ref().map_or(0.0, Cut::extra_compliance)).collect();
+        debug_assert!(cuts.windows(2).all(|w| w[0].0 < w[1].0), "cut cells in ascending order");
         let grid = op.grid();
+        let mut extra = vec![0.0; grid.len()];
+        for (k, c) in cuts {
+            extra[*k] = c.extra_compliance();
+        }
         let (nx, ny, h) = (grid.nx, grid.ny, grid.cell_mm);
-        let patch = |k: usize| Patch::of(k % nx, k / nx, cuts[k].as_ref(), h);
+        let cut = |k: usize| cuts.binary_search_by_key(&k, |(c, _)| *c).ok().map(|i| &cuts[i].1);
+        let patch = |k: usize| Patch::of(k % nx, k / nx, cut(k), h);
         let mut near = Vec::new();
-        for (k, _) in cuts.iter().enumerate().filter(|(k, c)| c.is_some() && g0[*k] < 0.0) {
+        for &(k, _) in cuts.iter().filter(|(k, _)| reached(*k)) {
             let (i, j) = (k % nx, k / nx);
             for nj in j.saturating_sub(NEAR_CELLS)..(j + NEAR_CELLS + 1).min(ny) {
                 for ni in i.saturating_sub(NEAR_CELLS)..(i + NEAR_CELLS + 1).min(nx) {
                     let other = nj * nx + ni;
                     // Each pair once: from its cut cell of lower index.
-                    if other == k || g0[other] >= 0.0 || (cuts[other].is_some() && other < k) {
+                    if other == k || !reached(other) || (other < k && cut(other).is_some()) {
                         continue;
                     }
                     let (a, b) = (k.min(other), k.max(other));
@@ -191,6 +202,14 @@ impl CutCoupling {
             }
         }
         Some(Self { extra, near })
+    }
+
+    /// [`CutCoupling::new`] from a grid field of cuts (`None` where whole; empty without any)
+    /// and the cells' initial gaps `g0` (mm: the stimulus reaches into a cell where
+    /// `g0 < 0`).
+    pub(crate) fn of_field(op: &Operator, cuts: &[Option<Cut>], g0: &[f64], strips: usize) -> Option<Self> {
+        let listed: Vec<(usize, Cut)> = cuts.iter().enumerate().filter_map(|(k, c)| c.map(|c| (k, c))).collect();
+        Self::new(op, &listed, |k| g0[k] < 0.0, strips)
     }
 }
 
@@ -393,13 +412,13 @@ mod tests {
             grid,
         );
         let reached = vec![-0.1; n * n];
-        let coupling = CutCoupling::new(&op, &cuts, &reached, STRIPS).expect("cut cells");
+        let coupling = CutCoupling::of_field(&op, &cuts, &reached, STRIPS).expect("cut cells");
         assert!(!coupling.near.is_empty());
-        assert_eq!(CutCoupling::new(&op, &vec![None; n * n], &reached, STRIPS), None);
+        assert_eq!(CutCoupling::of_field(&op, &vec![None; n * n], &reached, STRIPS), None);
         // Cells the stimulus does not reach into (the last column) take no coupling.
         let mut last_open = reached.clone();
         (0..n).for_each(|j| last_open[j * n + n - 1] = 0.0);
-        let partial = CutCoupling::new(&op, &cuts, &last_open, STRIPS).expect("cut cells");
+        let partial = CutCoupling::of_field(&op, &cuts, &last_open, STRIPS).expect("cut cells");
         assert!(partial.near.iter().all(|&(a, b, _)| a % n != n - 1 && b % n != n - 1));
         assert!(partial.near.len() < coupling.near.len());
         let cells: Vec<usize> = (0..n * n).collect();

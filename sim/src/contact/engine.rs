@@ -640,7 +640,7 @@ impl<'a> Simulation<'a> {
         let mut hits = gaps_below(self.model, self.scene, &pose, &self.frame, &self.dome, f64::INFINITY);
         self.cuts = self.cut_cells(op.grid(), &pose, &mut hits);
         let (g0, mu): (Vec<f64>, Vec<f64>) = hits.iter().map(|h| (h.gap, h.friction)).unzip();
-        self.cut_coupling = CutCoupling::new(op, &self.cuts, &g0, super::cut::STRIPS);
+        self.cut_coupling = CutCoupling::of_field(op, &self.cuts, &g0, super::cut::STRIPS);
         self.refinement = None;
         self.friction.clone_from(&mu);
         self.gap.clone_from(&g0);
