@@ -1,7 +1,9 @@
 //! The criterion bench's two taps (`cargo bench -p tacsim-sim --bench tap -- tap-solve`) solved
 //! many times in a row on one thread, for timing a change with the shell's `time` where
 //! criterion's runs spread too far on a noisy machine (issue 31): the first solve's normal and
-//! tangential iterations and a hash of its tractions' bits, then `REPEATS` more solves.
+//! tangential iterations and a hash of its tractions' bits, then `REPEATS` more solves. Each
+//! solve asks for its sub-cells along an edge (`Simulation::refined_cells`), which a step
+//! leaves for the pins to find, so a solve is a tap's whole contact work but the pins.
 //!
 //! ```text
 //! cargo run --release -p tacsim-sim --example tap_solves -- [CELLS] [REPEATS] [flat|rim]
@@ -29,6 +31,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (name, pose) in taps.into_iter().filter(|(name, _)| only.is_none_or(|o| o == *name)) {
         let mut sim = Simulation::new(&model, &scene, &[pose]);
         let report = sim.step(pose)?.clone();
+        std::hint::black_box(sim.refined_cells());
         let (qx, qy) = sim.shear();
         let [normal, shear] = sim.matrix_counts();
         let hash = sim.pressure().iter().chain(qx).chain(qy).fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits());
@@ -40,6 +43,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for _ in 0..repeats {
             sim.lift();
             sim.step(pose)?;
+            // The sub-cells along an edge, which the pins would ask for.
+            std::hint::black_box(sim.refined_cells());
         }
     }
     Ok(())

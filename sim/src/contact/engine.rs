@@ -13,7 +13,7 @@
 //! face the press): grid, gaps, tractions and slip live in that frame, pins are turned back
 //! into the sensor frame.
 
-use std::sync::Arc;
+use std::sync::{Arc, OnceLock};
 
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -477,8 +477,10 @@ pub struct Simulation<'a> {
     /// solves take them, found with them once a step; `None` without a cut.
     cut_coupling: Option<CutCoupling>,
     /// The sub-cells along the step's loaded cut cells, for the pins ([`super::refine`]);
-    /// `None` without one.
-    refinement: Option<Refinement>,
+    /// `None` inside without one. Only the pins use them, so they are found on the first call
+    /// after a step that needs them ([`Simulation::refinement`]): a path's steps before the
+    /// one it captures never do (issue 31: on a `paper` shard, 324 of 524 refinements).
+    refinement: OnceLock<Option<Refinement>>,
     /// The dome's slope `dh/dx, dh/dy` per cell times `skin.dome_slope` (none at 0).
     slope: Option<(Vec<f64>, Vec<f64>)>,
     /// How far each cell's surface was pressed in at the end of the previous step (mm).
@@ -538,7 +540,7 @@ impl<'a> Simulation<'a> {
             prev_product: PrevProduct::default(),
             cuts: Vec::new(),
             cut_coupling: None,
-            refinement: None,
+            refinement: OnceLock::from(None),
             slope,
             closure: vec![0.0; n],
             pose: None,
@@ -561,7 +563,7 @@ impl<'a> Simulation<'a> {
         self.closure.fill(0.0);
         self.cuts.fill(None);
         self.cut_coupling = None;
-        self.refinement = None;
+        self.refinement = OnceLock::from(None);
         self.pose = None;
         self.report = StepReport::default();
     }
@@ -595,7 +597,7 @@ impl<'a> Simulation<'a> {
     /// How many cells along a sharp edge the last step solved again at sub-cells for the
     /// pins (`refine.rs`; 0 without a loaded cut cell).
     pub fn refined_cells(&self) -> usize {
-        self.refinement.as_ref().map_or(0, Refinement::len)
+        self.refinement().map_or(0, Refinement::len)
     }
 
     /// Friction coefficient of the stimulus under each grid cell at the last step.
@@ -619,9 +621,10 @@ impl<'a> Simulation<'a> {
     /// ([`initial_gap`]; lift-off when nothing overlaps), the skin's rigid slip over the
     /// stimulus since the previous pose (`rigid_slip`), the coupled solve
     /// (`solve_coupled`: normal, then tangential, alternated until the tractions settle
-    /// for a coupled material), the cells along a sharp edge solved again at sub-cells for the
-    /// pins (`refine`, `refine.rs`), and the report turned into the sensor frame
-    /// (`finish_report`).
+    /// for a coupled material), and the report turned into the sensor frame
+    /// (`finish_report`). The cells along a sharp edge solved again at sub-cells for the pins
+    /// (`refine`, `refine.rs`) are left for the first call that needs them
+    /// ([`Simulation::pins`], [`Simulation::refined_cells`]).
     pub fn step(&mut self, pose: SensorPose) -> Result<&StepReport> {
         pose.validate("trajectory", self.model.dome_radius())?;
         let previous = self.pose.replace(pose);
@@ -641,7 +644,7 @@ impl<'a> Simulation<'a> {
         self.cuts = self.cut_cells(op.grid(), &pose, &mut hits);
         let (g0, mu): (Vec<f64>, Vec<f64>) = hits.iter().map(|h| (h.gap, h.friction)).unzip();
         self.cut_coupling = CutCoupling::of_field(op, &self.cuts, &g0, super::cut::STRIPS);
-        self.refinement = None;
+        self.refinement = OnceLock::from(None);
         self.friction.clone_from(&mu);
         self.gap.clone_from(&g0);
         if g0.iter().all(|g| *g >= 0.0) {
@@ -659,9 +662,10 @@ impl<'a> Simulation<'a> {
             _ => (vec![0.0; g0.len()], vec![0.0; g0.len()]),
         };
         let mut report = self.solve_coupled(op, &g0, &mu, slip)?;
-        self.refinement = self.refine(op.grid(), &pose)?;
         report.indentation_mm = -g0.iter().fold(0.0f64, |m, g| m.min(*g));
         self.finish_report(&mut report)?;
+        // Solved: the sub-cells are found when the pins first need them.
+        self.refinement = OnceLock::new();
         Ok(report)
     }
 
@@ -764,11 +768,23 @@ impl<'a> Simulation<'a> {
         cuts
     }
 
+    /// The step's sub-cells along its loaded cut cells ([`super::refine`]), found on the first
+    /// call after the step: the state they are found from (the step's pose, tractions and
+    /// cuts) stands until the next step or [`Simulation::lift`], which set them again.
+    fn refinement(&self) -> Option<&Refinement> {
+        self.refinement
+            .get_or_init(|| {
+                let (op, pose) = (self.op.as_ref()?, self.pose?);
+                self.refine(op.grid(), &pose)
+            })
+            .as_ref()
+    }
+
     /// The sub-cells along the loaded cut cells ([`super::refine`]), their initial gaps from
     /// rays at their centres as the cells' own.
-    fn refine(&self, grid: &Grid, pose: &SensorPose) -> Result<Option<Refinement>> {
+    fn refine(&self, grid: &Grid, pose: &SensorPose) -> Option<Refinement> {
         if self.cuts.is_empty() || self.model.edge_subcells < 2 {
-            return Ok(None);
+            return None;
         }
         let scale_free = matches!(self.model.influence, Influence::HalfSpace(_));
         let fine = self.model.fine_grids.get(grid, self.model.edge_subcells, scale_free, |g| self.model.operator(g));
@@ -1121,7 +1137,7 @@ impl<'a> Simulation<'a> {
             op.grid(),
             (&self.pressure, &self.qx, &self.qy),
             (!self.cuts.is_empty()).then_some(self.cuts.as_slice()),
-            self.refinement.as_ref(),
+            self.refinement(),
             self.model.pin_subsquares,
         );
         if forces.is_empty() {
@@ -1395,7 +1411,7 @@ mod tests {
         let mut refined_steps = 0;
         for pose in poses {
             sim.step(pose).expect("solved");
-            let Some(refined) = sim.refinement.clone() else { continue };
+            let Some(refined) = sim.refinement().cloned() else { continue };
             refined_steps += 1;
             let area = sim.grid().expect("grid").cell_area_mm2();
             let (mut cells, mut subs) = ([0.0; 3], [0.0; 3]);
@@ -1418,6 +1434,35 @@ mod tests {
             }
         }
         assert!(refined_steps >= 2, "the slide must cross the edge: {refined_steps} steps refined");
+    }
+
+    /// The sub-cells are found only when the pins ask for them (a path's steps before its
+    /// captured one do not), from the step's own state: a slide across the disk's rim whose
+    /// pins are asked for at its last step only lands them on the same bits as one asked at
+    /// every step, and a lift leaves none to find.
+    #[test]
+    fn sub_cells_are_found_when_the_pins_ask_for_them() {
+        let scene = scene_of("disk");
+        let model = default_model(13);
+        let poses: Vec<SensorPose> = (0..4).map(|i| SensorPose::new(48.5 + 0.4 * i as f64, 0.7, 2.5, 20.0)).collect();
+        let (mut every, mut last) = (Simulation::new(&model, &scene, &poses), Simulation::new(&model, &scene, &poses));
+        let mut asked = Vec::new();
+        for pose in &poses {
+            every.step(*pose).expect("solved");
+            last.step(*pose).expect("solved");
+            assert_eq!(every.refinement.get(), None, "nothing found before the pins ask");
+            asked = every.pins();
+            assert!(every.refinement.get().is_some());
+            assert_eq!(last.refinement.get(), None);
+        }
+        assert!(every.refined_cells() > 0, "the slide must end across the edge");
+        let bits = |pins: &[PinPose]| -> Vec<u64> {
+            pins.iter().flat_map(|p| p.tip.iter().chain(p.axis.iter()).map(|v| v.to_bits())).collect()
+        };
+        assert_eq!(bits(&last.pins()), bits(&asked));
+        last.lift();
+        assert_eq!(last.refinement.get(), Some(&None));
+        assert_eq!(last.refined_cells(), 0);
     }
 
     /// The sensor's `skin.edge_subcells` sets the model's sub-cells: none refine with 0, and
