@@ -253,18 +253,18 @@ pub(crate) fn refine(
     let g0 = gaps(&points);
     let limit = CANDIDATE_GAP_SIDES * grid.cell_mm;
     let refined = |k: usize| cells.binary_search(&k).is_ok();
+    let (n, m, r) = (op_grid.nx as isize, op_grid.ny as isize, fine.r as isize);
+    let width = 2 * n - r;
     // The coarse tractions held: the pressure of the cells not refined, all cells' shear
-    // (traction and first sub-cell's column and row).
-    let held: Vec<([f64; 3], isize, isize)> = (0..grid.len())
+    // (traction, and its first sub-cell's `sj width + si`).
+    let held: Vec<([f64; 3], isize)> = (0..grid.len())
         .filter_map(|k| {
             let p = if refined(k) { 0.0 } else { coarse.pressure[k] };
             let t = [p, coarse.qx[k], coarse.qy[k]];
             let (i, j) = grid.column_row(k);
-            t.iter().any(|v| *v != 0.0).then_some((t, (fine.r * i) as isize, (fine.r * j) as isize))
+            t.iter().any(|v| *v != 0.0).then_some((t, (fine.r * j) as isize * width + (fine.r * i) as isize))
         })
         .collect();
-    let (n, m, r) = (op_grid.nx as isize, op_grid.ny as isize, fine.r as isize);
-    let width = 2 * n - r;
     let mut gap = vec![f64::INFINITY; op_grid.len()];
     let mut warm = vec![0.0; op_grid.len()];
     // The cut sub-cells among the candidates (fine grid indices, ascending).
@@ -280,17 +280,11 @@ pub(crate) fn refine(
         .filter(|&i| g0[i].is_finite() && g0[i] < limit)
         .map(|i| (i, (subs[i].at.1 as isize + m - r) * width + subs[i].at.0 as isize + n - r))
         .collect();
-    let shifts: Vec<([f64; 3], isize)> = held.iter().map(|&(t, si, sj)| (t, sj * width + si)).collect();
-    let held_u: Vec<f64> = chosen
-        .iter()
-        .map(|&(_, place)| {
-            shifts.iter().fold(0.0, |u, (t, shift)| {
-                let b = fine.boxes[(place - shift) as usize];
-                u + (b[0] * t[0] + b[1] * t[1] + b[2] * t[2])
-            })
-        })
-        .collect();
-    for (&(i, _), u) in chosen.iter().zip(&held_u) {
+    for &(i, place) in &chosen {
+        let u = held.iter().fold(0.0, |u, (t, shift)| {
+            let b = fine.boxes[(place - shift) as usize];
+            u + (b[0] * t[0] + b[1] * t[1] + b[2] * t[2])
+        });
         let s = &subs[i];
         let f = s.at.1 * op_grid.nx + s.at.0;
         // In the fine operator's units: its displacements are `1 / unit_mm` of the grid's.
