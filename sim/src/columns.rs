@@ -40,16 +40,73 @@ pub(crate) struct ColumnIndex {
     ny: usize,
     /// Bin `j * nx + i` holds `items[starts[b]..starts[b + 1]]`.
     starts: Vec<u32>,
-    /// Triangle indices, bin after bin, each bin's from the highest top down (then in mesh
-    /// order).
+    /// Places in `facets`, bin after bin, each bin's triangles from the highest top down
+    /// (then in mesh order).
     items: Vec<u32>,
-    triangles: Vec<Triangle>,
-    /// The highest `z` of each triangle (mm).
-    top_mm: Vec<f64>,
-    /// Each triangle's footprint as its three sides' lines `[a, b, c]`, `a x + b y + c` the
-    /// signed distance (mm) of `(x, y)` from the side, positive inwards; `None` for a
-    /// footprint narrower than [`FLAT_MM`] (a wall's), which every ray over its bin tests.
-    sides: Vec<Option<[[f64; 3]; 3]>>,
+    /// The triangles in any bin, in the order the bins first name them, each with what a
+    /// ray tests of it.
+    facets: Vec<Facet>,
+}
+
+/// A triangle with what a ray down its column tests first, together in two cache lines.
+///
+/// A step's rays (a few hundred, a bin each) reach the index after the solver's matrices have
+/// passed through the core's cache: each triangle a ray tests is a load from farther away.
+/// Kept apart (the tops, the sides and the triangles, three arrays in mesh order) a triangle
+/// was three or four cache lines; together, two adjacent ones, which
+/// [`ColumnIndex::fetch_ahead`] asks for ahead of the ray (issue 31, `docs/guide/contact.md`,
+/// "Rays down the column index").
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+struct Facet {
+    /// The highest `z` of the triangle (mm).
+    top_mm: f64,
+    /// Its footprint as its three sides' lines `[a, b, c]`, `a x + b y + c` the signed
+    /// distance (mm) of `(x, y)` from the side, positive inwards; `None` for a footprint
+    /// narrower than [`FLAT_MM`] (a wall's), which every ray over its bin tests.
+    sides: Option<[[f64; 3]; 3]>,
+    triangle: Triangle,
+}
+
+/// The stages of [`ColumnIndex::fetch_ahead`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Ahead {
+    /// The bin's place in the lists' starts.
+    List,
+    /// The first line of its list.
+    Items,
+    /// Its triangles.
+    Facets,
+}
+
+/// A request to the cache for a line ahead of its use (x86's prefetch into every level): it
+/// changes no value, only when a load finds its line near. A no-op elsewhere, and as
+/// `Prefetch::default()`.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Prefetch {
+    #[cfg(target_arch = "x86_64")]
+    sse: Option<pulp::core_arch::x86::Sse>,
+}
+
+impl Prefetch {
+    /// The requests of this CPU.
+    pub(crate) fn new() -> Self {
+        Self {
+            #[cfg(target_arch = "x86_64")]
+            sse: pulp::core_arch::x86::Sse::try_new(),
+        }
+    }
+
+    /// Asks for the line holding `value`.
+    #[inline(always)]
+    fn line<T>(self, value: &T) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(sse) = self.sse {
+            sse._mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(std::ptr::from_ref(value).cast());
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = value;
+    }
 }
 
 /// A triangle whose footprint is narrower than this (mm, its least height) has no sides
@@ -100,15 +157,64 @@ impl ColumnIndex {
                 cursor[b] += 1;
             });
         }
-        let sides = triangles.iter().map(footprint_sides).collect();
-        Self { min, bin_mm, nx, ny, starts, items, triangles, top_mm, sides }
+        // The facets in the order the bins first name them, bin after bin: a row of rays
+        // reads them forwards.
+        let mut place = vec![u32::MAX; triangles.len()];
+        let mut facets = Vec::with_capacity(triangles.len());
+        for t in &mut items {
+            if place[*t as usize] == u32::MAX {
+                place[*t as usize] = facets.len() as u32;
+                let triangle = triangles[*t as usize];
+                facets.push(Facet { top_mm: top_mm[*t as usize], sides: footprint_sides(&triangle), triangle });
+            }
+            *t = place[*t as usize];
+        }
+        Self { min, bin_mm, nx, ny, starts, items, facets }
     }
 
-    /// Whether a ray straight down at `(x, y)` (mesh frame, mm) can hit triangle `t`: its
-    /// footprint, grown by [`MARGIN_MM`] (far above parry's f32 rounding), holds the point.
+    /// The bin under `(x, y)` (mesh frame, mm), `None` off the index.
+    pub(crate) fn bin_of(&self, x: f64, y: f64) -> Option<usize> {
+        let (x, y) = ((x - self.min[0]) / self.bin_mm, (y - self.min[1]) / self.bin_mm);
+        (x >= 0.0 && y >= 0.0 && x < self.nx as f64 && y < self.ny as f64).then(|| y as usize * self.nx + x as usize)
+    }
+
+    /// Asks the cache ahead for what a ray over bin `b` reads, stage by stage, each stage
+    /// reading only what the one before fetched: [`Ahead::List`] its place in `starts`,
+    /// [`Ahead::Items`] its list, [`Ahead::Facets`] its triangles. The caller takes the
+    /// stages for bins further and further ahead of the ray it casts ([`crate::Scene`]'s
+    /// rays down); a bin off the index (`usize::MAX`) fetches nothing.
+    #[inline]
+    pub(crate) fn fetch_ahead(&self, cache: Prefetch, stage: Ahead, b: usize) {
+        if b >= self.nx * self.ny {
+            return;
+        }
+        let list = || self.starts[b] as usize..self.starts[b + 1] as usize;
+        match stage {
+            Ahead::List => cache.line(&self.starts[b]),
+            Ahead::Items => {
+                // A list of up to 16 places spans at most two lines: its first and last.
+                if let Some(items) = self.items.get(list())
+                    && let (Some(first), Some(last)) = (items.first(), items.last())
+                {
+                    cache.line(first);
+                    cache.line(last);
+                }
+            }
+            Ahead::Facets => {
+                for &t in &self.items[list()] {
+                    let facet = &self.facets[t as usize];
+                    cache.line(facet);
+                    cache.line(&facet.triangle);
+                }
+            }
+        }
+    }
+
+    /// Whether a ray straight down at `(x, y)` (mesh frame, mm) can hit `facet`'s triangle:
+    /// its footprint, grown by [`MARGIN_MM`] (far above parry's f32 rounding), holds the point.
     /// One that does not is missed by parry's own test too, so it is skipped before it.
-    fn over(&self, t: usize, x: f64, y: f64) -> bool {
-        self.sides[t].is_none_or(|sides| sides.iter().all(|[a, b, c]| a * x + b * y + c >= -MARGIN_MM))
+    fn over(facet: &Facet, x: f64, y: f64) -> bool {
+        facet.sides.is_none_or(|sides| sides.iter().all(|[a, b, c]| a * x + b * y + c >= -MARGIN_MM))
     }
 
     /// The time of impact of `ray` (mesh frame, direction exactly `-z`) on the nearest triangle
@@ -122,25 +228,21 @@ impl ColumnIndex {
     /// farther: a flat top's hit skips the bottom face).
     pub(crate) fn cast_down(&self, ray: &Ray, reach_mm: f32) -> Option<Option<f32>> {
         debug_assert_eq!(ray.dir, Vector::new(0.0, 0.0, -1.0), "a column ray goes straight down");
-        let (x, y) =
-            ((ray.origin.x as f64 - self.min[0]) / self.bin_mm, (ray.origin.y as f64 - self.min[1]) / self.bin_mm);
-        if !(x >= 0.0 && y >= 0.0 && x < self.nx as f64 && y < self.ny as f64) {
-            return Some(None);
-        }
+        let Some(b) = self.bin_of(ray.origin.x as f64, ray.origin.y as f64) else { return Some(None) };
         let inv_dir =
             ray.dir.to_array().map(|r| if r.abs() < f32::EPSILON { r.signum() / f32::EPSILON } else { 1.0 / r });
-        let b = y as usize * self.nx + x as usize;
         let at = [ray.origin.x as f64, ray.origin.y as f64];
         let mut nearest = Nearest::default();
         for &t in &self.items[self.starts[b] as usize..self.starts[b + 1] as usize] {
+            let facet = &self.facets[t as usize];
             let best = nearest.best();
-            if ray.origin.z as f64 - self.top_mm[t as usize] > best.unwrap_or(reach_mm) as f64 + MARGIN_MM {
+            if ray.origin.z as f64 - facet.top_mm > best.unwrap_or(reach_mm) as f64 + MARGIN_MM {
                 break;
             }
-            if !self.over(t as usize, at[0], at[1]) {
+            if !Self::over(facet, at[0], at[1]) {
                 continue;
             }
-            let triangle = &self.triangles[t as usize];
+            let triangle = &facet.triangle;
             // Hits up to a tie above the best are looked at too.
             let limit = best.map_or(reach_mm, |b| (b as f64 + MARGIN_MM) as f32);
             let Some(toi) = triangle.cast_local_ray(ray, limit, true) else { continue };
@@ -300,14 +402,15 @@ mod tests {
         let triangle = Triangle::new(v(40.0, -3.0, 5.0), v(60.0, -2.0, 5.0), v(41.0, 30.0, 5.0));
         let mesh = TriMesh::new(vec![triangle.a, triangle.b, triangle.c], vec![[0, 1, 2]]).expect("mesh");
         let index = ColumnIndex::new(&mesh);
-        let sides = index.sides[0].expect("a footprint");
+        let facet = &index.facets[0];
+        let sides = facet.sides.expect("a footprint");
         let mut checked = 0;
         for i in 0..=80 {
             for j in 0..=80 {
                 let (x, y) = (38.0 + 0.3 * i as f32, -5.0 + 0.45 * j as f32);
                 let ray = Ray::new(v(x, y, 100.0), v(0.0, 0.0, -1.0));
                 let hit = triangle.cast_local_ray(&ray, 1000.0, true);
-                if !index.over(0, x as f64, y as f64) {
+                if !ColumnIndex::over(facet, x as f64, y as f64) {
                     assert_eq!(hit, None, "({x}, {y})");
                     checked += 1;
                 } else if sides.iter().all(|[a, b, c]| a * x as f64 + b * y as f64 + c > 1e-3) {
@@ -319,8 +422,37 @@ mod tests {
         // Just outside the side from (40, -3) to (60, -2): more than the margin off, skipped.
         let (a, b, c) = ([40.0, -3.0], [60.0, -2.0], 1.0 / 401f64.sqrt());
         let off = [0.5 * (a[0] + b[0]) + 2e-3 * c, 0.5 * (a[1] + b[1]) - 2e-3 * 20.0 * c];
-        assert!(!index.over(0, off[0], off[1]));
+        assert!(!ColumnIndex::over(facet, off[0], off[1]));
         let wall = Triangle::new(v(0.0, 0.0, 0.0), v(10.0, 0.0, 0.0), v(10.0, 0.0, 5.0));
         assert_eq!(footprint_sides(&wall), None);
+    }
+
+    /// Fetching ahead reads only inside the index: every bin of a mesh at every stage, and
+    /// the bin of a ray off it (`usize::MAX`), with and without the CPU's prefetch.
+    #[test]
+    fn fetching_ahead_reads_only_inside_the_index() {
+        let v = |x: f32, y: f32, z: f32| Vector::new(x, y, z);
+        let mesh = TriMesh::new(
+            vec![v(0.0, 0.0, 1.0), v(4.0, 0.0, 1.0), v(0.0, 3.0, 2.0), v(4.0, 3.0, 0.5)],
+            vec![[0, 1, 2], [1, 3, 2]],
+        )
+        .expect("mesh");
+        let index = ColumnIndex::new(&mesh);
+        for cache in [Prefetch::new(), Prefetch::default()] {
+            for b in (0..index.nx * index.ny + 2).chain([usize::MAX]) {
+                for stage in [Ahead::List, Ahead::Items, Ahead::Facets] {
+                    index.fetch_ahead(cache, stage, b);
+                }
+            }
+        }
+        assert_eq!(index.bin_of(-1.0, 1.0), None);
+        assert_eq!(index.bin_of(1.0, 1.0).map(|b| b < index.nx * index.ny), Some(true));
+        // Every triangle in some bin has a facet, named in the order the bins first name them.
+        assert_eq!(index.facets.len(), 2);
+        let mut seen = 0;
+        for &t in &index.items {
+            assert!(t as usize <= seen, "facet {t} named before facet {seen}");
+            seen = seen.max(t as usize + 1);
+        }
     }
 }

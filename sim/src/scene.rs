@@ -14,7 +14,7 @@ use rapier3d::prelude::{
     QueryPipeline, Ray, RigidBodySet,
 };
 
-use crate::columns::{ColumnIndex, Nearest};
+use crate::columns::{Ahead, ColumnIndex, Nearest, Prefetch};
 use crate::error::{Result, SimError};
 use crate::stimulus::{EdgePoint, NearContour, Stimulus};
 
@@ -215,15 +215,45 @@ impl Scene {
         }
         let pipeline = self.query_pipeline();
         let max = max_mm as f32;
-        Some(
-            origins
-                .iter()
-                .map(|o| {
-                    let ray = Ray::new(rapier3d::math::Vector::new(o[0] as f32, o[1] as f32, o[2] as f32), d);
-                    self.cast_down(&ray, &near, max).unwrap_or_else(|| self.cast_ray_bvh(&pipeline, &ray, max))
-                })
-                .collect(),
-        )
+        let rays: Vec<Ray> = origins
+            .iter()
+            .map(|o| Ray::new(rapier3d::math::Vector::new(o[0] as f32, o[1] as f32, o[2] as f32), d))
+            .collect();
+        // Cast in the order of the first object's bins (each ray's answer is its own): the
+        // bins' lists and triangles are then read forwards, row after row, where a grid's
+        // rows at a slant to the mesh's would jump about them (issue 31: with the bins fetched
+        // ahead below, the rays' share of a `paper` shard's samples 9.2-10.0% -> 6.1-7.4%,
+        // `docs/guide/contact.md`, "Rays down the column index").
+        let mut order: Vec<(usize, usize)> = match near.first() {
+            Some((id, collider)) => {
+                let columns = &self.objects[*id].columns;
+                rays.iter()
+                    .enumerate()
+                    .map(|(k, ray)| {
+                        let local = ray.inverse_transform_by(collider.position()).origin;
+                        (columns.bin_of(local.x as f64, local.y as f64).unwrap_or(usize::MAX), k)
+                    })
+                    .collect()
+            }
+            None => (0..rays.len()).map(|k| (0, k)).collect(),
+        };
+        order.sort_unstable();
+        // The bins a few rays ahead are asked of the cache in stages, each a ray nearer than
+        // the last, so that each stage reads what the one before fetched.
+        let ahead = near.first().map(|(id, _)| (&self.objects[*id].columns, Prefetch::new()));
+        let mut hits = vec![None; rays.len()];
+        for (i, &(_, k)) in order.iter().enumerate() {
+            if let Some((columns, cache)) = ahead {
+                for (stage, distance) in [(Ahead::List, 3), (Ahead::Items, 2), (Ahead::Facets, 1)] {
+                    if let Some(&(b, _)) = order.get(i + distance) {
+                        columns.fetch_ahead(cache, stage, b);
+                    }
+                }
+            }
+            let ray = &rays[k];
+            hits[k] = self.cast_down(ray, &near, max).unwrap_or_else(|| self.cast_ray_bvh(&pipeline, ray, max));
+        }
+        Some(hits)
     }
 
     /// One ray straight down through the objects' [`ColumnIndex`]es; `None` where the
