@@ -458,11 +458,11 @@ pub struct Simulation<'a> {
     qy: Vec<f64>,
     gap: Vec<f64>,
     friction: Vec<f64>,
-    /// Every cell that has been in contact on this path, and the eigenvalue bound of the
-    /// tangential operator on them (reused while the contact stays inside).
+    /// The cells the tangential operator's eigenvalue bound was found on: the contact of the
+    /// round that found it, kept while later rounds' and steps' contacts stay inside them.
     seen: Vec<bool>,
-    /// The last Lanczos bound and Ritz vector on those cells (where the next bound
-    /// starts when they grow).
+    /// The last Lanczos bound and Ritz vector on those cells (where the next bound starts
+    /// when a contact leaves them).
     eigenvector: Option<Eigenvector>,
     /// The last normal (`A_zz` on the candidates) and tangential (`A_t` on the contact
     /// cells) matrices, reused while the cells stay the same.
@@ -965,7 +965,8 @@ impl<'a> Simulation<'a> {
         let src: Vec<usize> = (0..n).filter(|&k| dp[k] != 0.0).collect();
         let dst: Vec<usize> = (0..n).filter(|&k| self.pressure[k] > 0.0).collect();
         let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
-        let choice = Product::by_size(dst.len(), self.model.tangential.dense_max_cells, &src, &dst);
+        let choice = Product::by_size(dst.len(), self.model.tangential.dense_max_cells, &src, &dst)
+            .in_precision(Precision::for_tolerance(self.model.tangential.tolerance));
         op.apply(&[(Component::Xz, &dp)], &mut ux, choice);
         op.apply(&[(Component::Yz, &dp)], &mut uy, choice);
         for &k in &dst {
@@ -1001,7 +1002,8 @@ impl<'a> Simulation<'a> {
         let src: Vec<usize> = (0..n).filter(|&k| dq[0][k] != 0.0 || dq[1][k] != 0.0).collect();
         let dst: Vec<usize> = (0..n).filter(|&k| self.pressure[k] > 0.0).collect();
         let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
-        let choice = Product::by_size(dst.len(), self.model.tangential.dense_max_cells, &src, &dst);
+        let choice = Product::by_size(dst.len(), self.model.tangential.dense_max_cells, &src, &dst)
+            .in_precision(Precision::for_tolerance(self.model.tangential.tolerance));
         op.apply(&[(Component::Xx, &dq[0]), (Component::Xy, &dq[1])], &mut ux, choice);
         op.apply(&[(Component::Xy, &dq[0]), (Component::Yy, &dq[1])], &mut uy, choice);
         for &k in &dst {
@@ -1024,15 +1026,13 @@ impl<'a> Simulation<'a> {
         settings: &TangentialSettings,
         report: &mut StepReport,
     ) -> Result<(Vec<f64>, Vec<f64>)> {
-        // The eigenvalue bound on all cells seen in contact serves every step inside them.
-        let mut grown = false;
-        for (k, p) in self.pressure.iter().enumerate() {
-            if *p > 0.0 && !self.seen[k] {
-                self.seen[k] = true;
-                grown = true;
+        // The eigenvalue bound on the cells it was found on serves every round and step whose
+        // contact stays inside them; a contact that leaves them gets its own.
+        let left = self.pressure.iter().zip(&self.seen).any(|(p, seen)| *p > 0.0 && !seen);
+        if left || self.eigenvector.is_none() {
+            for (seen, p) in self.seen.iter_mut().zip(&self.pressure) {
+                *seen = *p > 0.0;
             }
-        }
-        if grown || self.eigenvector.is_none() {
             let cells: Vec<usize> = (0..self.seen.len()).filter(|&k| self.seen[k]).collect();
             let dense = self.model.tangential.dense_max_cells;
             let e = Eigenvector::lanczos(op, &cells, dense, &mut self.shear_matrix, self.eigenvector.as_ref());
@@ -1100,7 +1100,8 @@ impl<'a> Simulation<'a> {
         op.apply(
             &[(Component::Zx, &self.qx), (Component::Zy, &self.qy)],
             &mut uz,
-            Product::by_pairs(2, self.model.normal.products.dense_max_cells, &src, &dst),
+            Product::by_pairs(2, self.model.normal.products.dense_max_cells, &src, &dst)
+                .in_precision(Precision::for_tolerance(self.model.normal.tolerance)),
         );
         uz
     }

@@ -19,7 +19,7 @@
 
 use super::cut::CutCoupling;
 use super::lanes::lane_sum;
-use super::matrix::{CellProduct, MatrixCache};
+use super::matrix::{CellProduct, MatrixCache, Precision};
 use super::operator::{Component, Operator, Product};
 use crate::error::{Result, SimError};
 
@@ -264,7 +264,7 @@ pub fn solve_step(
     }
     let bound: Vec<f64> = contact.iter().map(|&k| input.mu[k] * input.pressure[k]).collect();
     let product = CellProduct::new(op, &SHEAR_BLOCKS, &contact, settings.dense_max_cells, cache).with_cut(input.cut);
-    let b = slip_offset(&product, settings.dense_max_cells, input, kept);
+    let b = slip_offset(&product, settings, input, kept);
     let (q, iterations) = minimise(&product, input, &b, &bound, settings, cache)?;
     Ok(settle(&product, &b, &bound, q, iterations))
 }
@@ -285,7 +285,7 @@ pub struct PrevProduct {
 /// holds these cells.
 fn slip_offset(
     product: &CellProduct<'_, 2>,
-    dense_max_cells: usize,
+    settings: &TangentialSettings,
     input: &StepInput<'_>,
     kept: &mut PrevProduct,
 ) -> Vec<f64> {
@@ -296,7 +296,9 @@ fn slip_offset(
         let prev_cells: Vec<usize> = (0..n).filter(|&k| prev.0[k] != 0.0 || prev.1[k] != 0.0).collect();
         let (mut ux, mut uy) = (vec![0.0; n], vec![0.0; n]);
         if !prev_cells.is_empty() {
-            let product = Product::by_size(contact.len(), dense_max_cells, &prev_cells, contact);
+            // In single precision at the model's tolerance, as the solve's own products.
+            let product = Product::by_size(contact.len(), settings.dense_max_cells, &prev_cells, contact)
+                .in_precision(Precision::for_tolerance(settings.tolerance));
             op.apply(&[(Component::Xx, prev.0), (Component::Xy, prev.1)], &mut ux, product);
             op.apply(&[(Component::Xy, prev.0), (Component::Yy, prev.1)], &mut uy, product);
         }
