@@ -66,8 +66,9 @@ const DOUBLE_MAX_BYTES: usize = 1 << 18;
 
 /// How many times more cells a kept matrix may have than a solve asks for and still serve it
 /// (its other rows are computed and not read). On a `paper` pose (`tacsim generate paper
-/// --shard 250/600 --threads 1`) the shear matrices built fall from 1,007 to 534 at 1.25 (the
-/// eigenvalue bound's on all cells seen serves the contact cells of the step), the normal ones
+/// --shard 250/600 --threads 1`) the shear matrices built fall from 1,007 to 534 at 1.25 (then
+/// the eigenvalue bound's, on all cells a path had seen, served the contact cells of the step;
+/// the bound is now on a round's own contact, whose later rounds it serves), the normal ones
 /// from 656 to 540; instructions 2.907 -> 2.865 G (1.5 and 2.0: 2.874 G).
 const SUPERSET_RATIO: f64 = 1.25;
 
