@@ -224,14 +224,20 @@ impl Scene {
         // rows at a slant to the mesh's would jump about them (issue 31: with the bins fetched
         // ahead below, the rays' share of a `paper` shard's samples 9.2-10.0% -> 6.1-7.4%,
         // `docs/guide/contact.md`, "Rays down the column index").
+        // The rays in the first object's frame, kept for its cast.
+        let first: Vec<Ray> = match near.first() {
+            Some((_, collider)) => rays.iter().map(|ray| ray.inverse_transform_by(collider.position())).collect(),
+            None => Vec::new(),
+        };
         let mut order: Vec<(usize, usize)> = match near.first() {
-            Some((id, collider)) => {
+            Some((id, _)) => {
                 let columns = &self.objects[*id].columns;
-                rays.iter()
+                first
+                    .iter()
                     .enumerate()
-                    .map(|(k, ray)| {
-                        let local = ray.inverse_transform_by(collider.position()).origin;
-                        (columns.bin_of(local.x as f64, local.y as f64).unwrap_or(usize::MAX), k)
+                    .map(|(k, local)| {
+                        let o = local.origin;
+                        (columns.bin_of(o.x as f64, o.y as f64).unwrap_or(usize::MAX), k)
                     })
                     .collect()
             }
@@ -251,18 +257,30 @@ impl Scene {
                 }
             }
             let ray = &rays[k];
-            hits[k] = self.cast_down(ray, &near, max).unwrap_or_else(|| self.cast_ray_bvh(&pipeline, ray, max));
+            hits[k] =
+                self.cast_down(ray, first.get(k), &near, max).unwrap_or_else(|| self.cast_ray_bvh(&pipeline, ray, max));
         }
         Some(hits)
     }
 
     /// One ray straight down through the objects' [`ColumnIndex`]es; `None` where the
-    /// pipeline must answer ([`Self::cast_rays_down`]).
-    fn cast_down(&self, ray: &Ray, objects: &[(ObjectId, &Collider)], max: f32) -> Option<Option<(f64, ObjectId)>> {
+    /// pipeline must answer ([`Self::cast_rays_down`]). `first` is the ray in the first
+    /// object's frame where the caller has it.
+    fn cast_down(
+        &self,
+        ray: &Ray,
+        first: Option<&Ray>,
+        objects: &[(ObjectId, &Collider)],
+        max: f32,
+    ) -> Option<Option<(f64, ObjectId)>> {
         let mut nearest = Nearest::default();
-        for &(id, collider) in objects {
+        for (j, &(id, collider)) in objects.iter().enumerate() {
             let columns = &self.objects[id].columns;
-            let Some(toi) = columns.cast_down(&ray.inverse_transform_by(collider.position()), max)? else {
+            let local = match first {
+                Some(local) if j == 0 => *local,
+                _ => ray.inverse_transform_by(collider.position()),
+            };
+            let Some(toi) = columns.cast_down(&local, max)? else {
                 continue;
             };
             nearest.offer(toi, id);

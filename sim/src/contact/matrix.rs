@@ -38,6 +38,8 @@ use std::sync::Arc;
 use super::cut::CutCoupling;
 use super::grid::Grid;
 use super::operator::{Component, Operator, Product};
+use super::precision::Coefficient;
+use super::precision::Precision;
 
 /// Rows per panel.
 const LANES: usize = 32;
@@ -72,47 +74,6 @@ const DOUBLE_MAX_BYTES: usize = 1 << 18;
 /// from 656 to 540; instructions 2.907 -> 2.865 G (1.5 and 2.0: 2.874 G).
 const SUPERSET_RATIO: f64 = 1.25;
 
-/// How a [`CellMatrix`] stores its coefficients, and so what its products add in.
-///
-/// Single precision halves the bytes a product streams and doubles the lanes of each vector
-/// instruction; each row's sum is then accumulated in `f32` (a relative rounding of about
-/// `1e-7` per term, a few `1e-6` over a row of hundreds), the inputs rounded to `f32` and the
-/// sums widened back (6.6e-7 of the largest row at most on the test's 47-cell shear product).
-/// It serves solvers whose tolerance is well above that ([`Precision::for_tolerance`]): the
-/// tangential iterations at the model's `1e-4` and the normal conjugate gradient at its
-/// `1e-5`, not the validation's and the tests' tight solves. At the model's tolerances the
-/// pins stay within a tenth of a micron of a tight solve's in double precision (test
-/// `default_tolerances_keep_the_pins_within_a_tenth_of_a_micron_of_a_tight_solve`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Precision {
-    /// `f64` coefficients and sums.
-    #[default]
-    Double,
-    /// `f32` coefficients and sums.
-    Single,
-}
-
-impl Precision {
-    /// The tolerance from which a solver's products may be single (relative to the solver's
-    /// own measure): the model's normal tolerance, about 15 times the largest rounding of a
-    /// single-precision row sum the tests measure.
-    pub const SINGLE_FROM_TOLERANCE: f64 = 1e-5;
-
-    /// Single for a solver that stops at `tolerance` of at least
-    /// [`Precision::SINGLE_FROM_TOLERANCE`], double below.
-    pub fn for_tolerance(tolerance: f64) -> Self {
-        if tolerance >= Self::SINGLE_FROM_TOLERANCE { Self::Single } else { Self::Double }
-    }
-
-    /// Bytes per coefficient.
-    fn bytes(self) -> usize {
-        match self {
-            Self::Double => std::mem::size_of::<f64>(),
-            Self::Single => std::mem::size_of::<f32>(),
-        }
-    }
-}
-
 /// A [`CellMatrix`]'s panels in its [`Precision`].
 #[derive(Clone, Debug)]
 enum Panels {
@@ -121,26 +82,6 @@ enum Panels {
     /// A symmetric matrix in single precision: panel `P` stores only its columns up to the
     /// end of its own rows, `min((P + 1) LANES, cols)` ([`LowerSums`]).
     Lower(Vec<f32>),
-}
-
-/// A coefficient type of the panels.
-trait Coefficient: Copy + Default {
-    /// Appends `from` (the operator's tables) to `panels`, each rounded to `Self`.
-    fn extend(panels: &mut Vec<Self>, from: &[f64]);
-}
-
-impl Coefficient for f64 {
-    fn extend(panels: &mut Vec<Self>, from: &[f64]) {
-        // A slice copy: element by element, the sub-cells' solves (a matrix built for each)
-        // took 60 M more instructions on a `paper` pose (+1.6%).
-        panels.extend_from_slice(from);
-    }
-}
-
-impl Coefficient for f32 {
-    fn extend(panels: &mut Vec<Self>, from: &[f64]) {
-        panels.extend(from.iter().map(|&v| v as f32));
-    }
 }
 
 /// The matrix of an operator's components on a cell set (see the module).

@@ -26,6 +26,7 @@ mod normal;
 mod operator;
 mod pin_motion;
 pub(crate) mod pose;
+mod precision;
 mod refine;
 mod tangential;
 pub(crate) mod trajectory;
@@ -35,7 +36,7 @@ pub use engine::{ContactModel, Footprint, Influence, Simulation, StepReport, con
 pub use frame::{ContactFrame, press_direction};
 pub use grid::Grid;
 pub use kernel::{Elastic, Kernel, point_load_displacement};
-pub use matrix::{CellMatrix, MatrixCache, Precision};
+pub use matrix::{CellMatrix, MatrixCache};
 pub use operator::{Component, HalfSpace, Operator, Pairing, Product};
 pub use pin_motion::PIN_SUBSQUARES;
 #[cfg(feature = "wgpu")]
@@ -43,4 +44,5 @@ pub(crate) use pin_motion::{
     PinKernel, PinLoad, motion_from_stencil, moved_pin, patch_points, sensor_displacement, sensor_motion, stencil,
 };
 pub use pose::MAX_TILT_DEG;
+pub use precision::Precision;
 pub use trajectory::{MAX_PATH_STEPS, PathStep};

@@ -19,7 +19,7 @@ use super::fft2::Fft2;
 use super::grid::Grid;
 use super::kernel::{Elastic, Kernel};
 use super::layered::{LayeredKernels, angular, gauss_legendre};
-use super::matrix::Precision;
+use super::precision::{Coefficient, Precision};
 
 /// A displacement component from a traction component: `Xz` is `u_x` from pressure `p`, `Zx`
 /// is `u_z` from shear traction `q_x`, and so on.
@@ -212,35 +212,6 @@ impl<'a> Product<'a> {
             (Product::DenseSingle { src, dst }, Precision::Double) => Product::Dense { src, dst },
             (other, _) => other,
         }
-    }
-}
-
-/// A coefficient type of [`Operator::apply`]'s dense products: `f64`, or `f32` for
-/// [`Product::DenseSingle`].
-trait Term:
-    Copy + Default + std::ops::Add<Output = Self> + std::ops::Mul<Output = Self> + std::ops::AddAssign + std::iter::Sum
-{
-    /// `v` rounded to this type.
-    fn of(v: f64) -> Self;
-    /// Widened to `f64`.
-    fn wide(self) -> f64;
-}
-
-impl Term for f64 {
-    fn of(v: f64) -> Self {
-        v
-    }
-    fn wide(self) -> f64 {
-        self
-    }
-}
-
-impl Term for f32 {
-    fn of(v: f64) -> Self {
-        v as f32
-    }
-    fn wide(self) -> f64 {
-        self as f64
     }
 }
 
@@ -464,7 +435,7 @@ impl Operator {
         }
     }
 
-    fn apply_dense<T: Term>(
+    fn apply_dense<T: Coefficient>(
         &self,
         tables: &[Vec<T>; 8],
         terms: &[(Component, &[f64])],
@@ -547,7 +518,7 @@ impl Operator {
     /// `d + m`), over the sources' `runs` (row, first column, length, start in `values`), into
     /// `out`; returns `L`, the cells done.
     #[inline]
-    fn row_run<T: Term, const L: usize>(
+    fn row_run<T: Coefficient, const L: usize>(
         &self,
         tables: &[Vec<T>; 8],
         terms: &[(Component, &[f64])],

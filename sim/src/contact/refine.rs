@@ -29,9 +29,10 @@ use std::ops::Range;
 
 use super::cut::{Cut, CutCoupling};
 use super::grid::Grid;
-use super::matrix::{MatrixCache, Precision};
+use super::matrix::MatrixCache;
 use super::normal::{self, Control, NormalSettings, ProductChoice};
 use super::operator::{Component, Operator};
+use super::precision::Precision;
 
 /// A sub-cell is solved for when its initial gap is below this many coarse cell sides (a ray
 /// past the edge that reaches the stimulus's side or the ground is farther).

@@ -19,8 +19,9 @@
 
 use super::cut::CutCoupling;
 use super::lanes::lane_sum;
-use super::matrix::{CellProduct, MatrixCache, Precision};
+use super::matrix::{CellProduct, MatrixCache};
 use super::operator::{Component, Operator, Product};
+use super::precision::Precision;
 use crate::error::{Result, SimError};
 
 /// Solver settings.
