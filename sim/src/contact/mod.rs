@@ -28,6 +28,7 @@ mod pin_motion;
 pub(crate) mod pose;
 mod precision;
 mod refine;
+mod stencil;
 mod tangential;
 pub(crate) mod trajectory;
 pub mod validate;

@@ -20,6 +20,7 @@ use super::grid::Grid;
 use super::kernel::{Elastic, Kernel};
 use super::layered::{LayeredKernels, angular, gauss_legendre};
 use super::precision::{Coefficient, Precision};
+use super::stencil::InverseStencil;
 
 /// A displacement component from a traction component: `Xz` is `u_x` from pressure `p`, `Zx`
 /// is `u_z` from shear traction `q_x`, and so on.
@@ -240,6 +241,8 @@ pub struct Operator {
     /// every product (the same values, so the same bits; shared by clones, whose factors are
     /// the same).
     spectra: Arc<[OnceLock<Vec<Complex64>>; 8]>,
+    /// A layered body's [`Operator::normal_stencil`], built on first use (shared by clones).
+    layered_stencil: Arc<OnceLock<InverseStencil>>,
 }
 
 /// The layered correction of an operator.
@@ -264,7 +267,18 @@ impl Operator {
         let mirrored_single = Self::single(&mirrored);
         let checkerboard = Self::checkerboard_of(&grid, &coefficients);
         let spectra = Arc::new(std::array::from_fn(|_| OnceLock::new()));
-        Self { grid, tables, factors, correction: None, coefficients, mirrored, mirrored_single, checkerboard, spectra }
+        Self {
+            grid,
+            tables,
+            factors,
+            correction: None,
+            coefficients,
+            mirrored,
+            mirrored_single,
+            checkerboard,
+            spectra,
+            layered_stencil: Arc::new(OnceLock::new()),
+        }
     }
 
     /// The operator of layers on a rigid base (a rigid indenter on the top layer): the top
@@ -419,6 +433,32 @@ impl Operator {
     pub(crate) fn coefficient_of_even_integrals(&self, c: Component, t: &[f64; 4]) -> f64 {
         debug_assert!(matches!(c, Component::Zz | Component::Xx | Component::Yy | Component::Xy), "{c:?}");
         Self::combine(self.factors, c, &[t[0], t[1], t[2], t[3], 0.0, 0.0])
+    }
+
+    /// The truncated inverse of `A_zz`, scaled by its diagonal: the normal solve's
+    /// preconditioner ([`InverseStencil`]). A half-space's depends only on the square of the
+    /// grid it is found on (its coefficients scale together with the material and the cell
+    /// side), so it is kept per square for every operator; a layered body's is its own.
+    pub(crate) fn normal_stencil(&self) -> InverseStencil {
+        let (nx, ny) = (self.grid.nx, self.grid.ny);
+        match self.correction {
+            None => {
+                type Cache = Mutex<HashMap<usize, InverseStencil>>;
+                static CACHE: OnceLock<Cache> = OnceLock::new();
+                let n = InverseStencil::square(nx, ny);
+                let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+                let mut kept = cache.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+                *kept.entry(n).or_insert_with(|| {
+                    let wx = 2 * nx as isize - 1;
+                    InverseStencil::of(n, n, |dx, dy| {
+                        self.tables.values[((dy + ny as isize - 1) * wx + dx + nx as isize - 1) as usize][0]
+                    })
+                })
+            }
+            Some(_) => *self
+                .layered_stencil
+                .get_or_init(|| InverseStencil::of(nx, ny, |dx, dy| self.coefficient(Component::Zz, dx, dy))),
+        }
     }
 
     /// Self-influence `A_c(0, 0)` (mm/MPa).
