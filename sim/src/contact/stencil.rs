@@ -148,7 +148,8 @@ impl Periods {
 
 /// The largest square of the table a stencil is found on (cells a side). The sub-cells' grids
 /// are 75 cells across at 25 coarse cells, and a stencil found on all of them took 160 M
-/// instructions, 2% of a `paper` shard; the taps on 25 and on 32 cells differ by under 0.006 (centre 1.329 against 1.324).
+/// instructions, 2% of a `paper` shard; the taps on 25 and on 32 cells differ by under 0.006
+/// (centre 1.329 against 1.324).
 const MAX_SQUARE: usize = 32;
 
 /// The smallest the truncated stencil's symbol may be, relative to its centre.
