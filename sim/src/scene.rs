@@ -224,24 +224,21 @@ impl Scene {
         // rows at a slant to the mesh's would jump about them (issue 31: with the bins fetched
         // ahead below, the rays' share of a `paper` shard's samples 9.2-10.0% -> 6.1-7.4%,
         // `docs/guide/contact.md`, "Rays down the column index").
-        // The rays in the first object's frame, kept for its cast.
-        let first: Vec<Ray> = match near.first() {
-            Some((_, collider)) => rays.iter().map(|ray| ray.inverse_transform_by(collider.position())).collect(),
-            None => Vec::new(),
-        };
-        let mut order: Vec<(usize, usize)> = match near.first() {
-            Some((id, _)) => {
+        // The rays in the first object's frame give the keys and serve its cast.
+        let (first, mut order): (Vec<Ray>, Vec<(usize, usize)>) = match near.first() {
+            Some((id, collider)) => {
                 let columns = &self.objects[*id].columns;
-                first
+                let first: Vec<Ray> = rays.iter().map(|ray| ray.inverse_transform_by(collider.position())).collect();
+                let order = first
                     .iter()
                     .enumerate()
                     .map(|(k, local)| {
-                        let o = local.origin;
-                        (columns.bin_of(o.x as f64, o.y as f64).unwrap_or(usize::MAX), k)
+                        (columns.bin_of(local.origin.x as f64, local.origin.y as f64).unwrap_or(usize::MAX), k)
                     })
-                    .collect()
+                    .collect();
+                (first, order)
             }
-            None => (0..rays.len()).map(|k| (0, k)).collect(),
+            None => (Vec::new(), (0..rays.len()).map(|k| (0, k)).collect()),
         };
         order.sort_unstable();
         // The bins a few rays ahead are asked of the cache in stages, each a ray nearer than

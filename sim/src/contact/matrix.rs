@@ -38,8 +38,7 @@ use std::sync::Arc;
 use super::cut::CutCoupling;
 use super::grid::Grid;
 use super::operator::{Component, Operator, Product};
-use super::precision::Coefficient;
-use super::precision::Precision;
+use super::precision::{Coefficient, Precision};
 
 /// Rows per panel.
 const LANES: usize = 32;

@@ -241,8 +241,8 @@ pub struct Operator {
     /// every product (the same values, so the same bits; shared by clones, whose factors are
     /// the same).
     spectra: Arc<[OnceLock<Vec<Complex64>>; 8]>,
-    /// A layered body's [`Operator::normal_stencil`], built on first use (shared by clones).
-    layered_stencil: Arc<OnceLock<InverseStencil>>,
+    /// [`Operator::normal_stencil`], found on first use (shared by clones).
+    normal_stencil: Arc<OnceLock<InverseStencil>>,
 }
 
 /// The layered correction of an operator.
@@ -277,7 +277,7 @@ impl Operator {
             mirrored_single,
             checkerboard,
             spectra,
-            layered_stencil: Arc::new(OnceLock::new()),
+            normal_stencil: Arc::new(OnceLock::new()),
         }
     }
 
@@ -436,12 +436,14 @@ impl Operator {
     }
 
     /// The truncated inverse of `A_zz`, scaled by its diagonal: the normal solve's
-    /// preconditioner ([`InverseStencil`]). A half-space's depends only on the square of the
-    /// grid it is found on (its coefficients scale together with the material and the cell
-    /// side), so it is kept per square for every operator; a layered body's is its own.
+    /// preconditioner ([`InverseStencil`]), found on the operator's first call. A
+    /// half-space's depends only on the side of the grid's square it is found on (its
+    /// coefficients scale together with the material and the cell side): it is found from
+    /// the unit tables, the same bits whichever operator asks first, and kept per side for
+    /// every operator. A layered body's is its own.
     pub(crate) fn normal_stencil(&self) -> InverseStencil {
         let (nx, ny) = (self.grid.nx, self.grid.ny);
-        match self.correction {
+        *self.normal_stencil.get_or_init(|| match self.correction {
             None => {
                 type Cache = Mutex<HashMap<usize, InverseStencil>>;
                 static CACHE: OnceLock<Cache> = OnceLock::new();
@@ -455,10 +457,8 @@ impl Operator {
                     })
                 })
             }
-            Some(_) => *self
-                .layered_stencil
-                .get_or_init(|| InverseStencil::of(nx, ny, |dx, dy| self.coefficient(Component::Zz, dx, dy))),
-        }
+            Some(_) => InverseStencil::of(nx, ny, |dx, dy| self.coefficient(Component::Zz, dx, dy)),
+        })
     }
 
     /// Self-influence `A_c(0, 0)` (mm/MPa).

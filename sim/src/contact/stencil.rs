@@ -43,45 +43,41 @@ impl InverseStencil {
         // A square of the table: a long, narrow grid's is cut short across, and its symbol
         // then far from the kernel's (a 40 x 9 grid's centre 11.9, its sides +4.0).
         let n = Self::square(nx, ny);
-        let (nx, ny) = (n, n);
-        let periods = Periods::of(nx, ny);
-        let (px, py) = (periods.x.len(), periods.y.len());
-        let (nxi, nyi) = (nx as isize, ny as isize);
+        let cos = Cosines::of(n);
+        let p = cos.period();
+        let offsets = || -(n as isize - 1)..n as isize;
         // Along x first, `b(kx, dy)`, then along y.
-        let rows = 2 * ny - 1;
-        let mut along_x = vec![0.0; px * rows];
-        for (row, dy) in (-(nyi - 1)..nyi).enumerate() {
-            let line: Vec<f64> = (-(nxi - 1)..nxi).map(|dx| table(dx, dy)).collect();
-            for kx in 0..px {
-                along_x[row * px + kx] = (-(nxi - 1)..nxi).zip(&line).map(|(dx, v)| v * periods.cos_x(kx, dx)).sum();
+        let mut along_x = vec![0.0; p * (2 * n - 1)];
+        for (row, dy) in offsets().enumerate() {
+            let line: Vec<f64> = offsets().map(|dx| table(dx, dy)).collect();
+            for kx in 0..p {
+                along_x[row * p + kx] = offsets().zip(&line).map(|(dx, v)| v * cos.at(kx, dx)).sum();
             }
         }
         let largest = table(0, 0).abs();
-        let mut inverse = vec![0.0; px * py];
-        for ky in 0..py {
-            for kx in 0..px {
-                let a: f64 =
-                    (-(nyi - 1)..nyi).enumerate().map(|(row, dy)| along_x[row * px + kx] * periods.cos_y(ky, dy)).sum();
+        let mut inverse = vec![0.0; p * p];
+        for ky in 0..p {
+            for kx in 0..p {
+                let a: f64 = offsets().enumerate().map(|(row, dy)| along_x[row * p + kx] * cos.at(ky, dy)).sum();
                 // The table's symbol is positive (the operator is); where a truncated far
                 // field rounds it near zero, it is held off it.
-                inverse[ky * px + kx] = 1.0 / a.max(1e-3 * largest);
+                inverse[ky * p + kx] = 1.0 / a.max(1e-3 * largest);
             }
         }
-        let r = RADIUS as isize;
         let mut taps = [0.0; WIDTH * WIDTH];
         for (slot, tap) in taps.iter_mut().enumerate() {
-            let (dx, dy) = ((slot % WIDTH) as isize - r, (slot / WIDTH) as isize - r);
+            let (dx, dy) = offset(slot);
             let mut sum = 0.0;
-            for ky in 0..py {
-                let row: f64 = (0..px).map(|kx| inverse[ky * px + kx] * periods.cos_x(kx, dx)).sum();
-                sum += row * periods.cos_y(ky, dy);
+            for ky in 0..p {
+                let row: f64 = (0..p).map(|kx| inverse[ky * p + kx] * cos.at(kx, dx)).sum();
+                sum += row * cos.at(ky, dy);
             }
-            *tap = sum * table(0, 0) / (px * py) as f64;
+            *tap = sum * table(0, 0) / (p * p) as f64;
         }
         let mut stencil = Self { taps };
         // Positive definite on every cell set: the truncated symbol above zero. Raised by
         // `delta`, its lowest is `MIN_SYMBOL` of the new centre.
-        let lowest = stencil.lowest_symbol(&periods);
+        let lowest = stencil.lowest_symbol(&cos);
         let centre = RADIUS * WIDTH + RADIUS;
         if lowest < MIN_SYMBOL * stencil.taps[centre] {
             stencil.taps[centre] += (MIN_SYMBOL * stencil.taps[centre] - lowest) / (1.0 - MIN_SYMBOL);
@@ -95,19 +91,18 @@ impl InverseStencil {
         nx.min(ny).min(MAX_SQUARE)
     }
 
-    /// The lowest of the stencil's symbol over the frequencies of `periods`.
-    fn lowest_symbol(&self, periods: &Periods) -> f64 {
-        let r = RADIUS as isize;
+    /// The lowest of the stencil's symbol over the frequencies of the periodic grid `cos`.
+    fn lowest_symbol(&self, cos: &Cosines) -> f64 {
         let mut lowest = f64::INFINITY;
-        for ky in 0..periods.y.len() {
-            for kx in 0..periods.x.len() {
+        for ky in 0..cos.period() {
+            for kx in 0..cos.period() {
                 let symbol: f64 = self
                     .taps
                     .iter()
                     .enumerate()
                     .map(|(slot, m)| {
-                        let (dx, dy) = ((slot % WIDTH) as isize - r, (slot / WIDTH) as isize - r);
-                        m * periods.cos_x(kx, dx) * periods.cos_y(ky, dy)
+                        let (dx, dy) = offset(slot);
+                        m * cos.at(kx, dx) * cos.at(ky, dy)
                     })
                     .sum();
                 lowest = lowest.min(symbol);
@@ -124,25 +119,29 @@ impl InverseStencil {
     }
 }
 
-/// The periodic grid the stencil is found on, twice the table's square each way: the cosines
-/// `cos(2 pi k d / P)` along each side.
-struct Periods {
-    x: Vec<f64>,
-    y: Vec<f64>,
+/// The offset `(dx, dy)` of a stencil's tap `slot`.
+fn offset(slot: usize) -> (isize, isize) {
+    let r = RADIUS as isize;
+    ((slot % WIDTH) as isize - r, (slot / WIDTH) as isize - r)
 }
 
-impl Periods {
-    fn of(nx: usize, ny: usize) -> Self {
-        let cosines = |p: usize| (0..p).map(|i| (2.0 * std::f64::consts::PI * i as f64 / p as f64).cos()).collect();
-        Self { x: cosines(2 * nx), y: cosines(2 * ny) }
+/// The periodic grid the stencil is found on, `P = 2 n` cells a side for the table's square
+/// of `n`: the cosines `cos(2 pi k d / P)`.
+struct Cosines(Vec<f64>);
+
+impl Cosines {
+    fn of(n: usize) -> Self {
+        let p = 2 * n;
+        Self((0..p).map(|i| (2.0 * std::f64::consts::PI * i as f64 / p as f64).cos()).collect())
     }
 
-    fn cos_x(&self, k: usize, d: isize) -> f64 {
-        self.x[(k as isize * d).rem_euclid(self.x.len() as isize) as usize]
+    fn period(&self) -> usize {
+        self.0.len()
     }
 
-    fn cos_y(&self, k: usize, d: isize) -> f64 {
-        self.y[(k as isize * d).rem_euclid(self.y.len() as isize) as usize]
+    /// `cos(2 pi k d / P)`.
+    fn at(&self, k: usize, d: isize) -> f64 {
+        self.0[(k as isize * d).rem_euclid(self.0.len() as isize) as usize]
     }
 }
 
@@ -310,7 +309,7 @@ mod tests {
                 assert!((s - d).abs() < 1e-12, "{nx} x {ny}: {s} against {d}");
             }
             let n = InverseStencil::square(nx, ny);
-            let lowest = stencil.lowest_symbol(&Periods::of(n, n));
+            let lowest = stencil.lowest_symbol(&Cosines::of(n));
             assert!(lowest >= 0.999 * MIN_SYMBOL * stencil.tap(0, 0), "{nx} x {ny}: {lowest}");
         }
     }
