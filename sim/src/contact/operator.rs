@@ -483,8 +483,7 @@ impl Operator {
         src: &[usize],
         dst: &[usize],
     ) {
-        let (nx, ny) = (self.grid.nx, self.grid.ny);
-        let wx = 2 * nx - 1;
+        let nx = self.grid.nx;
         // Group the sources into runs of consecutive cells of one row; pack their tractions.
         // For a run starting at column i0 of row sj, seen from (di, dj), the coefficient of the
         // t-th cell sits at mirrored[(dj - sj + ny - 1) wx + (i0 + t - di + nx - 1)]: forward.
@@ -501,94 +500,17 @@ impl Operator {
             }
         }
         let values: Vec<Vec<T>> = terms.iter().map(|(_, t)| sorted.iter().map(|&s| T::of(t[s])).collect()).collect();
-        // Field cells side by side in a row share each source's traction: seen from
-        // (di + m, dj), m = 0..L-1, the t-th source's coefficient sits at `at - m + t`, so the
-        // L lie in one forward window `[at + t - L + 1, at + t]` of the table (lane k for
-        // m = L - 1 - k): one window load and L multiply-adds per source. Runs of eight cells
-        // go eight at a time, then runs of four; each cell's sum is the same whatever its run.
         let mut targets = dst.to_vec();
         if !targets.is_sorted() {
             targets.sort_unstable();
         }
         // A repeated cell would pass for a neighbour in the run test below.
         targets.dedup();
-        let mut single: Vec<usize> = Vec::new();
-        let run_of = |k: usize, len: usize| {
-            let d = targets[k];
-            k + len - 1 < targets.len() && targets[k + len - 1] == d + len - 1 && (d % nx) + len - 1 < nx
-        };
-        let mut k = 0;
-        while k < targets.len() {
-            let d = targets[k];
-            if run_of(k, 8) {
-                k += self.row_run::<T, 8>(tables, terms, &values, &runs, d, out);
-            } else if run_of(k, 4) {
-                k += self.row_run::<T, 4>(tables, terms, &values, &runs, d, out);
-            } else {
-                single.push(d);
-                k += 1;
-            }
-        }
-        for &d in &single {
-            let (di, dj) = (d % nx, d / nx);
-            let mut sum = T::default();
-            for ((c, _), vals) in terms.iter().zip(&values) {
-                let coef = &tables[*c as usize];
-                for &(sj, i0, len, start) in &runs {
-                    let at = (dj + ny - 1 - sj) * wx + i0 + nx - 1 - di;
-                    let row = &coef[at..at + len];
-                    let v = &vals[start..start + len];
-                    // Four partial sums let the compiler vectorise the dot product.
-                    let mut acc = [T::default(); 4];
-                    let (rc, vc) = (row.chunks_exact(4), v.chunks_exact(4));
-                    let (rr, vr) = (rc.remainder(), vc.remainder());
-                    for (a, b) in rc.zip(vc) {
-                        for k in 0..4 {
-                            acc[k] += a[k] * b[k];
-                        }
-                    }
-                    sum += acc.iter().copied().sum::<T>() + rr.iter().zip(vr).map(|(a, b)| *a * *b).sum::<T>();
-                }
-            }
-            out[d] = sum.wide();
-        }
-    }
-
-    /// The sums of `L` field cells side by side in a row from `d` on (lane `L - 1 - m` for cell
-    /// `d + m`), over the sources' `runs` (row, first column, length, start in `values`), into
-    /// `out`; returns `L`, the cells done.
-    #[inline]
-    fn row_run<T: Coefficient, const L: usize>(
-        &self,
-        tables: &[Vec<T>; 8],
-        terms: &[(Component, &[f64])],
-        values: &[Vec<T>],
-        runs: &[(usize, usize, usize, usize)],
-        d: usize,
-        out: &mut [f64],
-    ) -> usize {
-        let (nx, ny) = (self.grid.nx, self.grid.ny);
-        let wx = 2 * nx - 1;
-        let (di, dj) = (d % nx, d / nx);
-        let mut acc = [T::default(); L];
-        for ((c, _), vals) in terms.iter().zip(values) {
-            let coef = &tables[*c as usize];
-            for &(sj, i0, len, start) in runs {
-                // The window of the last cell (m = L - 1) starts at `at >= 0`: it is a field
-                // cell of the grid, so its offset to every source is in the table.
-                let at = (dj + ny - 1 - sj) * wx + i0 + nx - di - L;
-                let v = &vals[start..start + len];
-                for (w, &x) in coef[at..at + len + L - 1].windows(L).zip(v) {
-                    for lane in 0..L {
-                        acc[lane] += x * w[lane];
-                    }
-                }
-            }
-        }
-        for (m, a) in acc.iter().rev().enumerate() {
-            out[d + m] = a.wide();
-        }
-        L
+        // Compiled for each vector unit ([`pulp::WithSimd`]): plain multiplies and adds in
+        // the same order on every one (Rust never fuses them), so the same bits, on AVX2 eight
+        // `f32` lanes an instruction where the baseline build has four.
+        let sums = DenseSums { nx: self.grid.nx, ny: self.grid.ny, tables, terms, values: &values, runs: &runs };
+        pulp::Arch::new().dispatch(DenseTargets { sums, targets: &targets, out });
     }
 
     fn apply_fft(&self, terms: &[(Component, &[f64])], out: &mut [f64]) {
@@ -628,6 +550,115 @@ impl Operator {
         fft.inverse(acc, &mut full);
         for j in 0..ny {
             out[j * nx..(j + 1) * nx].copy_from_slice(&full[j * m..j * m + nx]);
+        }
+    }
+}
+
+/// What a dense product's sums read ([`Operator::apply`]'s `Dense` products): the grid's
+/// shape, the mirrored tables, the terms' components, their values on the sorted sources, and
+/// the sources' runs (row, first column, length, start in `values`).
+#[derive(Clone, Copy)]
+struct DenseSums<'a, T> {
+    nx: usize,
+    ny: usize,
+    tables: &'a [Vec<T>; 8],
+    terms: &'a [(Component, &'a [f64])],
+    values: &'a [Vec<T>],
+    runs: &'a [(usize, usize, usize, usize)],
+}
+
+impl<T: Coefficient> DenseSums<'_, T> {
+    /// The sums of `L` field cells side by side in a row from `d` on (lane `L - 1 - m` for
+    /// cell `d + m`) into `out`; returns `L`, the cells done.
+    #[inline(always)]
+    fn row_run<const L: usize>(&self, d: usize, out: &mut [f64]) -> usize {
+        let (nx, ny) = (self.nx, self.ny);
+        let wx = 2 * nx - 1;
+        let (di, dj) = (d % nx, d / nx);
+        let mut acc = [T::default(); L];
+        for ((c, _), vals) in self.terms.iter().zip(self.values) {
+            let coef = &self.tables[*c as usize];
+            for &(sj, i0, len, start) in self.runs {
+                // The window of the last cell (m = L - 1) starts at `at >= 0`: it is a field
+                // cell of the grid, so its offset to every source is in the table.
+                let at = (dj + ny - 1 - sj) * wx + i0 + nx - di - L;
+                let v = &vals[start..start + len];
+                for (w, &x) in coef[at..at + len + L - 1].windows(L).zip(v) {
+                    for lane in 0..L {
+                        acc[lane] += x * w[lane];
+                    }
+                }
+            }
+        }
+        for (m, a) in acc.iter().rev().enumerate() {
+            out[d + m] = a.wide();
+        }
+        L
+    }
+
+    /// The sum of field cell `d` alone.
+    #[inline(always)]
+    fn cell(&self, d: usize) -> f64 {
+        let (nx, ny) = (self.nx, self.ny);
+        let wx = 2 * nx - 1;
+        let (di, dj) = (d % nx, d / nx);
+        let mut sum = T::default();
+        for ((c, _), vals) in self.terms.iter().zip(self.values) {
+            let coef = &self.tables[*c as usize];
+            for &(sj, i0, len, start) in self.runs {
+                let at = (dj + ny - 1 - sj) * wx + i0 + nx - 1 - di;
+                let row = &coef[at..at + len];
+                let v = &vals[start..start + len];
+                // Four partial sums let the compiler vectorise the dot product.
+                let mut acc = [T::default(); 4];
+                let (rc, vc) = (row.chunks_exact(4), v.chunks_exact(4));
+                let (rr, vr) = (rc.remainder(), vc.remainder());
+                for (a, b) in rc.zip(vc) {
+                    for k in 0..4 {
+                        acc[k] += a[k] * b[k];
+                    }
+                }
+                sum += acc.iter().copied().sum::<T>() + rr.iter().zip(vr).map(|(a, b)| *a * *b).sum::<T>();
+            }
+        }
+        sum.wide()
+    }
+}
+
+/// A dense product's field cells (sorted, distinct): field cells side by side in a row share
+/// each source's traction: seen from (di + m, dj), m = 0..L-1, the t-th source's coefficient
+/// sits at `at - m + t`, so the L lie in one forward window `[at + t - L + 1, at + t]` of the
+/// table (lane k for m = L - 1 - k): one window load and L multiply-adds per source. Runs of
+/// eight cells go eight at a time, then runs of four, then single cells; each cell's sum is
+/// the same whatever its run.
+struct DenseTargets<'a, T> {
+    sums: DenseSums<'a, T>,
+    targets: &'a [usize],
+    out: &'a mut [f64],
+}
+
+impl<T: Coefficient> pulp::WithSimd for DenseTargets<'_, T> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let Self { sums, targets, out } = self;
+        let nx = sums.nx;
+        let run_of = |k: usize, len: usize| {
+            let d = targets[k];
+            k + len - 1 < targets.len() && targets[k + len - 1] == d + len - 1 && (d % nx) + len - 1 < nx
+        };
+        let mut k = 0;
+        while k < targets.len() {
+            let d = targets[k];
+            if run_of(k, 8) {
+                k += sums.row_run::<8>(d, out);
+            } else if run_of(k, 4) {
+                k += sums.row_run::<4>(d, out);
+            } else {
+                out[d] = sums.cell(d);
+                k += 1;
+            }
         }
     }
 }

@@ -477,8 +477,10 @@ fn objective(q: &[f64], u: &[f64], b: &[f64], d: Option<&[f64]>) -> f64 {
 /// at `q` (length `step`; with cut cells' own compliance `d`, `(from - step g) / (1 + step d)`
 /// projected), the projected Jacobi step's length at `q` (`local`, for the stopping measure,
 /// with the gradient `u + b + d q`) and the restart term `g . (next - q)`. Vectors packed
-/// (`x`, then `y`). Without cut cells four cells at a time on AVX2, each lane the scalar
-/// formula's bits (no fused operations; the projection's branches as selects).
+/// (`x`, then `y`). Four cells at a time on AVX2, with cut cells or without, each lane the
+/// scalar formula's bits (no fused operations; the projection's branches as selects; issue
+/// 31: with cut cells, as on most of a `paper` pose's samples, every cell took the scalar
+/// loop, 4% of the shard's time).
 #[derive(Clone, Copy)]
 struct CellSteps<'a> {
     u: &'a [f64],
@@ -501,8 +503,13 @@ impl CellSteps<'_> {
     /// Fills `next` (packed), `kkt` and `restart` (per cell).
     fn run(&self, next: &mut [f64], kkt: &mut [f64], restart: &mut [f64]) {
         let m = self.bound.len();
+        let mut done = 0;
+        #[cfg(target_arch = "x86_64")]
+        if let Some(simd) = pulp::x86::V3::try_new() {
+            done = pulp::Simd::vectorize(simd, CellStepsAvx2 { cells: self, simd, next, kkt, restart });
+        }
         if let Some(d) = self.cut {
-            for i in 0..m {
+            for i in done..m {
                 let (ax, ay) = (self.u[i] + self.b[i], self.u[m + i] + self.b[m + i]);
                 let (fx, fy) = (self.from[i], self.from[m + i]);
                 let (zx, zy) = (
@@ -514,11 +521,6 @@ impl CellSteps<'_> {
                 (kkt[i], restart[i]) = self.terms(i, (gx, gy), (next[i], next[m + i]));
             }
             return;
-        }
-        let mut done = 0;
-        #[cfg(target_arch = "x86_64")]
-        if let Some(simd) = pulp::x86::V3::try_new() {
-            done = pulp::Simd::vectorize(simd, CellStepsAvx2 { cells: self, simd, next, kkt, restart });
         }
         for i in done..m {
             let (ax, ay) = (self.u[i] + self.b[i], self.u[m + i] + self.b[m + i]);
@@ -559,6 +561,7 @@ impl pulp::WithSimd for CellStepsAvx2<'_, '_> {
         let Self { cells, simd, next, kkt, restart } = self;
         let m = cells.bound.len();
         let (step, local) = (simd.splat_f64x4(cells.step), simd.splat_f64x4(cells.local));
+        let one = simd.splat_f64x4(1.0);
         let chunks = m / 4;
         for c in 0..chunks {
             let i = 4 * c;
@@ -566,22 +569,33 @@ impl pulp::WithSimd for CellStepsAvx2<'_, '_> {
             let ay = simd.add_f64x4(load4(cells.u, m + i), load4(cells.b, m + i));
             let (fx, fy, r) = (load4(cells.from, i), load4(cells.from, m + i), load4(cells.bound, i));
             let (qx, qy) = (load4(cells.q, i), load4(cells.q, m + i));
-            let (nx, ny) = project4(
-                simd,
-                simd.sub_f64x4(fx, simd.mul_f64x4(step, ax)),
-                simd.sub_f64x4(fy, simd.mul_f64x4(step, ay)),
-                r,
-            );
+            let (zx, zy) = (simd.sub_f64x4(fx, simd.mul_f64x4(step, ax)), simd.sub_f64x4(fy, simd.mul_f64x4(step, ay)));
+            // With cut cells as the scalar loop: the step divided by `1 + step d`, and the
+            // gradient of the stopping measure and the restart test with `d q` added.
+            let ((zx, zy), (gx, gy)) = match cells.cut {
+                Some(d) => {
+                    let (dx, dy) = (load4(d, i), load4(d, m + i));
+                    (
+                        (
+                            simd.div_f64x4(zx, simd.add_f64x4(one, simd.mul_f64x4(step, dx))),
+                            simd.div_f64x4(zy, simd.add_f64x4(one, simd.mul_f64x4(step, dy))),
+                        ),
+                        (simd.add_f64x4(ax, simd.mul_f64x4(dx, qx)), simd.add_f64x4(ay, simd.mul_f64x4(dy, qy))),
+                    )
+                }
+                None => ((zx, zy), (ax, ay)),
+            };
+            let (nx, ny) = project4(simd, zx, zy, r);
             let (jx, jy) = project4(
                 simd,
-                simd.sub_f64x4(qx, simd.mul_f64x4(local, ax)),
-                simd.sub_f64x4(qy, simd.mul_f64x4(local, ay)),
+                simd.sub_f64x4(qx, simd.mul_f64x4(local, gx)),
+                simd.sub_f64x4(qy, simd.mul_f64x4(local, gy)),
                 r,
             );
             let (dx, dy) = (simd.sub_f64x4(jx, qx), simd.sub_f64x4(jy, qy));
             let k = simd.sqrt_f64x4(simd.add_f64x4(simd.mul_f64x4(dx, dx), simd.mul_f64x4(dy, dy)));
-            let rx = simd.mul_f64x4(ax, simd.sub_f64x4(nx, qx));
-            let ry = simd.mul_f64x4(ay, simd.sub_f64x4(ny, qy));
+            let rx = simd.mul_f64x4(gx, simd.sub_f64x4(nx, qx));
+            let ry = simd.mul_f64x4(gy, simd.sub_f64x4(ny, qy));
             store(next, i, nx);
             store(next, m + i, ny);
             store(kkt, i, k);
