@@ -904,12 +904,7 @@ impl<'a> Simulation<'a> {
                 // with the pressure.)
                 let cells = mu.iter().zip(&self.pressure).zip(self.qx.iter_mut().zip(self.qy.iter_mut()));
                 for ((mu, p), (qx, qy)) in cells {
-                    let (bound, q) = (mu * p, qx.hypot(*qy));
-                    if q > bound {
-                        let scale = if q > 0.0 { bound / q } else { 0.0 };
-                        *qx *= scale;
-                        *qy *= scale;
-                    }
+                    (*qx, *qy) = tangential::project(*qx, *qy, mu * p);
                 }
                 let area = op.grid().cell_area_mm2();
                 report.force_n[0] = self.qx.iter().sum::<f64>() * area;

@@ -200,7 +200,7 @@ const RITZ_SETTLED: f64 = 1e-3;
 const BOUND_MARGIN: f64 = 1.02;
 
 /// Projects `(x, y)` onto the disc of radius `r`.
-fn project(x: f64, y: f64, r: f64) -> (f64, f64) {
+pub(crate) fn project(x: f64, y: f64, r: f64) -> (f64, f64) {
     let n2 = x * x + y * y;
     if n2 <= r * r {
         (x, y)
