@@ -229,3 +229,36 @@ proptest! {
         }
     }
 }
+
+/// Regression (issue 31's CI, the proptest's shrunk case): a one-cell touch, lifted off and
+/// set down deeper on 14 other cells (skin-on-gel). The shear's eigenvalue bound started from
+/// the touch's vector, zero on the new cells, and came out 0 against 2.03 mm/MPa; the solve
+/// cycled at residual 2.0 for 20,000 iterations.
+#[test]
+fn a_press_set_down_on_other_cells_after_a_lift_off_converges() {
+    let names = catalogue().names();
+    let scene = scene_with(&names[1]);
+    let m = model_of(11, 0.5, SkinModel::ALL[2].0);
+    let start = SensorPose {
+        x_mm: -29.379201625211692,
+        y_mm: -27.45884357028779,
+        depth_mm: 0.2711016682404069,
+        yaw_deg: 178.03134946900795,
+        rx_deg: -5.609705749333901,
+        ry_deg: -9.560093525825907,
+    };
+    let first = SensorPose {
+        x_mm: start.x_mm + 0.5197513128312378,
+        y_mm: start.y_mm + 0.4074933853839348,
+        depth_mm: (start.depth_mm - 0.275928325802332).clamp(0.05, 5.0),
+        yaw_deg: start.yaw_deg + 1.6231785635968072,
+        ..start
+    };
+    let second = SensorPose { depth_mm: (first.depth_mm + 0.2911033596217112).clamp(0.05, 5.0), ..first };
+    let poses = [start, first, second];
+    let mut sim = Simulation::new(&m, &scene, &poses);
+    for (i, pose) in poses.iter().enumerate() {
+        sim.step(*pose).unwrap_or_else(|e| panic!("step {i}: {e}"));
+        check_invariants(&sim, &format!("step {i}"));
+    }
+}

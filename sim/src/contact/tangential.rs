@@ -89,9 +89,18 @@ impl Eigenvector {
     /// grown by a step): it is already near the largest eigenvector, which changes little as
     /// the contact grows by a ring of cells.
     pub const WARM_STEPS: usize = 4;
+    /// The least squared length of a start's part on the new cells for a warm start. A
+    /// contact that moved off the start's cells (a press lifted off and set down elsewhere)
+    /// keeps little or nothing of it, and Lanczos from a vector near zero there finds a
+    /// value far below the largest, or 0 from zero: a bound that lets the shear's steps
+    /// diverge (issue 31's CI: 0 against 2.03 mm/MPa on a skin-on-gel press, and a solve
+    /// that cycled at residual 2 for 20,000 iterations). Such a start is dropped for the cold
+    /// one.
+    pub const WARM_KEPT: f64 = 0.5;
 
     /// The bound on `cells` by Lanczos iteration with full reorthogonalisation: from `start`
-    /// (a vector found on a subset, [`Self::WARM_STEPS`]) or cold ([`Self::COLD_STEPS`]).
+    /// (a vector found on a subset, [`Self::WARM_STEPS`]) or cold ([`Self::COLD_STEPS`]; also
+    /// where `start` keeps less than [`Self::WARM_KEPT`] of itself on `cells`).
     ///
     /// `k` steps build an orthonormal basis `V` of the Krylov space of the start and the
     /// tridiagonal `T = V^T A_t V`; the largest eigenvalue `theta` of `T` (the Ritz value) is
@@ -110,18 +119,19 @@ impl Eigenvector {
         let product = CellProduct::new(op, &SHEAR_BLOCKS, cells, dense_max_cells, cache);
         // Packed: `x` on the cells, then `y`.
         let mut v = vec![0.0; 2 * m];
-        let steps = match start {
-            Some(e) => {
-                for (i, &k) in cells.iter().enumerate() {
-                    (v[i], v[m + i]) = (e.vector.0[k], e.vector.1[k]);
-                }
-                Self::WARM_STEPS
+        if let Some(e) = start {
+            for (i, &k) in cells.iter().enumerate() {
+                (v[i], v[m + i]) = (e.vector.0[k], e.vector.1[k]);
             }
-            None => {
-                v[..m].fill(1.0);
-                v[m..].fill(0.5);
-                Self::COLD_STEPS
-            }
+        }
+        // The start's part on `cells` (its squared length: the start is a unit vector).
+        let kept = lane_sum(v.iter().map(|v| v * v));
+        let steps = if start.is_some() && kept >= Self::WARM_KEPT {
+            Self::WARM_STEPS
+        } else {
+            v[..m].fill(1.0);
+            v[m..].fill(0.5);
+            Self::COLD_STEPS
         };
         let n = op.grid().len();
         let (theta, ritz) = ritz_pair(&product, v, steps);
@@ -794,6 +804,34 @@ mod tests {
             assert!(warm.bound > lambda && cold.bound > lambda, "step {step}: {lambda} above a bound");
             last = warm;
         }
+    }
+
+    /// Regression (issue 31's CI): a press lifted off and set down on other cells started
+    /// Lanczos from the last vector, zero on the new cells, and took a bound of 0 (the
+    /// shear's steps then cycled at residual 2 for 20,000 iterations). A start that keeps
+    /// little of itself on the new cells is dropped for the cold one; one that keeps most
+    /// (the contact grown) is still used.
+    #[test]
+    fn a_start_off_the_new_cells_gives_the_cold_bound() {
+        let (grid, op) = calibrated_skin(0.5);
+        let disc = |cx: f64, r: f64| -> Vec<usize> {
+            (0..grid.len()).filter(|&k| (grid.centre(k)[0] - cx).hypot(grid.centre(k)[1]) < r).collect()
+        };
+        let mut cache = MatrixCache::default();
+        let old = Eigenvector::lanczos(&op, &disc(-2.0, 0.8), 300, &mut cache, None);
+        for cx in [2.0, 0.0] {
+            // Disjoint from the old cells, then overlapping a little of them.
+            let cells = disc(cx, 1.5);
+            let cold = Eigenvector::lanczos(&op, &cells, 300, &mut cache, None);
+            let from_old = Eigenvector::lanczos(&op, &cells, 300, &mut cache, Some(&old));
+            assert!(cold.bound > 0.0, "at {cx}: cold bound {}", cold.bound);
+            assert_eq!(from_old, cold, "at {cx}: the start off the cells was kept");
+        }
+        let grown = disc(-1.8, 1.2);
+        let warm = Eigenvector::lanczos(&op, &grown, 300, &mut cache, Some(&old));
+        let cold = Eigenvector::lanczos(&op, &grown, 300, &mut cache, None);
+        assert_ne!(warm, cold, "a grown contact's start must be used");
+        assert!((warm.bound / cold.bound - 1.0).abs() < 3e-3, "{} vs {}", warm.bound, cold.bound);
     }
 
     /// Twelve power iterations fell 2.5% short of the largest eigenvalue on half a disc (and
