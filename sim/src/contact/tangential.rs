@@ -698,6 +698,11 @@ mod tests {
         (grid, Operator::new(&skin, grid))
     }
 
+    /// The grid's cells within `r` (mm) of `(cx, 0)`.
+    fn disc_cells(grid: &Grid, cx: f64, r: f64) -> Vec<usize> {
+        (0..grid.len()).filter(|&k| (grid.centre(k)[0] - cx).hypot(grid.centre(k)[1]) < r).collect()
+    }
+
     /// An unbounded step (no cell reaches `mu p`: the linear solve `A_t q = -b`) on a disc of
     /// the calibrated skin's cells: the heavy ball reaches the direct solution, within the
     /// products its rate predicts from the eigenvalue bound and the operator's checkerboard
@@ -782,9 +787,7 @@ mod tests {
     #[test]
     fn a_warm_bound_on_a_grown_contact_matches_a_cold_one() {
         let (grid, op) = calibrated_skin(0.5);
-        let disc = |cx: f64, r: f64| -> Vec<usize> {
-            (0..grid.len()).filter(|&k| (grid.centre(k)[0] - cx).hypot(grid.centre(k)[1]) < r).collect()
-        };
+        let disc = |cx: f64, r: f64| disc_cells(&grid, cx, r);
         let mut cache = MatrixCache::default();
         let mut last = Eigenvector::lanczos(&op, &disc(0.0, 2.0), 300, &mut cache, None);
         for step in 1..=4 {
@@ -814,9 +817,7 @@ mod tests {
     #[test]
     fn a_start_off_the_new_cells_gives_the_cold_bound() {
         let (grid, op) = calibrated_skin(0.5);
-        let disc = |cx: f64, r: f64| -> Vec<usize> {
-            (0..grid.len()).filter(|&k| (grid.centre(k)[0] - cx).hypot(grid.centre(k)[1]) < r).collect()
-        };
+        let disc = |cx: f64, r: f64| disc_cells(&grid, cx, r);
         let mut cache = MatrixCache::default();
         let old = Eigenvector::lanczos(&op, &disc(-2.0, 0.8), 300, &mut cache, None);
         for cx in [2.0, 0.0] {
