@@ -31,6 +31,23 @@ fn model_of(cells: usize, poisson: f64, skin: SkinModel) -> ContactModel {
     ContactModel::new(&s)
 }
 
+/// A path from `start` by `moves` (mm, mm, mm, deg: x, y, depth, yaw), the depth kept within
+/// 0.05..5 mm.
+fn path(start: SensorPose, moves: &[(f64, f64, f64, f64)]) -> Vec<SensorPose> {
+    let mut poses = vec![start];
+    for &(dx, dy, dd, dyaw) in moves {
+        let last = *poses.last().expect("non-empty");
+        poses.push(SensorPose {
+            x_mm: last.x_mm + dx,
+            y_mm: last.y_mm + dy,
+            depth_mm: (last.depth_mm + dd).clamp(0.05, 5.0),
+            yaw_deg: last.yaw_deg + dyaw,
+            ..last
+        });
+    }
+    poses
+}
+
 /// Checks every invariant of the current state, with gaps to within 1e-4 of the step's
 /// indentation (the engine stops the normal solve at a relative pressure change of 1e-5). The
 /// indentation is the report's, how far the stimulus reaches into the skin: a tilted pose's
@@ -147,16 +164,14 @@ fn a_cell_that_leaves_the_candidates_keeps_no_stale_overlap() {
         ry_deg: -8.49115049253562,
         ..Default::default()
     };
-    let moves = [
-        (0.0, 0.0, 0.21324950026444536),
-        (-0.515910239656014, -0.27339391020707443, -0.23523555541110727),
-        (0.0, 0.0, -0.21631979507517474),
-    ];
-    let mut poses = vec![start];
-    for (dx, dy, dd) in moves {
-        let last = *poses.last().expect("non-empty");
-        poses.push(SensorPose { x_mm: last.x_mm + dx, y_mm: last.y_mm + dy, depth_mm: last.depth_mm + dd, ..last });
-    }
+    let poses = path(
+        start,
+        &[
+            (0.0, 0.0, 0.21324950026444536, 0.0),
+            (-0.515910239656014, -0.27339391020707443, -0.23523555541110727, 0.0),
+            (0.0, 0.0, -0.21631979507517474, 0.0),
+        ],
+    );
     let mut sim = Simulation::new(&m, &scene, &poses);
     for (i, pose) in poses.iter().enumerate() {
         sim.step(*pose).unwrap_or_else(|e| panic!("step {i}: {e}"));
@@ -211,17 +226,8 @@ proptest! {
         let names = catalogue().names();
         let scene = scene_with(&names[shape % names.len()]);
         let m = model_of(11, 0.5, SkinModel::ALL[skin].0);
-        let mut poses = vec![SensorPose { x_mm: x, y_mm: y, depth_mm: depth, yaw_deg: yaw, rx_deg: rx, ry_deg: ry }];
-        for (dx, dy, dd, dyaw) in moves {
-            let last = *poses.last().expect("non-empty");
-            poses.push(SensorPose {
-                x_mm: last.x_mm + dx,
-                y_mm: last.y_mm + dy,
-                depth_mm: (last.depth_mm + dd).clamp(0.05, 5.0),
-                yaw_deg: last.yaw_deg + dyaw,
-                ..last
-            });
-        }
+        let start = SensorPose { x_mm: x, y_mm: y, depth_mm: depth, yaw_deg: yaw, rx_deg: rx, ry_deg: ry };
+        let poses = path(start, &moves);
         let mut sim = Simulation::new(&m, &scene, &poses);
         for (i, pose) in poses.iter().enumerate() {
             sim.step(*pose).map_err(|e| TestCaseError::fail(format!("step {i}: {e}")))?;
@@ -247,15 +253,13 @@ fn a_press_set_down_on_other_cells_after_a_lift_off_converges() {
         rx_deg: -5.609705749333901,
         ry_deg: -9.560093525825907,
     };
-    let first = SensorPose {
-        x_mm: start.x_mm + 0.5197513128312378,
-        y_mm: start.y_mm + 0.4074933853839348,
-        depth_mm: (start.depth_mm - 0.275928325802332).clamp(0.05, 5.0),
-        yaw_deg: start.yaw_deg + 1.6231785635968072,
-        ..start
-    };
-    let second = SensorPose { depth_mm: (first.depth_mm + 0.2911033596217112).clamp(0.05, 5.0), ..first };
-    let poses = [start, first, second];
+    let poses = path(
+        start,
+        &[
+            (0.5197513128312378, 0.4074933853839348, -0.275928325802332, 1.6231785635968072),
+            (0.0, 0.0, 0.2911033596217112, 0.0),
+        ],
+    );
     let mut sim = Simulation::new(&m, &scene, &poses);
     for (i, pose) in poses.iter().enumerate() {
         sim.step(*pose).unwrap_or_else(|e| panic!("step {i}: {e}"));

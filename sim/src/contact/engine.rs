@@ -897,18 +897,12 @@ impl<'a> Simulation<'a> {
             if settled && self.pressure.iter().zip(&contact_before).all(|(p, c)| (*p > 0.0) == *c) {
                 // The pressure now sees the last shear, on the same contact, and the shear's
                 // change this round would make is predicted under the tolerance: the round that
-                // would end the alternation ends it without its shear solve ([`SETTLED_SHEAR`]).
-                // The shear is kept within the new pressure's bound `mu p` (a slip cell's
-                // traction follows its pressure, as the solve would have it), and the report's
-                // shear force is its sum. (Never with a dome slope, whose skin traction moves
-                // with the pressure.)
-                let cells = mu.iter().zip(&self.pressure).zip(self.qx.iter_mut().zip(self.qy.iter_mut()));
-                for ((mu, p), (qx, qy)) in cells {
-                    (*qx, *qy) = tangential::project(*qx, *qy, mu * p);
-                }
-                let area = op.grid().cell_area_mm2();
-                report.force_n[0] = self.qx.iter().sum::<f64>() * area;
-                report.force_n[1] = self.qy.iter().sum::<f64>() * area;
+                // would end the alternation ends it without its shear solve ([`SETTLED_SHEAR`]),
+                // the shear kept within the new pressure's bounds. (Never with a dome slope,
+                // whose skin traction moves with the pressure.)
+                let shear = (self.qx.as_mut_slice(), self.qy.as_mut_slice());
+                let force = tangential::keep_within_bounds(shear, mu, &self.pressure, op.grid().cell_area_mm2());
+                report.force_n[..2].copy_from_slice(&force);
                 break;
             }
             if !needs_tangential {

@@ -119,14 +119,17 @@ impl Eigenvector {
         let product = CellProduct::new(op, &SHEAR_BLOCKS, cells, dense_max_cells, cache);
         // Packed: `x` on the cells, then `y`.
         let mut v = vec![0.0; 2 * m];
-        if let Some(e) = start {
-            for (i, &k) in cells.iter().enumerate() {
-                (v[i], v[m + i]) = (e.vector.0[k], e.vector.1[k]);
+        // The start's part on `cells`, and its squared length (the start is a unit vector).
+        let kept = match start {
+            Some(e) => {
+                for (i, &k) in cells.iter().enumerate() {
+                    (v[i], v[m + i]) = (e.vector.0[k], e.vector.1[k]);
+                }
+                lane_sum(v.iter().map(|v| v * v))
             }
-        }
-        // The start's part on `cells` (its squared length: the start is a unit vector).
-        let kept = lane_sum(v.iter().map(|v| v * v));
-        let steps = if start.is_some() && kept >= Self::WARM_KEPT {
+            None => 0.0,
+        };
+        let steps = if kept >= Self::WARM_KEPT {
             Self::WARM_STEPS
         } else {
             v[..m].fill(1.0);
@@ -209,8 +212,24 @@ const RITZ_SETTLED: f64 = 1e-3;
 /// replaced needed 5%, and fell 2.5% short on half a disc).
 const BOUND_MARGIN: f64 = 1.02;
 
+/// Each cell's shear `(qx, qy)` (MPa, grid fields) kept within its bound `mu p` (projected
+/// onto its friction disc: a slip cell's traction follows its pressure, as a solve would have
+/// it), and the shear force (N) it sums to on cells of `area_mm2`: for a coupling round that
+/// ends a step without its shear solve (the engine's `SETTLED_SHEAR`).
+pub(crate) fn keep_within_bounds(
+    (qx, qy): (&mut [f64], &mut [f64]),
+    mu: &[f64],
+    pressure: &[f64],
+    area_mm2: f64,
+) -> [f64; 2] {
+    for ((mu, p), (qx, qy)) in mu.iter().zip(pressure).zip(qx.iter_mut().zip(qy.iter_mut())) {
+        (*qx, *qy) = project(*qx, *qy, mu * p);
+    }
+    [qx.iter().sum::<f64>() * area_mm2, qy.iter().sum::<f64>() * area_mm2]
+}
+
 /// Projects `(x, y)` onto the disc of radius `r`.
-pub(crate) fn project(x: f64, y: f64, r: f64) -> (f64, f64) {
+fn project(x: f64, y: f64, r: f64) -> (f64, f64) {
     let n2 = x * x + y * y;
     if n2 <= r * r {
         (x, y)
