@@ -118,6 +118,19 @@ impl Cut {
     }
 }
 
+/// Where the edge's profile (`p ~ s^(-1/2)` at a distance `s` from the edge, the module's
+/// docs) puts the force of the band from `w` to `w + h` off the edge (mm): its centroid's
+/// distance from the edge,
+/// ```text
+/// s_c = ((w + h)^(3/2) - w^(3/2)) / (3 ((w + h)^(1/2) - w^(1/2)))
+/// ```
+/// `h / 3` for a band that starts at the edge ([`Cut::load_point_mm`]'s third of the covered
+/// width), nearer its middle the farther it starts: `0.4714 h` past the middle's `0.5 h`
+/// from its start at `w = h`.
+pub(crate) fn profile_centroid_mm(w: f64, h: f64) -> f64 {
+    ((w + h).powf(1.5) - w.powf(1.5)) / (3.0 * ((w + h).sqrt() - w.sqrt()))
+}
+
 /// Centre displacement of a square of area `phi h^2` carrying a whole `h x h` cell's force,
 /// relative to the cell's own (Love's square, module docs): `1 / sqrt(phi)`.
 pub(crate) fn compliance_ratio(phi: f64) -> f64 {

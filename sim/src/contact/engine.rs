@@ -1548,6 +1548,37 @@ mod tests {
         largest_tip_difference(&pins(&model, false), &pins(&default_model(65), true))
     }
 
+    /// Regression (issue 31): a whole sub-cell right behind a sharp edge took its force at
+    /// its centre, however little the cut sub-cell beyond it covered, and with the edge along
+    /// the grid the pins' error peaked where the edge crossed a sub-cell just past its side.
+    /// A tap across the disk's rim, yaw 0 (the rim along the grid's `y`), 3.4 mm deep, on 17
+    /// cells shifted to put the rim at 0.4 and 0.7 of its cell: its largest pin error against
+    /// 65 cells (exact pins both) was 0.043 and 0.063 mm, now 0.020 and 0.023
+    /// (`refine::behind_edge_mm`; the same sweep at every tenth:
+    /// `cargo run --release -p tacsim-sim --example edge_place -- sweep 3.4 50 17`).
+    #[test]
+    fn a_whole_sub_cell_behind_the_edge_takes_its_force_where_the_profile_puts_it() {
+        let scene = scene_of("disk");
+        let pose = SensorPose::new(50.0, 0.3, 3.4, 0.0);
+        let pins = |model: &ContactModel, rim_at: Option<f64>| {
+            let mut footprint = Footprint::of_path(model, &scene, &[pose]);
+            if let (Some(f), Some(g)) = (rim_at, footprint.grid.as_mut()) {
+                // The rim at sensor `x = 0` at yaw 0: at `f` of its cell.
+                let t = (0.0 - (g.centre_mm[0] - 0.5 * g.nx as f64 * g.cell_mm)) / g.cell_mm;
+                g.centre_mm[0] += ((t - t.floor() - f + 0.5).rem_euclid(1.0) - 0.5) * g.cell_mm;
+            }
+            let mut sim = Simulation::on_footprint(model, &scene, footprint);
+            sim.step(pose).expect("solved");
+            sim.pins_exact()
+        };
+        let reference = pins(&default_model(65), None);
+        let coarse = default_model(17);
+        for f in [0.4, 0.7] {
+            let err = largest_tip_difference(&pins(&coarse, Some(f)), &reference);
+            assert!(err < 0.03, "rim at {f} of its cell: largest pin error {err} mm");
+        }
+    }
+
     /// Regression (issue 31, found by `contact_stress`'s proptest once cut cells became the
     /// default): the normal solve stopped on the cells' relative pressure change, and a cut
     /// cell's extra compliance (up to `1 / sqrt(phi)` times a whole cell's) turned the same
