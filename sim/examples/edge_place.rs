@@ -37,16 +37,22 @@ struct Layout {
 }
 
 impl Layout {
+    /// `CELLS` or `CELLS@F`.
     fn parse(s: &str) -> Result<Self, String> {
         let (n, at) = match s.split_once('@') {
             Some((n, f)) => (n, Some(fraction(f)?)),
             None => (s, None),
         };
-        let cells = n.trim().parse().map_err(|_| format!("`{n}` is not a whole number of cells"))?;
-        Ok(Self { cells, at })
+        Ok(Self { cells: cells(n)?, at })
     }
 }
 
+/// Cells across the footprint.
+fn cells(s: &str) -> Result<usize, String> {
+    s.trim().parse().map_err(|_| format!("`{s}` is not a whole number of cells"))
+}
+
+/// A fraction of a cell's side, in `[0, 1)`.
 fn fraction(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(f) if (0.0..1.0).contains(&f) => Ok(f),
@@ -54,10 +60,12 @@ fn fraction(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A comma-separated list of `item`s.
 fn list<T>(s: &str, item: impl Fn(&str) -> Result<T, String>) -> Result<Vec<T>, String> {
     s.split(',').map(item).collect()
 }
 
+/// A number.
 fn number(s: &str) -> Result<f64, String> {
     s.trim().parse().map_err(|_| format!("`{s}` is not a number"))
 }
@@ -83,7 +91,8 @@ fn footprint(model: &ContactModel, scene: &Scene, pose: SensorPose, at: Option<f
     fp
 }
 
-/// A tap's force (N) and pins on `layout`.
+/// A tap's force (N) and pins (every cell on every pin with `exact`), the rim at `at` of its
+/// cell (the footprint's own grid with `None`).
 fn tap(
     model: &ContactModel,
     scene: &Scene,
@@ -96,6 +105,7 @@ fn tap(
     Ok((force, if exact { sim.pins_exact() } else { sim.pins() }))
 }
 
+/// The largest distance between corresponding pin tips (mm).
 fn largest(a: &[PinPose], b: &[PinPose]) -> f64 {
     a.iter().zip(b).map(|(a, b)| (a.tip - b.tip).norm()).fold(0.0, f64::max)
 }
@@ -112,7 +122,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "sweep" => {
             let depth = number(arg(1)?)?;
             let xs = list(arg(2)?, number)?;
-            let grids = list(arg(3)?, |s| Layout::parse(s).map(|l| l.cells))?;
+            let grids = list(arg(3)?, cells)?;
             let reference = args.get(4).map_or(Ok(Layout { cells: 65, at: None }), |s| Layout::parse(s))?;
             let fine = model_at(reference.cells)?;
             for &x in &xs {
@@ -134,10 +144,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "taps" => {
             let mut reference = Layout::parse(arg(1)?)?;
             reference.at = reference.at.or(Some(0.5));
-            let grids = list(arg(2)?, |s| Layout::parse(s).map(|l| l.cells))?;
+            let grids = list(arg(2)?, cells)?;
             let fractions = list(arg(3)?, fraction)?;
-            let count = match args.get(4).filter(|a| !a.starts_with("--")) {
-                Some(s) => s.parse().map_err(|_| format!("TAPS `{s}`: {usage}"))?,
+            let count: usize = match args.get(4).filter(|a| !a.starts_with("--")) {
+                Some(s) => s.parse().ok().filter(|n| *n > 0).ok_or(format!("TAPS `{s}`: a whole number above 0"))?,
                 None => 40,
             };
             let exact = args.iter().any(|a| a == "--exact");
