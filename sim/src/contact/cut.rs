@@ -62,7 +62,7 @@ impl Cut {
     /// (within `1e-9` of its area).
     pub(crate) fn of_half_plane(side_mm: f64, d: f64, a: f64, b: f64) -> Option<Self> {
         // Integrate exactly along the axis the line is steepest in: `w` along it, `s` across.
-        let along_x = a.abs() >= b.abs();
+        let along_x = steepest_axis(a, b) == 0;
         let (g_across, g_along) = if along_x { (b, a) } else { (a, b) };
         if g_along == 0.0 {
             return None;
@@ -129,6 +129,43 @@ impl Cut {
 /// from its start at `w = h`.
 pub(crate) fn profile_centroid_mm(w: f64, h: f64) -> f64 {
     ((w + h).powf(1.5) - w.powf(1.5)) / (3.0 * ((w + h).sqrt() - w.sqrt()))
+}
+
+/// The grid axis (0 for `x`, 1 for `y`) along which the line `d + a u + b v = 0` changes
+/// fastest: the one a cut is taken across.
+fn steepest_axis(a: f64, b: f64) -> usize {
+    if a.abs() >= b.abs() { 0 } else { 1 }
+}
+
+/// The load point's offset (mm, grid frame) of a whole square of side `side_mm` on the
+/// covered side of an edge, `d` (mm, as [`Cut::line`]'s, at the square's centre; `(a, b)` its
+/// change per mm of the grid's `x, y`) the edge's line there: for the square right behind the
+/// edge (its side nearest the edge within one side of it, across [`steepest_axis`], as a cut
+/// is taken) the centroid of the edge's profile over it ([`profile_centroid_mm`]), zero for
+/// the others and past the edge.
+///
+/// A cut square carries that profile over its covered part (its load a third of the covered
+/// width in from the edge), but the whole one behind it took its force at its centre, half a
+/// side in: where the cut one covers little, most of the edge's load sits in the whole one,
+/// and too far from the edge. Where the edge meets its side this gives `h / 3` from the edge,
+/// as a barely cut square has. With the edge along the grid (17 cells, a 3.4 mm tap across
+/// the disk's rim) the refinement's sub-cells (`refine.rs`, their only user) had the largest
+/// pin error against 65 cells peak at 0.043 and 0.063 mm with the edge just past a sub-cell's
+/// side (0.4 and 0.7 of its cell), against 0.017-0.028 elsewhere (regression test
+/// `a_whole_sub_cell_behind_the_edge_takes_its_force_where_the_profile_puts_it`;
+/// `docs/guide/contact.md`, "The edge's profile behind a cut sub-cell").
+pub(crate) fn behind_edge_mm(d: f64, [a, b]: [f64; 2], side_mm: f64) -> [f64; 2] {
+    let axis = steepest_axis(a, b);
+    let slope = [a, b][axis];
+    // The square's centre lies `t` from the edge across `axis`, its nearer side `w`.
+    let t = -d / slope.abs();
+    let w = t - 0.5 * side_mm;
+    let mut offset = [0.0; 2];
+    if d < 0.0 && (0.0..side_mm).contains(&w) {
+        // Towards the edge: along `axis`, the way `d` grows.
+        offset[axis] = (t - profile_centroid_mm(w, side_mm)) * slope.signum();
+    }
+    offset
 }
 
 /// Centre displacement of a square of area `phi h^2` carrying a whole `h x h` cell's force,
@@ -464,5 +501,30 @@ mod tests {
         }
         let s = CellProduct::new(&op, &shear, &cells, usize::MAX, &mut cache).with_cut(Some(&coupling));
         check(&|x, y| s.apply(None, x, y), 2 * n * n);
+    }
+
+    /// The edge's profile behind a cut square continues the cut's: a whole square whose side
+    /// the edge barely misses takes its force where a cut one that barely misses being whole
+    /// does (a sixth of a side off its centre, a third of one from the edge), the next one in
+    /// stays at its centre, and a square past the edge or with the edge far stays too.
+    #[test]
+    fn the_profile_behind_the_edge_continues_the_cuts() {
+        let h = 0.4;
+        assert!((profile_centroid_mm(0.0, h) - h / 3.0).abs() < 1e-15);
+        // The edge `x = h / 2 + 1e-10` (the covered side at lower `x`, `d` growing along +x):
+        // just past the whole square's side, and just past a cut one's whole (the profile's
+        // centroid moves as the square root of the gap there: 2e-4 mm at 1e-6 mm).
+        let d = -(0.5 * h + 1e-10);
+        let behind = behind_edge_mm(d, [1.0, 0.0], h);
+        let cut = Cut::of_half_plane(h, -(0.5 * h - 1e-6), 1.0, 0.0).expect("barely cut");
+        assert!((behind[0] - h / 6.0).abs() < 1e-5 && behind[1] == 0.0, "{behind:?}");
+        assert!((behind[0] - cut.load_point_mm()[0]).abs() < 1e-5, "{behind:?} {:?}", cut.load_point_mm());
+        // The same edge along `y`, the covered side at higher `y`: towards `-y`.
+        let down = behind_edge_mm(d, [0.0, -1.0], h);
+        assert!((down[1] + h / 6.0).abs() < 1e-5 && down[0] == 0.0, "{down:?}");
+        // One square farther in (its side a whole side from the edge), past the edge, far.
+        assert_eq!(behind_edge_mm(d - h, [1.0, 0.0], h), [0.0; 2]);
+        assert_eq!(behind_edge_mm(d + h, [1.0, 0.0], h), [0.0; 2]);
+        assert_eq!(behind_edge_mm(d - 5.0 * h, [1.0, 0.0], h), [0.0; 2]);
     }
 }

@@ -1554,7 +1554,7 @@ mod tests {
     /// A tap across the disk's rim, yaw 0 (the rim along the grid's `y`), 3.4 mm deep, on 17
     /// cells shifted to put the rim at 0.4 and 0.7 of its cell: its largest pin error against
     /// 65 cells (exact pins both) was 0.043 and 0.063 mm, now 0.020 and 0.023
-    /// (`refine::behind_edge_mm`; the same sweep at every tenth:
+    /// (`cut::behind_edge_mm`; the same sweep at every tenth:
     /// `cargo run --release -p tacsim-sim --example edge_place -- sweep 3.4 50 17`).
     #[test]
     fn a_whole_sub_cell_behind_the_edge_takes_its_force_where_the_profile_puts_it() {

@@ -20,7 +20,7 @@
 //!
 //! The pins then see each loaded sub-cell as one point force when near (at its centre, a cut
 //! one at its load point, a whole one right behind the edge where the edge's profile puts its
-//! force: [`behind_edge_mm`]), the cell's total at its centroid farther off ([`Refinement`],
+//! force: `cut::behind_edge_mm`), the cell's total at its centroid farther off ([`Refinement`],
 //! `pin_motion::CellForces`); the solve's tractions, its report and forces are the coarse
 //! ones. On the bench's three worst taps across the disk's rim, 13 cells were 0.137 / 0.077 /
 //! 0.032 mm off 65 cells' pins; with 3 x 3 sub-cells 0.056 / 0.030 / 0.023, at 0.17 ms more
@@ -28,7 +28,7 @@
 
 use std::ops::Range;
 
-use super::cut::{Cut, CutCoupling, profile_centroid_mm};
+use super::cut::{Cut, CutCoupling, behind_edge_mm};
 use super::grid::Grid;
 use super::matrix::MatrixCache;
 use super::normal::{self, Control, NormalSettings, ProductChoice};
@@ -231,7 +231,7 @@ struct Sub {
     /// Its cut by the cell's edge, in the fine operator's units (its cell side).
     cut: Option<Cut>,
     /// A whole sub-cell's load point, offset from its centre (mm, grid frame): towards the
-    /// edge for one right behind it ([`behind_edge_mm`]), else zero.
+    /// edge for one right behind it (`cut::behind_edge_mm`), else zero.
     offset_mm: [f64; 2],
 }
 
@@ -260,37 +260,6 @@ fn edge_line(coarse: &Coarse<'_>, cell: usize) -> Option<[f64; 3]> {
         }
     }
     nearest
-}
-
-/// The load point's offset (mm, grid frame) of a whole sub-cell of side `side_mm` whose
-/// centre sits `at_mm` from its cell's centre, under the edge's `line` (about the cell's
-/// centre, [`edge_line`]): for the sub-cell right behind the edge (its side nearest the edge
-/// within one side of it, across the axis the edge is steepest in, as [`Cut`] takes it) the
-/// centroid of the edge's profile over it ([`profile_centroid_mm`]), zero for the others.
-///
-/// A cut sub-cell carries that profile over its covered part (its load a third of the
-/// covered width in from the edge), but the whole sub-cell behind it took its force at its
-/// centre, half a side in: where the cut one covers little, most of the edge's load sits in
-/// the whole one, and too far from the edge. With the edge along the grid (17 cells, a 3.4 mm
-/// tap across the disk's rim) the largest pin error against 65 cells peaked at 0.043 and
-/// 0.063 mm with the edge just past a sub-cell's side (0.4 and 0.7 of its cell), against
-/// 0.017-0.028 elsewhere (regression test
-/// `a_whole_sub_cell_behind_the_edge_takes_its_force_where_the_profile_puts_it`;
-/// `docs/guide/contact.md`, "The edge's profile behind a cut sub-cell").
-fn behind_edge_mm(line: [f64; 3], at_mm: [f64; 2], side_mm: f64) -> [f64; 2] {
-    let [d, a, b] = line;
-    let d = d + a * at_mm[0] + b * at_mm[1];
-    let axis = if a.abs() >= b.abs() { 0 } else { 1 };
-    let slope = [a, b][axis];
-    // The sub-cell's centre lies `t` from the edge across `axis`, its nearer side `w`.
-    let t = -d / slope.abs();
-    let w = t - 0.5 * side_mm;
-    let mut offset = [0.0; 2];
-    if d < 0.0 && (0.0..side_mm).contains(&w) {
-        // Towards the edge: along `axis`, the way `d` grows.
-        offset[axis] = (t - profile_centroid_mm(w, side_mm)) * slope.signum();
-    }
-    offset
 }
 
 /// Refines the cells along the loaded cut cells of `coarse` (module docs) on `fine`; `gaps`
@@ -397,21 +366,19 @@ fn subcells(fine: &FineGrid, coarse: &Coarse<'_>, cells: &[usize]) -> Vec<Sub> {
             for a in 0..r {
                 let offset_mm =
                     [(a as f64 + 0.5) / r as f64 - 0.5, (b as f64 + 0.5) / r as f64 - 0.5].map(|o| o * grid.cell_mm);
-                let sub_cut = match cut {
-                    None => None,
-                    Some(c) => {
-                        let [d, da, db] = c.line;
-                        let d = d + da * offset_mm[0] + db * offset_mm[1];
-                        match Cut::of_half_plane(side, d / unit_mm, da, db) {
-                            Some(sub) => Some(sub),
-                            // Wholly past the edge.
-                            None if d > 0.0 => continue,
-                            None => None,
-                        }
-                    }
+                // The edge's line at the sub-cell's centre (the cell's own where it is cut).
+                let at = line.map(|[d, da, db]| (d + da * offset_mm[0] + db * offset_mm[1], [da, db]));
+                let sub_cut = match (cut, at) {
+                    (Some(_), Some((d, [da, db]))) => match Cut::of_half_plane(side, d / unit_mm, da, db) {
+                        Some(sub) => Some(sub),
+                        // Wholly past the edge.
+                        None if d > 0.0 => continue,
+                        None => None,
+                    },
+                    _ => None,
                 };
-                let offset_mm = match (sub_cut, line) {
-                    (None, Some(line)) => behind_edge_mm(line, offset_mm, grid.cell_mm / r as f64),
+                let offset_mm = match (sub_cut, at) {
+                    (None, Some((d, slope))) => behind_edge_mm(d, slope, grid.cell_mm / r as f64),
                     _ => [0.0; 2],
                 };
                 subs.push(Sub { at: (r * ci + a, r * cj + b), cell, cut: sub_cut, offset_mm });
@@ -526,31 +493,6 @@ mod tests {
 
     /// The refinement's sub-cell centres tile each cell of the coarse grid: they average to
     /// its centre, a sub-cell side apart.
-    /// The edge's profile behind a cut sub-cell continues the cut's: a whole sub-cell whose
-    /// side the edge barely misses takes its force where a cut one that barely misses being
-    /// whole does (a sixth of a side off its centre, a third of one from the edge), the next
-    /// one in stays at its centre, and a sub-cell past the edge or with the edge far stays too.
-    #[test]
-    fn the_profile_behind_the_edge_continues_the_cuts() {
-        let h = 0.4;
-        assert!((profile_centroid_mm(0.0, h) - h / 3.0).abs() < 1e-15);
-        // The edge `x = h / 2 + 1e-10` (the covered side at lower `x`, `d` growing along +x):
-        // just past the whole sub-cell's side, and just past a cut one's whole (the profile's
-        // centroid moves as the square root of the gap there: 2e-4 mm at 1e-6 mm).
-        let line = [-(0.5 * h + 1e-10), 1.0, 0.0];
-        let behind = behind_edge_mm(line, [0.0, 0.0], h);
-        let cut = Cut::of_half_plane(h, -(0.5 * h - 1e-6), 1.0, 0.0).expect("barely cut");
-        assert!((behind[0] - h / 6.0).abs() < 1e-5 && behind[1] == 0.0, "{behind:?}");
-        assert!((behind[0] - cut.load_point_mm()[0]).abs() < 1e-5, "{behind:?} {:?}", cut.load_point_mm());
-        // The same edge along `y`, the covered side at higher `y`: towards `-y`.
-        let down = behind_edge_mm([-(0.5 * h + 1e-10), 0.0, -1.0], [0.0, 0.0], h);
-        assert!((down[1] + h / 6.0).abs() < 1e-5 && down[0] == 0.0, "{down:?}");
-        // One sub-cell farther in (its side a whole side from the edge), past the edge, far.
-        assert_eq!(behind_edge_mm(line, [-h, 0.0], h), [0.0; 2]);
-        assert_eq!(behind_edge_mm(line, [h, 0.0], h), [0.0; 2]);
-        assert_eq!(behind_edge_mm(line, [-5.0 * h, 0.0], h), [0.0; 2]);
-    }
-
     #[test]
     fn subcells_tile_their_cell() {
         let grid = Grid { nx: 3, ny: 5, cell_mm: 2.0, centre_mm: [1.0, 0.5] };
