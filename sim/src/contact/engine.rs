@@ -802,11 +802,11 @@ impl<'a> Simulation<'a> {
             return None;
         }
         let scale_free = matches!(self.model.influence, Influence::HalfSpace(_));
-        let fine = self.model.fine_grids.get(grid, self.model.edge_subcells, scale_free, |g| self.model.operator(g));
+        let fine = || self.model.fine_grids.get(grid, self.model.edge_subcells, scale_free, |g| self.model.operator(g));
         let coarse = refine::Coarse { grid, pressure: &self.pressure, qx: &self.qx, qy: &self.qy, cuts: &self.cuts };
         let gaps =
             |points: &[[f64; 2]]| self.hits_at(pose, points.iter().map(|c| (*c, true))).iter().map(|h| h.gap).collect();
-        refine::refine(&fine, &coarse, gaps, &self.model.normal)
+        refine::refine(fine, &coarse, gaps, &self.model.normal)
     }
 
     /// The rays' hits at points of the contact plane (grid frame, mm; with whether each counts,
