@@ -69,6 +69,15 @@ pub fn rim_samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
         .collect()
 }
 
+/// The rates of the bench's first pass over its samples ([`BenchReport::first_pass`]).
+#[derive(Debug, Serialize)]
+pub struct FirstPass {
+    /// Taps per second on all threads.
+    pub tap_frames_per_s: f64,
+    /// Slides per second on all threads.
+    pub slide_samples_per_s: f64,
+}
+
 /// Time per stage of a tap, single thread (ms per frame).
 #[derive(Debug, Serialize)]
 pub struct Breakdown {
@@ -149,9 +158,9 @@ pub struct BenchReport {
     /// Slides per second on all threads (touch down 2.5 mm away, slide in 0.25 mm steps, capture
     /// pins and a 256x256 image), on a warm model as the taps.
     pub slide_samples_per_s: f64,
-    /// The first pass's rates: taps/s and slides/s with the model's kept tables (the fine grid
-    /// along edges, built once per grid shape) built on the way, as a run's first samples are.
-    pub first_pass_per_s: [f64; 2],
+    /// The same rates in the first pass over the samples, on a new model: with its first-use
+    /// costs, as a run's first samples have them ([`Rates`]).
+    pub first_pass: FirstPass,
     /// Mean contact cells of the taps.
     pub mean_contact_cells: f64,
     /// Hertz force error of the default grid.
@@ -302,13 +311,13 @@ pub fn disk_scene() -> Result<Scene> {
 
 /// Taps/s and slides/s on all threads, over the same samples several times.
 ///
-/// A model keeps tables it builds on first use (the fine grid of the sub-cells along an edge,
-/// once per grid shape: about 40 ms on one core at 25 cells), which a dataset's thousands of
-/// samples share but which were a quarter of the bench's 200 taps (issue 31: 1,085-1,131
-/// taps/s in one pass against 1,320-1,436 over 1,000 samples). The rates reported are the
-/// median of [`WARM_PASSES`] passes after the first, the rate a run holds (a pass of 200
-/// taps takes about 0.15 s, and this machine's speed swings by 15% within seconds); the first
-/// pass is kept beside them.
+/// A pass of 200 taps takes about 0.15 s on 2 threads, and a new model's first samples pay
+/// what a dataset's thousands share: the tables a model keeps (the fine grid of the sub-cells
+/// along an edge, once per grid shape: about 40 ms on one core at 25 cells), the first touches
+/// of the workers' memory. One pass read 1,085-1,131 taps/s where 1,000 samples read
+/// 1,320-1,436 (issue 31). The rates reported are the median of [`WARM_PASSES`] passes after
+/// the first, the rate a run holds (this machine's speed also swings by 15% within seconds);
+/// the first pass is kept beside them.
 struct Rates {
     /// `[taps/s, slides/s]`, the median of the warm passes.
     warm: [f64; 2],
@@ -476,7 +485,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
         cells_across: sensor.skin.cells_across,
         tap_frames_per_s: rates.warm[0],
         slide_samples_per_s: rates.warm[1],
-        first_pass_per_s: rates.first,
+        first_pass: FirstPass { tap_frames_per_s: rates.first[0], slide_samples_per_s: rates.first[1] },
         mean_contact_cells: rates.mean_contact_cells,
         hertz_force_rel_err: validate::hertz(sensor.skin.cells_across)?.force_rel_err,
         tap_breakdown,
@@ -662,9 +671,9 @@ impl BenchReport {
             self.edge_subcells,
             if self.cut_edges { "" } else { ", whole cells at edges (--no-edge-cuts)" },
             self.tap_frames_per_s,
-            self.first_pass_per_s[0],
+            self.first_pass.tap_frames_per_s,
             self.slide_samples_per_s,
-            self.first_pass_per_s[1],
+            self.first_pass.slide_samples_per_s,
             b.footprint_ms,
             b.solve_ms,
             b.pins_ms,

@@ -248,7 +248,14 @@ fn bench_json_reports_rates_breakdown_skips_and_curve() {
     let o = tacsim(&["bench", "--json", "--samples", "4", "--cells", "9", "--plot", plot.to_str().expect("utf-8")]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
-    for key in ["/tap_frames_per_s", "/slide_samples_per_s", "/tap_breakdown/solve_ms", "/tap_breakdown/pins_ms"] {
+    for key in [
+        "/tap_frames_per_s",
+        "/slide_samples_per_s",
+        "/first_pass/tap_frames_per_s",
+        "/first_pass/slide_samples_per_s",
+        "/tap_breakdown/solve_ms",
+        "/tap_breakdown/pins_ms",
+    ] {
         assert!(v.pointer(key).and_then(|x| x.as_f64()).is_some_and(|x| x > 0.0), "{key}");
     }
     assert_eq!(v["cells_across"], 9);
