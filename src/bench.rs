@@ -69,9 +69,9 @@ pub fn rim_samples(n: usize, seed: u64) -> Vec<(SensorPose, [f64; 2])> {
         .collect()
 }
 
-/// The rates of the bench's first pass over its samples ([`BenchReport::first_pass`]).
-#[derive(Debug, Serialize)]
-pub struct FirstPass {
+/// The rates of one pass over the bench's samples ([`BenchReport::first_pass`]).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct PassRates {
     /// Taps per second on all threads.
     pub tap_frames_per_s: f64,
     /// Slides per second on all threads.
@@ -160,7 +160,7 @@ pub struct BenchReport {
     pub slide_samples_per_s: f64,
     /// The same rates in the first pass over the samples, on a new model: with its first-use
     /// costs, as a run's first samples have them ([`Rates`]).
-    pub first_pass: FirstPass,
+    pub first_pass: PassRates,
     /// Mean contact cells of the taps.
     pub mean_contact_cells: f64,
     /// Hertz force error of the default grid.
@@ -319,10 +319,10 @@ pub fn disk_scene() -> Result<Scene> {
 /// the first, the rate a run holds (this machine's speed also swings by 15% within seconds);
 /// the first pass is kept beside them.
 struct Rates {
-    /// `[taps/s, slides/s]`, the median of the warm passes.
-    warm: [f64; 2],
-    /// `[taps/s, slides/s]`, the first pass (taps first, on a new model).
-    first: [f64; 2],
+    /// Each rate's median over the warm passes.
+    warm: PassRates,
+    /// The first pass (taps first, on a new model).
+    first: PassRates,
     mean_contact_cells: f64,
 }
 
@@ -336,18 +336,23 @@ impl Rates {
         renderer: &PinRenderer,
         poses: &[(SensorPose, [f64; 2])],
     ) -> Result<Self> {
-        let pass = || -> Result<([f64; 2], f64)> {
-            let (taps, cells) = tap_rate(model, scene, renderer, poses)?;
-            Ok(([taps, slide_rate(model, scene, renderer, poses, STEP_MM)?], cells))
+        let pass = || -> Result<(PassRates, f64)> {
+            let (tap_frames_per_s, cells) = tap_rate(model, scene, renderer, poses)?;
+            let slide_samples_per_s = slide_rate(model, scene, renderer, poses, STEP_MM)?;
+            Ok((PassRates { tap_frames_per_s, slide_samples_per_s }, cells))
         };
         let (first, mean_contact_cells) = pass()?;
-        let warm: Vec<[f64; 2]> = (0..WARM_PASSES).map(|_| Ok(pass()?.0)).collect::<Result<_>>()?;
-        let median = |i: usize| {
-            let mut v: Vec<f64> = warm.iter().map(|r| r[i]).collect();
+        let warm: Vec<PassRates> = (0..WARM_PASSES).map(|_| Ok(pass()?.0)).collect::<Result<_>>()?;
+        let median = |rate: fn(&PassRates) -> f64| {
+            let mut v: Vec<f64> = warm.iter().map(rate).collect();
             v.sort_by(f64::total_cmp);
             v[v.len() / 2]
         };
-        Ok(Self { warm: [median(0), median(1)], first, mean_contact_cells })
+        let warm = PassRates {
+            tap_frames_per_s: median(|r| r.tap_frames_per_s),
+            slide_samples_per_s: median(|r| r.slide_samples_per_s),
+        };
+        Ok(Self { warm, first, mean_contact_cells })
     }
 }
 
@@ -483,9 +488,9 @@ pub fn run(o: &BenchOptions) -> Result<String> {
         cut_edges: sensor.skin.cut_edges,
         edge_subcells: sensor.skin.edge_subcells,
         cells_across: sensor.skin.cells_across,
-        tap_frames_per_s: rates.warm[0],
-        slide_samples_per_s: rates.warm[1],
-        first_pass: FirstPass { tap_frames_per_s: rates.first[0], slide_samples_per_s: rates.first[1] },
+        tap_frames_per_s: rates.warm.tap_frames_per_s,
+        slide_samples_per_s: rates.warm.slide_samples_per_s,
+        first_pass: rates.first,
         mean_contact_cells: rates.mean_contact_cells,
         hertz_force_rel_err: validate::hertz(sensor.skin.cells_across)?.force_rel_err,
         tap_breakdown,

@@ -269,8 +269,8 @@ fn edge_line(coarse: &Coarse<'_>, cell: usize) -> Option<[f64; 3]> {
 /// for only where a cell is refined: a contact with cut cells but none loaded (a flat press
 /// whose footprint reaches the dome's steep rim) builds no fine operator (issue 31: 150 M
 /// instructions, once per grid shape, that a run of flat taps never used).
-pub(crate) fn refine<F: std::ops::Deref<Target = FineGrid>>(
-    fine: impl FnOnce() -> F,
+pub(crate) fn refine(
+    fine: impl FnOnce() -> std::sync::Arc<FineGrid>,
     coarse: &Coarse<'_>,
     gaps: impl FnOnce(&[[f64; 2]]) -> Vec<f64>,
     settings: &NormalSettings,
@@ -479,7 +479,12 @@ mod tests {
     fn a_refinement_that_does_not_converge_leaves_the_coarse_placement() {
         let (n, r) = (3, 3);
         let grid = Grid { nx: n, ny: n, cell_mm: 1.0, centre_mm: [0.0; 2] };
-        let fine = FineGrid::new(n, n, r, half_space(Grid { nx: r * n, ny: r * n, cell_mm: 1.0, centre_mm: [0.0; 2] }));
+        let fine = std::sync::Arc::new(FineGrid::new(
+            n,
+            n,
+            r,
+            half_space(Grid { nx: r * n, ny: r * n, cell_mm: 1.0, centre_mm: [0.0; 2] }),
+        ));
         // Every cell loaded, the middle one cut by an edge at a slant.
         let pressure = vec![0.1; n * n];
         let shear = vec![0.0; n * n];
@@ -490,9 +495,9 @@ mod tests {
         // A dome's gap: deeper towards the centre.
         let gaps = |points: &[[f64; 2]]| points.iter().map(|[x, y]| 0.02 * (x * x + y * y) - 0.05).collect();
         let converged = NormalSettings::default();
-        assert!(refine(|| &fine, &coarse, gaps, &converged).is_some());
+        assert!(refine(|| fine.clone(), &coarse, gaps, &converged).is_some());
         let one = NormalSettings { max_iterations: 1, ..converged };
-        assert_eq!(refine(|| &fine, &coarse, gaps, &one), None);
+        assert_eq!(refine(|| fine.clone(), &coarse, gaps, &one), None);
     }
 
     /// The refinement's sub-cell centres tile each cell of the coarse grid: they average to
