@@ -22,9 +22,13 @@
 //!   the grids' pins grouped as the bench's and the datasets' are, or every cell on every pin
 //!   with `--exact` (the reference always).
 
+#[allow(dead_code)] // `support::whole` is the timing examples' argument reader.
+mod support;
+
 use rayon::prelude::*;
+use support::{disk_scene, model_at};
 use tacsim_sim::contact::{ContactModel, Footprint, Simulation};
-use tacsim_sim::{ObjectPose, PinPose, Scene, SensorParams, SensorPose};
+use tacsim_sim::{PinPose, Scene, SensorPose};
 
 /// The disk's rim (world `x`, mm).
 const RIM_X_MM: f64 = 50.0;
@@ -70,14 +74,6 @@ fn number(s: &str) -> Result<f64, String> {
     s.trim().parse().map_err(|_| format!("`{s}` is not a number"))
 }
 
-/// The calibrated default sensor's contact model at `cells` cells across the footprint.
-fn model_at(cells: usize) -> Result<ContactModel, Box<dyn std::error::Error>> {
-    let mut sensor = SensorParams::default();
-    sensor.skin.cells_across = cells;
-    sensor.validate("CELLS")?;
-    Ok(ContactModel::new(&sensor))
-}
-
 /// The footprint of a tap at `pose`, its grid shifted to put the rim at `at` of its cell.
 fn footprint(model: &ContactModel, scene: &Scene, pose: SensorPose, at: Option<f64>) -> Footprint {
     let mut fp = Footprint::of_path(model, scene, &[pose]);
@@ -115,9 +111,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let usage = "usage: edge_place sweep DEPTH X[,X...] CELLS[,...] [REFERENCE[@F]] | \
                  edge_place taps REFERENCE[@F] CELLS[,...] F[,...] [TAPS] [--exact]";
     let arg = |i: usize| args.get(i).map(String::as_str).ok_or(usage);
-    let catalogue = tacsim_sim::builtin_catalogue()?;
-    let mut scene = Scene::new();
-    scene.add(catalogue.get("disk")?, ObjectPose::default())?;
+    let scene = disk_scene()?;
     match arg(0)? {
         "sweep" => {
             let depth = number(arg(1)?)?;

@@ -1,4 +1,4 @@
-//! What the timing examples share (`tap_solves`, `slide_solves`): their arguments, the
+//! What the examples share (`tap_solves`, `slide_solves`, `edge_place`): their arguments, the
 //! bench's scene and the contact model at a grid.
 
 use tacsim_sim::contact::ContactModel;
