@@ -1,7 +1,8 @@
 //! The bench's slide (`tacsim bench`: 2.5 mm in 0.25 mm steps, pins at the end) run many
 //! times in a row on one thread, for timing a change with the shell's `time` where the bench's
-//! runs spread too far on a noisy machine (issue 31): each step's contact cells and normal
-//! and tangential iterations, then `REPEATS` more runs of the whole slide.
+//! runs spread too far on a noisy machine (issue 31): each step's contact cells, normal and
+//! tangential iterations and a hash of its tractions' bits, then `REPEATS` more runs of the
+//! whole slide.
 //!
 //! ```text
 //! cargo run --release -p tacsim-sim --example slide_solves -- [CELLS] [REPEATS]
@@ -26,9 +27,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (i, pose) in poses.iter().enumerate() {
             let r = sim.step(*pose)?;
             if report {
+                let (contact, normal, tangential) = (r.contact_cells, r.normal_iterations, r.tangential_iterations);
+                let (qx, qy) = sim.shear();
+                let hash = sim.pressure().iter().chain(qx).chain(qy).fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits());
                 println!(
-                    "step {i}, {cells} cells: {} in contact, iterations normal {} tangential {}",
-                    r.contact_cells, r.normal_iterations, r.tangential_iterations
+                    "step {i}, {cells} cells: {contact} in contact, iterations normal {normal} tangential {tangential}, \
+                     tractions' hash {hash:016x}"
                 );
             }
         }
