@@ -377,7 +377,7 @@ fn a_tap_through_the_contact_matrices_equals_one_through_fft_products() {
     assert!(shift < 1e-6, "pins {shift} mm apart");
 }
 
-/// The engine's default tolerances (normal 1e-5, tangential 1e-4, the coupling rounds stopped
+/// The engine's default tolerances (normal 3e-5, tangential 3e-4, the coupling rounds stopped
 /// once one moves the shear by less than the tangential tolerance of the pressure's sum) keep
 /// every pin within 1e-4 mm of the same paths solved tightly (1e-10, 1e-9, rounds until they
 /// move the shear by less than 1e-9 of the pressure's sum): a tap on the disk's top and a
