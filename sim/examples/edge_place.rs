@@ -22,7 +22,7 @@
 //!   the grids' pins grouped as the bench's and the datasets' are, or every cell on every pin
 //!   with `--exact` (the reference always).
 
-#[allow(dead_code)] // `support::whole` is the timing examples' argument reader.
+#[allow(dead_code)] // `support::whole` and `support::tractions_hash` serve the timing examples.
 mod support;
 
 use rayon::prelude::*;

@@ -28,8 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let r = sim.step(*pose)?;
             if report {
                 let (contact, normal, tangential) = (r.contact_cells, r.normal_iterations, r.tangential_iterations);
-                let (qx, qy) = sim.shear();
-                let hash = sim.pressure().iter().chain(qx).chain(qy).fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits());
+                let hash = support::tractions_hash(&sim);
                 println!(
                     "step {i}, {cells} cells: {contact} in contact, iterations normal {normal} tangential {tangential}, \
                      tractions' hash {hash:016x}"

@@ -32,9 +32,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut sim = Simulation::new(&model, &scene, &[pose]);
         let report = sim.step(pose)?.clone();
         std::hint::black_box(sim.refined_cells());
-        let (qx, qy) = sim.shear();
         let [normal, shear] = sim.matrix_counts();
-        let hash = sim.pressure().iter().chain(qx).chain(qy).fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits());
+        let hash = support::tractions_hash(&sim);
         println!(
             "{name}, {cells} cells: {} in contact, iterations normal {} tangential {}, matrices built / reused \
              normal {normal:?} shear {shear:?}, tractions' hash {hash:016x}",

@@ -1,7 +1,7 @@
 //! What the examples share (`tap_solves`, `slide_solves`, `edge_place`): their arguments, the
-//! bench's scene and the contact model at a grid.
+//! bench's scene, the contact model at a grid and a hash of a state's tractions.
 
-use tacsim_sim::contact::ContactModel;
+use tacsim_sim::contact::{ContactModel, Simulation};
 use tacsim_sim::{ObjectPose, Scene, SensorParams};
 
 /// Argument `i` (from 0) as a whole number, `default` where it is absent.
@@ -24,4 +24,11 @@ pub fn model_at(cells: usize) -> Result<ContactModel, Box<dyn std::error::Error>
     sensor.skin.cells_across = cells;
     sensor.validate("CELLS")?;
     Ok(ContactModel::new(&sensor))
+}
+
+/// A hash of the bits of the pressure and the shear tractions of `sim`'s state: the same bits
+/// on every grid cell, the same hash (for telling a change that keeps the results' bits).
+pub fn tractions_hash(sim: &Simulation<'_>) -> u64 {
+    let (qx, qy) = sim.shear();
+    sim.pressure().iter().chain(qx).chain(qy).fold(0u64, |h, v| h.rotate_left(5) ^ v.to_bits())
 }
