@@ -44,15 +44,19 @@ impl Fft2 {
         (self.m / 2 + 1) * self.n
     }
 
-    /// Forward transform of `input` (`m * n` values, row by row) into a new spectrum.
+    /// Forward transform of the `m x n` array whose first `input.len() / m` rows are `input`
+    /// (row by row; all `n` at most) and whose other rows are zero, into a new spectrum. The
+    /// zero rows' row transforms are zero and are skipped: a zero-padded operator product's
+    /// input has nonzero rows in its first half only, so its row transforms halve (issue 31).
     pub fn forward(&self, input: &[f64]) -> Vec<Complex64> {
+        assert!(input.len() % self.m == 0 && input.len() <= self.m * self.n, "rows of a {}-wide FFT input", self.m);
         let half = self.m / 2 + 1;
         let mut spectrum = vec![Complex64::new(0.0, 0.0); half * self.n];
         let mut row = vec![0.0; self.m];
         let mut row_out = vec![Complex64::new(0.0, 0.0); half];
         let mut scratch = self.r2c.make_scratch_vec();
-        for y in 0..self.n {
-            row.copy_from_slice(&input[y * self.m..(y + 1) * self.m]);
+        for (y, values) in input.chunks_exact(self.m).enumerate() {
+            row.copy_from_slice(values);
             // Lengths are right by construction; realfft only fails on wrong lengths.
             let _ = self.r2c.process_with_scratch(&mut row, &mut row_out, &mut scratch);
             for (kx, v) in row_out.iter().enumerate() {
@@ -63,16 +67,18 @@ impl Fft2 {
         spectrum
     }
 
-    /// Inverse transform of `spectrum` (consumed) into `out` (`m * n` values), normalised so that
-    /// `inverse(forward(a)) == a`.
+    /// The first `out.len() / m` rows (all `n` at most) of the inverse transform of `spectrum`
+    /// (consumed), row by row into `out`, normalised so that `inverse(forward(a)) == a`. The
+    /// other rows' row transforms are skipped: a zero-padded product reads its first half only.
     pub fn inverse(&self, mut spectrum: Vec<Complex64>, out: &mut [f64]) {
+        assert!(out.len() % self.m == 0 && out.len() <= self.m * self.n, "rows of a {}-wide FFT output", self.m);
         let half = self.m / 2 + 1;
         self.inverse.process(&mut spectrum);
         let scale = 1.0 / (self.m * self.n) as f64;
         let mut row_in = vec![Complex64::new(0.0, 0.0); half];
         let mut row = vec![0.0; self.m];
         let mut scratch = self.c2r.make_scratch_vec();
-        for y in 0..self.n {
+        for (y, values) in out.chunks_exact_mut(self.m).enumerate() {
             for (kx, v) in row_in.iter_mut().enumerate() {
                 *v = spectrum[kx * self.n + y] * scale;
             }
@@ -81,7 +87,7 @@ impl Fft2 {
             row_in[0].im = 0.0;
             row_in[half - 1].im = 0.0;
             let _ = self.c2r.process_with_scratch(&mut row_in, &mut row, &mut scratch);
-            out[y * self.m..(y + 1) * self.m].copy_from_slice(&row);
+            values.copy_from_slice(&row);
         }
     }
 }
@@ -89,6 +95,22 @@ impl Fft2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn transforms_by_rows_equal_the_whole_ones() {
+        let (m, n) = (8, 6);
+        let f = Fft2::new(m, n);
+        let rows: Vec<f64> = (0..m * 3).map(|k| ((k * 29 % 13) as f64) - 6.0).collect();
+        let mut whole = rows.clone();
+        whole.resize(m * n, 0.0);
+        let (a, b) = (f.forward(&rows), f.forward(&whole));
+        assert_eq!(a, b, "the zero rows' transforms are zero");
+        let mut all = vec![0.0; m * n];
+        f.inverse(b.clone(), &mut all);
+        let mut first = vec![0.0; m * 3];
+        f.inverse(b, &mut first);
+        assert_eq!(first[..], all[..m * 3]);
+    }
 
     #[test]
     fn round_trip_and_circular_convolution() {

@@ -230,10 +230,12 @@ pub struct Operator {
     /// Per component, coefficient per offset (mm/MPa).
     coefficients: [Vec<f64>; 8],
     /// The same with `dx` mirrored (`A(-dx, dy)` at the place of `(dx, dy)`), so that a row of
-    /// sources is a forward, contiguous slice of the table.
-    mirrored: [Vec<f64>; 8],
-    /// [`Operator::mirrored`] rounded to `f32`, for [`Product::DenseSingle`].
-    mirrored_single: [Vec<f32>; 8],
+    /// sources is a forward, contiguous slice of the table; made on a component's first dense
+    /// product ([`Operator::mirrored`]): a path's operator is built per sample and most use
+    /// a few components densely, if any (issue 31).
+    mirrored: [OnceLock<Vec<f64>>; 8],
+    /// [`Operator::mirrored`] rounded to `f32`, for [`Product::DenseSingle`], made likewise.
+    mirrored_single: [OnceLock<Vec<f32>>; 8],
     /// [`Operator::checkerboard`] (mm/MPa).
     checkerboard: f64,
     /// Per component, its spectrum on the padded grid: the unit tables' spectra combined
@@ -263,8 +265,6 @@ impl Operator {
         let factors = model.factors().map(|f| f * grid.cell_mm);
         let coefficients: [Vec<f64>; 8] =
             Component::ALL.map(|c| tables.values.iter().map(|t| Self::combine(factors, c, t)).collect());
-        let mirrored = Self::mirror(&grid, &coefficients);
-        let mirrored_single = Self::single(&mirrored);
         let checkerboard = Self::checkerboard_of(&grid, &coefficients);
         let spectra = Arc::new(std::array::from_fn(|_| OnceLock::new()));
         Self {
@@ -273,8 +273,8 @@ impl Operator {
             factors,
             correction: None,
             coefficients,
-            mirrored,
-            mirrored_single,
+            mirrored: Default::default(),
+            mirrored_single: Default::default(),
             checkerboard,
             spectra,
             normal_stencil: Arc::new(OnceLock::new()),
@@ -326,29 +326,23 @@ impl Operator {
                 *a += b;
             }
         }
-        op.mirrored = Self::mirror(&grid, &op.coefficients);
-        op.mirrored_single = Self::single(&op.mirrored);
         op.checkerboard = Self::checkerboard_of(&grid, &op.coefficients);
         op.correction = Some(Arc::new(Correction { coefficients: corr, spectra: OnceLock::new() }));
         op
     }
 
-    fn mirror(grid: &Grid, coefficients: &[Vec<f64>; 8]) -> [Vec<f64>; 8] {
-        let wx = 2 * grid.nx - 1;
-        coefficients.clone().map(|table| {
-            let mut m = table.clone();
-            for (row, out) in table.chunks(wx).zip(m.chunks_mut(wx)) {
-                for (o, v) in out.iter_mut().zip(row.iter().rev()) {
-                    *o = *v;
-                }
-            }
-            m
+    /// Component `c`'s table with `dx` mirrored ([`Operator::mirrored`]'s field), made on
+    /// first use.
+    fn mirrored(&self, c: Component) -> &[f64] {
+        self.mirrored[c as usize].get_or_init(|| {
+            let wx = 2 * self.grid.nx - 1;
+            self.coefficients[c as usize].chunks(wx).flat_map(|row| row.iter().rev().copied()).collect()
         })
     }
 
-    /// The tables rounded to `f32`.
-    fn single(tables: &[Vec<f64>; 8]) -> [Vec<f32>; 8] {
-        tables.clone().map(|t| t.iter().map(|v| *v as f32).collect())
+    /// [`Operator::mirrored`] rounded to `f32`, made on first use.
+    fn mirrored_single(&self, c: Component) -> &[f32] {
+        self.mirrored_single[c as usize].get_or_init(|| self.mirrored(c).iter().map(|v| *v as f32).collect())
     }
 
     /// The in-plane blocks' symbol at the grid's highest frequency, `sum_d A(d) (-1)^(dx + dy)`
@@ -469,15 +463,21 @@ impl Operator {
     /// `out = sum_k A_{c_k} t_k` for the given terms (each a grid field in MPa), in mm.
     pub fn apply(&self, terms: &[(Component, &[f64])], out: &mut [f64], product: Product<'_>) {
         match product {
-            Product::Dense { src, dst } => self.apply_dense(&self.mirrored, terms, out, src, dst),
-            Product::DenseSingle { src, dst } => self.apply_dense(&self.mirrored_single, terms, out, src, dst),
+            Product::Dense { src, dst } => {
+                let tables: Vec<&[f64]> = terms.iter().map(|(c, _)| self.mirrored(*c)).collect();
+                self.apply_dense(&tables, terms, out, src, dst)
+            }
+            Product::DenseSingle { src, dst } => {
+                let tables: Vec<&[f32]> = terms.iter().map(|(c, _)| self.mirrored_single(*c)).collect();
+                self.apply_dense(&tables, terms, out, src, dst)
+            }
             Product::Fft => self.apply_fft(terms, out),
         }
     }
 
     fn apply_dense<T: Coefficient>(
         &self,
-        tables: &[Vec<T>; 8],
+        tables: &[&[T]],
         terms: &[(Component, &[f64])],
         out: &mut [f64],
         src: &[usize],
@@ -509,7 +509,7 @@ impl Operator {
         // Compiled for each vector unit ([`pulp::WithSimd`]): plain multiplies and adds in
         // the same order on every one (Rust never fuses them), so the same bits, on AVX2 eight
         // `f32` lanes an instruction where the baseline build has four.
-        let sums = DenseSums { nx: self.grid.nx, ny: self.grid.ny, tables, terms, values: &values, runs: &runs };
+        let sums = DenseSums { nx: self.grid.nx, ny: self.grid.ny, tables, values: &values, runs: &runs };
         pulp::Arch::new().dispatch(DenseTargets { sums, targets: &targets, out });
     }
 
@@ -522,7 +522,9 @@ impl Operator {
         let (nx, ny) = (self.grid.nx, self.grid.ny);
         let m = 2 * nx;
         let mut acc = vec![Complex64::new(0.0, 0.0); fft.spectrum_len()];
-        let mut padded = vec![0.0; m * 2 * ny];
+        // The padded input's rows past `ny` are zero and its output's are not read: the
+        // transforms skip their row transforms (`Fft2::forward`, `Fft2::inverse`).
+        let mut padded = vec![0.0; m * ny];
         for &(c, t) in terms {
             for j in 0..ny {
                 padded[j * m..j * m + nx].copy_from_slice(&t[j * nx..(j + 1) * nx]);
@@ -546,7 +548,7 @@ impl Operator {
                 }
             }
         }
-        let mut full = vec![0.0; m * 2 * ny];
+        let mut full = vec![0.0; m * ny];
         fft.inverse(acc, &mut full);
         for j in 0..ny {
             out[j * nx..(j + 1) * nx].copy_from_slice(&full[j * m..j * m + nx]);
@@ -555,14 +557,13 @@ impl Operator {
 }
 
 /// What a dense product's sums read ([`Operator::apply`]'s `Dense` products): the grid's
-/// shape, the mirrored tables, the terms' components, their values on the sorted sources, and
-/// the sources' runs (row, first column, length, start in `values`).
+/// shape, the terms' mirrored tables, their values on the sorted sources, and the sources'
+/// runs (row, first column, length, start in `values`).
 #[derive(Clone, Copy)]
 struct DenseSums<'a, T> {
     nx: usize,
     ny: usize,
-    tables: &'a [Vec<T>; 8],
-    terms: &'a [(Component, &'a [f64])],
+    tables: &'a [&'a [T]],
     values: &'a [Vec<T>],
     runs: &'a [(usize, usize, usize, usize)],
 }
@@ -576,8 +577,7 @@ impl<T: Coefficient> DenseSums<'_, T> {
         let wx = 2 * nx - 1;
         let (di, dj) = (d % nx, d / nx);
         let mut acc = [T::default(); L];
-        for ((c, _), vals) in self.terms.iter().zip(self.values) {
-            let coef = &self.tables[*c as usize];
+        for (coef, vals) in self.tables.iter().zip(self.values) {
             for &(sj, i0, len, start) in self.runs {
                 // The window of the last cell (m = L - 1) starts at `at >= 0`: it is a field
                 // cell of the grid, so its offset to every source is in the table.
@@ -603,8 +603,7 @@ impl<T: Coefficient> DenseSums<'_, T> {
         let wx = 2 * nx - 1;
         let (di, dj) = (d % nx, d / nx);
         let mut sum = T::default();
-        for ((c, _), vals) in self.terms.iter().zip(self.values) {
-            let coef = &self.tables[*c as usize];
+        for (coef, vals) in self.tables.iter().zip(self.values) {
             for &(sj, i0, len, start) in self.runs {
                 let at = (dj + ny - 1 - sj) * wx + i0 + nx - 1 - di;
                 let row = &coef[at..at + len];
