@@ -49,7 +49,11 @@ impl Fft2 {
     /// zero rows' row transforms are zero and are skipped: a zero-padded operator product's
     /// input has nonzero rows in its first half only, so its row transforms halve (issue 31).
     pub fn forward(&self, input: &[f64]) -> Vec<Complex64> {
-        assert!(input.len() % self.m == 0 && input.len() <= self.m * self.n, "rows of a {}-wide FFT input", self.m);
+        assert!(
+            input.len().is_multiple_of(self.m) && input.len() <= self.m * self.n,
+            "rows of a {}-wide FFT input",
+            self.m
+        );
         let half = self.m / 2 + 1;
         let mut spectrum = vec![Complex64::new(0.0, 0.0); half * self.n];
         let mut row = vec![0.0; self.m];
@@ -71,7 +75,11 @@ impl Fft2 {
     /// (consumed), row by row into `out`, normalised so that `inverse(forward(a)) == a`. The
     /// other rows' row transforms are skipped: a zero-padded product reads its first half only.
     pub fn inverse(&self, mut spectrum: Vec<Complex64>, out: &mut [f64]) {
-        assert!(out.len() % self.m == 0 && out.len() <= self.m * self.n, "rows of a {}-wide FFT output", self.m);
+        assert!(
+            out.len().is_multiple_of(self.m) && out.len() <= self.m * self.n,
+            "rows of a {}-wide FFT output",
+            self.m
+        );
         let half = self.m / 2 + 1;
         self.inverse.process(&mut spectrum);
         let scale = 1.0 / (self.m * self.n) as f64;
