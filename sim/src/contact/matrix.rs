@@ -207,7 +207,7 @@ fn symmetric<const B: usize>(blocks: &[[Component; B]]) -> bool {
 
 /// The panels of `op`'s `blocks` on `cells` ([`CellMatrix::new`]), each coefficient as `T`;
 /// with `lower`, each panel's columns only up to the end of its own rows ([`Panels::Lower`]).
-fn gather<T: Coefficient, const B: usize>(
+fn gather<T: Gathered, const B: usize>(
     op: &Operator,
     blocks: &[[Component; B]],
     cells: &[usize],
@@ -231,7 +231,7 @@ fn gather<T: Coefficient, const B: usize>(
     // missing rows as zeros. A panel's lanes that are cells side by side in a grid row
     // read one component at consecutive places of its table: each such segment of a
     // column is one slice copy (issue 31: a third of the build's time on a `paper` pose).
-    let mut segments: Vec<(&[f64], usize, usize)> = Vec::new(); // (table, first place, lanes)
+    let mut segments: Vec<(&[T], usize, usize)> = Vec::new(); // (table, first place, lanes)
     for p in 0..panel_count {
         let lanes = p * LANES..((p + 1) * LANES).min(rows);
         let columns = columns_of(p);
@@ -240,7 +240,7 @@ fn gather<T: Coefficient, const B: usize>(
             let sources = &source_at[..columns.saturating_sub(b * m).min(m)];
             segments.clear();
             for r in lanes.clone() {
-                let (table, at) = (op.table(blocks[r / m][b]), field_at[r % m]);
+                let (table, at) = (T::table(op, blocks[r / m][b]), field_at[r % m]);
                 match segments.last_mut() {
                     Some((t, first, len)) if std::ptr::eq(*t, table) && *first + *len == at => *len += 1,
                     _ => segments.push((table, at, 1)),
@@ -248,13 +248,32 @@ fn gather<T: Coefficient, const B: usize>(
             }
             for &src in sources {
                 for &(table, first, len) in &segments {
-                    T::extend(&mut panels, &table[first - src..first - src + len]);
+                    panels.extend_from_slice(&table[first - src..first - src + len]);
                 }
                 panels.extend(std::iter::repeat_n(T::default(), LANES - lanes.len()));
             }
         });
     }
     panels
+}
+
+/// A matrix coefficient's type and the operator's tables in it ([`gather`] copies slices
+/// of them).
+trait Gathered: Coefficient {
+    /// Component `c`'s table of `op` in this type.
+    fn table(op: &Operator, c: Component) -> &[Self];
+}
+
+impl Gathered for f64 {
+    fn table(op: &Operator, c: Component) -> &[Self] {
+        op.table(c)
+    }
+}
+
+impl Gathered for f32 {
+    fn table(op: &Operator, c: Component) -> &[Self] {
+        op.table_single(c)
+    }
 }
 
 /// Products of an operator's blocks on one fixed cell set, on packed vectors (component block

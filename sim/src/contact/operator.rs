@@ -236,6 +236,9 @@ pub struct Operator {
     mirrored: [OnceLock<Vec<f64>>; 8],
     /// [`Operator::mirrored`] rounded to `f32`, for [`Product::DenseSingle`], made likewise.
     mirrored_single: [OnceLock<Vec<f32>>; 8],
+    /// The coefficients rounded to `f32`, for the single-precision cell matrices
+    /// ([`Operator::table_single`]), made on a component's first matrix.
+    single: [OnceLock<Vec<f32>>; 8],
     /// [`Operator::checkerboard`] (mm/MPa).
     checkerboard: f64,
     /// Per component, its spectrum on the padded grid: the unit tables' spectra combined
@@ -275,6 +278,7 @@ impl Operator {
             coefficients,
             mirrored: Default::default(),
             mirrored_single: Default::default(),
+            single: Default::default(),
             checkerboard,
             spectra,
             normal_stencil: Arc::new(OnceLock::new()),
@@ -409,6 +413,13 @@ impl Operator {
     /// `(-(nx - 1), -(ny - 1))`: offset `(dx, dy)` at `(dy + ny - 1) (2 nx - 1) + dx + nx - 1`.
     pub(crate) fn table(&self, c: Component) -> &[f64] {
         &self.coefficients[c as usize]
+    }
+
+    /// [`Operator::table`] rounded to `f32` (each coefficient `v as f32`, as a matrix built
+    /// from the double table rounds it), made on first use: a single-precision cell matrix
+    /// copies its coefficients instead of rounding each one it gathers (issue 31).
+    pub(crate) fn table_single(&self, c: Component) -> &[f32] {
+        self.single[c as usize].get_or_init(|| self.table(c).iter().map(|v| *v as f32).collect())
     }
 
     /// The even kernels' unit-cell integrals ([`Kernel::ALL`]'s first four, in cell units) at

@@ -52,10 +52,6 @@ pub(super) trait Coefficient:
     fn of(v: f64) -> Self;
     /// Widened to `f64`.
     fn wide(self) -> f64;
-    /// Appends `from` (an operator's tables) to `panels`, each rounded to `Self`.
-    fn extend(panels: &mut Vec<Self>, from: &[f64]) {
-        panels.extend(from.iter().map(|&v| Self::of(v)));
-    }
 }
 
 impl Coefficient for f64 {
@@ -64,11 +60,6 @@ impl Coefficient for f64 {
     }
     fn wide(self) -> f64 {
         self
-    }
-    fn extend(panels: &mut Vec<Self>, from: &[f64]) {
-        // A slice copy: element by element, the sub-cells' solves (a matrix built for each)
-        // took 60 M more instructions on a `paper` pose (+1.6%).
-        panels.extend_from_slice(from);
     }
 }
 
