@@ -234,7 +234,8 @@ pub struct Operator {
     /// product ([`Operator::mirrored`]): a path's operator is built per sample and most use
     /// a few components densely, if any (issue 31).
     mirrored: [OnceLock<Vec<f64>>; 8],
-    /// [`Operator::mirrored`] rounded to `f32`, for [`Product::DenseSingle`], made likewise.
+    /// The same in `f32` ([`Operator::table_single`] mirrored), for [`Product::DenseSingle`],
+    /// made likewise.
     mirrored_single: [OnceLock<Vec<f32>>; 8],
     /// The coefficients rounded to `f32`, for the single-precision cell matrices
     /// ([`Operator::table_single`]), made on a component's first matrix.
@@ -338,15 +339,20 @@ impl Operator {
     /// Component `c`'s table with `dx` mirrored ([`Operator::mirrored`]'s field), made on
     /// first use.
     fn mirrored(&self, c: Component) -> &[f64] {
-        self.mirrored[c as usize].get_or_init(|| {
-            let wx = 2 * self.grid.nx - 1;
-            self.coefficients[c as usize].chunks(wx).flat_map(|row| row.iter().rev().copied()).collect()
-        })
+        self.mirrored[c as usize].get_or_init(|| self.mirror(self.table(c)))
     }
 
-    /// [`Operator::mirrored`] rounded to `f32`, made on first use.
+    /// [`Operator::mirrored`] in `f32`: [`Operator::table_single`] mirrored (rounding and
+    /// mirroring commute), made on first use.
     fn mirrored_single(&self, c: Component) -> &[f32] {
-        self.mirrored_single[c as usize].get_or_init(|| self.mirrored(c).iter().map(|v| *v as f32).collect())
+        self.mirrored_single[c as usize].get_or_init(|| self.mirror(self.table_single(c)))
+    }
+
+    /// A table (row-major over the offsets, [`Operator::table`]) with each row reversed:
+    /// `A(-dx, dy)` at the place of `(dx, dy)`.
+    fn mirror<T: Copy>(&self, table: &[T]) -> Vec<T> {
+        let wx = 2 * self.grid.nx - 1;
+        table.chunks(wx).flat_map(|row| row.iter().rev().copied()).collect()
     }
 
     /// The in-plane blocks' symbol at the grid's highest frequency, `sum_d A(d) (-1)^(dx + dy)`
