@@ -8,7 +8,8 @@
 //! to an edge are solved again at `r x r` sub-cells each (the sensor's `skin.edge_subcells`,
 //! [`crate::sensor::SkinParams::edge_subcells`], 3 by default), with the coarse
 //! solution around them held (a global-local step):
-//! - the refined cells: every loaded cell that is cut or shares a side with a loaded cut cell;
+//! - the refined cells: every loaded cell within [`BAND_CELLS`] cells of a loaded cut cell
+//!   (diagonals included);
 //! - each sub-cell's initial gap is its own ray's (the engine's rays, at the sub-cell's
 //!   centre), and what the coarse tractions around make it: the pressure of the cells not
 //!   refined and the shear of all cells (each uniform over its cell), through the fine grid's
@@ -34,6 +35,18 @@ use super::matrix::MatrixCache;
 use super::normal::{self, Control, NormalSettings, ProductChoice};
 use super::operator::{Component, Operator};
 use super::precision::Precision;
+
+/// How far from a loaded cut cell the refined cells reach: every loaded cell within this many
+/// cells of one along both axes (a `(2 B + 1)`-cell square about it). The pins' error across
+/// an edge is the normal problem's on the coarse cells near it (on the bench's rim taps
+/// without friction 0.041 / 0.032 mm at 17 / 25 cells against 0.016 on flat tops), and holding
+/// the coarse solution just past the cut cells' side neighbours left it there: the bench's 40
+/// rim taps against 65 cells (`cargo run --release --example pin_errors -- rim 65
+/// 13,17,25,33`), largest pin error 0.078 / 0.033 / 0.029 / 0.030 mm at 13 / 17 / 25 / 33 cells
+/// with the side neighbours, 0.031 / 0.025 at 17 / 25 cells with `B = 2`, 0.082 / 0.029 /
+/// 0.025 / 0.024 with 3: 17 cells keep every pin within 0.03 mm, the first grid under 25 to
+/// (issue 31, `docs/guide/contact.md`, "A wider band of sub-cells").
+const BAND_CELLS: usize = 3;
 
 /// A sub-cell is solved for when its initial gap is below this many coarse cell sides (a ray
 /// past the edge that reaches the stimulus's side or the ground is farther).
@@ -200,23 +213,23 @@ impl Refinement {
     }
 }
 
-/// The cells a step refines (coarse indices, ascending): every loaded cell that is cut or
-/// shares a side with a loaded cut cell (with the corners too, the bench's worst rim taps were
-/// 0.058 / 0.032 / 0.025 mm off 65 cells against 0.056 / 0.030 / 0.023, at 4% more
-/// instructions on a `paper` pose). Empty without a loaded cut cell.
+/// The cells a step refines (coarse indices, ascending): every loaded cell within
+/// [`BAND_CELLS`] of a loaded cut cell along both axes (once the cut cells and their side
+/// neighbours only: with the corners too, on the sub-cells' first version, the bench's worst
+/// rim taps were 0.058 / 0.032 / 0.025 mm off 65 cells against 0.056 / 0.030 / 0.023; a wider
+/// band pays where the coarse solve's error sits, past the neighbours). Empty without a
+/// loaded cut cell.
 fn refined_cells(coarse: &Coarse<'_>) -> Vec<usize> {
     let grid = coarse.grid;
     let loaded_cut = |k: usize| coarse.pressure[k] > 0.0 && coarse.cuts.get(k).is_some_and(Option::is_some);
     if !(0..grid.len()).any(loaded_cut) {
         return Vec::new();
     }
+    let near = |c: usize, n: usize| c.saturating_sub(BAND_CELLS)..(c + BAND_CELLS + 1).min(n);
     (0..grid.len())
         .filter(|&k| {
             let (i, j) = grid.column_row(k);
-            let side = |a: usize, b: usize| (a == i || b == j) && loaded_cut(b * grid.nx + a);
-            coarse.pressure[k] > 0.0
-                && (i.saturating_sub(1)..(i + 2).min(grid.nx))
-                    .any(|a| (j.saturating_sub(1)..(j + 2).min(grid.ny)).any(|b| side(a, b)))
+            coarse.pressure[k] > 0.0 && near(i, grid.nx).any(|a| near(j, grid.ny).any(|b| loaded_cut(b * grid.nx + a)))
         })
         .collect()
 }
