@@ -18,9 +18,9 @@
 //! The taps are the bench's own (`tacsim::bench::samples` and `rim_samples`, its seeds).
 
 use rayon::prelude::*;
-use tacsim::bench::{RIM_SEED, SAMPLES_SEED, disk_scene, rim_samples, samples};
+use tacsim::bench::{RIM_SEED, SAMPLES_SEED, disk_scene_with_friction, rim_samples, samples};
 use tacsim_sim::contact::{ContactModel, Simulation};
-use tacsim_sim::{ObjectPose, PinPose, Scene, SensorParams, SensorPose, builtin_catalogue};
+use tacsim_sim::{PinPose, SensorParams, SensorPose};
 
 /// One tap's pins against the reference's (mm): the largest tip difference, the mean
 /// difference's length (a shift of every pin alike) and the largest difference about that
@@ -39,7 +39,7 @@ impl TapError {
         let Some(first) = diffs.first() else {
             return Self { largest: 0.0, mean_shift: 0.0, about_mean: 0.0, force, reference_force };
         };
-        let mean = diffs.iter().fold(first * 0.0, |sum, d| sum + d) / diffs.len() as f64;
+        let mean = diffs[1..].iter().fold(*first, |sum, d| sum + d) / diffs.len() as f64;
         let largest = diffs.iter().map(|d| d.norm()).fold(0.0, f64::max);
         let about_mean = diffs.iter().map(|d| (d - mean).norm()).fold(0.0, f64::max);
         Self { largest, mean_shift: mean.norm(), about_mean, force, reference_force }
@@ -76,13 +76,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Some(i) => Some(args.get(i + 1).and_then(|s| s.parse().ok()).ok_or(usage)?),
         None => None,
     };
-    let scene = if frictionless {
-        let mut scene = Scene::new();
-        scene.add(builtin_catalogue()?.get("disk")?.with_friction(Some(0.0)), ObjectPose::default())?;
-        scene
-    } else {
-        disk_scene()?
-    };
+    let scene = disk_scene_with_friction(frictionless.then_some(0.0))?;
     let poses: Vec<SensorPose> =
         if flat { samples(40, SAMPLES_SEED) } else { rim_samples(40, RIM_SEED) }.into_iter().map(|(p, _)| p).collect();
     // A tap's pins and its force on the skin (N, sensor frame).

@@ -303,9 +303,15 @@ fn gpu_pins_bench(
 
 /// The bench's scene: the built-in `disk` (100 mm across) at the origin.
 pub fn disk_scene() -> Result<Scene> {
+    disk_scene_with_friction(None)
+}
+
+/// [`disk_scene`] with the skin-stimulus friction `friction` where one is given (`Some(0.0)`:
+/// no shear but the coupling's), else the disk's own.
+pub fn disk_scene_with_friction(friction: Option<f64>) -> Result<Scene> {
     let catalogue = tacsim_sim::builtin_catalogue()?;
     let mut scene = Scene::new();
-    scene.add(catalogue.get("disk")?, ObjectPose::default())?;
+    scene.add(catalogue.get("disk")?.with_friction(friction), ObjectPose::default())?;
     Ok(scene)
 }
 
