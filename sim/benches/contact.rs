@@ -2,7 +2,8 @@
 //! for the grid sizes the sensor uses: the measurement behind
 //! `contact::normal::DENSE_MAX_CELLS`; and the tangential product on a tap's contact cells, by
 //! the operator's dense product against a prebuilt [`CellMatrix`], in double and in single
-//! precision (and what building one costs). Run with `cargo bench -p tacsim-sim --bench contact`.
+//! precision (and what building one costs); and the sub-cells' normal product by their matrix,
+//! streamed and by a few inputs. Run with `cargo bench -p tacsim-sim --bench contact`.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use tacsim_sim::contact::Elastic;
@@ -32,6 +33,28 @@ fn bench_products(c: &mut Criterion) {
     }
     group.finish();
     bench_shear_products(c);
+    bench_subcell_products(c);
+}
+
+/// `u_z = A_zz p` on the sub-cells of a `paper` step's edge (about 500 of them, a disc on a
+/// 51 x 51 grid, `refine.rs`): by their symmetric single matrix streamed (every input
+/// non-zero), and by the same matrix taking five non-zero inputs one by one (the conjugate
+/// gradient's jumps; the same bits, `matrix.rs`, `SparseLowerSums`).
+fn bench_subcell_products(c: &mut Criterion) {
+    let model = HalfSpace { material: Elastic::from_young(1.0, 0.436), pairing: Pairing::RigidIndenter };
+    let mut group = c.benchmark_group("subcell-product");
+    let grid = Grid::square(51, 1.0);
+    let op = Operator::new(&model, grid);
+    let centres = grid.centres();
+    let cells: Vec<usize> = (0..grid.len()).filter(|&k| centres[k][0].hypot(centres[k][1]) < 12.6).collect();
+    let m = cells.len();
+    let matrix = CellMatrix::in_precision(&op, &[[Component::Zz]], &cells, Precision::Single);
+    let mut out = vec![0.0; m];
+    let full: Vec<f64> = (0..m).map(|i| 1.0 + (i % 7) as f64).collect();
+    group.bench_function(format!("streamed/{m}-subcells"), |b| b.iter(|| matrix.apply(&full, &mut out)));
+    let jumps: Vec<f64> = (0..m).map(|i| if i % (m / 5) == 3 { 0.5 } else { 0.0 }).collect();
+    group.bench_function(format!("five-inputs/{m}-subcells"), |b| b.iter(|| matrix.apply(&jumps, &mut out)));
+    group.finish();
 }
 
 /// `u = A_t q` on a disc of contact cells, the tangential solver's product.

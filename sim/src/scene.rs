@@ -225,34 +225,37 @@ impl Scene {
         // ahead below, the rays' share of a `paper` shard's samples 9.2-10.0% -> 6.1-7.4%,
         // `docs/guide/contact.md`, "Rays down the column index").
         // The rays in the first object's frame give the keys and serve its cast.
-        let (first, mut order): (Vec<Ray>, Vec<(usize, usize)>) = match near.first() {
+        // Each ray's key: its bin (`u32::MAX` off the index) above its place, one `u64` to sort
+        // in the order of the pairs `(bin, place)`.
+        let key = |bin: Option<usize>, k: usize| (bin.map_or(u64::from(u32::MAX), |b| b as u64) << 32) | k as u64;
+        let (first, mut order): (Vec<Ray>, Vec<u64>) = match near.first() {
             Some((id, collider)) => {
                 let columns = &self.objects[*id].columns;
                 let first: Vec<Ray> = rays.iter().map(|ray| ray.inverse_transform_by(collider.position())).collect();
                 let order = first
                     .iter()
                     .enumerate()
-                    .map(|(k, local)| {
-                        (columns.bin_of(local.origin.x as f64, local.origin.y as f64).unwrap_or(usize::MAX), k)
-                    })
+                    .map(|(k, local)| key(columns.bin_of(local.origin.x as f64, local.origin.y as f64), k))
                     .collect();
                 (first, order)
             }
-            None => (Vec::new(), (0..rays.len()).map(|k| (0, k)).collect()),
+            None => (Vec::new(), (0..rays.len()).map(|k| key(Some(0), k)).collect()),
         };
         order.sort_unstable();
         // The bins a few rays ahead are asked of the cache in stages, each a ray nearer than
         // the last, so that each stage reads what the one before fetched.
         let ahead = near.first().map(|(id, _)| (&self.objects[*id].columns, Prefetch::new()));
         let mut hits = vec![None; rays.len()];
-        for (i, &(_, k)) in order.iter().enumerate() {
+        for (i, &entry) in order.iter().enumerate() {
             if let Some((columns, cache)) = ahead {
                 for (stage, distance) in [(Ahead::List, 3), (Ahead::Items, 2), (Ahead::Facets, 1)] {
-                    if let Some(&(b, _)) = order.get(i + distance) {
-                        columns.fetch_ahead(cache, stage, b);
+                    // A bin off the index (`u32::MAX`) is past every index's bins: nothing fetched.
+                    if let Some(&next) = order.get(i + distance) {
+                        columns.fetch_ahead(cache, stage, (next >> 32) as usize);
                     }
                 }
             }
+            let k = (entry & u64::from(u32::MAX)) as usize;
             let ray = &rays[k];
             hits[k] =
                 self.cast_down(ray, first.get(k), &near, max).unwrap_or_else(|| self.cast_ray_bvh(&pipeline, ray, max));

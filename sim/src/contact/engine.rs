@@ -410,32 +410,43 @@ fn gaps_below(
     let Some(top) = scene.top_height_mm() else { return vec![missed; dome.points.len()] };
     let rays = PoseRays::new(model, top, pose, frame);
     let dir = rays.dir;
-    let origins: Vec<[f64; 3]> = dome
+    let back = rays.back;
+    let length = back + limit_mm.min(2.0 * radius);
+    // Only the rays that count are cast: a cell off the dome's part in contact takes no gap,
+    // and a ray that stays above the scene's top (by [`SKIP_ABOVE_TOP_MM`]) can meet nothing
+    // (every triangle lies at or below the top): the footprint probe's short rays away from
+    // the contact.
+    let cast: Vec<(usize, [f64; 3])> = dome
         .points
         .iter()
-        .map(|x| {
+        .zip(&dome.inside)
+        .enumerate()
+        .filter_map(|(k, (x, &inside))| {
             let p = rays.start(x);
-            [p.x, p.y, p.z]
+            let lowest = p.z.min(p.z + length * dir.z);
+            (inside && lowest <= top + SKIP_ABOVE_TOP_MM).then_some((k, [p.x, p.y, p.z]))
         })
         .collect();
-    let back = rays.back;
-    let hits = scene.cast_rays(&origins, [dir.x, dir.y, dir.z], back + limit_mm.min(2.0 * radius));
-    hits.iter()
-        .zip(&dome.inside)
-        .zip(&origins)
-        .map(|((hit, &inside), o)| match (hit, inside) {
-            (Some((toi, id)), true) => {
-                let stimulus = &scene.objects()[*id].stimulus;
-                CellHit {
-                    gap: toi - back + rounding_mm(scene, *id, o, dir, *toi),
-                    friction: stimulus.entry.friction,
-                    object: Some(*id),
-                }
-            }
-            _ => missed,
-        })
-        .collect()
+    let origins: Vec<[f64; 3]> = cast.iter().map(|(_, o)| *o).collect();
+    let hits = scene.cast_rays(&origins, [dir.x, dir.y, dir.z], length);
+    let mut out = vec![missed; dome.points.len()];
+    for ((k, o), hit) in cast.iter().zip(hits) {
+        if let Some((toi, id)) = hit {
+            let stimulus = &scene.objects()[id].stimulus;
+            out[*k] = CellHit {
+                gap: toi - back + rounding_mm(scene, id, o, dir, toi),
+                friction: stimulus.entry.friction,
+                object: Some(id),
+            };
+        }
+    }
+    out
 }
+
+/// How far (mm) above the scene's top a ray may end and still be cast ([`gaps_below`]): far
+/// above the rays' `f32` rounding (about 1e-5 mm), so that no ray left out could have met a
+/// triangle.
+const SKIP_ABOVE_TOP_MM: f64 = 0.01;
 
 /// By how many cell sides two neighbours' gaps must differ for the cells to be looked at for
 /// a sharp edge between them ([`Simulation::cut_cells`]): a smooth surface under the dome
@@ -1627,7 +1638,9 @@ mod tests {
     /// every gap below it be the same bits, so the footprint grid and every image are
     /// unchanged. Every built-in stimulus, sharp and with a rounded edge, poses over its top,
     /// across its edge and off it, untilted (rays down the columns) and tilted (parry's BVH),
-    /// on the coarse and on a fine probe grid.
+    /// on the coarse and on a fine probe grid. The short rays that stay above the scene's top
+    /// are not cast at all ([`SKIP_ABOVE_TOP_MM`]), nor those of cells off the dome's part in
+    /// contact: the same cells and bits.
     #[test]
     fn short_probe_rays_sort_the_cells_as_full_rays_do() {
         let catalogue = crate::builtin_catalogue().expect("shapes");

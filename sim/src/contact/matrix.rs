@@ -179,7 +179,13 @@ impl CellMatrix {
         match &self.panels {
             Panels::Double(panels) => pulp::Arch::new().dispatch(PanelSums { panels, cols: self.cols, x, y }),
             Panels::Single(panels) => pulp::Arch::new().dispatch(SinglePanelSums { panels, cols: self.cols, x, y }),
-            Panels::Lower(panels) => pulp::Arch::new().dispatch(LowerSums { panels, x, y }),
+            Panels::Lower(panels) => {
+                let inputs = sparse_inputs(x);
+                match inputs {
+                    Some(inputs) => pulp::Arch::new().dispatch(SparseLowerSums { panels, inputs: &inputs, y }),
+                    None => pulp::Arch::new().dispatch(LowerSums { panels, x, y }),
+                }
+            }
         }
     }
 }
@@ -350,6 +356,8 @@ impl<'a, const B: usize> CellProduct<'a, B> {
         let (cells, m) = (self.cells, self.cells.len());
         let sorted = cells.is_sorted();
         let at = |k: usize| if sorted { cells.binary_search(&k).ok() } else { cells.iter().position(|&c| c == k) };
+        // At most two entries per pair and block, reserved at once rather than grown.
+        self.near.reserve(2 * B * B * coupling.near.len());
         for (a, b, change) in &coupling.near {
             let (Some(i), Some(j)) = (at(*a), at(*b)) else { continue };
             for (r, row) in self.blocks.iter().enumerate() {
@@ -694,6 +702,95 @@ impl pulp::WithSimd for LowerSums<'_> {
     }
 }
 
+/// A [`Panels::Lower`] product takes its inputs one by one ([`SparseLowerSums`]) where at
+/// most one in this many is non-zero: a column's whole use costs about as many multiply-adds
+/// as the matrix has rows, against about a sixth of a multiply-add per coefficient for the
+/// streamed product ([`LowerSums`]), whose panels read every stored column whenever one of
+/// their own inputs is non-zero.
+const SPARSE_INPUTS_PER: usize = 16;
+
+/// The non-zero inputs of `x` (position and value in `f32`, ascending) where they are few
+/// enough for [`SparseLowerSums`] ([`SPARSE_INPUTS_PER`]), else `None`.
+fn sparse_inputs(x: &[f64]) -> Option<Vec<(usize, f32)>> {
+    let most = x.len() / SPARSE_INPUTS_PER;
+    let mut inputs = Vec::with_capacity(most);
+    for (j, &v) in x.iter().enumerate() {
+        let v = v as f32;
+        if v != 0.0 {
+            if inputs.len() == most {
+                return None;
+            }
+            inputs.push((j, v));
+        }
+    }
+    Some(inputs)
+}
+
+/// [`LowerSums`] on few non-zero inputs (`inputs`: position and value, ascending), each taken
+/// in turn over the whole of its column: the same sums to the bit. A term whose input is zero
+/// adds an exact zero in [`LowerSums`] (a sum that starts at `+0` stays as it is), so row `r`
+/// of panel `P` is still its panel's `f32` sum over the inputs `j` up to the end of `P`'s rows,
+/// `j` ascending, then lane `j mod 8` of its partial sums over the inputs in later panels, `j`
+/// ascending, added pairwise (test
+/// `a_product_by_few_inputs_has_the_bits_of_the_streamed_one`). Input `j` of panel `Q` meets
+/// the rows of panel `Q` and later ones in column `j` of each (its lanes side by side), and the
+/// rows before `Q` in lane `j - Q LANES` of panel `Q`'s columns (a stride of [`LANES`]). On a
+/// `paper` shard's sub-cell solves (about 500 sub-cells) a third of the products are by the
+/// conjugate gradient's jumps, five inputs on average.
+struct SparseLowerSums<'a> {
+    panels: &'a [f32],
+    inputs: &'a [(usize, f32)],
+    y: &'a mut [f64],
+}
+
+impl pulp::WithSimd for SparseLowerSums<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, simd: S) {
+        let Self { panels, inputs, y } = self;
+        let n = y.len();
+        let count = n.div_ceil(LANES);
+        // Where each panel's columns start in `panels`.
+        let mut starts = Vec::with_capacity(count);
+        let mut start = 0;
+        for p in 0..count {
+            starts.push(start);
+            start += lower_columns(p, n) * LANES;
+        }
+        let mut own = vec![0.0f32; count * LANES];
+        let mut partial = PARTIAL_SUMS.take();
+        partial.clear();
+        partial.resize(n * PARTIALS, 0.0);
+        for &(j, v) in inputs {
+            let q = j / LANES;
+            // The rows of panels `q` on: column `j` of each, `LANES` lanes side by side.
+            let splat = simd.splat_f32s(v);
+            for (p, &at) in starts.iter().enumerate().skip(q) {
+                let column = &panels[at + j * LANES..at + (j + 1) * LANES];
+                let sums = &mut own[p * LANES..(p + 1) * LANES];
+                let (column, _) = S::as_simd_f32s(column);
+                let (sums, _) = S::as_mut_simd_f32s(sums);
+                for (a, c) in sums.iter_mut().zip(column) {
+                    *a = simd.mul_add_f32s(*c, splat, *a);
+                }
+            }
+            // The rows before panel `q`: lane `j - q LANES` of its columns.
+            let (lane, slot) = (j - q * LANES, j % PARTIALS);
+            let panel = &panels[starts[q]..];
+            for r in 0..q * LANES {
+                let d = &mut partial[r * PARTIALS + slot];
+                *d = panel[r * LANES + lane].mul_add(v, *d);
+            }
+        }
+        for ((y, a), d) in y.iter_mut().zip(&own).zip(partial.chunks_exact(PARTIALS)) {
+            let tail = ((d[0] + d[4]) + (d[2] + d[6])) + ((d[1] + d[5]) + (d[3] + d[7]));
+            *y = f64::from(*a) + f64::from(tail);
+        }
+        PARTIAL_SUMS.set(partial);
+    }
+}
+
 thread_local! {
     /// Each worker's partial sums of [`LowerSums`], kept between products (a solver's
     /// iterations allocate nothing).
@@ -935,6 +1032,48 @@ mod tests {
             });
         }
         assert_eq!(sparse, dense);
+    }
+
+    /// A product of a symmetric single matrix by few non-zero inputs takes them one by one
+    /// ([`SparseLowerSums`]) and gives the bits of the streamed product ([`LowerSums`]), on
+    /// this CPU's vector unit and on none: inputs in the first, a middle and the last panel,
+    /// one that rounds to zero in `f32`, and none at all.
+    #[test]
+    fn a_product_by_few_inputs_has_the_bits_of_the_streamed_one() {
+        let op = op();
+        let n = op.grid().len();
+        let cells: Vec<usize> = (0..n).collect();
+        let blocks = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy]];
+        let matrix = CellMatrix::in_precision(&op, &blocks, &cells, Precision::Single);
+        let Panels::Lower(panels) = &matrix.panels else { panic!("a symmetric single matrix keeps its lower panels") };
+        let rows = 2 * n;
+        let values = field(rows, 11);
+        for picked in [vec![], vec![0], vec![5, 40, 77, 125], vec![31, 32, 33, 100, 101, 110, 120], vec![64, 65]] {
+            let mut x = vec![0.0; rows];
+            for &j in &picked {
+                x[j] = values[j];
+            }
+            if picked.len() == 2 {
+                // Non-zero, but zero in `f32`: no term, as in the streamed product.
+                x[90] = 1e-50;
+            }
+            let inputs = sparse_inputs(&x).expect("few inputs");
+            assert_eq!(inputs.len(), picked.len());
+            let mut streamed = vec![0.0; rows];
+            pulp::Arch::new().dispatch(LowerSums { panels, x: &x, y: &mut streamed });
+            let mut sparse = vec![0.0; rows];
+            pulp::Arch::new().dispatch(SparseLowerSums { panels, inputs: &inputs, y: &mut sparse });
+            let mut scalar = vec![0.0; rows];
+            pulp::Simd::vectorize(pulp::Scalar::new(), SparseLowerSums { panels, inputs: &inputs, y: &mut scalar });
+            let bits = |v: &[f64]| v.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&sparse), bits(&streamed), "{picked:?}");
+            assert_eq!(bits(&scalar), bits(&streamed), "{picked:?}");
+            let mut applied = vec![0.0; rows];
+            matrix.apply(&x, &mut applied);
+            assert_eq!(bits(&applied), bits(&streamed), "{picked:?}");
+        }
+        // Too many inputs for one by one: the streamed product.
+        assert!(sparse_inputs(&values).is_none());
     }
 
     /// The symmetric single matrices (the shear's and the normal's at the model's tolerances)
