@@ -599,6 +599,12 @@ struct LowerSums<'a> {
 /// The partial sums of a row in [`LowerSums`].
 const PARTIALS: usize = 8;
 
+/// A row's [`PARTIALS`] partial sums added pairwise, in the order of pulp's AVX2 sum (the
+/// halves, then the pairs): the same bits on every vector unit.
+fn partial_total(d: &[f32]) -> f32 {
+    ((d[0] + d[4]) + (d[2] + d[6])) + ((d[1] + d[5]) + (d[3] + d[7]))
+}
+
 impl pulp::WithSimd for LowerSums<'_> {
     type Output = ();
 
@@ -695,7 +701,7 @@ impl pulp::WithSimd for LowerSums<'_> {
             }
         } else {
             for (y, d) in y.iter_mut().zip(partial.chunks_exact(PARTIALS)) {
-                *y += f64::from(((d[0] + d[4]) + (d[2] + d[6])) + ((d[1] + d[5]) + (d[3] + d[7])));
+                *y += f64::from(partial_total(d));
             }
         }
         PARTIAL_SUMS.set(partial);
@@ -784,8 +790,7 @@ impl pulp::WithSimd for SparseLowerSums<'_> {
             }
         }
         for ((y, a), d) in y.iter_mut().zip(&own).zip(partial.chunks_exact(PARTIALS)) {
-            let tail = ((d[0] + d[4]) + (d[2] + d[6])) + ((d[1] + d[5]) + (d[3] + d[7]));
-            *y = f64::from(*a) + f64::from(tail);
+            *y = f64::from(*a) + f64::from(partial_total(d));
         }
         PARTIAL_SUMS.set(partial);
     }
@@ -876,6 +881,18 @@ mod tests {
             &HalfSpace { material, pairing: Pairing::RigidIndenter },
             Grid { nx: 9, ny: 7, cell_mm: 0.3, centre_mm: [0.0, 0.0] },
         )
+    }
+
+    /// The shear's blocks: a symmetric matrix.
+    const SHEAR_BLOCKS: [[Component; 2]; 2] = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy]];
+
+    /// [`op`], its cells, and the shear's single matrix on all of them (its lower panels).
+    fn lower_shear_matrix() -> (Operator, usize, CellMatrix) {
+        let op = op();
+        let n = op.grid().len();
+        let cells: Vec<usize> = (0..n).collect();
+        let matrix = CellMatrix::in_precision(&op, &SHEAR_BLOCKS, &cells, Precision::Single);
+        (op, n, matrix)
     }
 
     fn field(n: usize, seed: u64) -> Vec<f64> {
@@ -1040,11 +1057,7 @@ mod tests {
     /// one that rounds to zero in `f32`, and none at all.
     #[test]
     fn a_product_by_few_inputs_has_the_bits_of_the_streamed_one() {
-        let op = op();
-        let n = op.grid().len();
-        let cells: Vec<usize> = (0..n).collect();
-        let blocks = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy]];
-        let matrix = CellMatrix::in_precision(&op, &blocks, &cells, Precision::Single);
+        let (_, n, matrix) = lower_shear_matrix();
         let Panels::Lower(panels) = &matrix.panels else { panic!("a symmetric single matrix keeps its lower panels") };
         let rows = 2 * n;
         let values = field(rows, 11);
@@ -1083,11 +1096,9 @@ mod tests {
     /// runs it: the same bits as the vector unit's.
     #[test]
     fn a_symmetric_single_matrix_keeps_its_lower_panels_and_sums_them_as_written() {
-        let op = op();
-        let n = op.grid().len();
+        let (op, n, matrix) = lower_shear_matrix();
         let cells: Vec<usize> = (0..n).collect();
-        let blocks = [[Component::Xx, Component::Xy], [Component::Xy, Component::Yy]];
-        let matrix = CellMatrix::in_precision(&op, &blocks, &cells, Precision::Single);
+        let blocks = SHEAR_BLOCKS;
         let Panels::Lower(panels) = &matrix.panels else { panic!("a symmetric single matrix keeps its lower panels") };
         let rows = 2 * n;
         let stored: usize = (0..rows.div_ceil(LANES)).map(|p| ((p + 1) * LANES).min(rows)).sum();
