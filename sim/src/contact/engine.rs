@@ -416,7 +416,7 @@ fn gaps_below(
     // and a ray that stays above the scene's top (by [`SKIP_ABOVE_TOP_MM`]) can meet nothing
     // (every triangle lies at or below the top): the footprint probe's short rays away from
     // the contact.
-    let cast: Vec<(usize, [f64; 3])> = dome
+    let (cells, origins): (Vec<usize>, Vec<[f64; 3]>) = dome
         .points
         .iter()
         .zip(&dome.inside)
@@ -426,11 +426,10 @@ fn gaps_below(
             let lowest = p.z.min(p.z + length * dir.z);
             (inside && lowest <= top + SKIP_ABOVE_TOP_MM).then_some((k, [p.x, p.y, p.z]))
         })
-        .collect();
-    let origins: Vec<[f64; 3]> = cast.iter().map(|(_, o)| *o).collect();
+        .unzip();
     let hits = scene.cast_rays(&origins, [dir.x, dir.y, dir.z], length);
     let mut out = vec![missed; dome.points.len()];
-    for ((k, o), hit) in cast.iter().zip(hits) {
+    for ((k, o), hit) in cells.iter().zip(&origins).zip(hits) {
         if let Some((toi, id)) = hit {
             let stimulus = &scene.objects()[id].stimulus;
             out[*k] = CellHit {

@@ -179,13 +179,10 @@ impl CellMatrix {
         match &self.panels {
             Panels::Double(panels) => pulp::Arch::new().dispatch(PanelSums { panels, cols: self.cols, x, y }),
             Panels::Single(panels) => pulp::Arch::new().dispatch(SinglePanelSums { panels, cols: self.cols, x, y }),
-            Panels::Lower(panels) => {
-                let inputs = sparse_inputs(x);
-                match inputs {
-                    Some(inputs) => pulp::Arch::new().dispatch(SparseLowerSums { panels, inputs: &inputs, y }),
-                    None => pulp::Arch::new().dispatch(LowerSums { panels, x, y }),
-                }
-            }
+            Panels::Lower(panels) => match sparse_inputs(x) {
+                Some(inputs) => pulp::Arch::new().dispatch(SparseLowerSums { panels, inputs: &inputs, y }),
+                None => pulp::Arch::new().dispatch(LowerSums { panels, x, y }),
+            },
         }
     }
 }
@@ -200,6 +197,12 @@ fn keeps_lower<const B: usize>(blocks: &[[Component; B]], precision: Precision) 
 /// of its own rows.
 fn lower_columns(p: usize, cols: usize) -> usize {
     ((p + 1) * LANES).min(cols)
+}
+
+/// Where panel `p` of a [`Panels::Lower`] matrix starts among its coefficients: each panel `q`
+/// before the last stores `(q + 1) LANES` columns ([`lower_columns`]), so `LANES^2 p (p + 1) / 2`.
+fn lower_panel_start(p: usize) -> usize {
+    LANES * LANES * p * (p + 1) / 2
 }
 
 /// Whether `blocks` make a symmetric matrix on any cell set: block `(a, b)` the transpose of
@@ -757,13 +760,6 @@ impl pulp::WithSimd for SparseLowerSums<'_> {
         let Self { panels, inputs, y } = self;
         let n = y.len();
         let count = n.div_ceil(LANES);
-        // Where each panel's columns start in `panels`.
-        let mut starts = Vec::with_capacity(count);
-        let mut start = 0;
-        for p in 0..count {
-            starts.push(start);
-            start += lower_columns(p, n) * LANES;
-        }
         let mut own = vec![0.0f32; count * LANES];
         let mut partial = PARTIAL_SUMS.take();
         partial.clear();
@@ -772,7 +768,8 @@ impl pulp::WithSimd for SparseLowerSums<'_> {
             let q = j / LANES;
             // The rows of panels `q` on: column `j` of each, `LANES` lanes side by side.
             let splat = simd.splat_f32s(v);
-            for (p, &at) in starts.iter().enumerate().skip(q) {
+            for p in q..count {
+                let at = lower_panel_start(p);
                 let column = &panels[at + j * LANES..at + (j + 1) * LANES];
                 let sums = &mut own[p * LANES..(p + 1) * LANES];
                 let (column, _) = S::as_simd_f32s(column);
@@ -783,7 +780,7 @@ impl pulp::WithSimd for SparseLowerSums<'_> {
             }
             // The rows before panel `q`: lane `j - q LANES` of its columns.
             let (lane, slot) = (j - q * LANES, j % PARTIALS);
-            let panel = &panels[starts[q]..];
+            let panel = &panels[lower_panel_start(q)..];
             for r in 0..q * LANES {
                 let d = &mut partial[r * PARTIALS + slot];
                 *d = panel[r * LANES + lane].mul_add(v, *d);
