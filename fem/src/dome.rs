@@ -1,0 +1,282 @@
+//! The TacTip's tip: a hemispherical skin shell of uniform thickness over the gel that fills
+//! it, clamped with the gel on the rigid base (the camera's window and the mount), meshed from
+//! its parameters, assembled and factorised once.
+//!
+//! Pins are stiff posts bonded to the skin's inner face: a pin's tip follows its base's rigid
+//! motion, `u_tip = u(X_b) + omega(X_b) x (X_t - X_b)` with the skin's rotation
+//! `omega = curl u / 2` at the base, both from the skin element that holds the base
+//! ([`PinProbe`]).
+
+use nalgebra::Vector3;
+
+use crate::element::{self, face_flux, face_forces, shape};
+use crate::error::{FemError, Result};
+use crate::material::Material;
+use crate::mesh::{CubedBall, Mesh, Region};
+use crate::system::{Factor, Stiffness};
+
+/// Everything that shapes a dome's response.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DomeSpec {
+    /// Outer radius of the hemisphere (mm).
+    pub outer_radius_mm: f64,
+    /// Skin thickness (mm).
+    pub skin_thickness_mm: f64,
+    /// How far the base plane lies below the hemisphere's equator (mm); the skin continues as
+    /// a cylinder down to it. 0: the base at the equator.
+    pub skirt_mm: f64,
+    /// The skin's material.
+    pub skin: Material,
+    /// The gel's material.
+    pub gel: Material,
+    /// Lattice cells from the centre to the surface (`N`): `2N` elements span 90 deg of the
+    /// surface, `N - skin_layers` the gel's radius.
+    pub cells: usize,
+    /// Element layers through the skin.
+    pub skin_layers: usize,
+}
+
+impl DomeSpec {
+    /// Checks every field, naming it and its accepted range.
+    pub fn validate(&self) -> Result<()> {
+        let check = |field: &'static str, value: f64, ok: bool, expected: &'static str| {
+            if ok { Ok(()) } else { Err(FemError::Parameter { field, value, expected }) }
+        };
+        let r = self.outer_radius_mm;
+        check("outer_radius_mm", r, r > 0.0 && r <= 1000.0, "a radius in (0, 1000] mm")?;
+        let t = self.skin_thickness_mm;
+        check("skin_thickness_mm", t, t > 0.0 && t < 0.5 * r, "a thickness in (0, outer_radius_mm / 2) mm")?;
+        let s = self.skirt_mm;
+        check("skirt_mm", s, (0.0..=r).contains(&s), "a depth in [0, outer_radius_mm] mm")?;
+        check("cells", self.cells as f64, (2..=64).contains(&self.cells), "an integer in [2, 64]")?;
+        check(
+            "skin_layers",
+            self.skin_layers as f64,
+            self.skin_layers >= 1 && self.skin_layers < self.cells,
+            "an integer in [1, cells)",
+        )?;
+        Material::new(self.skin.youngs_modulus_mpa, self.skin.poisson)?;
+        Material::new(self.gel.youngs_modulus_mpa, self.gel.poisson)?;
+        Ok(())
+    }
+
+    /// The lattice and its map.
+    pub fn lattice(&self) -> CubedBall {
+        let n = self.cells;
+        let gel_shells = n - self.skin_layers;
+        let inner = self.outer_radius_mm - self.skin_thickness_mm;
+        let mut radii: Vec<f64> = (0..=gel_shells).map(|m| inner * m as f64 / gel_shells as f64).collect();
+        for m in 1..=self.skin_layers {
+            radii.push(inner + self.skin_thickness_mm * m as f64 / self.skin_layers as f64);
+        }
+        let skirt = (self.skirt_mm > 0.0).then(|| {
+            let cell = inner / gel_shells as f64;
+            ((self.skirt_mm / cell).round().max(1.0) as usize, self.skirt_mm)
+        });
+        let ni = n as i64;
+        let zlo = skirt.map_or(0, |(layers, _)| -(layers as i64));
+        CubedBall {
+            cells: n,
+            cell_range: [(-ni, ni), (-ni, ni), (zlo, ni)],
+            min_shell: 0,
+            radii,
+            sphere_from: 0,
+            skin_from: gel_shells,
+            skirt,
+        }
+    }
+
+    /// The base plane's height (mm, sensor frame).
+    pub fn base_z_mm(&self) -> f64 {
+        -self.skirt_mm
+    }
+}
+
+/// A meshed, assembled and factorised dome.
+pub struct Dome {
+    /// What it was built from.
+    pub spec: DomeSpec,
+    /// The mesh.
+    pub mesh: Mesh,
+    /// Its stiffness, the base's nodes held.
+    pub stiffness: Stiffness,
+    /// The stiffness's Cholesky factor.
+    pub factor: Factor,
+}
+
+impl Dome {
+    /// Meshes, assembles and factorises a (checked) dome.
+    pub fn build(spec: &DomeSpec) -> Result<Self> {
+        spec.validate()?;
+        let mesh = spec.lattice().mesh();
+        let base = spec.base_z_mm();
+        let tol = 1e-9 * spec.outer_radius_mm;
+        let held: Vec<bool> = mesh.nodes.iter().flat_map(|x| [(x[2] - base).abs() < tol; 3]).collect();
+        let (skin, gel) = (spec.skin, spec.gel);
+        let stiffness = Stiffness::assemble(
+            &mesh,
+            |r| match r {
+                Region::Skin => skin,
+                Region::Gel => gel,
+            },
+            &held,
+        )?;
+        let factor = stiffness.factor()?;
+        Ok(Self { spec: spec.clone(), mesh, stiffness, factor })
+    }
+
+    /// Whether a node lies on the outer sphere (not the skirt).
+    fn on_outer_sphere(&self, x: &[f64; 3]) -> bool {
+        let r = self.spec.outer_radius_mm;
+        let norm = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+        (norm - r).abs() < 1e-9 * r && x[2] >= -1e-9 * r
+    }
+
+    /// Nodes of the outer surface within `max_polar_deg` of the apex, in node order.
+    pub fn outer_nodes(&self, max_polar_deg: f64) -> Vec<usize> {
+        let cos_max = max_polar_deg.to_radians().cos();
+        let r = self.spec.outer_radius_mm;
+        (0..self.mesh.nodes.len())
+            .filter(|&n| {
+                let x = &self.mesh.nodes[n];
+                self.on_outer_sphere(x) && x[2] >= cos_max * r - 1e-9 * r
+            })
+            .collect()
+    }
+
+    /// The outer sphere's boundary faces, as (element, local face).
+    pub fn outer_faces(&self) -> Vec<(usize, usize)> {
+        self.mesh
+            .boundary_faces()
+            .into_iter()
+            .filter(|&(e, f)| self.mesh.face_nodes(e, f).iter().all(|&n| self.on_outer_sphere(&self.mesh.nodes[n])))
+            .collect()
+    }
+
+    /// Consistent nodal forces (N) of a pressure (MPa, pushing into the skin) on the outer
+    /// sphere, as a function of the point.
+    pub fn pressure_forces(&self, pressure: impl Fn([f64; 3]) -> f64) -> Vec<[f64; 3]> {
+        let mut f = vec![[0.0; 3]; self.mesh.nodes.len()];
+        for (e, face) in self.outer_faces() {
+            let nodes = self.mesh.face_nodes(e, face);
+            let x = nodes.map(|n| self.mesh.nodes[n]);
+            let fe = face_forces(&x, self.mesh.centroid(e), |p, n| {
+                let q = pressure(p);
+                [-q * n[0], -q * n[1], -q * n[2]]
+            });
+            for (fk, &n) in fe.iter().zip(&nodes) {
+                for c in 0..3 {
+                    f[n][c] += fk[c];
+                }
+            }
+        }
+        f
+    }
+
+    /// Nodal displacements (mm) under nodal forces (N), one load case.
+    pub fn solve(&self, forces: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let mut rhs = self.stiffness.load(forces);
+        self.factor.solve_in_place(&mut rhs);
+        self.stiffness.expand(&rhs)
+    }
+
+    /// The gel's volume change (mm^3) under nodal displacements `u`: the sum of its elements'.
+    pub fn gel_volume_change(&self, u: &[[f64; 3]]) -> f64 {
+        (0..self.mesh.elements.len())
+            .filter(|&e| self.mesh.regions[e] == Region::Gel)
+            .map(|e| self.stiffness.volume_change(&self.mesh, e, u))
+            .sum()
+    }
+
+    /// The volume (mm^3) the outer sphere sweeps inwards where `inside` holds of a face's
+    /// centroid: `-int u . n dA` over those faces.
+    pub fn swept_volume(&self, u: &[[f64; 3]], inside: impl Fn([f64; 3]) -> bool) -> f64 {
+        let mut v = 0.0;
+        for (e, face) in self.outer_faces() {
+            let nodes = self.mesh.face_nodes(e, face);
+            let x = nodes.map(|n| self.mesh.nodes[n]);
+            let c = [0, 1, 2].map(|k| (x[0][k] + x[1][k] + x[2][k]) / 3.0);
+            if inside(c) {
+                v -= face_flux(&x, &nodes.map(|n| u[n]), self.mesh.centroid(e));
+            }
+        }
+        v
+    }
+
+    /// The probe of a pin with its base on the skin's inner face and its tip (mm, sensor frame).
+    pub fn pin_probe(&self, pin: usize, base: [f64; 3], tip: [f64; 3]) -> Result<PinProbe> {
+        let b = Vector3::from(base);
+        // Just inside the skin: the skin's element holds the base.
+        let at = b + b.normalize() * 1e-7 * self.spec.outer_radius_mm;
+        let p = [at.x, at.y, at.z];
+        for e in 0..self.mesh.elements.len() {
+            if self.mesh.regions[e] != Region::Skin {
+                continue;
+            }
+            let x = self.mesh.element_nodes(e);
+            let inside_box = (0..3).all(|k| {
+                let lo = x.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min);
+                let hi = x.iter().map(|v| v[k]).fold(f64::NEG_INFINITY, f64::max);
+                p[k] >= lo - 1e-6 && p[k] <= hi + 1e-6
+            });
+            if !inside_box {
+                continue;
+            }
+            let Some(l) = element::locate(&x, p) else { continue };
+            if l.iter().any(|&v| v < -1e-9) {
+                continue;
+            }
+            return Ok(PinProbe::new(self.mesh.elements[e], &x, l, base, tip));
+        }
+        Err(FemError::PinOutside { pin, x: base[0], y: base[1], z: base[2] })
+    }
+}
+
+/// A pin tip's displacement as a linear function of its skin element's nodal displacements.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PinProbe {
+    /// The element's nodes.
+    pub nodes: [usize; 10],
+    /// `u_tip[i] = sum_k coefficients[i][k] u_e[k]`, `u_e[3 a + m]` node `a`'s direction `m`.
+    pub coefficients: [[f64; 30]; 3],
+}
+
+impl PinProbe {
+    fn new(nodes: [usize; 10], x: &[[f64; 3]; 10], l: [f64; 4], base: [f64; 3], tip: [f64; 3]) -> Self {
+        let n = shape(l);
+        let (_, g) = element::gradients(x, l);
+        let lever = Vector3::from(tip) - Vector3::from(base);
+        let mut coefficients = [[0.0; 30]; 3];
+        for a in 0..10 {
+            for m in 0..3 {
+                // u = N_a e_m: grad u [i][j] = delta_im d_j N_a.
+                let mut grad = [[0.0; 3]; 3];
+                grad[m] = g[a];
+                let omega = Vector3::new(
+                    0.5 * (grad[2][1] - grad[1][2]),
+                    0.5 * (grad[0][2] - grad[2][0]),
+                    0.5 * (grad[1][0] - grad[0][1]),
+                );
+                let mut u = omega.cross(&lever);
+                u[m] += n[a];
+                for i in 0..3 {
+                    coefficients[i][3 * a + m] = u[i];
+                }
+            }
+        }
+        Self { nodes, coefficients }
+    }
+
+    /// The tip's displacement (mm) under nodal displacements `u`.
+    pub fn displacement(&self, u: &[[f64; 3]]) -> [f64; 3] {
+        let mut out = [0.0; 3];
+        for (a, &node) in self.nodes.iter().enumerate() {
+            for (m, um) in u[node].iter().enumerate() {
+                for (o, row) in out.iter_mut().zip(&self.coefficients) {
+                    *o += row[3 * a + m] * um;
+                }
+            }
+        }
+        out
+    }
+}

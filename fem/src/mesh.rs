@@ -1,0 +1,214 @@
+//! Tetrahedral meshes of balls, shells and domes, from a cubed lattice.
+//!
+//! # The map
+//! A cube of `2N` lattice cells a side (centre at the origin) is cut into six tetrahedra per
+//! cell (Kuhn's triangulation, conforming across cells) and mapped onto a ball: a lattice point
+//! `a` in `[-1, 1]^3` lies on the cube shell `s = |a|_inf` in the direction `c = a / s`; the
+//! equiangular cubed-sphere map `d_k = tan(pi c_k / 4)` sends `c` onto the unit sphere's
+//! `d / |d|`, and the point lands at radius `r(s)` (piecewise linear through the shells'
+//! radii). Inner shells may blend from the cube to the sphere, `x = r(s) ((1 - w) c + w d/|d|)`
+//! with `w` rising linearly from 0 at the centre to 1 at [`CubedBall::sphere_from`] (faster,
+//! and the shells cross along the cube's diagonals, where `|c| = sqrt 3`). Every shell at or
+//! above [`CubedBall::sphere_from`] is an exact sphere: the skin's faces are concentric spheres
+//! of uniform thickness. Midside nodes are mapped too (isoparametric elements on the curved
+//! geometry). The plane `z = 0` maps onto itself (`c_z = 0` gives `d_z = 0`), so the upper
+//! half of the lattice is a hemisphere on its base plane; a skirt extrudes that plane's nodes
+//! down by a given depth (a cylinder below the hemisphere).
+
+use std::collections::HashMap;
+use std::f64::consts::FRAC_PI_4;
+
+use crate::element::{EDGES, FACES};
+
+/// Which material an element is made of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Region {
+    /// The skin shell.
+    Skin,
+    /// The gel filling it.
+    Gel,
+}
+
+/// A mesh of ten-node tetrahedra (mm).
+#[derive(Clone, Debug)]
+pub struct Mesh {
+    /// Node positions (mm).
+    pub nodes: Vec<[f64; 3]>,
+    /// Elements: four vertices then six midside nodes ([`crate::element::EDGES`]).
+    pub elements: Vec<[usize; 10]>,
+    /// Each element's material.
+    pub regions: Vec<Region>,
+}
+
+impl Mesh {
+    /// The coordinates of an element's nodes.
+    pub fn element_nodes(&self, e: usize) -> [[f64; 3]; 10] {
+        self.elements[e].map(|n| self.nodes[n])
+    }
+
+    /// Faces on the boundary, as (element, local face index in [`FACES`]), in element order.
+    pub fn boundary_faces(&self) -> Vec<(usize, usize)> {
+        let mut count: HashMap<[usize; 3], u32> = HashMap::new();
+        for el in &self.elements {
+            for f in FACES {
+                *count.entry(sorted_face(el, f)).or_default() += 1;
+            }
+        }
+        let mut out = Vec::new();
+        for (e, el) in self.elements.iter().enumerate() {
+            for (k, f) in FACES.iter().enumerate() {
+                if count.get(&sorted_face(el, *f)) == Some(&1) {
+                    out.push((e, k));
+                }
+            }
+        }
+        out
+    }
+
+    /// The six nodes of an element's face: its vertices, then the midside nodes of their
+    /// edges `ab`, `bc`, `ca`.
+    pub fn face_nodes(&self, e: usize, face: usize) -> [usize; 6] {
+        let el = &self.elements[e];
+        let [a, b, c] = FACES[face];
+        let mid = |i: usize, j: usize| el[crate::element::edge_node(i, j)];
+        [el[a], el[b], el[c], mid(a, b), mid(b, c), mid(c, a)]
+    }
+
+    /// The centroid of an element's vertices (mm).
+    pub fn centroid(&self, e: usize) -> [f64; 3] {
+        let mut c = [0.0; 3];
+        for &n in &self.elements[e][..4] {
+            for (ck, xk) in c.iter_mut().zip(self.nodes[n]) {
+                *ck += 0.25 * xk;
+            }
+        }
+        c
+    }
+}
+
+fn sorted_face(el: &[usize; 10], f: [usize; 3]) -> [usize; 3] {
+    let mut v = [el[f[0]], el[f[1]], el[f[2]]];
+    v.sort_unstable();
+    v
+}
+
+/// A ball, a shell or a part of one, cut from the cubed lattice (see the module's docs).
+#[derive(Clone, Debug)]
+pub struct CubedBall {
+    /// Lattice cells from the centre to a face of the cube (`N`).
+    pub cells: usize,
+    /// Cells kept along each axis: cell `i` spans `[i, i + 1]`, `lo <= i < hi`, within `[-N, N)`.
+    pub cell_range: [(i64, i64); 3],
+    /// Innermost shell kept: cells between shells `m` and `m + 1` with `m` below it are left out
+    /// (a hollow shell).
+    pub min_shell: usize,
+    /// Radius (mm) of each shell `0..=N`, increasing.
+    pub radii: Vec<f64>,
+    /// Shells from this one out are spheres; inner ones blend towards the cube.
+    pub sphere_from: usize,
+    /// Cells from this shell out are skin, inner ones gel.
+    pub skin_from: usize,
+    /// Below `z = 0`: the base plane's nodes extruded down in this many layers by this depth
+    /// (mm), instead of the lower half of the ball.
+    pub skirt: Option<(usize, f64)>,
+}
+
+impl CubedBall {
+    /// The mesh.
+    pub fn mesh(&self) -> Mesh {
+        let n = self.cells as i64;
+        let mut index: HashMap<[i64; 3], usize> = HashMap::new();
+        let mut nodes = Vec::new();
+        let mut elements = Vec::new();
+        let mut regions = Vec::new();
+        let [(xlo, xhi), (ylo, yhi), (zlo, zhi)] = self.cell_range;
+        for k in zlo.max(-n)..zhi.min(n) {
+            for j in ylo.max(-n)..yhi.min(n) {
+                for i in xlo.max(-n)..xhi.min(n) {
+                    let corner = [i, j, k];
+                    let shell = (0..8)
+                        .map(|b| {
+                            let p = [i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)];
+                            self.shell_of(p)
+                        })
+                        .min()
+                        .unwrap_or(0);
+                    if shell < self.min_shell as i64 {
+                        continue;
+                    }
+                    let region = if shell >= self.skin_from as i64 { Region::Skin } else { Region::Gel };
+                    for (perm, even) in PERMUTATIONS {
+                        let mut v = [[0i64; 3]; 4];
+                        v[0] = corner.map(|c| 2 * c);
+                        for s in 0..3 {
+                            v[s + 1] = v[s];
+                            v[s + 1][perm[s]] += 2;
+                        }
+                        if !even {
+                            v.swap(2, 3);
+                        }
+                        let mut el = [0usize; 10];
+                        for (slot, p) in v.iter().enumerate() {
+                            el[slot] = self.node(*p, &mut index, &mut nodes);
+                        }
+                        for (e, &(a, b)) in EDGES.iter().enumerate() {
+                            let mid = [0, 1, 2].map(|c| (v[a][c] + v[b][c]) / 2);
+                            el[4 + e] = self.node(mid, &mut index, &mut nodes);
+                        }
+                        elements.push(el);
+                        regions.push(region);
+                    }
+                }
+            }
+        }
+        Mesh { nodes, elements, regions }
+    }
+
+    /// The shell (in cells) of a lattice vertex.
+    fn shell_of(&self, p: [i64; 3]) -> i64 {
+        let z = if self.skirt.is_some() && p[2] < 0 { 0 } else { p[2].abs() };
+        p[0].abs().max(p[1].abs()).max(z)
+    }
+
+    fn node(&self, p: [i64; 3], index: &mut HashMap<[i64; 3], usize>, nodes: &mut Vec<[f64; 3]>) -> usize {
+        *index.entry(p).or_insert_with(|| {
+            nodes.push(self.position(p));
+            nodes.len() - 1
+        })
+    }
+
+    /// The position (mm) of a point of the doubled lattice (vertices at even coordinates).
+    pub fn position(&self, p: [i64; 3]) -> [f64; 3] {
+        if let Some((layers, depth)) = self.skirt
+            && p[2] < 0
+        {
+            let top = self.position([p[0], p[1], 0]);
+            return [top[0], top[1], depth * p[2] as f64 / (2 * layers) as f64];
+        }
+        let n = self.cells as f64;
+        let a = p.map(|v| v as f64 / (2.0 * n));
+        let s = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if s == 0.0 {
+            return [0.0; 3];
+        }
+        let c = a.map(|v| v / s);
+        let d = c.map(|v| (FRAC_PI_4 * v).tan());
+        let norm = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let t = s * n;
+        let m = (t.floor() as usize).min(self.cells - 1);
+        let r = self.radii[m] + (self.radii[m + 1] - self.radii[m]) * (t - m as f64);
+        let sphere_s = self.sphere_from as f64 / n;
+        let w = if s >= sphere_s || sphere_s == 0.0 { 1.0 } else { s / sphere_s };
+        [0, 1, 2].map(|k| r * ((1.0 - w) * c[k] + w * d[k] / norm))
+    }
+}
+
+/// The six orders of the axes that make Kuhn's tetrahedra, and whether each is even.
+const PERMUTATIONS: [([usize; 3], bool); 6] = [
+    ([0, 1, 2], true),
+    ([1, 2, 0], true),
+    ([2, 0, 1], true),
+    ([0, 2, 1], false),
+    ([1, 0, 2], false),
+    ([2, 1, 0], false),
+];

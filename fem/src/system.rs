@@ -1,0 +1,254 @@
+//! The assembled stiffness of a mesh with some degrees of freedom held, and its sparse
+//! Cholesky factor (faer's supernodal `L L^T`, fill-reducing AMD order).
+//!
+//! Degrees of freedom are `3 node + direction`; the held ones (zero displacement) are left out
+//! of the system, the others numbered in the same order ("free" indices). The matrix is kept
+//! as its upper triangle, column by column. Every product and solve here runs its columns in
+//! fixed blocks, each block on one thread: the bytes do not depend on the thread count.
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::sparse::linalg::cholesky::{
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering, factorize_symbolic_cholesky,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, MatMut, Par, Side};
+use rayon::prelude::*;
+
+use crate::element::{ElementMatrices, matrices};
+use crate::error::{FemError, Result};
+use crate::material::Material;
+use crate::mesh::{Mesh, Region};
+
+/// Elements whose matrices are computed together (in parallel) before they are added in
+/// element order.
+const ELEMENT_BATCH: usize = 2048;
+/// Right-hand sides solved together on one thread.
+pub const SOLVE_BLOCK: usize = 32;
+const HELD: usize = usize::MAX;
+
+/// The stiffness matrix of a mesh (N/mm) over its free degrees of freedom.
+pub struct Stiffness {
+    /// Degrees of freedom of the mesh, held ones included (`3 x nodes`).
+    dofs: usize,
+    /// Free index of each degree of freedom, `usize::MAX` where held.
+    free: Vec<usize>,
+    /// Free degrees of freedom.
+    free_count: usize,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    values: Vec<f64>,
+    /// Each element's volume-change row `b` (see [`crate::element`]).
+    volume_change: Vec<[f64; 30]>,
+    /// Each element's volume (mm^3).
+    volumes: Vec<f64>,
+}
+
+impl Stiffness {
+    /// Assembles the stiffness of `mesh` with each region's material; `held[d]` holds degree
+    /// of freedom `d` at zero displacement.
+    pub fn assemble(mesh: &Mesh, material: impl Fn(Region) -> Material + Sync, held: &[bool]) -> Result<Self> {
+        let dofs = 3 * mesh.nodes.len();
+        let mut free = vec![HELD; dofs];
+        let mut free_count = 0;
+        for (d, slot) in free.iter_mut().enumerate() {
+            if !held.get(d).copied().unwrap_or(false) {
+                *slot = free_count;
+                free_count += 1;
+            }
+        }
+        // Node adjacency, then the upper triangle's pattern column by column.
+        let mut adjacent: Vec<Vec<usize>> = vec![Vec::new(); mesh.nodes.len()];
+        for el in &mesh.elements {
+            for &a in el {
+                adjacent[a].extend_from_slice(el);
+            }
+        }
+        for list in &mut adjacent {
+            list.sort_unstable();
+            list.dedup();
+        }
+        let mut col_ptr = Vec::with_capacity(free_count + 1);
+        let mut row_idx = Vec::new();
+        col_ptr.push(0);
+        for (d, &fc) in free.iter().enumerate() {
+            if fc == HELD {
+                continue;
+            }
+            for &a in &adjacent[d / 3] {
+                for i in 0..3 {
+                    let fr = free[3 * a + i];
+                    if fr != HELD && fr <= fc {
+                        row_idx.push(fr);
+                    }
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        drop(adjacent);
+        let mut values = vec![0.0; row_idx.len()];
+        let mut volume_change = Vec::with_capacity(mesh.elements.len());
+        let mut volumes = Vec::with_capacity(mesh.elements.len());
+        for start in (0..mesh.elements.len()).step_by(ELEMENT_BATCH) {
+            let end = (start + ELEMENT_BATCH).min(mesh.elements.len());
+            let batch: Vec<ElementMatrices> = (start..end)
+                .into_par_iter()
+                .map(|e| matrices(&mesh.element_nodes(e), &material(mesh.regions[e])))
+                .collect();
+            for (offset, m) in batch.into_iter().enumerate() {
+                let e = start + offset;
+                if m.min_jacobian.is_nan() || m.min_jacobian <= 0.0 {
+                    return Err(FemError::Degenerate { element: e, jacobian: m.min_jacobian });
+                }
+                let el = &mesh.elements[e];
+                let mut dof = [HELD; 30];
+                for (a, &node) in el.iter().enumerate() {
+                    for i in 0..3 {
+                        dof[3 * a + i] = free[3 * node + i];
+                    }
+                }
+                for (r, &fr) in dof.iter().enumerate() {
+                    if fr == HELD {
+                        continue;
+                    }
+                    for (c, &fc) in dof.iter().enumerate() {
+                        if fc == HELD || fr > fc {
+                            continue;
+                        }
+                        let col = &row_idx[col_ptr[fc]..col_ptr[fc + 1]];
+                        if let Ok(pos) = col.binary_search(&fr) {
+                            values[col_ptr[fc] + pos] += m.stiffness[r][c];
+                        }
+                    }
+                }
+                volume_change.push(m.volume_change);
+                volumes.push(m.volume);
+            }
+        }
+        Ok(Self { dofs, free, free_count, col_ptr, row_idx, values, volume_change, volumes })
+    }
+
+    /// Free degrees of freedom (the system's size).
+    pub fn size(&self) -> usize {
+        self.free_count
+    }
+
+    /// Stored entries of the upper triangle.
+    pub fn stored(&self) -> usize {
+        self.values.len()
+    }
+
+    /// The free index of degree of freedom `3 node + direction`, `None` where held.
+    pub fn free_index(&self, dof: usize) -> Option<usize> {
+        self.free.get(dof).copied().filter(|&f| f != HELD)
+    }
+
+    /// The free right-hand side (N) of nodal forces on every node (held ones dropped: the base
+    /// takes them).
+    pub fn load(&self, forces: &[[f64; 3]]) -> Vec<f64> {
+        let mut rhs = vec![0.0; self.free_count];
+        for (n, f) in forces.iter().enumerate() {
+            for (c, fc) in f.iter().enumerate() {
+                if let Some(i) = self.free_index(3 * n + c) {
+                    rhs[i] += fc;
+                }
+            }
+        }
+        rhs
+    }
+
+    /// Nodal displacements (mm) of every degree of freedom from a solution over the free ones
+    /// (held ones zero).
+    pub fn expand(&self, solution: &[f64]) -> Vec<[f64; 3]> {
+        let mut u = vec![[0.0; 3]; self.dofs / 3];
+        for (d, &f) in self.free.iter().enumerate() {
+            if f != HELD {
+                u[d / 3][d % 3] = solution[f];
+            }
+        }
+        u
+    }
+
+    /// An element's volume change (mm^3) under nodal displacements `u` (mm): `b . u_e`.
+    pub fn volume_change(&self, mesh: &Mesh, e: usize, u: &[[f64; 3]]) -> f64 {
+        let b = &self.volume_change[e];
+        let mut v = 0.0;
+        for (a, &n) in mesh.elements[e].iter().enumerate() {
+            for i in 0..3 {
+                v += b[3 * a + i] * u[n][i];
+            }
+        }
+        v
+    }
+
+    /// An element's volume (mm^3).
+    pub fn volume(&self, e: usize) -> f64 {
+        self.volumes[e]
+    }
+
+    fn matrix(&self) -> Result<SparseColMatRef<'_, usize, f64>> {
+        let n = self.free_count;
+        let symbolic = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
+        Ok(SparseColMatRef::new(symbolic, &self.values))
+    }
+
+    /// The sparse Cholesky factor.
+    pub fn factor(&self) -> Result<Factor> {
+        let a = self.matrix()?;
+        let symbolic = factorize_symbolic_cholesky(
+            a.symbolic(),
+            Side::Upper,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams::default(),
+        )
+        .map_err(|e| FemError::Factorisation(format!("{e:?}")))?;
+        let mut values = vec![0.0; symbolic.len_val()];
+        let par = Par::rayon(0);
+        let mut mem = MemBuffer::new(symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default()));
+        symbolic
+            .factorize_numeric_llt(
+                &mut values,
+                a,
+                Side::Upper,
+                LltRegularization::default(),
+                par,
+                MemStack::new(&mut mem),
+                Default::default(),
+            )
+            .map_err(|e| FemError::Factorisation(format!("{e:?}")))?;
+        Ok(Factor { symbolic, values })
+    }
+}
+
+/// A sparse Cholesky factor of a [`Stiffness`].
+pub struct Factor {
+    symbolic: SymbolicCholesky<usize>,
+    values: Vec<f64>,
+}
+
+impl Factor {
+    /// Nonzeros of the factor `L`.
+    pub fn factor_entries(&self) -> usize {
+        self.values.len()
+    }
+
+    /// Solves `K X = B` in place for the columns of `rhs` (column-major, `size` rows each),
+    /// [`SOLVE_BLOCK`] columns per thread.
+    pub fn solve_in_place(&self, rhs: &mut [f64]) {
+        let n = self.symbolic.nrows();
+        if n == 0 {
+            return;
+        }
+        rhs.par_chunks_mut(n * SOLVE_BLOCK).for_each(|block| {
+            let k = block.len() / n;
+            let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
+            let mat = MatMut::from_column_major_slice_mut(block, n, k);
+            LltRef::<'_, usize, f64>::new(&self.symbolic, &self.values).solve_in_place_with_conj(
+                Conj::No,
+                mat,
+                Par::Seq,
+                MemStack::new(&mut mem),
+            );
+        });
+    }
+}
