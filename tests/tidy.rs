@@ -30,6 +30,9 @@ fn every_rust_file_has_module_docs() {
         "sim/tests",
         "sim/benches",
         "data/src",
+        "fem/src",
+        "fem/tests",
+        "fem/examples",
         "model/src",
         "model/tests",
         "python/src",
@@ -52,8 +55,8 @@ fn every_rust_file_has_module_docs() {
 }
 
 /// Where a path named in the docs may be relative to: the repository or a crate's sources.
-const DOC_ROOTS: [&str; 9] =
-    ["", "sim/src/", "src/", "model/src/", "model/", "data/src/", "python/", "python/src/", "sim/"];
+const DOC_ROOTS: [&str; 11] =
+    ["", "sim/src/", "src/", "model/src/", "model/", "data/src/", "python/", "python/src/", "sim/", "fem/", "fem/src/"];
 /// File kinds whose paths the docs name.
 const DOC_EXTENSIONS: [&str; 8] = [".rs", ".toml", ".py", ".md", ".json", ".patch", ".sh", ".pyi"];
 

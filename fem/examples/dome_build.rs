@@ -1,59 +1,91 @@
-//! Builds a dome and reports its size, the time of each stage and a central press's response.
+//! Builds a dome and reports its size, the time of each stage, the gel's volume change under a
+//! press and the pins' tips at a few polar angles (the mesh-convergence figures of
+//! `docs/experiments/fem-dome.md`).
 //!
-//! `cargo run --release -p tacsim-fem --example dome_build -- [CELLS] [SKIN_LAYERS]`
+//! `cargo run --release -p tacsim-fem --example dome_build -- [CELLS] [SKIN_LAYERS] [CAP_DEG]`
+//!
+//! With `CAP_DEG`, the response is also condensed onto the outer nodes within that angle of
+//! the apex and the default sensor's 331 pins (10 rings 4.536 deg apart), and the time taken
+//! reported.
+//!
+//! The press: a Hertz-shaped pressure `p0 sqrt(1 - (theta / 15 deg)^2)`, `p0` = 0.01 MPa, on
+//! the outer sphere about the apex. Pins: bases on the skin's inner face, 2.84 mm long, at
+//! polar 0, 10, 20, 30, 45 deg in azimuths 90 deg (the y-z plane) and 45 deg.
 
 use std::time::Instant;
 
-use tacsim_fem::{Dome, DomeSpec, Material};
+use tacsim_fem::{Compliance, Dome, DomeSpec, Material, PinSite, SOLVE_BLOCK};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let cells = args.get(1).map_or(Ok(10), |s| s.parse())?;
     let skin_layers = args.get(2).map_or(Ok(2), |s| s.parse())?;
+    let (r, t, pin_length) = (20.0, 0.66, 2.84);
     let spec = DomeSpec {
-        outer_radius_mm: 20.0,
-        skin_thickness_mm: 0.66,
+        outer_radius_mm: r,
+        skin_thickness_mm: t,
         skirt_mm: 0.0,
         skin: Material::new(1.0, 0.436)?,
         gel: Material::new(0.1, 0.4999)?,
         cells,
         skin_layers,
     };
-    let t = Instant::now();
+    let clock = Instant::now();
     let dome = Dome::build(&spec)?;
-    let built = t.elapsed().as_secs_f64();
     println!(
-        "cells {cells}, skin layers {skin_layers}: {} nodes, {} elements, {} free dofs, {} stored, L {} entries; build {built:.2} s",
+        "cells {cells}, skin layers {skin_layers}: {} nodes, {} elements, {} free dofs, L {} entries; build {:.2} s",
         dome.mesh.nodes.len(),
         dome.mesh.elements.len(),
         dome.stiffness.size(),
-        dome.stiffness.stored(),
-        dome.factor.factor_entries()
+        dome.factor.factor_entries(),
+        clock.elapsed().as_secs_f64()
     );
-    // A 0.05 MPa press over the cap within 15 deg of the apex.
-    let cos15 = 15f64.to_radians().cos();
-    let r = spec.outer_radius_mm;
-    let t = Instant::now();
-    let f = dome.pressure_forces(|x| if x[2] >= cos15 * r { 0.05 } else { 0.0 });
+    let theta0 = 15f64.to_radians();
+    let polar = |x: [f64; 3]| (x[2] / (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()).clamp(-1.0, 1.0).acos();
+    let f = dome.pressure_forces(|x| 0.01 * (1.0 - (polar(x) / theta0).powi(2)).max(0.0).sqrt());
+    let force: f64 = f.iter().map(|v| v[2]).sum();
+    let clock = Instant::now();
     let u = dome.solve(&f);
-    println!("one solve {:.3} s", t.elapsed().as_secs_f64());
-    let apex = dome.outer_nodes(0.0)[0];
-    let swept = dome.swept_volume(&u, |c| c[2] >= cos15 * r);
+    println!("press {:.4} N; one solve {:.3} s", -force, clock.elapsed().as_secs_f64());
+    let mut block = vec![1.0; dome.stiffness.size() * SOLVE_BLOCK];
+    let clock = Instant::now();
+    dome.factor.solve_in_place(&mut block);
+    println!("{SOLVE_BLOCK} solves in one block {:.3} s", clock.elapsed().as_secs_f64());
+    let swept = dome.swept_volume(&u, |c| polar(c) < theta0 * 1.2);
     let gel = dome.gel_volume_change(&u);
-    println!(
-        "apex displacement {:?} mm; swept {swept:.4} mm^3, gel volume change {gel:.3e} mm^3 ({:.3}%)",
-        u[apex],
-        100.0 * gel.abs() / swept
-    );
-    let base = [0.0, (r - 0.66) * 20f64.to_radians().sin(), (r - 0.66) * 20f64.to_radians().cos()];
-    let n = nalgebra_free_normal(base);
-    let tip = [base[0] - 2.84 * n[0], base[1] - 2.84 * n[1], base[2] - 2.84 * n[2]];
-    let probe = dome.pin_probe(0, base, tip)?;
-    println!("pin at 20 deg: tip {:?} mm", probe.displacement(&u));
+    println!("swept {swept:.5} mm^3, gel volume change {gel:.3e} mm^3 ({:.3}%)", 100.0 * gel.abs() / swept);
+    let apex = dome.outer_nodes(0.0)[0];
+    println!("apex {:?} mm", u[apex].map(|v| (v * 1e5).round() / 1e5));
+    for azimuth in [90f64, 45.0] {
+        for deg in [0.0f64, 10.0, 20.0, 30.0, 45.0] {
+            let (th, ph) = (deg.to_radians(), azimuth.to_radians());
+            let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+            let base = n.map(|v| v * (r - t));
+            let tip = [0, 1, 2].map(|k| base[k] - pin_length * n[k]);
+            let d = dome.pin_probe(0, base, tip)?.displacement(&u);
+            println!("pin azimuth {azimuth} polar {deg}: tip {:?} mm", d.map(|v| (v * 1e5).round() / 1e5));
+        }
+    }
+    if let Some(cap) = args.get(3) {
+        let cap: f64 = cap.parse()?;
+        let mut sites = Vec::new();
+        for ring in 0..=10usize {
+            for j in 0..(6 * ring).max(1) {
+                let th = (ring as f64 * 4.536_447).to_radians();
+                let ph = -0.358f64.to_radians() + std::f64::consts::TAU * j as f64 / (6 * ring).max(1) as f64;
+                let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+                sites.push(PinSite { base: n.map(|v| v * (r - t)), tip: n.map(|v| v * (r - t - pin_length)) });
+            }
+        }
+        let clock = Instant::now();
+        let c = Compliance::condense(&dome, cap, &sites, |_, _| {})?;
+        println!(
+            "condensed onto {} surface nodes within {cap} deg and {} pins: {:.1} s ({} MB of tables)",
+            c.nodes.len(),
+            c.pins,
+            clock.elapsed().as_secs_f64(),
+            8 * (c.surface.len() + c.pin_table.len()) / 1_000_000
+        );
+    }
     Ok(())
-}
-
-fn nalgebra_free_normal(p: [f64; 3]) -> [f64; 3] {
-    let n = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-    p.map(|v| v / n)
 }

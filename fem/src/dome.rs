@@ -204,29 +204,34 @@ impl Dome {
     }
 
     /// The probe of a pin with its base on the skin's inner face and its tip (mm, sensor frame).
+    ///
+    /// The base is looked up a little outwards, in the skin: the curved elements' faces leave
+    /// the sphere between their nodes (by up to about `h^3 / R^2`), so the point is pushed out
+    /// by 0.1%, 1%, 10%, then 30% of the skin's thickness until a skin element holds it.
     pub fn pin_probe(&self, pin: usize, base: [f64; 3], tip: [f64; 3]) -> Result<PinProbe> {
         let b = Vector3::from(base);
-        // Just inside the skin: the skin's element holds the base.
-        let at = b + b.normalize() * 1e-7 * self.spec.outer_radius_mm;
-        let p = [at.x, at.y, at.z];
-        for e in 0..self.mesh.elements.len() {
-            if self.mesh.regions[e] != Region::Skin {
-                continue;
+        let boxes: Vec<(usize, [[f64; 3]; 2])> = (0..self.mesh.elements.len())
+            .filter(|&e| self.mesh.regions[e] == Region::Skin)
+            .map(|e| {
+                let x = self.mesh.element_nodes(e);
+                let lo = [0, 1, 2].map(|k| x.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min));
+                let hi = [0, 1, 2].map(|k| x.iter().map(|v| v[k]).fold(f64::NEG_INFINITY, f64::max));
+                (e, [lo, hi])
+            })
+            .collect();
+        for push in [1e-3, 1e-2, 0.1, 0.3] {
+            let at = b + b.normalize() * push * self.spec.skin_thickness_mm;
+            let p = [at.x, at.y, at.z];
+            for (e, [lo, hi]) in &boxes {
+                if (0..3).any(|k| p[k] < lo[k] - 1e-6 || p[k] > hi[k] + 1e-6) {
+                    continue;
+                }
+                let x = self.mesh.element_nodes(*e);
+                let Some(l) = element::locate(&x, p) else { continue };
+                if l.iter().all(|&v| v >= -1e-9) {
+                    return Ok(PinProbe::new(self.mesh.elements[*e], &x, l, base, tip));
+                }
             }
-            let x = self.mesh.element_nodes(e);
-            let inside_box = (0..3).all(|k| {
-                let lo = x.iter().map(|v| v[k]).fold(f64::INFINITY, f64::min);
-                let hi = x.iter().map(|v| v[k]).fold(f64::NEG_INFINITY, f64::max);
-                p[k] >= lo - 1e-6 && p[k] <= hi + 1e-6
-            });
-            if !inside_box {
-                continue;
-            }
-            let Some(l) = element::locate(&x, p) else { continue };
-            if l.iter().any(|&v| v < -1e-9) {
-                continue;
-            }
-            return Ok(PinProbe::new(self.mesh.elements[e], &x, l, base, tip));
         }
         Err(FemError::PinOutside { pin, x: base[0], y: base[1], z: base[2] })
     }

@@ -165,7 +165,13 @@ pub fn locate(x: &[[f64; 3]; 10], p: [f64; 3]) -> Option<[f64; 4]> {
     // Straight-element guess.
     let v0 = Vector3::from(x[0]);
     let m = Matrix3::from_columns(&[Vector3::from(x[1]) - v0, Vector3::from(x[2]) - v0, Vector3::from(x[3]) - v0]);
-    let mut xi = m.try_inverse()? * (Vector3::from(p) - v0);
+    let guess = m.try_inverse()? * (Vector3::from(p) - v0);
+    // Start inside the element (the straight guess clamped onto it): a quadratic map has other
+    // preimages outside, which Newton's method from far away can find instead.
+    let mut l0 = [1.0 - guess.x - guess.y - guess.z, guess.x, guess.y, guess.z].map(|v| v.max(0.0));
+    let sum: f64 = l0.iter().sum();
+    l0 = l0.map(|v| v / sum);
+    let mut xi = Vector3::new(l0[1], l0[2], l0[3]);
     for _ in 0..20 {
         let l = [1.0 - xi.x - xi.y - xi.z, xi.x, xi.y, xi.z];
         let at = Vector3::from(position(x, l));

@@ -37,6 +37,12 @@ pub enum FemError {
         /// z (mm).
         z: f64,
     },
+    /// A surface degree of freedom asked for is held by the base.
+    #[error("degree of freedom {dof} of the condensed surface is held by the base: take a smaller cap")]
+    HeldSurface {
+        /// The degree of freedom (`3 node + direction`).
+        dof: usize,
+    },
     /// Reading or writing the cached condensed response.
     #[error("{path}: {message}")]
     Cache {

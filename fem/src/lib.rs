@@ -16,6 +16,7 @@
 //! thick sphere under internal pressure (at Poisson's ratio 0.3 and 0.4999: no locking), and
 //! the gel's volume under a press.
 
+mod condense;
 mod dome;
 mod element;
 mod error;
@@ -23,6 +24,7 @@ mod material;
 mod mesh;
 mod system;
 
+pub use condense::{Compliance, Header, PinSite, key as condensation_key};
 pub use dome::{Dome, DomeSpec, PinProbe};
 pub use element::{ElementMatrices, face_forces, matrices};
 pub use error::{FemError, Result};

@@ -239,16 +239,24 @@ impl Factor {
         if n == 0 {
             return;
         }
-        rhs.par_chunks_mut(n * SOLVE_BLOCK).for_each(|block| {
-            let k = block.len() / n;
-            let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
-            let mat = MatMut::from_column_major_slice_mut(block, n, k);
-            LltRef::<'_, usize, f64>::new(&self.symbolic, &self.values).solve_in_place_with_conj(
-                Conj::No,
-                mat,
-                Par::Seq,
-                MemStack::new(&mut mem),
-            );
-        });
+        rhs.par_chunks_mut(n * SOLVE_BLOCK).for_each(|block| self.solve_block(block));
+    }
+
+    /// Solves `K X = B` in place for the columns of `block` (column-major, `size` rows each) on
+    /// this thread.
+    pub fn solve_block(&self, block: &mut [f64]) {
+        let n = self.symbolic.nrows();
+        if n == 0 {
+            return;
+        }
+        let k = block.len() / n;
+        let mut mem = MemBuffer::new(self.symbolic.solve_in_place_scratch::<f64>(k, Par::Seq));
+        let mat = MatMut::from_column_major_slice_mut(block, n, k);
+        LltRef::<'_, usize, f64>::new(&self.symbolic, &self.values).solve_in_place_with_conj(
+            Conj::No,
+            mat,
+            Par::Seq,
+            MemStack::new(&mut mem),
+        );
     }
 }

@@ -1,0 +1,277 @@
+//! The dome's linear response condensed onto the outer nodes that can touch and the pins'
+//! tips, computed once per sensor and cached on disk.
+//!
+//! Column `j` of the tables is the response to a unit force (1 N) on surface degree of freedom
+//! `j = 3 s + direction` (the surface node `s`'s, sensor axes): the surface table gives every
+//! condensed node's displacement (mm, `3 S` rows), the pin table every pin tip's (`3 P` rows).
+//! One solve per column; the pins' rows come from the same solves (a probe reads the nodes of
+//! its element), so the pins cost nothing extra. By reciprocity the surface table is symmetric
+//! (test `condensed_surface_response_is_reciprocal`).
+//!
+//! # The cache file
+//! `tacsim-dome-<key>.bin`: the magic line `TACSIMFEM1`, a little-endian `u64` header length,
+//! the JSON header ([`Header`]: the key, the format, the sizes, the spec in words), then the
+//! surface nodes' positions, the surface table and the pin table as little-endian `f64`,
+//! columns one after the other. The key is a 64-bit FNV-1a hash of everything that shapes the
+//! tables (the spec, the cap's angle, the pins, the format's version): a file is only read
+//! back for the same inputs, and written atomically (temporary file, then rename).
+
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::dome::{Dome, DomeSpec, PinProbe};
+use crate::error::{FemError, Result};
+use crate::system::SOLVE_BLOCK;
+
+/// Bump when the tables' meaning or the file's layout change.
+const FORMAT: u32 = 1;
+const MAGIC: &[u8] = b"TACSIMFEM1\n";
+
+/// A pin as the condensation sees it: its base on the skin's inner face and its tip (mm,
+/// sensor frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PinSite {
+    /// Base (mm).
+    pub base: [f64; 3],
+    /// Tip (mm).
+    pub tip: [f64; 3],
+}
+
+/// The condensed response of a dome.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Compliance {
+    /// The inputs' key (see the module's documentation).
+    pub key: u64,
+    /// The condensed outer nodes' positions (mm), in the mesh's node order.
+    pub nodes: Vec<[f64; 3]>,
+    /// Pins.
+    pub pins: usize,
+    /// Surface displacement per unit surface force (mm/N), `3 S x 3 S`, column-major.
+    pub surface: Vec<f64>,
+    /// Pin tip displacement per unit surface force (mm/N), `3 P x 3 S`, column-major.
+    pub pin_table: Vec<f64>,
+}
+
+/// The cache file's header.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct Header {
+    /// The inputs' key, in hex.
+    pub key: String,
+    /// The format's version.
+    pub format: u32,
+    /// Condensed surface nodes.
+    pub surface_nodes: usize,
+    /// Pins.
+    pub pins: usize,
+    /// The spec, for a reader.
+    pub spec: String,
+}
+
+/// The key of a condensation's inputs.
+pub fn key(spec: &DomeSpec, max_polar_deg: f64, pins: &[PinSite]) -> u64 {
+    let words = format!("{FORMAT} {spec:?} {:?} {pins:?}", max_polar_deg.to_bits());
+    // FNV-1a, 64 bits.
+    words.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
+}
+
+impl Compliance {
+    /// Condenses a built dome onto its outer nodes within `max_polar_deg` of the apex and onto
+    /// the pins. Columns are solved [`SOLVE_BLOCK`] at a time, each block on one thread, so the
+    /// tables do not depend on the thread count; `progress` is called with the columns done.
+    pub fn condense(
+        dome: &Dome,
+        max_polar_deg: f64,
+        pins: &[PinSite],
+        progress: impl Fn(usize, usize) + Sync,
+    ) -> Result<Self> {
+        if !(0.0..=90.0).contains(&max_polar_deg) {
+            return Err(FemError::Parameter {
+                field: "max_polar_deg",
+                value: max_polar_deg,
+                expected: "an angle from the apex in [0, 90] deg",
+            });
+        }
+        let probes: Vec<PinProbe> =
+            pins.iter().enumerate().map(|(i, p)| dome.pin_probe(i, p.base, p.tip)).collect::<Result<_>>()?;
+        let surface_nodes = dome.outer_nodes(max_polar_deg);
+        let n = dome.stiffness.size();
+        let columns: Vec<usize> = surface_nodes
+            .iter()
+            .flat_map(|&s| (0..3).map(move |c| 3 * s + c))
+            .map(|dof| dome.stiffness.free_index(dof).ok_or(FemError::HeldSurface { dof }))
+            .collect::<Result<_>>()?;
+        let (rows_s, rows_p) = (columns.len(), 3 * probes.len());
+        let mut surface = vec![0.0; rows_s * columns.len()];
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let pin_blocks: Vec<Vec<f64>> = surface
+            .par_chunks_mut(rows_s * SOLVE_BLOCK)
+            .zip(columns.par_chunks(SOLVE_BLOCK))
+            .map(|(out_s, cols)| {
+                let k = cols.len();
+                let mut out_p = vec![0.0; rows_p * k];
+                let mut block = vec![0.0; n * k];
+                for (j, &c) in cols.iter().enumerate() {
+                    block[j * n + c] = 1.0;
+                }
+                dome.factor.solve_block(&mut block);
+                for j in 0..k {
+                    let x = &block[j * n..(j + 1) * n];
+                    for (i, &row) in columns.iter().enumerate() {
+                        out_s[j * rows_s + i] = x[row];
+                    }
+                    let u = |node: usize, m: usize| dome.stiffness.free_index(3 * node + m).map_or(0.0, |f| x[f]);
+                    for (p, probe) in probes.iter().enumerate() {
+                        for (a, &node) in probe.nodes.iter().enumerate() {
+                            for m in 0..3 {
+                                let v = u(node, m);
+                                for i in 0..3 {
+                                    out_p[j * rows_p + 3 * p + i] += probe.coefficients[i][3 * a + m] * v;
+                                }
+                            }
+                        }
+                    }
+                }
+                let total = done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k;
+                progress(total, columns.len());
+                out_p
+            })
+            .collect();
+        let pin_table = pin_blocks.concat();
+        Ok(Self {
+            key: key(&dome.spec, max_polar_deg, pins),
+            nodes: surface_nodes.iter().map(|&s| dome.mesh.nodes[s]).collect(),
+            pins: probes.len(),
+            surface,
+            pin_table,
+        })
+    }
+
+    /// Condensed surface degrees of freedom (`3 S`).
+    pub fn surface_dofs(&self) -> usize {
+        3 * self.nodes.len()
+    }
+
+    /// The response at every condensed node and pin tip (mm) to forces (N) on the condensed
+    /// nodes (`3 S` values, node by node).
+    pub fn respond(&self, forces: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let s = self.surface_dofs();
+        let p = 3 * self.pins;
+        let mut us = vec![0.0; s];
+        let mut up = vec![0.0; p];
+        for (j, &f) in forces.iter().enumerate().take(s) {
+            if f == 0.0 {
+                continue;
+            }
+            for (u, c) in us.iter_mut().zip(&self.surface[j * s..(j + 1) * s]) {
+                *u += c * f;
+            }
+            for (u, c) in up.iter_mut().zip(&self.pin_table[j * p..(j + 1) * p]) {
+                *u += c * f;
+            }
+        }
+        (us, up)
+    }
+
+    /// The cache file's path in `dir` for these inputs.
+    pub fn path_in(dir: &Path, key: u64) -> PathBuf {
+        dir.join(format!("tacsim-dome-{key:016x}.bin"))
+    }
+
+    /// Writes the tables to `path` atomically (a temporary file beside it, then a rename).
+    pub fn save(&self, path: &Path, spec: &DomeSpec) -> Result<()> {
+        let err = |message: String| FemError::Cache { path: path.display().to_string(), message };
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            fs::create_dir_all(dir).map_err(|e| err(format!("cannot create the cache folder: {e}")))?;
+        }
+        let header = Header {
+            key: format!("{:016x}", self.key),
+            format: FORMAT,
+            surface_nodes: self.nodes.len(),
+            pins: self.pins,
+            spec: format!("{spec:?}"),
+        };
+        let header = serde_json::to_vec(&header).map_err(|e| err(e.to_string()))?;
+        let mut bytes = Vec::with_capacity(
+            MAGIC.len() + 8 + header.len() + 8 * (3 * self.nodes.len() + self.surface.len() + self.pin_table.len()),
+        );
+        bytes.extend_from_slice(MAGIC);
+        bytes.extend_from_slice(&(header.len() as u64).to_le_bytes());
+        bytes.extend_from_slice(&header);
+        for v in self.nodes.iter().flatten().chain(&self.surface).chain(&self.pin_table) {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        let tmp = path.with_extension(format!("tmp{}", std::process::id()));
+        let write = || -> std::io::Result<()> {
+            let mut f = fs::File::create(&tmp)?;
+            f.write_all(&bytes)?;
+            f.sync_all()?;
+            fs::rename(&tmp, path)
+        };
+        write().map_err(|e| {
+            let _ = fs::remove_file(&tmp);
+            err(format!("cannot write the cache: {e}"))
+        })
+    }
+
+    /// Reads the tables back, checking the magic, the key and the sizes; an error names the
+    /// file and says what to do (delete it: it is rebuilt on the next use).
+    pub fn load(path: &Path, key: u64) -> Result<Self> {
+        let err = |message: String| FemError::Cache {
+            path: path.display().to_string(),
+            message: format!("{message}; delete the file and it will be rebuilt"),
+        };
+        let bytes = fs::read(path).map_err(|e| err(format!("cannot read: {e}")))?;
+        let rest = bytes.strip_prefix(MAGIC).ok_or_else(|| err("not a tacsim dome cache".into()))?;
+        let (len, rest) = rest.split_at_checked(8).ok_or_else(|| err("truncated header".into()))?;
+        let len = u64::from_le_bytes(len.try_into().map_err(|_| err("truncated header".into()))?) as usize;
+        let (header, data) = rest.split_at_checked(len).ok_or_else(|| err("truncated header".into()))?;
+        let header: Header = serde_json::from_slice(header).map_err(|e| err(format!("bad header: {e}")))?;
+        if header.format != FORMAT {
+            return Err(err(format!("format {} where this build reads {FORMAT}", header.format)));
+        }
+        if header.key != format!("{key:016x}") {
+            return Err(err(format!("made for inputs {} where {key:016x} were asked for", header.key)));
+        }
+        let (s, p) = (3 * header.surface_nodes, 3 * header.pins);
+        let expected = 8 * (s + s * s + p * s);
+        if data.len() != expected {
+            return Err(err(format!("{} bytes of tables where {expected} were expected", data.len())));
+        }
+        let values: Vec<f64> =
+            data.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect();
+        let (nodes, tables) = values.split_at(s);
+        let (surface, pin_table) = tables.split_at(s * s);
+        Ok(Self {
+            key,
+            nodes: nodes.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            pins: header.pins,
+            surface: surface.to_vec(),
+            pin_table: pin_table.to_vec(),
+        })
+    }
+
+    /// The tables for these inputs: read from `dir` where a file with their key is there, else
+    /// built (the dome meshed, assembled, factorised and condensed) and saved there.
+    pub fn cached(
+        dir: &Path,
+        spec: &DomeSpec,
+        max_polar_deg: f64,
+        pins: &[PinSite],
+        progress: impl Fn(usize, usize) + Sync,
+    ) -> Result<Self> {
+        spec.validate()?;
+        let key = key(spec, max_polar_deg, pins);
+        let path = Self::path_in(dir, key);
+        if path.exists() {
+            return Self::load(&path, key);
+        }
+        let dome = Dome::build(spec)?;
+        let tables = Self::condense(&dome, max_polar_deg, pins, progress)?;
+        tables.save(&path, spec)?;
+        Ok(tables)
+    }
+}

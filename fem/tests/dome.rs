@@ -1,0 +1,165 @@
+//! The dome: the gel's volume, the condensed tables against direct solves, reciprocity,
+//! determinism and the cache file.
+
+use tacsim_fem::{Compliance, Dome, DomeSpec, FemError, Material, PinSite, condensation_key};
+
+fn spec(cells: usize) -> DomeSpec {
+    DomeSpec {
+        outer_radius_mm: 20.0,
+        skin_thickness_mm: 0.66,
+        skirt_mm: 0.0,
+        skin: Material::new(1.0, 0.436).expect("skin"),
+        gel: Material::new(0.1, 0.4999).expect("gel"),
+        cells,
+        skin_layers: if cells > 4 { 2 } else { 1 },
+    }
+}
+
+fn pins() -> Vec<PinSite> {
+    let (inner, length) = (20.0 - 0.66, 2.84);
+    [(0.0f64, 0.0f64), (10.0, 30.0), (20.0, 90.0), (25.0, 200.0)]
+        .iter()
+        .map(|&(polar, azimuth)| {
+            let (t, p) = (polar.to_radians(), azimuth.to_radians());
+            let n = [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
+            PinSite { base: n.map(|v| v * inner), tip: n.map(|v| v * (inner - length)) }
+        })
+        .collect()
+}
+
+fn polar(x: [f64; 3]) -> f64 {
+    (x[2] / (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()).clamp(-1.0, 1.0).acos()
+}
+
+#[test]
+fn gel_keeps_its_volume_under_a_press() {
+    // A Hertz-shaped press within 15 deg of the apex; gel Poisson 0.4999. Measured 0.098% at 6
+    // cells (`cargo run --release -p tacsim-fem --example dome_build -- 6 2`).
+    let dome = Dome::build(&spec(6)).expect("dome");
+    let theta0 = 15f64.to_radians();
+    let f = dome.pressure_forces(|x| 0.01 * (1.0 - (polar(x) / theta0).powi(2)).max(0.0).sqrt());
+    let u = dome.solve(&f);
+    let swept = dome.swept_volume(&u, |c| polar(c) < 1.2 * theta0);
+    let gel = dome.gel_volume_change(&u);
+    eprintln!("swept {swept:.4} mm^3, gel {gel:.3e} mm^3");
+    assert!(swept > 1.0, "the press barely moved the skin: {swept}");
+    assert!(gel.abs() < 0.005 * swept, "gel volume change {gel:.3e} against {swept:.3e} swept");
+}
+
+#[test]
+fn condensed_tables_reproduce_a_direct_solve_and_are_reciprocal() {
+    let dome = Dome::build(&spec(4)).expect("dome");
+    let sites = pins();
+    let c = Compliance::condense(&dome, 30.0, &sites, |_, _| {}).expect("condense");
+    let s = c.surface_dofs();
+    assert!(s > 30, "{s} condensed dofs");
+    // Reciprocity: the surface table is symmetric.
+    let scale = c.surface.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let mut asym = 0.0f64;
+    for i in 0..s {
+        for j in 0..i {
+            asym = asym.max((c.surface[j * s + i] - c.surface[i * s + j]).abs());
+        }
+    }
+    assert!(asym < 1e-9 * scale, "asymmetry {asym:e} of {scale:e}");
+    // A load on the condensed nodes: the tables against a direct solve and the probes.
+    let surface = dome.outer_nodes(30.0);
+    let forces: Vec<f64> = (0..s).map(|k| ((k * 7919) % 13) as f64 / 13.0 - 0.4).collect();
+    let mut nodal = vec![[0.0; 3]; dome.mesh.nodes.len()];
+    for (k, &node) in surface.iter().enumerate() {
+        nodal[node] = [forces[3 * k], forces[3 * k + 1], forces[3 * k + 2]];
+    }
+    let u = dome.solve(&nodal);
+    let (us, up) = c.respond(&forces);
+    let umax = u.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+    for (k, &node) in surface.iter().enumerate() {
+        for d in 0..3 {
+            assert!((us[3 * k + d] - u[node][d]).abs() < 1e-9 * umax, "node {node} direction {d}");
+        }
+    }
+    for (p, site) in sites.iter().enumerate() {
+        let direct = dome.pin_probe(p, site.base, site.tip).expect("probe").displacement(&u);
+        for d in 0..3 {
+            assert!((up[3 * p + d] - direct[d]).abs() < 1e-9 * umax, "pin {p} direction {d}");
+        }
+    }
+}
+
+#[test]
+fn condensation_does_not_depend_on_the_thread_count() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
+        pool.install(|| {
+            let dome = Dome::build(&spec(4)).expect("dome");
+            Compliance::condense(&dome, 20.0, &pins(), |_, _| {}).expect("condense")
+        })
+    };
+    let (one, two) = (run(1), run(2));
+    let bits = |c: &Compliance| c.surface.iter().chain(&c.pin_table).map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&one), bits(&two));
+}
+
+#[test]
+fn cache_reads_back_what_it_wrote_and_refuses_other_files() {
+    let dir = std::env::temp_dir().join(format!("tacsim-fem-cache-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (spec, sites) = (spec(4), pins());
+    let built = Compliance::cached(&dir, &spec, 20.0, &sites, |_, _| {}).expect("built");
+    let key = condensation_key(&spec, 20.0, &sites);
+    let path = Compliance::path_in(&dir, key);
+    assert!(path.exists());
+    let read = Compliance::cached(&dir, &spec, 20.0, &sites, |_, _| {}).expect("read");
+    assert_eq!(built, read);
+    // Another key: refused, naming the file.
+    let other = Compliance::load(&path, key ^ 1).expect_err("wrong key");
+    assert!(other.to_string().contains("tacsim-dome-") && other.to_string().contains("delete the file"), "{other}");
+    // A truncated file: refused.
+    let bytes = std::fs::read(&path).expect("read");
+    std::fs::write(&path, &bytes[..bytes.len() - 8]).expect("write");
+    let cut = Compliance::load(&path, key).expect_err("truncated");
+    assert!(cut.to_string().contains("bytes of tables"), "{cut}");
+    std::fs::write(&path, b"not a cache").expect("write");
+    assert!(matches!(Compliance::load(&path, key), Err(FemError::Cache { .. })));
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn absurd_specs_are_refused_with_the_field_named() {
+    let mut s = spec(4);
+    s.skin_thickness_mm = 15.0;
+    let e = Dome::build(&s).err().expect("refused");
+    assert!(e.to_string().contains("skin_thickness_mm = 15"), "{e}");
+    let mut s = spec(4);
+    s.cells = 1000;
+    assert!(Dome::build(&s).err().expect("refused").to_string().contains("cells = 1000"));
+    assert!(Material::new(0.1, 0.5).expect_err("refused").to_string().contains("0.4999"));
+    assert!(Material::new(f64::NAN, 0.3).is_err());
+    let dome = Dome::build(&spec(4)).expect("dome");
+    assert!(Compliance::condense(&dome, 120.0, &[], |_, _| {}).is_err());
+    // A pin whose base is not in the skin.
+    let far = PinSite { base: [0.0, 0.0, 5.0], tip: [0.0, 0.0, 2.0] };
+    assert!(matches!(Compliance::condense(&dome, 20.0, &[far], |_, _| {}), Err(FemError::PinOutside { .. })));
+}
+
+#[test]
+fn every_pin_of_the_default_layout_finds_its_skin_element() {
+    // Regression: Newton's method from the straight element's guess found preimages of the
+    // quadratic map outside the element, and pin 255 (ring 9) of the 331 at 6 cells lay in no
+    // skin element. It now starts inside the element.
+    let dome = Dome::build(&spec(6)).expect("dome");
+    let (inner, length) = (20.0 - 0.66, 2.84);
+    let mut count = 0;
+    for ring in 0..=10usize {
+        let per_ring = (6 * ring).max(1);
+        for j in 0..per_ring {
+            let th = (ring as f64 * 4.536_447).to_radians();
+            let ph = -0.358f64.to_radians() + std::f64::consts::TAU * j as f64 / per_ring as f64;
+            let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+            let base = n.map(|v| v * inner);
+            let tip = n.map(|v| v * (inner - length));
+            dome.pin_probe(count, base, tip).expect("located");
+            count += 1;
+        }
+    }
+    assert_eq!(count, 331);
+}
