@@ -73,17 +73,19 @@ fn reference_gradients(l: [f64; 4]) -> [[f64; 3]; 10] {
     g
 }
 
+/// The map's Jacobian `d x / d xi` from the nodes and the reference gradients.
+fn jacobian(x: &[[f64; 3]; 10], g: &[[f64; 3]; 10]) -> Matrix3<f64> {
+    let mut j = Matrix3::zeros();
+    for (xa, ga) in x.iter().zip(g) {
+        j += Vector3::from(*xa) * Vector3::from(*ga).transpose();
+    }
+    j
+}
+
 /// The Jacobian determinant and the shape functions' spatial gradients (1/mm) at `l`.
 pub fn gradients(x: &[[f64; 3]; 10], l: [f64; 4]) -> (f64, [[f64; 3]; 10]) {
     let g = reference_gradients(l);
-    let mut j = Matrix3::zeros();
-    for a in 0..10 {
-        for r in 0..3 {
-            for c in 0..3 {
-                j[(r, c)] += x[a][r] * g[a][c];
-            }
-        }
-    }
+    let j = jacobian(x, &g);
     let det = j.determinant();
     let inv = j.try_inverse().unwrap_or_else(Matrix3::zeros);
     let mut out = [[0.0; 3]; 10];
@@ -176,16 +178,7 @@ pub fn locate(x: &[[f64; 3]; 10], p: [f64; 3]) -> Option<[f64; 4]> {
         let l = [1.0 - xi.x - xi.y - xi.z, xi.x, xi.y, xi.z];
         let at = Vector3::from(position(x, l));
         let r = Vector3::from(p) - at;
-        let g = reference_gradients(l);
-        let mut j = Matrix3::zeros();
-        for a in 0..10 {
-            for rr in 0..3 {
-                for c in 0..3 {
-                    j[(rr, c)] += x[a][rr] * g[a][c];
-                }
-            }
-        }
-        let step = j.try_inverse()? * r;
+        let step = jacobian(x, &reference_gradients(l)).try_inverse()? * r;
         xi += step;
         if step.norm() < 1e-13 {
             break;
