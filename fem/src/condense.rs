@@ -6,7 +6,7 @@
 //! condensed node's displacement (mm, `3 S` rows), the pin table every pin tip's (`3 P` rows).
 //! One solve per column; the pins' rows come from the same solves (a probe reads the nodes of
 //! its element), so the pins cost nothing extra. By reciprocity the surface table is symmetric
-//! (test `condensed_surface_response_is_reciprocal`).
+//! (test `condensed_tables_reproduce_a_direct_solve_and_are_reciprocal`).
 //!
 //! # The cache file
 //! `tacsim-dome-<key>.bin`: the magic line `TACSIMFEM1`, a little-endian `u64` header length,
@@ -23,23 +23,13 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::dome::{Dome, DomeSpec, PinProbe};
+use crate::dome::{Dome, DomeSpec, PinSite};
 use crate::error::{FemError, Result};
 use crate::system::SOLVE_BLOCK;
 
 /// Bump when the tables' meaning or the file's layout change.
 const FORMAT: u32 = 1;
 const MAGIC: &[u8] = b"TACSIMFEM1\n";
-
-/// A pin as the condensation sees it: its base on the skin's inner face and its tip (mm,
-/// sensor frame).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PinSite {
-    /// Base (mm).
-    pub base: [f64; 3],
-    /// Tip (mm).
-    pub tip: [f64; 3],
-}
 
 /// The condensed response of a dome.
 #[derive(Clone, Debug, PartialEq)]
@@ -95,8 +85,7 @@ impl Compliance {
                 expected: "an angle from the apex in [0, 90] deg",
             });
         }
-        let probes: Vec<PinProbe> =
-            pins.iter().enumerate().map(|(i, p)| dome.pin_probe(i, p.base, p.tip)).collect::<Result<_>>()?;
+        let probes = dome.pin_probes(pins)?;
         let surface_nodes = dome.outer_nodes(max_polar_deg);
         let n = dome.stiffness.size();
         let columns: Vec<usize> = surface_nodes

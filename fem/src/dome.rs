@@ -15,6 +15,15 @@ use crate::material::Material;
 use crate::mesh::{CubedBall, Mesh, Region};
 use crate::system::{Factor, Stiffness};
 
+/// A pin: its base on the skin's inner face and its tip (mm, sensor frame).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PinSite {
+    /// Base (mm).
+    pub base: [f64; 3],
+    /// Tip (mm).
+    pub tip: [f64; 3],
+}
+
 /// Everything that shapes a dome's response.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DomeSpec {
@@ -80,7 +89,6 @@ impl DomeSpec {
             cell_range: [(-ni, ni), (-ni, ni), (zlo, ni)],
             min_shell: 0,
             radii,
-            sphere_from: 0,
             skin_from: gel_shells,
             skirt,
         }
@@ -102,6 +110,8 @@ pub struct Dome {
     pub stiffness: Stiffness,
     /// The stiffness's Cholesky factor.
     pub factor: Factor,
+    /// The outer sphere's boundary faces, as (element, local face).
+    outer_faces: Vec<(usize, usize)>,
 }
 
 impl Dome {
@@ -122,14 +132,12 @@ impl Dome {
             &held,
         )?;
         let factor = stiffness.factor()?;
-        Ok(Self { spec: spec.clone(), mesh, stiffness, factor })
-    }
-
-    /// Whether a node lies on the outer sphere (not the skirt).
-    fn on_outer_sphere(&self, x: &[f64; 3]) -> bool {
-        let r = self.spec.outer_radius_mm;
-        let norm = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
-        (norm - r).abs() < 1e-9 * r && x[2] >= -1e-9 * r
+        let outer_faces = mesh
+            .boundary_faces()
+            .into_iter()
+            .filter(|&(e, f)| mesh.face_nodes(e, f).iter().all(|&n| on_outer_sphere(spec, &mesh.nodes[n])))
+            .collect();
+        Ok(Self { spec: spec.clone(), mesh, stiffness, factor, outer_faces })
     }
 
     /// Nodes of the outer surface within `max_polar_deg` of the apex, in node order.
@@ -139,25 +147,21 @@ impl Dome {
         (0..self.mesh.nodes.len())
             .filter(|&n| {
                 let x = &self.mesh.nodes[n];
-                self.on_outer_sphere(x) && x[2] >= cos_max * r - 1e-9 * r
+                on_outer_sphere(&self.spec, x) && x[2] >= cos_max * r - 1e-9 * r
             })
             .collect()
     }
 
     /// The outer sphere's boundary faces, as (element, local face).
-    pub fn outer_faces(&self) -> Vec<(usize, usize)> {
-        self.mesh
-            .boundary_faces()
-            .into_iter()
-            .filter(|&(e, f)| self.mesh.face_nodes(e, f).iter().all(|&n| self.on_outer_sphere(&self.mesh.nodes[n])))
-            .collect()
+    pub fn outer_faces(&self) -> &[(usize, usize)] {
+        &self.outer_faces
     }
 
     /// Consistent nodal forces (N) of a pressure (MPa, pushing into the skin) on the outer
     /// sphere, as a function of the point.
     pub fn pressure_forces(&self, pressure: impl Fn([f64; 3]) -> f64) -> Vec<[f64; 3]> {
         let mut f = vec![[0.0; 3]; self.mesh.nodes.len()];
-        for (e, face) in self.outer_faces() {
+        for &(e, face) in &self.outer_faces {
             let nodes = self.mesh.face_nodes(e, face);
             let x = nodes.map(|n| self.mesh.nodes[n]);
             let fe = face_forces(&x, self.mesh.centroid(e), |p, n| {
@@ -192,7 +196,7 @@ impl Dome {
     /// centroid: `-int u . n dA` over those faces.
     pub fn swept_volume(&self, u: &[[f64; 3]], inside: impl Fn([f64; 3]) -> bool) -> f64 {
         let mut v = 0.0;
-        for (e, face) in self.outer_faces() {
+        for &(e, face) in &self.outer_faces {
             let nodes = self.mesh.face_nodes(e, face);
             let x = nodes.map(|n| self.mesh.nodes[n]);
             let c = [0, 1, 2].map(|k| (x[0][k] + x[1][k] + x[2][k]) / 3.0);
@@ -204,13 +208,19 @@ impl Dome {
     }
 
     /// The probe of a pin with its base on the skin's inner face and its tip (mm, sensor frame).
-    ///
-    /// The base is looked up a little outwards, in the skin: the curved elements' faces leave
-    /// the sphere between their nodes (by up to about `h^3 / R^2`), so the point is pushed out
-    /// by 0.1%, 1%, 10%, then 30% of the skin's thickness until a skin element holds it.
     pub fn pin_probe(&self, pin: usize, base: [f64; 3], tip: [f64; 3]) -> Result<PinProbe> {
-        let b = Vector3::from(base);
-        let boxes: Vec<(usize, [[f64; 3]; 2])> = (0..self.mesh.elements.len())
+        self.probe_among(&self.skin_boxes(), pin, PinSite { base, tip })
+    }
+
+    /// The probes of many pins, in order (the skin elements' bounds found once for all).
+    pub fn pin_probes(&self, pins: &[PinSite]) -> Result<Vec<PinProbe>> {
+        let boxes = self.skin_boxes();
+        pins.iter().enumerate().map(|(i, &site)| self.probe_among(&boxes, i, site)).collect()
+    }
+
+    /// Every skin element with the bounds of its nodes (mm).
+    fn skin_boxes(&self) -> Vec<(usize, [[f64; 3]; 2])> {
+        (0..self.mesh.elements.len())
             .filter(|&e| self.mesh.regions[e] == Region::Skin)
             .map(|e| {
                 let x = self.mesh.element_nodes(e);
@@ -218,23 +228,38 @@ impl Dome {
                 let hi = [0, 1, 2].map(|k| x.iter().map(|v| v[k]).fold(f64::NEG_INFINITY, f64::max));
                 (e, [lo, hi])
             })
-            .collect();
+            .collect()
+    }
+
+    /// The base is looked up a little outwards, in the skin: the curved elements' faces leave
+    /// the sphere between their nodes (by up to about `h^3 / R^2`), so the point is pushed out
+    /// by 0.1%, 1%, 10%, then 30% of the skin's thickness until a skin element holds it.
+    fn probe_among(&self, boxes: &[(usize, [[f64; 3]; 2])], pin: usize, site: PinSite) -> Result<PinProbe> {
+        let b = Vector3::from(site.base);
         for push in [1e-3, 1e-2, 0.1, 0.3] {
             let at = b + b.normalize() * push * self.spec.skin_thickness_mm;
             let p = [at.x, at.y, at.z];
-            for (e, [lo, hi]) in &boxes {
+            for (e, [lo, hi]) in boxes {
                 if (0..3).any(|k| p[k] < lo[k] - 1e-6 || p[k] > hi[k] + 1e-6) {
                     continue;
                 }
                 let x = self.mesh.element_nodes(*e);
                 let Some(l) = element::locate(&x, p) else { continue };
                 if l.iter().all(|&v| v >= -1e-9) {
-                    return Ok(PinProbe::new(self.mesh.elements[*e], &x, l, base, tip));
+                    return Ok(PinProbe::new(self.mesh.elements[*e], &x, l, site.base, site.tip));
                 }
             }
         }
-        Err(FemError::PinOutside { pin, x: base[0], y: base[1], z: base[2] })
+        let [x, y, z] = site.base;
+        Err(FemError::PinOutside { pin, x, y, z })
     }
+}
+
+/// Whether a point lies on the outer sphere (not the skirt).
+fn on_outer_sphere(spec: &DomeSpec, x: &[f64; 3]) -> bool {
+    let r = spec.outer_radius_mm;
+    let norm = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+    (norm - r).abs() < 1e-9 * r && x[2] >= -1e-9 * r
 }
 
 /// A pin tip's displacement as a linear function of its skin element's nodal displacements.

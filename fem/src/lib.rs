@@ -24,8 +24,8 @@ mod material;
 mod mesh;
 mod system;
 
-pub use condense::{Compliance, Header, PinSite, key as condensation_key};
-pub use dome::{Dome, DomeSpec, PinProbe};
+pub use condense::{Compliance, Header, key as condensation_key};
+pub use dome::{Dome, DomeSpec, PinProbe, PinSite};
 pub use element::{ElementMatrices, face_forces, matrices};
 pub use error::{FemError, Result};
 pub use material::{MAX_POISSON, Material};

@@ -6,11 +6,8 @@
 //! `a` in `[-1, 1]^3` lies on the cube shell `s = |a|_inf` in the direction `c = a / s`; the
 //! equiangular cubed-sphere map `d_k = tan(pi c_k / 4)` sends `c` onto the unit sphere's
 //! `d / |d|`, and the point lands at radius `r(s)` (piecewise linear through the shells'
-//! radii). Inner shells may blend from the cube to the sphere, `x = r(s) ((1 - w) c + w d/|d|)`
-//! with `w` rising linearly from 0 at the centre to 1 at [`CubedBall::sphere_from`] (faster,
-//! and the shells cross along the cube's diagonals, where `|c| = sqrt 3`). Every shell at or
-//! above [`CubedBall::sphere_from`] is an exact sphere: the skin's faces are concentric spheres
-//! of uniform thickness. Midside nodes are mapped too (isoparametric elements on the curved
+//! radii): every shell is an exact sphere, the skin's faces concentric spheres of uniform
+//! thickness. Midside nodes are mapped too (isoparametric elements on the curved
 //! geometry). The plane `z = 0` maps onto itself (`c_z = 0` gives `d_z = 0`), so the upper
 //! half of the lattice is a hemisphere on its base plane; a skirt extrudes that plane's nodes
 //! down by a given depth (a cylinder below the hemisphere).
@@ -104,8 +101,6 @@ pub struct CubedBall {
     pub min_shell: usize,
     /// Radius (mm) of each shell `0..=N`, increasing.
     pub radii: Vec<f64>,
-    /// Shells from this one out are spheres; inner ones blend towards the cube.
-    pub sphere_from: usize,
     /// Cells from this shell out are skin, inner ones gel.
     pub skin_from: usize,
     /// Below `z = 0`: the base plane's nodes extruded down in this many layers by this depth
@@ -197,9 +192,7 @@ impl CubedBall {
         let t = s * n;
         let m = (t.floor() as usize).min(self.cells - 1);
         let r = self.radii[m] + (self.radii[m + 1] - self.radii[m]) * (t - m as f64);
-        let sphere_s = self.sphere_from as f64 / n;
-        let w = if s >= sphere_s || sphere_s == 0.0 { 1.0 } else { s / sphere_s };
-        [0, 1, 2].map(|k| r * ((1.0 - w) * c[k] + w * d[k] / norm))
+        d.map(|v| r * v / norm)
     }
 }
 

@@ -29,19 +29,13 @@ const HELD: usize = usize::MAX;
 
 /// The stiffness matrix of a mesh (N/mm) over its free degrees of freedom.
 pub struct Stiffness {
-    /// Degrees of freedom of the mesh, held ones included (`3 x nodes`).
-    dofs: usize,
-    /// Free index of each degree of freedom, `usize::MAX` where held.
+    /// Free index of each degree of freedom (`3 x nodes`), `usize::MAX` where held.
     free: Vec<usize>,
-    /// Free degrees of freedom.
-    free_count: usize,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     values: Vec<f64>,
     /// Each element's volume-change row `b` (see [`crate::element`]).
     volume_change: Vec<[f64; 30]>,
-    /// Each element's volume (mm^3).
-    volumes: Vec<f64>,
 }
 
 impl Stiffness {
@@ -88,7 +82,6 @@ impl Stiffness {
         drop(adjacent);
         let mut values = vec![0.0; row_idx.len()];
         let mut volume_change = Vec::with_capacity(mesh.elements.len());
-        let mut volumes = Vec::with_capacity(mesh.elements.len());
         for start in (0..mesh.elements.len()).step_by(ELEMENT_BATCH) {
             let end = (start + ELEMENT_BATCH).min(mesh.elements.len());
             let batch: Vec<ElementMatrices> = (start..end)
@@ -122,15 +115,14 @@ impl Stiffness {
                     }
                 }
                 volume_change.push(m.volume_change);
-                volumes.push(m.volume);
             }
         }
-        Ok(Self { dofs, free, free_count, col_ptr, row_idx, values, volume_change, volumes })
+        Ok(Self { free, col_ptr, row_idx, values, volume_change })
     }
 
     /// Free degrees of freedom (the system's size).
     pub fn size(&self) -> usize {
-        self.free_count
+        self.col_ptr.len() - 1
     }
 
     /// Stored entries of the upper triangle.
@@ -146,7 +138,7 @@ impl Stiffness {
     /// The free right-hand side (N) of nodal forces on every node (held ones dropped: the base
     /// takes them).
     pub fn load(&self, forces: &[[f64; 3]]) -> Vec<f64> {
-        let mut rhs = vec![0.0; self.free_count];
+        let mut rhs = vec![0.0; self.size()];
         for (n, f) in forces.iter().enumerate() {
             for (c, fc) in f.iter().enumerate() {
                 if let Some(i) = self.free_index(3 * n + c) {
@@ -160,7 +152,7 @@ impl Stiffness {
     /// Nodal displacements (mm) of every degree of freedom from a solution over the free ones
     /// (held ones zero).
     pub fn expand(&self, solution: &[f64]) -> Vec<[f64; 3]> {
-        let mut u = vec![[0.0; 3]; self.dofs / 3];
+        let mut u = vec![[0.0; 3]; self.free.len() / 3];
         for (d, &f) in self.free.iter().enumerate() {
             if f != HELD {
                 u[d / 3][d % 3] = solution[f];
@@ -181,20 +173,15 @@ impl Stiffness {
         v
     }
 
-    /// An element's volume (mm^3).
-    pub fn volume(&self, e: usize) -> f64 {
-        self.volumes[e]
-    }
-
-    fn matrix(&self) -> Result<SparseColMatRef<'_, usize, f64>> {
-        let n = self.free_count;
+    fn matrix(&self) -> SparseColMatRef<'_, usize, f64> {
+        let n = self.size();
         let symbolic = SymbolicSparseColMatRef::new_checked(n, n, &self.col_ptr, None, &self.row_idx);
-        Ok(SparseColMatRef::new(symbolic, &self.values))
+        SparseColMatRef::new(symbolic, &self.values)
     }
 
     /// The sparse Cholesky factor.
     pub fn factor(&self) -> Result<Factor> {
-        let a = self.matrix()?;
+        let a = self.matrix();
         let symbolic = factorize_symbolic_cholesky(
             a.symbolic(),
             Side::Upper,

@@ -23,7 +23,6 @@ fn lame_octant(n: usize, a: f64, b: f64, material: Material, p: f64) -> Vec<(f64
         cell_range: [(0, ni), (0, ni), (0, ni)],
         min_shell: inner_shell,
         radii,
-        sphere_from: 0,
         skin_from: n + 1,
         skirt: None,
     };
@@ -104,7 +103,6 @@ fn regions_follow_the_shells() {
         cell_range: [(-4, 4), (-4, 4), (0, 4)],
         min_shell: 0,
         radii: vec![0.0, 3.0, 6.0, 9.0, 10.0],
-        sphere_from: 3,
         skin_from: 3,
         skirt: None,
     };

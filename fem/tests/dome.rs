@@ -148,18 +148,16 @@ fn every_pin_of_the_default_layout_finds_its_skin_element() {
     // skin element. It now starts inside the element.
     let dome = Dome::build(&spec(6)).expect("dome");
     let (inner, length) = (20.0 - 0.66, 2.84);
-    let mut count = 0;
+    let mut sites = Vec::new();
     for ring in 0..=10usize {
         let per_ring = (6 * ring).max(1);
         for j in 0..per_ring {
             let th = (ring as f64 * 4.536_447).to_radians();
             let ph = -0.358f64.to_radians() + std::f64::consts::TAU * j as f64 / per_ring as f64;
             let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
-            let base = n.map(|v| v * inner);
-            let tip = n.map(|v| v * (inner - length));
-            dome.pin_probe(count, base, tip).expect("located");
-            count += 1;
+            sites.push(PinSite { base: n.map(|v| v * inner), tip: n.map(|v| v * (inner - length)) });
         }
     }
-    assert_eq!(count, 331);
+    assert_eq!(sites.len(), 331);
+    assert_eq!(dome.pin_probes(&sites).expect("located").len(), 331);
 }
