@@ -2,9 +2,9 @@
 //! press and the pins' tips at a few polar angles (the mesh-convergence figures of
 //! `docs/experiments/fem-dome.md`).
 //!
-//! `cargo run --release -p tacsim-fem --example dome_build -- [CELLS] [SKIN_LAYERS] [CAP_DEG]`
+//! `cargo run --release -p tacsim-fem --example dome_build -- [CELLS] [SKIN_LAYERS] [PATCH_MM] [CAP_DEG]`
 //!
-//! With `CAP_DEG`, the response is also condensed onto the outer nodes within that angle of
+//! `PATCH_MM`: the pins' skin patch radius (default 0, the base alone). With `CAP_DEG`, the response is also condensed onto the outer nodes within that angle of
 //! the apex and the default sensor's 331 pins (10 rings 4.536 deg apart), and the time taken
 //! reported.
 //!
@@ -20,6 +20,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let cells = args.get(1).map_or(Ok(10), |s| s.parse())?;
     let skin_layers = args.get(2).map_or(Ok(2), |s| s.parse())?;
+    let patch_radius_mm: f64 = args.get(3).map_or(Ok(0.0), |s| s.parse())?;
     let (r, t, pin_length) = (20.0, 0.66, 2.84);
     let spec = DomeSpec {
         outer_radius_mm: r,
@@ -62,11 +63,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
             let base = n.map(|v| v * (r - t));
             let tip = [0, 1, 2].map(|k| base[k] - pin_length * n[k]);
-            let d = dome.pin_probe(0, base, tip)?.displacement(&u);
+            let d = dome.pin_probe(0, PinSite { base, tip, patch_radius_mm })?.displacement(&u);
             println!("pin azimuth {azimuth} polar {deg}: tip {:?} mm", d.map(|v| (v * 1e5).round() / 1e5));
         }
     }
-    if let Some(cap) = args.get(3) {
+    if let Some(cap) = args.get(4) {
         let cap: f64 = cap.parse()?;
         let mut sites = Vec::new();
         for ring in 0..=10usize {
@@ -74,7 +75,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 let th = (ring as f64 * 4.536_447).to_radians();
                 let ph = -0.358f64.to_radians() + std::f64::consts::TAU * j as f64 / (6 * ring).max(1) as f64;
                 let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
-                sites.push(PinSite { base: n.map(|v| v * (r - t)), tip: n.map(|v| v * (r - t - pin_length)) });
+                sites.push(PinSite {
+                    base: n.map(|v| v * (r - t)),
+                    tip: n.map(|v| v * (r - t - pin_length)),
+                    patch_radius_mm,
+                });
             }
         }
         let clock = Instant::now();

@@ -114,14 +114,8 @@ impl Compliance {
                     }
                     let u = |node: usize, m: usize| dome.stiffness.free_index(3 * node + m).map_or(0.0, |f| x[f]);
                     for (p, probe) in probes.iter().enumerate() {
-                        for (a, &node) in probe.nodes.iter().enumerate() {
-                            for m in 0..3 {
-                                let v = u(node, m);
-                                for i in 0..3 {
-                                    out_p[j * rows_p + 3 * p + i] += probe.coefficients[i][3 * a + m] * v;
-                                }
-                            }
-                        }
+                        let tip = probe.displacement_of(u);
+                        out_p[j * rows_p + 3 * p..j * rows_p + 3 * p + 3].copy_from_slice(&tip);
                     }
                 }
                 let total = done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k;

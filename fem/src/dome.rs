@@ -4,24 +4,51 @@
 //!
 //! Pins are stiff posts bonded to the skin's inner face: a pin's tip follows its base's rigid
 //! motion, `u_tip = u(X_b) + omega(X_b) x (X_t - X_b)` with the skin's rotation
-//! `omega = curl u / 2` at the base, both from the skin element that holds the base
-//! ([`PinProbe`]).
+//! `omega = curl u / 2` at the base, both from the skin element that holds the base. With a
+//! skin patch ([`PinSite::patch_radius_mm`]) the tip takes the mean of that rule over the base
+//! and six points around it ([`PinProbe`]).
 
 use nalgebra::Vector3;
 
-use crate::element::{self, face_flux, face_forces, shape};
+use crate::element::{self, face_flux, shape};
 use crate::error::{FemError, Result};
 use crate::material::Material;
 use crate::mesh::{CubedBall, Mesh, Region};
 use crate::system::{Factor, Stiffness};
 
-/// A pin: its base on the skin's inner face and its tip (mm, sensor frame).
+/// A pin: its base on the skin's inner face, its tip (mm, sensor frame) and the skin patch it
+/// moves with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PinSite {
     /// Base (mm).
     pub base: [f64; 3],
     /// Tip (mm).
     pub tip: [f64; 3],
+    /// Radius (mm) of the skin patch the post is bonded to, as the sensor's
+    /// `pins.patch_radius_mm`: 0, the skin's motion at the base alone; more, the mean of the
+    /// base's and six points' on the inner face at that distance around it (the contact
+    /// engine's rule, `sim/src/contact/pin_motion.rs`, `patch_points`).
+    pub patch_radius_mm: f64,
+}
+
+impl PinSite {
+    /// Where the skin's motion is read: the base, then with a patch six points around it on
+    /// the inner sphere, 60 deg apart from the tangent direction `z x n` (`x` at the apex).
+    fn patch_points(&self) -> Vec<Vector3<f64>> {
+        let b = Vector3::from(self.base);
+        let mut points = vec![b];
+        if self.patch_radius_mm > 0.0 {
+            let n = b.normalize();
+            let e1 = Vector3::z().cross(&n).try_normalize(1e-12).unwrap_or_else(Vector3::x);
+            let e2 = n.cross(&e1);
+            for k in 0..6 {
+                let (s, c) = (std::f64::consts::FRAC_PI_3 * k as f64).sin_cos();
+                let p = b + (e1 * c + e2 * s) * self.patch_radius_mm;
+                points.push(p.normalize() * b.norm());
+            }
+        }
+        points
+    }
 }
 
 /// Everything that shapes a dome's response.
@@ -132,11 +159,7 @@ impl Dome {
             &held,
         )?;
         let factor = stiffness.factor()?;
-        let outer_faces = mesh
-            .boundary_faces()
-            .into_iter()
-            .filter(|&(e, f)| mesh.face_nodes(e, f).iter().all(|&n| on_outer_sphere(spec, &mesh.nodes[n])))
-            .collect();
+        let outer_faces = mesh.faces_where(|x| on_outer_sphere(spec, x));
         Ok(Self { spec: spec.clone(), mesh, stiffness, factor, outer_faces })
     }
 
@@ -160,21 +183,7 @@ impl Dome {
     /// Consistent nodal forces (N) of a pressure (MPa, pushing into the skin) on the outer
     /// sphere, as a function of the point.
     pub fn pressure_forces(&self, pressure: impl Fn([f64; 3]) -> f64) -> Vec<[f64; 3]> {
-        let mut f = vec![[0.0; 3]; self.mesh.nodes.len()];
-        for &(e, face) in &self.outer_faces {
-            let nodes = self.mesh.face_nodes(e, face);
-            let x = nodes.map(|n| self.mesh.nodes[n]);
-            let fe = face_forces(&x, self.mesh.centroid(e), |p, n| {
-                let q = pressure(p);
-                [-q * n[0], -q * n[1], -q * n[2]]
-            });
-            for (fk, &n) in fe.iter().zip(&nodes) {
-                for c in 0..3 {
-                    f[n][c] += fk[c];
-                }
-            }
-        }
-        f
+        self.mesh.pressure_forces(&self.outer_faces, pressure)
     }
 
     /// Nodal displacements (mm) under nodal forces (N), one load case.
@@ -208,8 +217,8 @@ impl Dome {
     }
 
     /// The probe of a pin with its base on the skin's inner face and its tip (mm, sensor frame).
-    pub fn pin_probe(&self, pin: usize, base: [f64; 3], tip: [f64; 3]) -> Result<PinProbe> {
-        self.probe_among(&self.skin_boxes(), pin, PinSite { base, tip })
+    pub fn pin_probe(&self, pin: usize, site: PinSite) -> Result<PinProbe> {
+        self.probe_among(&self.skin_boxes(), pin, site)
     }
 
     /// The probes of many pins, in order (the skin elements' bounds found once for all).
@@ -235,7 +244,30 @@ impl Dome {
     /// the sphere between their nodes (by up to about `h^3 / R^2`), so the point is pushed out
     /// by 0.1%, 1%, 10%, then 30% of the skin's thickness until a skin element holds it.
     fn probe_among(&self, boxes: &[(usize, [[f64; 3]; 2])], pin: usize, site: PinSite) -> Result<PinProbe> {
-        let b = Vector3::from(site.base);
+        let points = site.patch_points();
+        let weight = 1.0 / points.len() as f64;
+        let mut terms = Vec::with_capacity(points.len());
+        for b in points {
+            let (e, l, at) = self.skin_element_at(boxes, b).ok_or({
+                let [x, y, z] = site.base;
+                FemError::PinOutside { pin, x, y, z }
+            })?;
+            let (nodes, x) = (self.mesh.elements[e], self.mesh.element_nodes(e));
+            // The point's rigid motion carried to the tip: exact for a rigid motion of the dome
+            // (test `pins_follow_a_rigid_motion_of_the_dome_exactly`).
+            let lever = Vector3::from(site.tip) - at;
+            terms.push(ProbeTerm::new(nodes, &x, l, lever, weight));
+        }
+        Ok(PinProbe { terms })
+    }
+
+    /// The skin element holding a point of the inner face (pushed outwards as needed), the
+    /// point's barycentric coordinates in it and the point (mm).
+    fn skin_element_at(
+        &self,
+        boxes: &[(usize, [[f64; 3]; 2])],
+        b: Vector3<f64>,
+    ) -> Option<(usize, [f64; 4], Vector3<f64>)> {
         for push in [1e-3, 1e-2, 0.1, 0.3] {
             let at = b + b.normalize() * push * self.spec.skin_thickness_mm;
             let p = [at.x, at.y, at.z];
@@ -246,12 +278,11 @@ impl Dome {
                 let x = self.mesh.element_nodes(*e);
                 let Some(l) = element::locate(&x, p) else { continue };
                 if l.iter().all(|&v| v >= -1e-9) {
-                    return Ok(PinProbe::new(self.mesh.elements[*e], &x, l, site.base, site.tip));
+                    return Some((*e, l, at));
                 }
             }
         }
-        let [x, y, z] = site.base;
-        Err(FemError::PinOutside { pin, x, y, z })
+        None
     }
 }
 
@@ -262,20 +293,27 @@ fn on_outer_sphere(spec: &DomeSpec, x: &[f64; 3]) -> bool {
     (norm - r).abs() < 1e-9 * r && x[2] >= -1e-9 * r
 }
 
-/// A pin tip's displacement as a linear function of its skin element's nodal displacements.
+/// A pin tip's displacement as a linear function of nodal displacements: one term per point
+/// of its skin patch.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PinProbe {
-    /// The element's nodes.
+    /// The patch's points' terms.
+    pub terms: Vec<ProbeTerm>,
+}
+
+/// One point's share of a pin tip's displacement: `weight (u(X) + omega(X) x lever)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ProbeTerm {
+    /// The nodes of the skin element holding the point.
     pub nodes: [usize; 10],
-    /// `u_tip[i] = sum_k coefficients[i][k] u_e[k]`, `u_e[3 a + m]` node `a`'s direction `m`.
+    /// `u_tip[i] += sum_k coefficients[i][k] u_e[k]`, `u_e[3 a + m]` node `a`'s direction `m`.
     pub coefficients: [[f64; 30]; 3],
 }
 
-impl PinProbe {
-    fn new(nodes: [usize; 10], x: &[[f64; 3]; 10], l: [f64; 4], base: [f64; 3], tip: [f64; 3]) -> Self {
+impl ProbeTerm {
+    fn new(nodes: [usize; 10], x: &[[f64; 3]; 10], l: [f64; 4], lever: Vector3<f64>, weight: f64) -> Self {
         let n = shape(l);
         let (_, g) = element::gradients(x, l);
-        let lever = Vector3::from(tip) - Vector3::from(base);
         let mut coefficients = [[0.0; 30]; 3];
         for a in 0..10 {
             for m in 0..3 {
@@ -290,23 +328,33 @@ impl PinProbe {
                 let mut u = omega.cross(&lever);
                 u[m] += n[a];
                 for i in 0..3 {
-                    coefficients[i][3 * a + m] = u[i];
+                    coefficients[i][3 * a + m] = weight * u[i];
                 }
             }
         }
         Self { nodes, coefficients }
     }
+}
 
-    /// The tip's displacement (mm) under nodal displacements `u`.
-    pub fn displacement(&self, u: &[[f64; 3]]) -> [f64; 3] {
+impl PinProbe {
+    /// The tip's displacement (mm) under nodal displacements, given per node and direction.
+    pub fn displacement_of(&self, u: impl Fn(usize, usize) -> f64) -> [f64; 3] {
         let mut out = [0.0; 3];
-        for (a, &node) in self.nodes.iter().enumerate() {
-            for (m, um) in u[node].iter().enumerate() {
-                for (o, row) in out.iter_mut().zip(&self.coefficients) {
-                    *o += row[3 * a + m] * um;
+        for term in &self.terms {
+            for (a, &node) in term.nodes.iter().enumerate() {
+                for m in 0..3 {
+                    let v = u(node, m);
+                    for (o, row) in out.iter_mut().zip(&term.coefficients) {
+                        *o += row[3 * a + m] * v;
+                    }
                 }
             }
         }
         out
+    }
+
+    /// The tip's displacement (mm) under nodal displacements `u`.
+    pub fn displacement(&self, u: &[[f64; 3]]) -> [f64; 3] {
+        self.displacement_of(|node, m| u[node][m])
     }
 }

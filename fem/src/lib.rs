@@ -25,9 +25,9 @@ mod mesh;
 mod system;
 
 pub use condense::{Compliance, Header, key as condensation_key};
-pub use dome::{Dome, DomeSpec, PinProbe, PinSite};
+pub use dome::{Dome, DomeSpec, PinProbe, PinSite, ProbeTerm};
 pub use element::{ElementMatrices, face_forces, matrices};
 pub use error::{FemError, Result};
 pub use material::{MAX_POISSON, Material};
-pub use mesh::{CubedBall, Mesh, Region};
+pub use mesh::{Block, CubedBall, Mesh, Region};
 pub use system::{Factor, SOLVE_BLOCK, Stiffness};

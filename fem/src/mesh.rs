@@ -15,7 +15,7 @@
 use std::collections::HashMap;
 use std::f64::consts::FRAC_PI_4;
 
-use crate::element::{EDGES, FACES};
+use crate::element::{EDGES, FACES, face_forces};
 
 /// Which material an element is made of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -27,7 +27,7 @@ pub enum Region {
 }
 
 /// A mesh of ten-node tetrahedra (mm).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct Mesh {
     /// Node positions (mm).
     pub nodes: Vec<[f64; 3]>,
@@ -71,6 +71,34 @@ impl Mesh {
         [el[a], el[b], el[c], mid(a, b), mid(b, c), mid(c, a)]
     }
 
+    /// The boundary faces all of whose six nodes satisfy `on` (see [`Mesh::boundary_faces`]).
+    pub fn faces_where(&self, on: impl Fn(&[f64; 3]) -> bool) -> Vec<(usize, usize)> {
+        self.boundary_faces()
+            .into_iter()
+            .filter(|&(e, f)| self.face_nodes(e, f).iter().all(|&n| on(&self.nodes[n])))
+            .collect()
+    }
+
+    /// Consistent nodal forces (N) of a pressure (MPa, pushing against the outward normal) on
+    /// the given boundary faces, as a function of the point.
+    pub fn pressure_forces(&self, faces: &[(usize, usize)], pressure: impl Fn([f64; 3]) -> f64) -> Vec<[f64; 3]> {
+        let mut f = vec![[0.0; 3]; self.nodes.len()];
+        for &(e, face) in faces {
+            let nodes = self.face_nodes(e, face);
+            let x = nodes.map(|n| self.nodes[n]);
+            let fe = face_forces(&x, self.centroid(e), |p, n| {
+                let q = pressure(p);
+                [-q * n[0], -q * n[1], -q * n[2]]
+            });
+            for (fk, &n) in fe.iter().zip(&nodes) {
+                for c in 0..3 {
+                    f[n][c] += fk[c];
+                }
+            }
+        }
+        f
+    }
+
     /// The centroid of an element's vertices (mm).
     pub fn centroid(&self, e: usize) -> [f64; 3] {
         let mut c = [0.0; 3];
@@ -112,64 +140,30 @@ impl CubedBall {
     /// The mesh.
     pub fn mesh(&self) -> Mesh {
         let n = self.cells as i64;
-        let mut index: HashMap<[i64; 3], usize> = HashMap::new();
-        let mut nodes = Vec::new();
-        let mut elements = Vec::new();
-        let mut regions = Vec::new();
+        let mut kuhn = Kuhn::default();
         let [(xlo, xhi), (ylo, yhi), (zlo, zhi)] = self.cell_range;
         for k in zlo.max(-n)..zhi.min(n) {
             for j in ylo.max(-n)..yhi.min(n) {
                 for i in xlo.max(-n)..xhi.min(n) {
-                    let corner = [i, j, k];
                     let shell = (0..8)
-                        .map(|b| {
-                            let p = [i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)];
-                            self.shell_of(p)
-                        })
+                        .map(|b| self.shell_of([i + (b & 1), j + ((b >> 1) & 1), k + ((b >> 2) & 1)]))
                         .min()
                         .unwrap_or(0);
                     if shell < self.min_shell as i64 {
                         continue;
                     }
                     let region = if shell >= self.skin_from as i64 { Region::Skin } else { Region::Gel };
-                    for (perm, even) in PERMUTATIONS {
-                        let mut v = [[0i64; 3]; 4];
-                        v[0] = corner.map(|c| 2 * c);
-                        for s in 0..3 {
-                            v[s + 1] = v[s];
-                            v[s + 1][perm[s]] += 2;
-                        }
-                        if !even {
-                            v.swap(2, 3);
-                        }
-                        let mut el = [0usize; 10];
-                        for (slot, p) in v.iter().enumerate() {
-                            el[slot] = self.node(*p, &mut index, &mut nodes);
-                        }
-                        for (e, &(a, b)) in EDGES.iter().enumerate() {
-                            let mid = [0, 1, 2].map(|c| (v[a][c] + v[b][c]) / 2);
-                            el[4 + e] = self.node(mid, &mut index, &mut nodes);
-                        }
-                        elements.push(el);
-                        regions.push(region);
-                    }
+                    kuhn.cell([i, j, k], region, |p| self.position(p));
                 }
             }
         }
-        Mesh { nodes, elements, regions }
+        kuhn.mesh
     }
 
     /// The shell (in cells) of a lattice vertex.
     fn shell_of(&self, p: [i64; 3]) -> i64 {
         let z = if self.skirt.is_some() && p[2] < 0 { 0 } else { p[2].abs() };
         p[0].abs().max(p[1].abs()).max(z)
-    }
-
-    fn node(&self, p: [i64; 3], index: &mut HashMap<[i64; 3], usize>, nodes: &mut Vec<[f64; 3]>) -> usize {
-        *index.entry(p).or_insert_with(|| {
-            nodes.push(self.position(p));
-            nodes.len() - 1
-        })
     }
 
     /// The position (mm) of a point of the doubled lattice (vertices at even coordinates).
@@ -193,6 +187,77 @@ impl CubedBall {
         let m = (t.floor() as usize).min(self.cells - 1);
         let r = self.radii[m] + (self.radii[m + 1] - self.radii[m]) * (t - m as f64);
         d.map(|v| r * v / norm)
+    }
+}
+
+/// A box of `cells` lattice cells spanning `[0, size_mm]` along each axis, all of one
+/// region (a plate, for the bending tests).
+#[derive(Clone, Debug)]
+pub struct Block {
+    /// Cells along x, y, z.
+    pub cells: [usize; 3],
+    /// Edge lengths (mm).
+    pub size_mm: [f64; 3],
+    /// The elements' region.
+    pub region: Region,
+}
+
+impl Block {
+    /// The mesh.
+    pub fn mesh(&self) -> Mesh {
+        let mut kuhn = Kuhn::default();
+        let [nx, ny, nz] = self.cells.map(|c| c as i64);
+        let position = |p: [i64; 3]| [0, 1, 2].map(|k| self.size_mm[k] * p[k] as f64 / (2 * self.cells[k]) as f64);
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    kuhn.cell([i, j, k], self.region, position);
+                }
+            }
+        }
+        kuhn.mesh
+    }
+}
+
+/// Kuhn's six tetrahedra per lattice cell, nodes shared through the doubled lattice's points
+/// (vertices at even coordinates, midside nodes where one or more is odd).
+#[derive(Default)]
+struct Kuhn {
+    index: HashMap<[i64; 3], usize>,
+    mesh: Mesh,
+}
+
+impl Kuhn {
+    /// Adds the cell with lowest corner `corner`; `position` maps a doubled-lattice point (mm).
+    fn cell(&mut self, corner: [i64; 3], region: Region, position: impl Fn([i64; 3]) -> [f64; 3]) {
+        for (perm, even) in PERMUTATIONS {
+            let mut v = [[0i64; 3]; 4];
+            v[0] = corner.map(|c| 2 * c);
+            for s in 0..3 {
+                v[s + 1] = v[s];
+                v[s + 1][perm[s]] += 2;
+            }
+            if !even {
+                v.swap(2, 3);
+            }
+            let mut el = [0usize; 10];
+            for (slot, p) in v.iter().enumerate() {
+                el[slot] = self.node(*p, &position);
+            }
+            for (e, &(a, b)) in EDGES.iter().enumerate() {
+                el[4 + e] = self.node([0, 1, 2].map(|c| (v[a][c] + v[b][c]) / 2), &position);
+            }
+            self.mesh.elements.push(el);
+            self.mesh.regions.push(region);
+        }
+    }
+
+    fn node(&mut self, p: [i64; 3], position: impl Fn([i64; 3]) -> [f64; 3]) -> usize {
+        let nodes = &mut self.mesh.nodes;
+        *self.index.entry(p).or_insert_with(|| {
+            nodes.push(position(p));
+            nodes.len() - 1
+        })
     }
 }
 

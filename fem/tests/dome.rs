@@ -22,7 +22,7 @@ fn pins() -> Vec<PinSite> {
         .map(|&(polar, azimuth)| {
             let (t, p) = (polar.to_radians(), azimuth.to_radians());
             let n = [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
-            PinSite { base: n.map(|v| v * inner), tip: n.map(|v| v * (inner - length)) }
+            PinSite { base: n.map(|v| v * inner), tip: n.map(|v| v * (inner - length)), patch_radius_mm: 0.0 }
         })
         .collect()
 }
@@ -78,7 +78,7 @@ fn condensed_tables_reproduce_a_direct_solve_and_are_reciprocal() {
         }
     }
     for (p, site) in sites.iter().enumerate() {
-        let direct = dome.pin_probe(p, site.base, site.tip).expect("probe").displacement(&u);
+        let direct = dome.pin_probe(p, *site).expect("probe").displacement(&u);
         for d in 0..3 {
             assert!((up[3 * p + d] - direct[d]).abs() < 1e-9 * umax, "pin {p} direction {d}");
         }
@@ -137,7 +137,7 @@ fn absurd_specs_are_refused_with_the_field_named() {
     let dome = Dome::build(&spec(4)).expect("dome");
     assert!(Compliance::condense(&dome, 120.0, &[], |_, _| {}).is_err());
     // A pin whose base is not in the skin.
-    let far = PinSite { base: [0.0, 0.0, 5.0], tip: [0.0, 0.0, 2.0] };
+    let far = PinSite { base: [0.0, 0.0, 5.0], tip: [0.0, 0.0, 2.0], patch_radius_mm: 0.0 };
     assert!(matches!(Compliance::condense(&dome, 20.0, &[far], |_, _| {}), Err(FemError::PinOutside { .. })));
 }
 
@@ -155,9 +155,39 @@ fn every_pin_of_the_default_layout_finds_its_skin_element() {
             let th = (ring as f64 * 4.536_447).to_radians();
             let ph = -0.358f64.to_radians() + std::f64::consts::TAU * j as f64 / per_ring as f64;
             let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
-            sites.push(PinSite { base: n.map(|v| v * inner), tip: n.map(|v| v * (inner - length)) });
+            sites.push(PinSite {
+                base: n.map(|v| v * inner),
+                tip: n.map(|v| v * (inner - length)),
+                patch_radius_mm: 0.0,
+            });
         }
     }
     assert_eq!(sites.len(), 331);
     assert_eq!(dome.pin_probes(&sites).expect("located").len(), 331);
+}
+
+#[test]
+fn pins_follow_a_rigid_motion_of_the_dome_exactly() {
+    // Quadratic elements hold a rigid motion exactly, so every probe, with or without a skin
+    // patch, must move its tip as the rigid body does: u_tip = c + theta x tip.
+    let dome = Dome::build(&spec(4)).expect("dome");
+    let (c, theta) = ([0.01, -0.02, 0.03], [0.002, -0.001, 0.003]);
+    let rigid = |x: &[f64; 3]| {
+        let w =
+            [theta[1] * x[2] - theta[2] * x[1], theta[2] * x[0] - theta[0] * x[2], theta[0] * x[1] - theta[1] * x[0]];
+        [c[0] + w[0], c[1] + w[1], c[2] + w[2]]
+    };
+    let u: Vec<[f64; 3]> = dome.mesh.nodes.iter().map(rigid).collect();
+    for patch_radius_mm in [0.0, 1.5] {
+        for mut site in pins() {
+            site.patch_radius_mm = patch_radius_mm;
+            let probe = dome.pin_probe(0, site).expect("probe");
+            assert_eq!(probe.terms.len(), if patch_radius_mm > 0.0 { 7 } else { 1 });
+            let got = probe.displacement(&u);
+            let want = rigid(&site.tip);
+            for d in 0..3 {
+                assert!((got[d] - want[d]).abs() < 1e-12, "patch {patch_radius_mm}: {got:?} against {want:?}");
+            }
+        }
+    }
 }
