@@ -16,13 +16,12 @@
 //! tables (the spec, the cap's angle, the pins, the format's version): a file is only read
 //! back for the same inputs, and written atomically (temporary file, then rename).
 
-use std::fs;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::cache;
 use crate::dome::{Dome, DomeSpec, PinSite};
 use crate::error::{FemError, Result};
 use crate::system::SOLVE_BLOCK;
@@ -64,8 +63,7 @@ pub struct Header {
 /// The key of a condensation's inputs.
 pub fn key(spec: &DomeSpec, max_polar_deg: f64, pins: &[PinSite]) -> u64 {
     let words = format!("{FORMAT} {spec:?} {:?} {pins:?}", max_polar_deg.to_bits());
-    // FNV-1a, 64 bits.
-    words.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
+    cache::key_of(&words)
 }
 
 impl Compliance {
@@ -166,10 +164,6 @@ impl Compliance {
 
     /// Writes the tables to `path` atomically (a temporary file beside it, then a rename).
     pub fn save(&self, path: &Path, spec: &DomeSpec) -> Result<()> {
-        let err = |message: String| FemError::Cache { path: path.display().to_string(), message };
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            fs::create_dir_all(dir).map_err(|e| err(format!("cannot create the cache folder: {e}")))?;
-        }
         let header = Header {
             key: format!("{:016x}", self.key),
             format: FORMAT,
@@ -177,55 +171,23 @@ impl Compliance {
             pins: self.pins,
             spec: format!("{spec:?}"),
         };
-        let header = serde_json::to_vec(&header).map_err(|e| err(e.to_string()))?;
-        let mut bytes = Vec::with_capacity(
-            MAGIC.len() + 8 + header.len() + 8 * (3 * self.nodes.len() + self.surface.len() + self.pin_table.len()),
-        );
-        bytes.extend_from_slice(MAGIC);
-        bytes.extend_from_slice(&(header.len() as u64).to_le_bytes());
-        bytes.extend_from_slice(&header);
-        for v in self.nodes.iter().flatten().chain(&self.surface).chain(&self.pin_table) {
-            bytes.extend_from_slice(&v.to_le_bytes());
-        }
-        let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-        let write = || -> std::io::Result<()> {
-            let mut f = fs::File::create(&tmp)?;
-            f.write_all(&bytes)?;
-            f.sync_all()?;
-            fs::rename(&tmp, path)
-        };
-        write().map_err(|e| {
-            let _ = fs::remove_file(&tmp);
-            err(format!("cannot write the cache: {e}"))
-        })
+        let values: Vec<f64> =
+            self.nodes.iter().flatten().chain(&self.surface).chain(&self.pin_table).copied().collect();
+        cache::write(path, MAGIC, &header, &cache::bytes_of(&values, f64::to_le_bytes))
     }
 
     /// Reads the tables back, checking the magic, the key and the sizes; an error names the
     /// file and says what to do (delete it: it is rebuilt on the next use).
     pub fn load(path: &Path, key: u64) -> Result<Self> {
-        let err = |message: String| FemError::Cache {
-            path: path.display().to_string(),
-            message: format!("{message}; delete the file and it will be rebuilt"),
-        };
-        let bytes = fs::read(path).map_err(|e| err(format!("cannot read: {e}")))?;
-        let rest = bytes.strip_prefix(MAGIC).ok_or_else(|| err("not a tacsim dome cache".into()))?;
-        let (len, rest) = rest.split_at_checked(8).ok_or_else(|| err("truncated header".into()))?;
-        let len = u64::from_le_bytes(len.try_into().map_err(|_| err("truncated header".into()))?) as usize;
-        let (header, data) = rest.split_at_checked(len).ok_or_else(|| err("truncated header".into()))?;
-        let header: Header = serde_json::from_slice(header).map_err(|e| err(format!("bad header: {e}")))?;
-        if header.format != FORMAT {
-            return Err(err(format!("format {} where this build reads {FORMAT}", header.format)));
-        }
-        if header.key != format!("{key:016x}") {
-            return Err(err(format!("made for inputs {} where {key:016x} were asked for", header.key)));
-        }
+        let (header, data): (Header, _) = cache::read(path, MAGIC)?;
+        let err = |message: String| cache::unusable(path, message);
+        cache::check(path, (header.format, FORMAT), (&header.key, key))?;
         let (s, p) = (3 * header.surface_nodes, 3 * header.pins);
         let expected = 8 * (s + s * s + p * s);
         if data.len() != expected {
             return Err(err(format!("{} bytes of tables where {expected} were expected", data.len())));
         }
-        let values: Vec<f64> =
-            data.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap_or([0; 8]))).collect();
+        let values = cache::values_of(&data, f64::from_le_bytes);
         let (nodes, tables) = values.split_at(s);
         let (surface, pin_table) = tables.split_at(s * s);
         Ok(Self {

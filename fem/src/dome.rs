@@ -301,20 +301,25 @@ pub struct PinProbe {
     pub terms: Vec<ProbeTerm>,
 }
 
-/// One point's share of a pin tip's displacement: `weight (u(X) + omega(X) x lever)`.
+/// One point's share of a pin tip's motion: `weight (u(X) + omega(X) x lever)` for the tip's
+/// displacement, `weight omega(X)` for the post's rotation.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ProbeTerm {
     /// The nodes of the skin element holding the point.
     pub nodes: [usize; 10],
-    /// `u_tip[i] += sum_k coefficients[i][k] u_e[k]`, `u_e[3 a + m]` node `a`'s direction `m`.
-    pub coefficients: [[f64; 30]; 3],
+    /// `motion[i] += sum_k coefficients[i][k] u_e[k]`, `u_e[3 a + m]` node `a`'s direction
+    /// `m`; rows 0-2 the tip's displacement (mm per mm), rows 3-5 the rotation (rad per mm).
+    pub coefficients: [[f64; 30]; MOTION],
 }
+
+/// Rows of a pin's motion: the tip's displacement (3), then the post's rotation (3).
+pub const MOTION: usize = 6;
 
 impl ProbeTerm {
     fn new(nodes: [usize; 10], x: &[[f64; 3]; 10], l: [f64; 4], lever: Vector3<f64>, weight: f64) -> Self {
         let n = shape(l);
         let (_, g) = element::gradients(x, l);
-        let mut coefficients = [[0.0; 30]; 3];
+        let mut coefficients = [[0.0; 30]; MOTION];
         for a in 0..10 {
             for m in 0..3 {
                 // u = N_a e_m: grad u [i][j] = delta_im d_j N_a.
@@ -329,6 +334,7 @@ impl ProbeTerm {
                 u[m] += n[a];
                 for i in 0..3 {
                     coefficients[i][3 * a + m] = weight * u[i];
+                    coefficients[3 + i][3 * a + m] = weight * omega[i];
                 }
             }
         }
@@ -337,9 +343,10 @@ impl ProbeTerm {
 }
 
 impl PinProbe {
-    /// The tip's displacement (mm) under nodal displacements, given per node and direction.
-    pub fn displacement_of(&self, u: impl Fn(usize, usize) -> f64) -> [f64; 3] {
-        let mut out = [0.0; 3];
+    /// The tip's displacement (mm) and the post's rotation (rad) under nodal displacements,
+    /// given per node and direction.
+    pub fn motion_of(&self, u: impl Fn(usize, usize) -> f64) -> [f64; MOTION] {
+        let mut out = [0.0; MOTION];
         for term in &self.terms {
             for (a, &node) in term.nodes.iter().enumerate() {
                 for m in 0..3 {
@@ -351,6 +358,12 @@ impl PinProbe {
             }
         }
         out
+    }
+
+    /// The tip's displacement (mm) under nodal displacements, given per node and direction.
+    pub fn displacement_of(&self, u: impl Fn(usize, usize) -> f64) -> [f64; 3] {
+        let m = self.motion_of(u);
+        [m[0], m[1], m[2]]
     }
 
     /// The tip's displacement (mm) under nodal displacements `u`.

@@ -189,6 +189,27 @@ pub fn locate(x: &[[f64; 3]; 10], p: [f64; 3]) -> Option<[f64; 4]> {
     ((at - Vector3::from(p)).norm() < 1e-9).then_some(l)
 }
 
+/// The six-node triangle's shape functions at barycentric coordinates `l` (node order of
+/// [`face_forces`]: vertices `a, b, c`, then the midside nodes of `ab`, `bc`, `ca`).
+pub fn face_shape(l: [f64; 3]) -> [f64; 6] {
+    [
+        l[0] * (2.0 * l[0] - 1.0),
+        l[1] * (2.0 * l[1] - 1.0),
+        l[2] * (2.0 * l[2] - 1.0),
+        4.0 * l[0] * l[1],
+        4.0 * l[1] * l[2],
+        4.0 * l[2] * l[0],
+    ]
+}
+
+/// Derivatives of [`face_shape`] with respect to `l1` and `l2`, `l0 = 1 - l1 - l2`.
+pub fn face_shape_derivatives(l: [f64; 3]) -> [[f64; 6]; 2] {
+    [
+        [1.0 - 4.0 * l[0], 4.0 * l[1] - 1.0, 0.0, 4.0 * (l[0] - l[1]), 4.0 * l[2], -4.0 * l[2]],
+        [1.0 - 4.0 * l[0], 0.0, 4.0 * l[2] - 1.0, -4.0 * l[1], 4.0 * l[1], 4.0 * (l[0] - l[2])],
+    ]
+}
+
 /// The six-node triangle on a face: vertices `a, b, c`, then the midside nodes of `ab`, `bc`,
 /// `ca`. Consistent nodal forces (N) of a traction `t(point, unit outward normal)` (MPa) over
 /// the face, with the degree-4 rule of six points; `outward` is a point the normal must face
@@ -212,17 +233,8 @@ pub fn face_forces(
     ];
     let mut f = [[0.0; 3]; 6];
     for (l, w) in rule {
-        let n = [
-            l[0] * (2.0 * l[0] - 1.0),
-            l[1] * (2.0 * l[1] - 1.0),
-            l[2] * (2.0 * l[2] - 1.0),
-            4.0 * l[0] * l[1],
-            4.0 * l[1] * l[2],
-            4.0 * l[2] * l[0],
-        ];
-        // d/d l1 and d/d l2 with l0 = 1 - l1 - l2.
-        let d1 = [1.0 - 4.0 * l[0], 4.0 * l[1] - 1.0, 0.0, 4.0 * (l[0] - l[1]), 4.0 * l[2], -4.0 * l[2]];
-        let d2 = [1.0 - 4.0 * l[0], 0.0, 4.0 * l[2] - 1.0, -4.0 * l[1], 4.0 * l[1], 4.0 * (l[0] - l[2])];
+        let n = face_shape(l);
+        let [d1, d2] = face_shape_derivatives(l);
         let mut p = Vector3::zeros();
         let mut t1 = Vector3::zeros();
         let mut t2 = Vector3::zeros();

@@ -16,18 +16,21 @@
 //! thick sphere under internal pressure (at Poisson's ratio 0.3 and 0.4999: no locking), and
 //! the gel's volume under a press.
 
+mod cache;
 mod condense;
 mod dome;
 mod element;
 mod error;
 mod material;
 mod mesh;
+mod response;
 mod system;
 
 pub use condense::{Compliance, Header, key as condensation_key};
-pub use dome::{Dome, DomeSpec, PinProbe, PinSite, ProbeTerm};
-pub use element::{ElementMatrices, face_forces, matrices};
+pub use dome::{Dome, DomeSpec, MOTION, PinProbe, PinSite, ProbeTerm};
+pub use element::{ElementMatrices, face_forces, face_shape, matrices};
 pub use error::{FemError, Result};
 pub use material::{MAX_POISSON, Material};
 pub use mesh::{Block, CubedBall, Mesh, Region};
+pub use response::{PinResponse, ResponseHeader, response_key};
 pub use system::{Factor, SOLVE_BLOCK, Stiffness};

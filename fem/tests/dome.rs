@@ -1,30 +1,14 @@
 //! The dome: the gel's volume, the condensed tables against direct solves, reciprocity,
 //! determinism and the cache file.
 
-use tacsim_fem::{Compliance, Dome, DomeSpec, FemError, Material, PinSite, condensation_key};
+use tacsim_fem::{Compliance, Dome, FemError, Material, PinSite, condensation_key};
 
-fn spec(cells: usize) -> DomeSpec {
-    DomeSpec {
-        outer_radius_mm: 20.0,
-        skin_thickness_mm: 0.66,
-        skirt_mm: 0.0,
-        skin: Material::new(1.0, 0.436).expect("skin"),
-        gel: Material::new(0.1, 0.4999).expect("gel"),
-        cells,
-        skin_layers: if cells > 4 { 2 } else { 1 },
-    }
-}
+mod support;
+
+use support::spec;
 
 fn pins() -> Vec<PinSite> {
-    let (inner, length) = (20.0 - 0.66, 2.84);
-    [(0.0f64, 0.0f64), (10.0, 30.0), (20.0, 90.0), (25.0, 200.0)]
-        .iter()
-        .map(|&(polar, azimuth)| {
-            let (t, p) = (polar.to_radians(), azimuth.to_radians());
-            let n = [t.sin() * p.cos(), t.sin() * p.sin(), t.cos()];
-            PinSite { base: n.map(|v| v * inner), tip: n.map(|v| v * (inner - length)), patch_radius_mm: 0.0 }
-        })
-        .collect()
+    support::pins(0.0)
 }
 
 fn polar(x: [f64; 3]) -> f64 {

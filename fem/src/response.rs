@@ -1,0 +1,350 @@
+//! The pins' response to a force anywhere on the dome's outer hemisphere, computed once per
+//! sensor by reciprocity and cached on disk.
+//!
+//! A pin's motion is a linear read-out of the nodal displacements, `m_r = a_r . u` (its
+//! [`PinProbe`]'s rows: tip displacement and rotation), and `u = K^-1 f`, so
+//! `m_r = (K^-1 a_r) . f`: one solve per read-out row (`6 P`, whatever the surface's size)
+//! gives every row's response to a unit force on every outer node. A force `F` (N) at a point
+//! `X` of the outer sphere acts on the nodes of the face holding `X` as the consistent point
+//! load `f_k = N_k(X) F` (the six-node triangle's shape functions), so
+//! ```text
+//! m_r = sum_k N_k(X) sum_c F_c T[3 s_k + c][r]
+//! ```
+//! with `T` the table (one column of `6 P` rows per surface degree of freedom). Forces are in
+//! the sensor frame; motions are the tip's displacement (mm) and the post's rotation (rad).
+//!
+//! # The cache file
+//! `tacsim-pins-<key>.bin` in the layout of `cache.rs` (magic `TACSIMPINS1`): the JSON header
+//! ([`ResponseHeader`]), then the outer nodes' positions (`f64`), the faces' node indices
+//! (`u32`, six per face) and the table (`f32`: its values are read to far below the pins'
+//! 1e-4 mm of discretisation, and the file is half as large). The key hashes the spec, the
+//! pins and the format's version.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use nalgebra::{Matrix3, Vector3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::cache;
+use crate::dome::{Dome, DomeSpec, MOTION, PinSite};
+use crate::element::{face_shape, face_shape_derivatives};
+use crate::error::Result;
+use crate::system::SOLVE_BLOCK;
+
+/// Bump when the table's meaning or the file's layout change.
+const FORMAT: u32 = 1;
+const MAGIC: &[u8] = b"TACSIMPINS1\n";
+/// Bins per side of the faces' index over the hemisphere's projection `(x, y) / R`.
+const BINS: usize = 64;
+
+/// The pins' response to forces on the outer hemisphere.
+#[derive(Clone, Debug)]
+pub struct PinResponse {
+    /// The inputs' key.
+    pub key: u64,
+    /// Outer radius (mm).
+    pub radius_mm: f64,
+    /// The outer hemisphere's nodes (mm, sensor frame), in the mesh's node order.
+    pub nodes: Vec<[f64; 3]>,
+    /// The outer hemisphere's six-node faces, as indices into `nodes` (vertices, then the
+    /// midside nodes of `ab`, `bc`, `ca`).
+    pub faces: Vec<[u32; 6]>,
+    /// Pins.
+    pub pins: usize,
+    /// Per surface degree of freedom `3 s + c`, the `6 P` rows of every pin's motion per unit
+    /// force (mm/N for the tip, rad/N for the rotation), pin by pin.
+    pub table: Vec<f32>,
+    /// The faces binned by the bounds of their projection `(x, y) / R`.
+    bins: Vec<Vec<u32>>,
+}
+
+/// The cache file's header.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct ResponseHeader {
+    /// The inputs' key, in hex.
+    pub key: String,
+    /// The format's version.
+    pub format: u32,
+    /// Outer radius (mm).
+    pub radius_mm: f64,
+    /// Outer nodes.
+    pub nodes: usize,
+    /// Outer faces.
+    pub faces: usize,
+    /// Pins.
+    pub pins: usize,
+    /// The spec, for a reader.
+    pub spec: String,
+}
+
+/// The key of a response's inputs: a 64-bit FNV-1a hash of the format, the spec and the pins.
+pub fn response_key(spec: &DomeSpec, pins: &[PinSite]) -> u64 {
+    let words = format!("pins {FORMAT} {spec:?} {pins:?}");
+    cache::key_of(&words)
+}
+
+impl PinResponse {
+    /// Solves for the response of a built dome's pins. Rows are solved [`SOLVE_BLOCK`] at a
+    /// time, each block on one thread, so the table does not depend on the thread count;
+    /// `progress` is called with the rows done and their total.
+    pub fn compute(dome: &Dome, pins: &[PinSite], progress: impl Fn(usize, usize) + Sync) -> Result<Self> {
+        let probes = dome.pin_probes(pins)?;
+        let outer = dome.outer_nodes(90.0);
+        let index: HashMap<usize, u32> = outer.iter().enumerate().map(|(i, &n)| (n, i as u32)).collect();
+        let faces: Vec<[u32; 6]> = dome
+            .outer_faces()
+            .iter()
+            .filter_map(|&(e, f)| {
+                let nodes = dome.mesh.face_nodes(e, f);
+                let mapped: Vec<u32> = nodes.iter().filter_map(|n| index.get(n).copied()).collect();
+                <[u32; 6]>::try_from(mapped).ok()
+            })
+            .collect();
+        let n = dome.stiffness.size();
+        let rows = MOTION * probes.len();
+        let dofs: Vec<Option<usize>> =
+            outer.iter().flat_map(|&s| (0..3).map(move |c| 3 * s + c)).map(|d| dome.stiffness.free_index(d)).collect();
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let row_ids: Vec<usize> = (0..rows).collect();
+        // Per block of rows, each row's response on the outer dofs.
+        let blocks: Vec<Vec<f64>> = row_ids
+            .par_chunks(SOLVE_BLOCK)
+            .map(|ids| {
+                let k = ids.len();
+                let mut block = vec![0.0; n * k];
+                for (j, &r) in ids.iter().enumerate() {
+                    let (p, i) = (r / MOTION, r % MOTION);
+                    for term in &probes[p].terms {
+                        for (a, &node) in term.nodes.iter().enumerate() {
+                            for c in 0..3 {
+                                if let Some(f) = dome.stiffness.free_index(3 * node + c) {
+                                    block[j * n + f] += term.coefficients[i][3 * a + c];
+                                }
+                            }
+                        }
+                    }
+                }
+                dome.factor.solve_block(&mut block);
+                let mut out = vec![0.0; k * dofs.len()];
+                for j in 0..k {
+                    for (d, free) in dofs.iter().enumerate() {
+                        out[j * dofs.len() + d] = free.map_or(0.0, |f| block[j * n + f]);
+                    }
+                }
+                let total = done.fetch_add(k, std::sync::atomic::Ordering::Relaxed) + k;
+                progress(total, rows);
+                out
+            })
+            .collect();
+        let mut table = vec![0.0f32; rows * dofs.len()];
+        for (b, block) in blocks.iter().enumerate() {
+            for (j, row) in block.chunks_exact(dofs.len()).enumerate() {
+                let r = b * SOLVE_BLOCK + j;
+                for (d, &v) in row.iter().enumerate() {
+                    table[d * rows + r] = v as f32;
+                }
+            }
+        }
+        Ok(Self::with_bins(
+            response_key(&dome.spec, pins),
+            dome.spec.outer_radius_mm,
+            outer.iter().map(|&s| dome.mesh.nodes[s]).collect(),
+            faces,
+            probes.len(),
+            table,
+        ))
+    }
+
+    fn with_bins(
+        key: u64,
+        radius_mm: f64,
+        nodes: Vec<[f64; 3]>,
+        faces: Vec<[u32; 6]>,
+        pins: usize,
+        table: Vec<f32>,
+    ) -> Self {
+        let mut bins = vec![Vec::new(); BINS * BINS];
+        let bin = |v: f64| (((v / radius_mm + 1.0) * 0.5 * BINS as f64).floor().max(0.0) as usize).min(BINS - 1);
+        for (f, face) in faces.iter().enumerate() {
+            let x = face.map(|k| nodes[k as usize]);
+            let lo = [0, 1].map(|c| x.iter().map(|p| p[c]).fold(f64::INFINITY, f64::min));
+            let hi = [0, 1].map(|c| x.iter().map(|p| p[c]).fold(f64::NEG_INFINITY, f64::max));
+            // The curved face leaves its nodes' bounds by far less than its size.
+            let margin = 0.25 * (hi[0] - lo[0]).max(hi[1] - lo[1]);
+            for j in bin(lo[1] - margin)..=bin(hi[1] + margin) {
+                for i in bin(lo[0] - margin)..=bin(hi[0] + margin) {
+                    bins[j * BINS + i].push(f as u32);
+                }
+            }
+        }
+        Self { key, radius_mm, nodes, faces, pins, table, bins }
+    }
+
+    /// Rows of the table (`6 P`).
+    pub fn rows(&self) -> usize {
+        MOTION * self.pins
+    }
+
+    /// The face holding the point where the ray from the centre through `x` (mm, sensor frame,
+    /// `z >= 0`) meets the outer surface, and the six nodes' shape functions there; `None` off
+    /// the hemisphere.
+    pub fn locate(&self, x: [f64; 3]) -> Option<([u32; 6], [f64; 6])> {
+        let d = Vector3::from(x).try_normalize(1e-12)?;
+        if d.z < -1e-9 {
+            return None;
+        }
+        let bin = |v: f64| (((v + 1.0) * 0.5 * BINS as f64).floor().max(0.0) as usize).min(BINS - 1);
+        let candidates = &self.bins[bin(d.y) * BINS + bin(d.x)];
+        let mut best: Option<(f64, u32, [f64; 3])> = None;
+        for &f in candidates {
+            let Some(l) = self.ray_on_face(f as usize, &d) else { continue };
+            let inside = l.iter().copied().fold(f64::INFINITY, f64::min);
+            if best.is_none_or(|b| inside > b.0) {
+                best = Some((inside, f, l));
+            }
+        }
+        let (inside, f, l) = best?;
+        (inside > -1e-6).then(|| (self.faces[f as usize], face_shape(l)))
+    }
+
+    /// Barycentric coordinates where the ray along `d` meets face `f` (Newton's method on the
+    /// six-node map from the straight triangle's answer).
+    fn ray_on_face(&self, f: usize, d: &Vector3<f64>) -> Option<[f64; 3]> {
+        let x = self.faces[f].map(|k| Vector3::from(self.nodes[k as usize]));
+        let (a, b, c) = (x[0], x[1], x[2]);
+        let m = Matrix3::from_columns(&[b - a, c - a, -d]).try_inverse()?;
+        let s = m * (-a);
+        let (mut l1, mut l2, mut t) = (s.x, s.y, s.z);
+        for _ in 0..12 {
+            let l = [1.0 - l1 - l2, l1, l2];
+            let n = face_shape(l);
+            let [d1, d2] = face_shape_derivatives(l);
+            let (mut p, mut t1, mut t2) = (Vector3::zeros(), Vector3::zeros(), Vector3::zeros());
+            for k in 0..6 {
+                p += n[k] * x[k];
+                t1 += d1[k] * x[k];
+                t2 += d2[k] * x[k];
+            }
+            let step = Matrix3::from_columns(&[t1, t2, -d]).try_inverse()? * (t * d - p);
+            l1 += step.x;
+            l2 += step.y;
+            t += step.z;
+            if step.norm() < 1e-13 {
+                break;
+            }
+        }
+        (t > 0.0).then_some([1.0 - l1 - l2, l1, l2])
+    }
+
+    /// Every pin's motion (tip displacement in mm, then rotation in rad, sensor frame) under
+    /// point forces `(point, force)` (mm, N; sensor frame) on the outer hemisphere, each acting
+    /// where the ray from the centre through its point meets the surface. Returns the forces'
+    /// total that fell on no face (N; zero where every point lies on the hemisphere).
+    pub fn motions(&self, loads: impl IntoIterator<Item = ([f64; 3], [f64; 3])>) -> (Vec<[f64; MOTION]>, [f64; 3]) {
+        let mut nodal = vec![[0.0; 3]; self.nodes.len()];
+        let mut missed = [0.0; 3];
+        for (x, force) in loads {
+            match self.locate(x) {
+                Some((nodes, n)) => {
+                    for (&k, w) in nodes.iter().zip(n) {
+                        for c in 0..3 {
+                            nodal[k as usize][c] += w * force[c];
+                        }
+                    }
+                }
+                None => (0..3).for_each(|c| missed[c] += force[c]),
+            }
+        }
+        let rows = self.rows();
+        let mut out = vec![0.0; rows];
+        for (s, f) in nodal.iter().enumerate() {
+            for (c, &fc) in f.iter().enumerate() {
+                if fc == 0.0 {
+                    continue;
+                }
+                let column = &self.table[(3 * s + c) * rows..(3 * s + c + 1) * rows];
+                for (o, &t) in out.iter_mut().zip(column) {
+                    *o += fc * f64::from(t);
+                }
+            }
+        }
+        let motions = out.chunks_exact(MOTION).map(|m| std::array::from_fn(|i| m[i])).collect();
+        (motions, missed)
+    }
+
+    /// The cache file's path in `dir` for these inputs.
+    pub fn path_in(dir: &Path, key: u64) -> PathBuf {
+        dir.join(format!("tacsim-pins-{key:016x}.bin"))
+    }
+
+    /// Writes the response to `path` atomically.
+    pub fn save(&self, path: &Path, spec: &DomeSpec) -> Result<()> {
+        let header = ResponseHeader {
+            key: format!("{:016x}", self.key),
+            format: FORMAT,
+            radius_mm: self.radius_mm,
+            nodes: self.nodes.len(),
+            faces: self.faces.len(),
+            pins: self.pins,
+            spec: format!("{spec:?}"),
+        };
+        let nodes: Vec<f64> = self.nodes.iter().flatten().copied().collect();
+        let faces: Vec<u32> = self.faces.iter().flatten().copied().collect();
+        let mut body = cache::bytes_of(&nodes, f64::to_le_bytes);
+        body.extend(cache::bytes_of(&faces, u32::to_le_bytes));
+        body.extend(cache::bytes_of(&self.table, f32::to_le_bytes));
+        cache::write(path, MAGIC, &header, &body)
+    }
+
+    /// Reads a response back, checking the magic, format, key, sizes and face indices; an
+    /// error names the file and says what to do.
+    pub fn load(path: &Path, key: u64) -> Result<Self> {
+        let (header, data): (ResponseHeader, _) = cache::read(path, MAGIC)?;
+        let err = |message: String| cache::unusable(path, message);
+        cache::check(path, (header.format, FORMAT), (&header.key, key))?;
+        let rows = MOTION * header.pins;
+        let sizes = [8 * 3 * header.nodes, 4 * 6 * header.faces, 4 * rows * 3 * header.nodes];
+        if data.len() != sizes.iter().sum::<usize>() {
+            return Err(err(format!(
+                "{} bytes of tables where {} were expected",
+                data.len(),
+                sizes.iter().sum::<usize>()
+            )));
+        }
+        let (nodes, rest) = data.split_at(sizes[0]);
+        let (faces, table) = rest.split_at(sizes[1]);
+        let nodes: Vec<[f64; 3]> =
+            cache::values_of(nodes, f64::from_le_bytes).chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let faces: Vec<[u32; 6]> = cache::values_of(faces, u32::from_le_bytes)
+            .chunks_exact(6)
+            .map(|c| std::array::from_fn(|i| c[i]))
+            .collect();
+        if faces.iter().flatten().any(|&k| k as usize >= nodes.len()) {
+            return Err(err("a face names a node past the nodes stored".into()));
+        }
+        let table = cache::values_of(table, f32::from_le_bytes);
+        Ok(Self::with_bins(key, header.radius_mm, nodes, faces, header.pins, table))
+    }
+
+    /// The response for these inputs: read from `dir` where a file with their key is there,
+    /// else built (the dome meshed, assembled, factorised and solved) and saved there.
+    pub fn cached(
+        dir: &Path,
+        spec: &DomeSpec,
+        pins: &[PinSite],
+        progress: impl Fn(usize, usize) + Sync,
+    ) -> Result<Self> {
+        spec.validate()?;
+        let key = response_key(spec, pins);
+        let path = Self::path_in(dir, key);
+        if path.exists() {
+            return Self::load(&path, key);
+        }
+        let dome = Dome::build(spec)?;
+        let response = Self::compute(&dome, pins, progress)?;
+        response.save(&path, spec)?;
+        Ok(response)
+    }
+}

@@ -1,0 +1,130 @@
+//! The pins' response by reciprocity: against a direct solve of point loads, its faces' lookup,
+//! determinism and the cache file.
+
+use tacsim_fem::{Dome, DomeSpec, PinResponse, face_shape, response_key};
+
+mod support;
+
+use support::pins;
+
+fn spec() -> DomeSpec {
+    support::spec(4)
+}
+
+/// A point of the outer sphere at polar angle and azimuth (deg).
+fn on_sphere(polar: f64, azimuth: f64) -> [f64; 3] {
+    let (t, p) = (polar.to_radians(), azimuth.to_radians());
+    [20.0 * t.sin() * p.cos(), 20.0 * t.sin() * p.sin(), 20.0 * t.cos()]
+}
+
+/// Loads on the dome: a cluster near the apex, one off it, one near the rim.
+fn loads() -> Vec<([f64; 3], [f64; 3])> {
+    vec![
+        (on_sphere(0.0, 0.0), [0.01, 0.0, -0.3]),
+        (on_sphere(2.5, 40.0), [0.0, 0.02, -0.2]),
+        (on_sphere(15.0, 130.0), [0.05, -0.01, -0.1]),
+        (on_sphere(80.0, 250.0), [-0.02, 0.03, 0.01]),
+    ]
+}
+
+#[test]
+fn pin_response_reproduces_a_direct_solve_of_point_loads() {
+    let dome = Dome::build(&spec()).expect("dome");
+    let sites = pins(1.0);
+    let response = PinResponse::compute(&dome, &sites, |_, _| {}).expect("response");
+    let (motions, missed) = response.motions(loads());
+    assert_eq!(missed, [0.0; 3]);
+    // The same loads as consistent nodal forces on the mesh, solved directly.
+    let mut nodal = vec![[0.0; 3]; dome.mesh.nodes.len()];
+    let outer = dome.outer_nodes(90.0);
+    for (x, f) in loads() {
+        let (nodes, n) = response.locate(x).expect("on the hemisphere");
+        let total: f64 = n.iter().sum();
+        assert!((total - 1.0).abs() < 1e-12, "shape functions sum to {total}");
+        for (&k, w) in nodes.iter().zip(n) {
+            for c in 0..3 {
+                nodal[outer[k as usize]][c] += w * f[c];
+            }
+        }
+    }
+    let u = dome.solve(&nodal);
+    let probes = dome.pin_probes(&sites).expect("probes");
+    let mut largest = 0.0f64;
+    for (p, probe) in probes.iter().enumerate() {
+        let direct = probe.motion_of(|node, c| u[node][c]);
+        let scale = direct[..3].iter().fold(1e-6f64, |m, v| m.max(v.abs()));
+        for i in 0..6 {
+            let err = (motions[p][i] - direct[i]).abs();
+            largest = largest.max(err / scale);
+            // The table is stored in f32: 1e-6 of the pin's largest motion.
+            assert!(err < 1e-5 * scale, "pin {p} row {i}: {} against {}", motions[p][i], direct[i]);
+        }
+    }
+    eprintln!("largest relative difference {largest:.2e}");
+}
+
+#[test]
+fn a_load_is_found_on_the_face_that_holds_it() {
+    let dome = Dome::build(&spec()).expect("dome");
+    let response = PinResponse::compute(&dome, &pins(0.0), |_, _| {}).expect("response");
+    // Every face's own centre (l = 1/3 each) is found on a face that maps to the same point.
+    for face in response.faces.iter().step_by(7) {
+        let x = face.map(|k| response.nodes[k as usize]);
+        let n = face_shape([1.0 / 3.0; 3]);
+        let mut p = [0.0; 3];
+        for k in 0..6 {
+            for c in 0..3 {
+                p[c] += n[k] * x[k][c];
+            }
+        }
+        let (nodes, w) = response.locate(p).expect("located");
+        let mut q = [0.0; 3];
+        for (&k, w) in nodes.iter().zip(w) {
+            for (qc, xc) in q.iter_mut().zip(response.nodes[k as usize]) {
+                *qc += w * xc;
+            }
+        }
+        let gap = (0..3).map(|c| (p[c] - q[c]).powi(2)).sum::<f64>().sqrt();
+        assert!(gap < 1e-9, "face centre {p:?} found at {q:?}");
+    }
+    // Below the equator: no face.
+    assert!(response.locate([0.0, 20.0, -1.0]).is_none());
+    let (_, missed) = response.motions([([0.0, 20.0, -1.0], [0.0, 0.0, 1.0])]);
+    assert_eq!(missed, [0.0, 0.0, 1.0]);
+}
+
+#[test]
+fn pin_response_does_not_depend_on_the_thread_count() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
+        pool.install(|| {
+            let dome = Dome::build(&spec()).expect("dome");
+            PinResponse::compute(&dome, &pins(0.5), |_, _| {}).expect("response")
+        })
+    };
+    let (one, two) = (run(1), run(2));
+    let bits = |r: &PinResponse| r.table.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&one), bits(&two));
+}
+
+#[test]
+fn pin_response_cache_reads_back_what_it_wrote_and_refuses_other_files() {
+    let dir = std::env::temp_dir().join(format!("tacsim-fem-pins-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (spec, sites) = (spec(), pins(0.0));
+    let built = PinResponse::cached(&dir, &spec, &sites, |_, _| {}).expect("built");
+    let key = response_key(&spec, &sites);
+    let path = PinResponse::path_in(&dir, key);
+    assert!(path.exists());
+    let read = PinResponse::cached(&dir, &spec, &sites, |_, _| {}).expect("read");
+    assert_eq!((built.key, &built.nodes, &built.faces, built.pins), (read.key, &read.nodes, &read.faces, read.pins));
+    assert_eq!(built.table, read.table);
+    assert_eq!(built.motions(loads()).0, read.motions(loads()).0);
+    let other = PinResponse::load(&path, key ^ 1).expect_err("wrong key");
+    assert!(other.to_string().contains("tacsim-pins-") && other.to_string().contains("delete the file"), "{other}");
+    let bytes = std::fs::read(&path).expect("read");
+    std::fs::write(&path, &bytes[..bytes.len() - 4]).expect("write");
+    let cut = PinResponse::load(&path, key).expect_err("truncated");
+    assert!(cut.to_string().contains("bytes of tables"), "{cut}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
