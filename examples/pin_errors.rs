@@ -51,7 +51,7 @@ fn model_at(cells: usize) -> Result<ContactModel, Box<dyn std::error::Error>> {
     let mut sensor = SensorParams::default();
     sensor.skin.cells_across = cells;
     sensor.validate("GRIDS")?;
-    Ok(ContactModel::new(&sensor))
+    Ok(ContactModel::new(&sensor)?)
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

@@ -437,8 +437,8 @@ pub struct BenchOptions {
     /// sensor's, 25).
     #[arg(long)]
     pub cells: Option<usize>,
-    /// Elastic model behind the skin for the throughput figures: half-space, layer or
-    /// skin-on-gel (default: the sensor's).
+    /// Elastic body behind the skin for the throughput figures: half-space, layer,
+    /// skin-on-gel or dome (default: the sensor's).
     #[arg(long)]
     pub skin: Option<SkinModel>,
     /// Sub-cells per side of the cells along a sharp edge (the sensor's `skin.edge_subcells`,
@@ -468,7 +468,7 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     crate::device::check(o.device)?;
     let sensor = bench_sensor(o)?;
     let scene = disk_scene()?;
-    let model = ContactModel::new(&sensor);
+    let model = ContactModel::new(&sensor)?;
     let renderer = PinRenderer::new(&sensor, 256)?;
     let poses = samples(samples_n, SAMPLES_SEED);
     let rates = Rates::measure(&model, &scene, &renderer, &poses)?;
@@ -569,12 +569,12 @@ fn grid_curve(
     rim: &[(SensorPose, [f64; 2])],
     single: &rayon::ThreadPool,
 ) -> Result<Vec<CurvePoint>> {
-    let at_grid = |cells: usize, subsquares: usize| {
+    let at_grid = |cells: usize, subsquares: usize| -> Result<ContactModel> {
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
-        let mut model = ContactModel::new(&s);
+        let mut model = ContactModel::new(&s)?;
         model.pin_subsquares = subsquares;
-        model
+        Ok(model)
     };
     let tap_pins = |m: &ContactModel, pose: SensorPose, exact: bool| -> Result<Vec<_>> {
         let mut sim = Simulation::new(m, scene, &[pose]);
@@ -584,7 +584,7 @@ fn grid_curve(
     // Pin reference: the same taps on a fine grid, every cell on every pin, with the same
     // pin product (sub-squares near the pins, or one point force per cell).
     let reference = |subsquares: usize, poses: &[(SensorPose, [f64; 2])]| -> Result<Vec<Vec<PinPose>>> {
-        let mut fine = at_grid(PIN_REFERENCE_CELLS, subsquares);
+        let mut fine = at_grid(PIN_REFERENCE_CELLS, subsquares)?;
         fine.edge_subcells = tacsim_sim::DEFAULT_EDGE_SUBCELLS;
         poses.par_iter().map(|(p, _)| tap_pins(&fine, *p, true)).collect()
     };
@@ -604,7 +604,8 @@ fn grid_curve(
     let mut curve = Vec::new();
     for cells in [9usize, 13, 17, 25, 33] {
         // One model per pin product; the first (the default) is also timed.
-        let models = products.map(|s| at_grid(cells, s));
+        let [a, b] = products.map(|s| at_grid(cells, s));
+        let models = [a?, b?];
         let m = &models[0];
         // The errors first: their taps, flat and across the rim, build the model's kept
         // tables, so the time is a warm model's, as the rates' ([`Rates`]).
@@ -742,7 +743,7 @@ impl BenchReport {
 }
 
 fn measure_skips(sensor: &SensorParams, scene: &Scene, poses: &[(SensorPose, [f64; 2])]) -> Result<Skips> {
-    let model = ContactModel::new(sensor);
+    let model = ContactModel::new(sensor)?;
     let n = poses.len();
     let mean = |total: f64| total * 1e3 / n as f64;
     let (mut off, mut tap, mut slide) = (0.0, 0.0, 0.0);
@@ -784,7 +785,7 @@ fn measure_skips(sensor: &SensorParams, scene: &Scene, poses: &[(SensorPose, [f6
     let tap_ms = |cells: usize| -> Result<f64> {
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
-        let m = ContactModel::new(&s);
+        let m = ContactModel::new(&s)?;
         let t = Instant::now();
         for (pose, _) in poses {
             let mut sim = Simulation::new(&m, scene, &[*pose]);

@@ -34,7 +34,7 @@ pub struct SensorArgs {
     /// Pin count, centred hexagonal (331 default, 127, ...).
     #[arg(long)]
     pub pins: Option<usize>,
-    /// Elastic model behind the skin: half-space, layer or skin-on-gel (default: the
+    /// Elastic body behind the skin: half-space, layer, skin-on-gel or dome (default: the
     /// sensor's skin.model).
     #[arg(long)]
     pub skin: Option<SkinModel>,
@@ -144,7 +144,7 @@ fn pressed_pins(sensor: &SensorParams, opts: &RenderOptions) -> Result<(Vec<PinP
         Some(from) => SensorPath::slide(opts.pose, from, opts.step_mm)?,
         None => SensorPath::tap(opts.pose),
     };
-    let model = ContactModel::new(sensor);
+    let model = ContactModel::new(sensor).context("building the contact model")?;
     let frames = path.run(&model, &scene).context("solving the contact")?;
     let frame = frames.last().context("the path captured no frame")?;
     let r = &frame.report;

@@ -11,33 +11,49 @@ use tacsim_sim::dataset::{self, Job, Summary};
 use crate::commands::load_catalogue;
 
 /// Options of `tacsim generate`.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, clap::Args)]
 pub struct GenerateOptions {
-    /// Recipe file, or the name of a built-in recipe (`paper`, `quick`, ...); `None`: `quick`.
+    /// Recipe TOML, or a built-in recipe: paper, quick, twist, tilted-surface.
     pub recipe: Option<String>,
-    /// Output directory.
+    /// Output directory (new or empty; the same dataset with --resume).
+    #[arg(long)]
     pub out: PathBuf,
-    /// Sensor TOML (default: the built-in calibrated TacTip).
+    /// Sensor TOML or built-in preset name (default: the recipe's `sensor`, else the built-in
+    /// calibrated TacTip).
+    #[arg(long)]
     pub sensor: Option<PathBuf>,
-    /// Image size override (px).
+    /// Image size (px), overriding the recipe's.
+    #[arg(long)]
     pub size: Option<u32>,
-    /// Seed override.
+    /// Seed, overriding the recipe's.
+    #[arg(long)]
     pub seed: Option<u64>,
-    /// Contact grid override (cells across the footprint).
+    /// Cells across the contact footprint, overriding the recipe's.
+    #[arg(long)]
     pub cells: Option<usize>,
+    /// Elastic body behind the skin: half-space, layer, skin-on-gel or dome (default: the
+    /// sensor's skin.model).
+    #[arg(long)]
+    pub skin: Option<tacsim_sim::SkinModel>,
     /// Worker threads (default: all cores).
+    #[arg(long)]
     pub threads: Option<usize>,
-    /// `(i, n)`: shard `i` of `n`.
+    /// Generate shard i of n (i/n, from 0): for job arrays; join with `tacsim merge`.
+    #[arg(long, value_parser = parse_shard)]
     pub shard: Option<(usize, usize)>,
-    /// Finish an interrupted run.
+    /// Finish an interrupted run into the same directory.
+    #[arg(long)]
     pub resume: bool,
-    /// No progress bar.
-    pub quiet: bool,
-    /// Write beyond [`tacsim_sim::dataset::MAX_UNFORCED_IMAGES`] images or
-    /// [`tacsim_sim::dataset::MAX_UNFORCED_BYTES`] bytes.
+    /// Write more than 1,000,000 images or about 16 GiB (refused without it).
+    #[arg(long)]
     pub force: bool,
-    /// Where the pins are moved and the images rasterised.
+    /// Where the pins are moved and the images rasterised: cpu, gpu (batched; a build with
+    /// `--features wgpu` and a GPU adapter) or auto (the GPU where there is one).
+    #[arg(long, value_enum, default_value = "cpu")]
     pub device: crate::device::DeviceChoice,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Parses `i/n`.
@@ -93,12 +109,16 @@ pub fn generate(opts: &GenerateOptions) -> Result<String> {
 /// name, or a file beside the recipe), else the calibrated TacTip.
 pub fn recipe_base_sensor(recipe: &Recipe, opts: &GenerateOptions) -> Result<SensorParams> {
     let sensor = opts.sensor.as_deref().map(|p| p.to_string_lossy().into_owned());
-    dataset::base_sensor(recipe, opts.recipe.as_deref().map(Path::new), sensor.as_deref()).with_context(
-        || match &sensor {
+    let mut base = dataset::base_sensor(recipe, opts.recipe.as_deref().map(Path::new), sensor.as_deref())
+        .with_context(|| match &sensor {
             Some(s) => format!("loading the sensor `{s}` (see sim/presets/tactip-331-calibrated.toml for the format)"),
             None => format!("the sensor of recipe {} (its `sensor` field)", recipe.name),
-        },
-    )
+        })?;
+    if let Some(m) = opts.skin {
+        base.skin.model = m;
+        base.validate("--skin").context("the sensor with the --skin given")?;
+    }
+    Ok(base)
 }
 
 fn report(recipe: &Recipe, out: &Path, total: usize, s: &Summary) -> String {

@@ -35,45 +35,7 @@ enum Command {
     Bench(tacsim::bench::BenchOptions),
     /// Generate a dataset from a recipe (default: the built-in `quick`): images, targets.csv,
     /// meta.json. Deterministic for a seed, whatever the threads or shards.
-    Generate {
-        /// Recipe TOML, or a built-in recipe: paper, quick, twist, tilted-surface.
-        recipe: Option<String>,
-        /// Output directory (new or empty; the same dataset with --resume).
-        #[arg(long)]
-        out: PathBuf,
-        /// Sensor TOML or built-in preset name (default: the recipe's `sensor`, else the built-in
-        /// calibrated TacTip).
-        #[arg(long)]
-        sensor: Option<PathBuf>,
-        /// Image size (px), overriding the recipe's.
-        #[arg(long)]
-        size: Option<u32>,
-        /// Seed, overriding the recipe's.
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Cells across the contact footprint, overriding the recipe's.
-        #[arg(long)]
-        cells: Option<usize>,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Generate shard i of n (i/n, from 0): for job arrays; join with `tacsim merge`.
-        #[arg(long, value_parser = tacsim::dataset::parse_shard)]
-        shard: Option<(usize, usize)>,
-        /// Finish an interrupted run into the same directory.
-        #[arg(long)]
-        resume: bool,
-        /// Write more than 1,000,000 images or about 16 GiB (refused without it).
-        #[arg(long)]
-        force: bool,
-        /// Where the pins are moved and the images rasterised: cpu, gpu (batched; a build with
-        /// `--features wgpu` and a GPU adapter) or auto (the GPU where there is one).
-        #[arg(long, value_enum, default_value = "cpu")]
-        device: tacsim::device::DeviceChoice,
-        /// No progress bar.
-        #[arg(long, short)]
-        quiet: bool,
-    },
+    Generate(tacsim::dataset::GenerateOptions),
     /// Join the shards of one dataset into a directory equal to the unsharded run.
     Merge {
         /// Output directory (new or empty).
@@ -172,21 +134,7 @@ fn main() -> Result<ExitCode> {
         Command::Bench(o) => {
             print!("{}", bench::run(&o)?);
         }
-        Command::Generate { recipe, out, sensor, size, seed, cells, threads, shard, resume, force, device, quiet } => {
-            let opts = tacsim::dataset::GenerateOptions {
-                recipe,
-                out,
-                sensor,
-                size,
-                seed,
-                cells,
-                threads,
-                shard,
-                resume,
-                quiet,
-                force,
-                device,
-            };
+        Command::Generate(opts) => {
             print!("{}", tacsim::dataset::generate(&opts)?);
         }
         Command::Merge { out, shards } => {

@@ -343,7 +343,7 @@ fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with()
     let shapes = Path::new(env!("CARGO_MANIFEST_DIR")).join("shapes");
     let square = Catalogue::load_dir(&shapes).expect("catalogue").get("square").expect("square");
     let (scene, frame) = edge_scene(square.with_edge_radius(Some(2.0)), [45.0, 0.0]).expect("edge");
-    let model = ContactModel::new(&sensor);
+    let model = ContactModel::new(&sensor).expect("contact model");
     let renderer = PinRenderer::new(&sensor, 320).expect("renderable");
     let dir = temp_dir("calibrate", "edge");
     let lab = dir.join("lab");

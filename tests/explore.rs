@@ -102,7 +102,7 @@ fn the_same_pose_by_another_path_gives_other_pins() {
     let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
     let mut scene = Scene::new();
     scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("add");
-    let model = ContactModel::new(&SensorParams::default());
+    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
     let grid = contact_disk_grid(&model, 1.5);
     let pose = SensorPose::new(50.0, 0.0, 1.5, 90.0);
     let mut direct = Simulation::with_grid(&model, &scene, Some(grid));
@@ -169,7 +169,7 @@ fn on_the_disk(depth_mm: f64) -> (Scene, SensorParams, ContactModel, Grid) {
     let mut scene = Scene::new();
     scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("add");
     let sensor = SensorParams::default();
-    let model = ContactModel::new(&sensor);
+    let model = ContactModel::new(&sensor).expect("contact model");
     let grid = contact_disk_grid(&model, depth_mm);
     (scene, sensor, model, grid)
 }

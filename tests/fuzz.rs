@@ -96,7 +96,7 @@ fn scratch(name: &str) -> PathBuf {
 
 /// A validated sensor must build what every command builds from it.
 fn use_sensor(s: &SensorParams) {
-    let _ = ContactModel::new(s);
+    let _ = ContactModel::new(s).expect("contact model");
     let _ = PinRenderer::new(s, s.camera.image_size.min(256));
 }
 

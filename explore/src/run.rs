@@ -207,7 +207,7 @@ pub fn run(
     let (scene, object, friction, course) = setup(scenario, catalogue)?;
     let pose0 = start_pose(scenario, sensor, &scene, object)?;
     let r = scenario.control.offset_ref_mm;
-    let model = ContactModel::new(sensor);
+    let model = ContactModel::new(sensor)?;
     let grid = contact_disk_grid(&model, scenario.depth_mm);
     let mut sim = Simulation::with_grid(&model, &scene, Some(grid));
     // A flat face pressed `d` into the dome touches within about sqrt(R d) (Hertz); inside

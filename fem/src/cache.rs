@@ -12,6 +12,11 @@ use serde::de::DeserializeOwned;
 
 use crate::error::{FemError, Result};
 
+/// The version of the mesh and the element, part of every cache key: bump it when either
+/// changes what a spec builds (2: Kuhn's split reflected into each octant; 3: a pin's rotation
+/// the mean over the elements that hold its point).
+pub(crate) const MODEL_VERSION: u32 = 3;
+
 /// An error about the cache file `path`.
 pub(crate) fn error(path: &Path, message: String) -> FemError {
     FemError::Cache { path: path.display().to_string(), message }
@@ -78,7 +83,9 @@ pub(crate) fn check(path: &Path, format: (u32, u32), key: (&str, u64)) -> Result
     Ok(())
 }
 
-/// The 64-bit FNV-1a hash of a description of a file's inputs: its key.
+/// The 64-bit FNV-1a hash of a description of a file's inputs and [`MODEL_VERSION`]: its key.
 pub(crate) fn key_of(words: &str) -> u64 {
-    words.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
+    format!("model {MODEL_VERSION} {words}")
+        .bytes()
+        .fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
 }

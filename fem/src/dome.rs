@@ -248,43 +248,52 @@ impl Dome {
         let weight = 1.0 / points.len() as f64;
         let mut terms = Vec::with_capacity(points.len());
         for b in points {
-            let (e, l, at) = self.skin_element_at(boxes, b).ok_or({
+            let (holding, at) = self.skin_elements_at(boxes, b).ok_or({
                 let [x, y, z] = site.base;
                 FemError::PinOutside { pin, x, y, z }
             })?;
-            let (nodes, x) = (self.mesh.elements[e], self.mesh.element_nodes(e));
             // The point's rigid motion carried to the tip: exact for a rigid motion of the dome
             // (test `pins_follow_a_rigid_motion_of_the_dome_exactly`).
             let lever = Vector3::from(site.tip) - at;
-            terms.push(ProbeTerm::new(nodes, &x, l, lever, weight));
+            let share = weight / holding.len() as f64;
+            for (e, l) in holding {
+                terms.push(ProbeTerm::new(self.mesh.elements[e], &self.mesh.element_nodes(e), l, lever, share));
+            }
         }
         Ok(PinProbe { terms })
     }
 
-    /// The skin element holding a point of the inner face (pushed outwards as needed), the
-    /// point's barycentric coordinates in it and the point (mm).
-    fn skin_element_at(
+    /// The skin elements holding a point of the inner face (pushed outwards as needed), with
+    /// the point's barycentric coordinates in each, and the point (mm). A point on a face,
+    /// edge or vertex lies in every element that shares it: the displacement is the same in
+    /// each, the rotation (a gradient) is not, and the probe takes their mean, so that the
+    /// pins keep the mesh's symmetries.
+    fn skin_elements_at(
         &self,
         boxes: &[(usize, [[f64; 3]; 2])],
         b: Vector3<f64>,
-    ) -> Option<(usize, [f64; 4], Vector3<f64>)> {
+    ) -> Option<(Vec<Holding>, Vector3<f64>)> {
         for push in [1e-3, 1e-2, 0.1, 0.3] {
             let at = b + b.normalize() * push * self.spec.skin_thickness_mm;
             let p = [at.x, at.y, at.z];
-            for (e, [lo, hi]) in boxes {
-                if (0..3).any(|k| p[k] < lo[k] - 1e-6 || p[k] > hi[k] + 1e-6) {
-                    continue;
-                }
-                let x = self.mesh.element_nodes(*e);
-                let Some(l) = element::locate(&x, p) else { continue };
-                if l.iter().all(|&v| v >= -1e-9) {
-                    return Some((*e, l, at));
-                }
+            let holding: Vec<Holding> = boxes
+                .iter()
+                .filter(|(_, [lo, hi])| (0..3).all(|k| p[k] >= lo[k] - 1e-6 && p[k] <= hi[k] + 1e-6))
+                .filter_map(|&(e, _)| {
+                    let l = element::locate(&self.mesh.element_nodes(e), p)?;
+                    l.iter().all(|&v| v >= -1e-9).then_some((e, l))
+                })
+                .collect();
+            if !holding.is_empty() {
+                return Some((holding, at));
             }
         }
         None
     }
 }
+
+/// An element holding a point, and the point's barycentric coordinates in it.
+type Holding = (usize, [f64; 4]);
 
 /// Whether a point lies on the outer sphere (not the skirt).
 fn on_outer_sphere(spec: &DomeSpec, x: &[f64; 3]) -> bool {

@@ -125,7 +125,8 @@ impl PyContact {
             }
             params.skin.cells_across = n;
         }
-        let owner = Owner { model: ContactModel::new(&params), scene: scene.build()?, max_depth_mm };
+        let owner =
+            Owner { model: ContactModel::new(&params).map_err(crate::sim_err)?, scene: scene.build()?, max_depth_mm };
         Ok(Self { cell: fresh(owner), sensor: sensor.clone(), renderers: HashMap::new(), pose: None })
     }
 

@@ -28,7 +28,7 @@ fn bench_tap(c: &mut Criterion) {
         .map(|&cells| {
             let mut sensor = SensorParams::default();
             sensor.skin.cells_across = cells;
-            (cells, ContactModel::new(&sensor))
+            (cells, ContactModel::new(&sensor).expect("contact model"))
         })
         .collect();
     let mut probe = c.benchmark_group("tap-footprint");
@@ -65,7 +65,7 @@ fn bench_tap(c: &mut Criterion) {
     }
     // The edge preset's pins: each moves with a skin patch of seven points (1.5 mm radius).
     let edge = SensorParams::preset("tactip-331-edge2d").expect("the edge preset");
-    let edge_model = ContactModel::new(&edge);
+    let edge_model = ContactModel::new(&edge).expect("contact model");
     for (name, pose) in taps {
         let mut sim = Simulation::new(&edge_model, &scene, &[pose]);
         sim.step(pose).expect("a tap solves");

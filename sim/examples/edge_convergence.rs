@@ -44,7 +44,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         sensor.skin.cells_across = n;
         sensor.validate("CELLS")?;
         sensor.skin.cut_edges = cut_edges;
-        let mut model = ContactModel::new(&sensor);
+        let mut model = ContactModel::new(&sensor).expect("contact model");
         if let Some(sub) = sub {
             model.edge_subcells = sub;
         }

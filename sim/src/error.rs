@@ -97,6 +97,9 @@ pub enum SimError {
     /// The GPU path (feature `wgpu`) has no device or failed on it.
     #[error("GPU: {0}")]
     Gpu(String),
+    /// The finite-element dome (`skin.model = "dome"`) could not be built, read or written.
+    #[error("the finite-element dome: {0}")]
+    Dome(String),
 }
 
 /// Result alias of this crate.

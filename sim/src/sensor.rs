@@ -94,12 +94,23 @@ pub enum SkinModel {
     /// over a soft gel spreads a local shear over the dome (global shear). Pins sit at the
     /// skin's inner surface under their lateral position.
     SkinOnGel,
+    /// The TacTip as it is built: a hemispherical skin shell (`dome.skin_thickness_mm`, the
+    /// skin material) closed over the gel (the gel material) on a rigid base
+    /// `base_depth_mm` below the apex, as a finite-element model (`contact/dome.rs`,
+    /// tacsim-fem) at `dome_cells` and `dome_skin_layers`. The pins move with the whole dome:
+    /// a press bulges the skin elsewhere and the shell carries the motion far. The contact
+    /// solve uses the skin-on-gel kernels of the same materials.
+    Dome,
 }
 
 impl SkinModel {
     /// Every model with its name in sensor files and on the command line.
-    pub const ALL: [(SkinModel, &'static str); 3] =
-        [(SkinModel::HalfSpace, "half-space"), (SkinModel::Layer, "layer"), (SkinModel::SkinOnGel, "skin-on-gel")];
+    pub const ALL: [(SkinModel, &'static str); 4] = [
+        (SkinModel::HalfSpace, "half-space"),
+        (SkinModel::Layer, "layer"),
+        (SkinModel::SkinOnGel, "skin-on-gel"),
+        (SkinModel::Dome, "dome"),
+    ];
 }
 
 impl std::str::FromStr for SkinModel {
@@ -163,6 +174,16 @@ pub struct SkinParams {
     /// second solve's cost grows about as its square.
     #[serde(skip_serializing_if = "is_default_subcells")]
     pub edge_subcells: usize,
+    /// `dome`: lattice cells from the dome's centre to its surface, in
+    /// [[`MIN_DOME_CELLS`], [`MAX_DOME_CELLS`]]: `2 dome_cells` ten-node elements span 90 deg
+    /// of the surface. Default 8 (about 52,000 unknowns; `docs/guide/fem.md` has the pins'
+    /// change with it).
+    #[serde(skip_serializing_if = "is_default_dome_cells")]
+    pub dome_cells: usize,
+    /// `dome`: element layers through the skin, in [1, [`MAX_DOME_SKIN_LAYERS`]] and below
+    /// `dome_cells`. Default 2.
+    #[serde(skip_serializing_if = "is_default_dome_skin_layers")]
+    pub dome_skin_layers: usize,
 }
 
 impl Default for SkinParams {
@@ -179,8 +200,29 @@ impl Default for SkinParams {
             dome_slope: 0.0,
             cut_edges: true,
             edge_subcells: DEFAULT_EDGE_SUBCELLS,
+            dome_cells: DEFAULT_DOME_CELLS,
+            dome_skin_layers: DEFAULT_DOME_SKIN_LAYERS,
         }
     }
+}
+
+/// Default [`SkinParams::dome_cells`].
+pub const DEFAULT_DOME_CELLS: usize = 8;
+/// Fewest [`SkinParams::dome_cells`].
+pub const MIN_DOME_CELLS: usize = 3;
+/// Most [`SkinParams::dome_cells`] (16 cells: about 400,000 unknowns, several GB to factorise).
+pub const MAX_DOME_CELLS: usize = 16;
+/// Default [`SkinParams::dome_skin_layers`].
+pub const DEFAULT_DOME_SKIN_LAYERS: usize = 2;
+/// Most [`SkinParams::dome_skin_layers`].
+pub const MAX_DOME_SKIN_LAYERS: usize = 4;
+
+fn is_default_dome_cells(v: &usize) -> bool {
+    *v == DEFAULT_DOME_CELLS
+}
+
+fn is_default_dome_skin_layers(v: &usize) -> bool {
+    *v == DEFAULT_DOME_SKIN_LAYERS
 }
 
 /// Default [`SkinParams::edge_subcells`].
@@ -717,6 +759,33 @@ impl SensorParams {
         if !(0.0..=MAX_DOME_SLOPE).contains(&k.dome_slope) {
             return check.bad("skin.dome_slope", format!("must be in [0, {MAX_DOME_SLOPE}], got {}", k.dome_slope));
         }
+        if !(MIN_DOME_CELLS..=MAX_DOME_CELLS).contains(&k.dome_cells) {
+            return check.bad(
+                "skin.dome_cells",
+                format!("must be in [{MIN_DOME_CELLS}, {MAX_DOME_CELLS}], got {}", k.dome_cells),
+            );
+        }
+        if !(1..=MAX_DOME_SKIN_LAYERS).contains(&k.dome_skin_layers) || k.dome_skin_layers >= k.dome_cells {
+            return check.bad(
+                "skin.dome_skin_layers",
+                format!(
+                    "must be in [1, {MAX_DOME_SKIN_LAYERS}] and below skin.dome_cells = {}, got {}",
+                    k.dome_cells, k.dome_skin_layers
+                ),
+            );
+        }
+        let r = self.dome.outer_radius_mm;
+        if k.model == SkinModel::Dome && !(r..=2.0 * r).contains(&k.base_depth_mm) {
+            return check.bad(
+                "skin.base_depth_mm",
+                format!(
+                    "with skin.model = \"dome\" must be in [outer_radius = {r}, 2 outer_radius = {}] mm (the base at \
+                     or below the dome's equator), got {}",
+                    2.0 * r,
+                    k.base_depth_mm
+                ),
+            );
+        }
         Ok(())
     }
 
@@ -807,6 +876,12 @@ mod tests {
             ("[skin]\ndome_slope = -0.5\n", "skin.dome_slope"),
             ("[skin]\ndome_slope = nan\n", "skin.dome_slope"),
             ("[skin]\nedge_subcells = 7\n", "skin.edge_subcells"),
+            ("[skin]\ndome_cells = 2\n", "skin.dome_cells"),
+            ("[skin]\ndome_cells = 17\n", "skin.dome_cells"),
+            ("[skin]\ndome_skin_layers = 0\n", "skin.dome_skin_layers"),
+            ("[skin]\ndome_cells = 4\ndome_skin_layers = 4\n", "skin.dome_skin_layers"),
+            ("[skin]\nmodel = \"dome\"\nbase_depth_mm = 19\n", "skin.base_depth_mm"),
+            ("[skin]\nmodel = \"dome\"\nbase_depth_mm = 41\n", "skin.base_depth_mm"),
             ("[skin]\nedge_subcells = -1\n", "edge_subcells = -1"),
             ("[skin]\ncut_edges = 1\n", "cut_edges"),
             ("[pins]\nimage_offsets = [[0.0, 0.0]]\n", "pins.image_offsets"),

@@ -21,7 +21,7 @@ fn max_pin_shift(a: &[tacsim_sim::PinPose], b: &[tacsim_sim::PinPose]) -> f64 {
 #[test]
 fn tap_and_slide_differ_and_lift_off_restores_pins() {
     let scene = scene_with("disk");
-    let model = ContactModel::new(&SensorParams::default());
+    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
     let target = SensorPose::new(0.0, 0.0, 2.0, 0.0);
     let t = Instant::now();
     let tap = SensorPath::tap(target).run(&model, &scene).expect("tap");
@@ -54,7 +54,7 @@ fn tap_and_slide_differ_and_lift_off_restores_pins() {
 #[test]
 fn no_contact_skips_the_solve() {
     let scene = scene_with("disk");
-    let model = ContactModel::new(&SensorParams::default());
+    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
     let mut sim = Simulation::new(&model, &scene, &[SensorPose::new(200.0, 0.0, 2.0, 0.0)]);
     assert!(sim.grid().is_none());
     let r = sim.step(SensorPose::new(200.0, 0.0, 2.0, 0.0)).expect("step").clone();
@@ -77,7 +77,7 @@ fn slide_history_grows_then_saturates_with_gross_sliding() {
 /// sliding, at least `slipping` of the cells slip in gross sliding, and the history saturates.
 fn check_slide_history(sensor: &SensorParams, slipping: f64) {
     let scene = scene_with("disk");
-    let model = ContactModel::new(sensor);
+    let model = ContactModel::new(sensor).expect("contact model");
     let target = SensorPose::new(5.0, -3.0, 2.0, 30.0);
     let tap = SensorPath::tap(target).run(&model, &scene).expect("tap");
     let diff = |d: f64| {
@@ -98,7 +98,7 @@ fn check_slide_history(sensor: &SensorParams, slipping: f64) {
 #[test]
 fn block_grouping_of_far_cells_matches_the_direct_sum() {
     let scene = scene_with("clover");
-    let model = ContactModel::new(&SensorParams::default());
+    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
     for (pose, from) in
         [(SensorPose::new(0.0, 0.0, 3.0, 0.0), None), (SensorPose::new(30.0, 5.0, 4.0, 20.0), Some([2.5, 1.0]))]
     {
@@ -158,7 +158,7 @@ fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
         sensor.skin.model = skin;
         sensor.skin.gel_youngs_modulus_mpa = gel;
         let t = Instant::now();
-        let mut model = ContactModel::new(&sensor);
+        let mut model = ContactModel::new(&sensor).expect("contact model");
         let build = t.elapsed();
         // Solved in double precision (tolerances below `Precision::SINGLE_FROM_TOLERANCE`):
         // the one layer's two tables agree to their rounding, which single-precision
@@ -209,7 +209,7 @@ fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
 fn a_tilted_press_pushes_the_skin_along_the_surface_normal() {
     use tacsim_sim::contact::press_direction;
     let scene = scene_with("disk");
-    let model = ContactModel::new(&SensorParams::default());
+    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
     let radius = model.sensor.dome.outer_radius_mm;
     let indentation = 1.5;
     let tip_motion = |pose: SensorPose, pin: usize| {
@@ -252,7 +252,7 @@ fn a_rounded_edge_lowers_the_top_face_by_the_quarter_circle() {
 
     let cat = Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue");
     let square = cat.get("square").expect("square");
-    let model = ContactModel::new(&SensorParams::default());
+    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
     // The square's right side is the line x = 45 mm, material at x < 45; the sensor over it.
     let pose = SensorPose::new(45.0, 0.0, 1.0, 0.0);
     // Cell centres at x = -3.875..4.125 mm (none on the edge line), y = -1..1 mm.
@@ -304,7 +304,7 @@ fn a_skin_patch_closes_the_split_of_the_pins_along_a_sharp_edge() {
     let tap = |patch: f64, x: f64| {
         let mut sensor = SensorParams::default();
         sensor.pins.patch_radius_mm = patch;
-        let model = ContactModel::new(&sensor);
+        let model = ContactModel::new(&sensor).expect("contact model");
         let pose = SensorPose::new(x, 0.0, 1.5, 0.0);
         let pins = SensorPath::tap(pose).run(&model, &scene).expect("tap")[0].pins.clone();
         (model.layout.poses(), pins)
@@ -330,7 +330,7 @@ fn the_dome_slope_drags_the_skin_towards_a_contact_off_the_apex() {
     let tap = |slope: f64| {
         let mut sensor = SensorParams::default();
         sensor.skin.dome_slope = slope;
-        let model = ContactModel::new(&sensor);
+        let model = ContactModel::new(&sensor).expect("contact model");
         let pose = SensorPose::new(50.0, 0.0, 1.5, 0.0);
         let pins = SensorPath::tap(pose).run(&model, &scene).expect("tap")[0].pins.clone();
         let rest = model.layout.poses();
@@ -353,7 +353,7 @@ fn a_tap_through_the_contact_matrices_equals_one_through_fft_products() {
     let scene = scene_with("disk");
     let mut sensor = SensorParams::default();
     sensor.skin.cells_across = 13;
-    let mut matrices = ContactModel::new(&sensor);
+    let mut matrices = ContactModel::new(&sensor).expect("contact model");
     matrices.normal.tolerance = 1e-10;
     matrices.tangential.tolerance = 1e-9;
     let mut fft = matrices.clone();
@@ -398,7 +398,7 @@ fn default_tolerances_keep_the_pins_within_a_tenth_of_a_micron_of_a_tight_solve(
     for cells in [17, 25] {
         let mut sensor = SensorParams::default();
         sensor.skin.cells_across = cells;
-        let default = ContactModel::new(&sensor);
+        let default = ContactModel::new(&sensor).expect("contact model");
         let mut tight = default.clone();
         tight.normal.tolerance = 1e-10;
         tight.tangential.tolerance = 1e-9;
@@ -434,7 +434,7 @@ fn seventeen_cells_keep_a_deep_tap_across_the_rim_within_0_03_mm_of_65_cells() {
     let pins = |cells: usize, exact: bool| {
         let mut sensor = SensorParams::default();
         sensor.skin.cells_across = cells;
-        let model = ContactModel::new(&sensor);
+        let model = ContactModel::new(&sensor).expect("contact model");
         let mut sim = Simulation::new(&model, &scene, &[pose]);
         sim.step(pose).expect("a tap");
         assert!(sim.refined_cells() > 0, "{cells} cells: the edge must cut the contact");

@@ -28,7 +28,7 @@ fn model_of(cells: usize, poisson: f64, skin: SkinModel) -> ContactModel {
     s.skin.cells_across = cells;
     s.skin.poisson = poisson;
     s.skin.model = skin;
-    ContactModel::new(&s)
+    ContactModel::new(&s).expect("contact model")
 }
 
 /// A path from `start` by `moves` (mm, mm, mm, deg: x, y, depth, yaw), the depth kept within

@@ -21,7 +21,7 @@ fn a_batch_of_taps_renders_on_the_gpu_as_on_the_cpu() {
     let mut scene = Scene::new();
     scene.add(cat.get("square").expect("square"), ObjectPose::default()).expect("add");
     let sensor = SensorParams::default();
-    let model = ContactModel::new(&sensor);
+    let model = ContactModel::new(&sensor).expect("contact model");
     let taps: Vec<Vec<tacsim_sim::PinPose>> = (0..12)
         .map(|k| {
             let pose = SensorPose::new(40.0 + k as f64, 0.5 * k as f64, 1.0 + 0.3 * k as f64, 30.0 * k as f64);
@@ -92,7 +92,7 @@ fn the_gpu_moves_the_pins_as_the_cpu_does() {
         ("skin-on-gel", gel),
     ];
     for (name, sensor) in &sensors {
-        let model = ContactModel::new(sensor);
+        let model = ContactModel::new(sensor).expect("contact model");
         // Taps on the edge, the top and a corner, at yaws and depths.
         let taps: Vec<SensorPose> = (0..6)
             .map(|k| SensorPose::new(40.0 + 2.0 * k as f64, 0.5 * k as f64, 1.0 + 0.5 * k as f64, 35.0 * k as f64))

@@ -23,7 +23,7 @@ pub fn model_at(cells: usize) -> Result<ContactModel, Box<dyn std::error::Error>
     let mut sensor = SensorParams::default();
     sensor.skin.cells_across = cells;
     sensor.validate("CELLS")?;
-    Ok(ContactModel::new(&sensor))
+    Ok(ContactModel::new(&sensor)?)
 }
 
 /// A hash of the bits of the pressure and the shear tractions of `sim`'s state: the same bits

@@ -62,7 +62,7 @@ impl Simulator {
         let mut sensor = deformation.sensor(base)?;
         sensor.skin.cells_across = cells;
         sensor.validate("calibration")?;
-        let model = ContactModel::new(&sensor);
+        let model = ContactModel::new(&sensor)?;
         let renderer = PinRenderer::new(&sensor, obs.size)?;
         let radius = MATCH_PX420 * obs.size as f64 / 420.0;
         let reference_to_sim = match_reference(&renderer, &model.layout.poses(), &obs.reference, radius);

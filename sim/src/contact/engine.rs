@@ -19,6 +19,7 @@ use nalgebra::Vector3;
 use serde::Serialize;
 
 use super::cut::{Cut, CutCoupling};
+use super::dome::DomeBody;
 use super::frame::ContactFrame;
 use super::grid::Grid;
 use super::kernel::{DepthKernel, Elastic};
@@ -98,28 +99,31 @@ pub struct ContactModel {
 }
 
 impl ContactModel {
-    /// The contact model of a (validated) sensor.
-    pub fn new(sensor: &SensorParams) -> Self {
+    /// The contact model of a (validated) sensor. A dome body (`skin.model = "dome"`) is read
+    /// from the cache folder or built there first ([`DomeBody::get`]): the one step that can
+    /// fail.
+    pub fn new(sensor: &SensorParams) -> Result<Self> {
         let material = Elastic::from_young(sensor.skin.youngs_modulus_mpa, sensor.skin.poisson);
         let skin = &sensor.skin;
         let gel = Elastic::from_young(skin.gel_youngs_modulus_mpa, skin.gel_poisson);
         let t = sensor.dome.skin_thickness_mm;
+        let skin_on_gel =
+            || vec![Layer { thickness_mm: t, material }, Layer { thickness_mm: skin.base_depth_mm - t, material: gel }];
         let layers = match skin.model {
             SkinModel::HalfSpace => None,
             SkinModel::Layer => Some(vec![Layer { thickness_mm: skin.base_depth_mm, material }]),
-            SkinModel::SkinOnGel => Some(vec![
-                Layer { thickness_mm: t, material },
-                Layer { thickness_mm: skin.base_depth_mm - t, material: gel },
-            ]),
+            SkinModel::SkinOnGel | SkinModel::Dome => Some(skin_on_gel()),
         };
-        let influence = match layers {
-            None => Influence::HalfSpace(HalfSpace { material, pairing: Pairing::RigidIndenter }),
-            // Tables reach every grid offset (at most 2 sqrt(2) 0.95 R) and every pin offset.
-            Some(layers) => {
-                Influence::Layered(LayeredKernels::get(&LayeredBody { layers }, t, 3.0 * sensor.dome.outer_radius_mm))
+        // Tables reach every grid offset (at most 2 sqrt(2) 0.95 R) and every pin offset.
+        let tables = |layers| LayeredKernels::get(&LayeredBody { layers }, t, 3.0 * sensor.dome.outer_radius_mm);
+        let influence = match (skin.model, layers) {
+            (_, None) => Influence::HalfSpace(HalfSpace { material, pairing: Pairing::RigidIndenter }),
+            (SkinModel::Dome, Some(layers)) => {
+                Influence::Dome { contact: tables(layers), body: DomeBody::get(sensor)? }
             }
+            (_, Some(layers)) => Influence::Layered(tables(layers)),
         };
-        Self {
+        Ok(Self {
             sensor: Arc::new(sensor.clone()),
             material,
             influence,
@@ -137,13 +141,13 @@ impl ContactModel {
             pin_subsquares: PIN_SUBSQUARES,
             edge_subcells: sensor.skin.edge_subcells,
             fine_grids: FineGrids::default(),
-        }
+        })
     }
 
     fn operator(&self, grid: Grid) -> Operator {
         match &self.influence {
             Influence::HalfSpace(h) => Operator::new(h, grid),
-            Influence::Layered(k) => Operator::layered(k, grid),
+            Influence::Layered(k) | Influence::Dome { contact: k, .. } => Operator::layered(k, grid),
         }
     }
 
@@ -159,6 +163,14 @@ pub enum Influence {
     HalfSpace(HalfSpace),
     /// Layers on a rigid base: tabulated kernels, pins at the top layer's bottom.
     Layered(Arc<LayeredKernels>),
+    /// The finite-element dome ([`DomeBody`]): the contact solved with the skin-on-gel
+    /// layers' kernels (`contact`), the pins moved by the dome's response (`body`).
+    Dome {
+        /// The skin-on-gel kernels of the same skin and gel.
+        contact: Arc<LayeredKernels>,
+        /// The dome.
+        body: Arc<DomeBody>,
+    },
 }
 
 /// What a step found.
@@ -1170,6 +1182,12 @@ impl<'a> Simulation<'a> {
     }
 
     fn pins_with(&self, exact: bool) -> Vec<PinPose> {
+        if let Influence::Dome { body, .. } = &self.model.influence {
+            return match self.cell_forces() {
+                Some(forces) => body.pins(&self.model.layout, &self.frame, &forces),
+                None => self.undeformed_pins(),
+            };
+        }
         match self.pin_load() {
             Some(load) => self.frame.pins_to_sensor(displaced_pins(
                 load.layout,
@@ -1182,9 +1200,8 @@ impl<'a> Simulation<'a> {
         }
     }
 
-    /// What the pins depend on in the current state (the grid's frame), `None` where no cell
-    /// is loaded (the pins are the undeformed layout's).
-    pub(crate) fn pin_load(&self) -> Option<PinLoad<'_>> {
+    /// The loaded cells' point forces in the grid's frame, `None` where no cell is loaded.
+    fn cell_forces(&self) -> Option<CellForces> {
         let op = self.op.as_ref()?;
         let forces = CellForces::new(
             op.grid(),
@@ -1193,12 +1210,24 @@ impl<'a> Simulation<'a> {
             self.refinement(),
             self.model.pin_subsquares,
         );
-        if forces.is_empty() {
-            return None;
-        }
+        (!forces.is_empty()).then_some(forces)
+    }
+
+    /// Whether the pins come from the finite-element dome (a table product on the CPU, not the
+    /// GPU's kernel sums).
+    #[cfg(feature = "wgpu")]
+    pub(crate) fn has_dome(&self) -> bool {
+        matches!(self.model.influence, Influence::Dome { .. })
+    }
+
+    /// What the pins depend on in the current state (the grid's frame), `None` where no cell
+    /// is loaded (the pins are the undeformed layout's).
+    pub(crate) fn pin_load(&self) -> Option<PinLoad<'_>> {
+        let forces = self.cell_forces()?;
         let kernel = match &self.model.influence {
             Influence::HalfSpace(h) => PinKernel::HalfSpace(DepthKernel::new(&h.material)),
             Influence::Layered(k) => PinKernel::Layered(k),
+            Influence::Dome { .. } => return None,
         };
         Some(PinLoad { layout: &self.layout, kernel, dome_radius_mm: self.model.dome_radius(), forces })
     }
@@ -1230,7 +1259,7 @@ mod tests {
     fn default_model(cells: usize) -> ContactModel {
         let mut sensor = SensorParams::default();
         sensor.skin.cells_across = cells;
-        ContactModel::new(&sensor)
+        ContactModel::new(&sensor).expect("contact model")
     }
 
     /// The bench's worst taps across the disk's rim (its edge at `x = 50` mm), worst first.
@@ -1261,7 +1290,7 @@ mod tests {
         let mut sensor = SensorParams::default();
         sensor.skin.cells_across = 13;
         sensor.skin.cut_edges = true;
-        let model = ContactModel::new(&sensor);
+        let model = ContactModel::new(&sensor).expect("contact model");
         let grid = contact_disk_grid(&model, 2.0);
         let (mut force, mut tip) = (Vec::new(), Vec::new());
         for i in 0..=20 {
@@ -1443,7 +1472,7 @@ mod tests {
         scene.add(catalogue.get("square").expect("a built-in"), ObjectPose::default()).expect("placed");
         let mut sensor = SensorParams::preset("tactip-331-edge2d").expect("preset");
         sensor.skin.cells_across = 13;
-        let model = ContactModel::new(&sensor);
+        let model = ContactModel::new(&sensor).expect("contact model");
         let pose = SensorPose::new(39.068618820809355, 0.0, 0.7219355606675195, 30.843697719879216);
         let mut sim = Simulation::new(&model, &scene, &[pose]);
         sim.step(pose).expect("the step solves");
@@ -1527,7 +1556,7 @@ mod tests {
         let refined = |subcells: usize| {
             let mut sensor = SensorParams::default();
             (sensor.skin.cells_across, sensor.skin.edge_subcells) = (13, subcells);
-            let model = ContactModel::new(&sensor);
+            let model = ContactModel::new(&sensor).expect("contact model");
             assert_eq!(model.edge_subcells, subcells);
             let mut sim = Simulation::new(&model, &scene, &[pose]);
             sim.step(pose).expect("solved");
@@ -1604,7 +1633,7 @@ mod tests {
         let scene = scene_of("spiral-2");
         let mut sensor = SensorParams::default();
         (sensor.skin.cells_across, sensor.skin.poisson, sensor.skin.model) = (11, 0.5, crate::SkinModel::Layer);
-        let model = ContactModel::new(&sensor);
+        let model = ContactModel::new(&sensor).expect("contact model");
         // The proptest's case: a touch-down on the second spiral, tilted, then a slide and
         // two presses.
         let start = SensorPose {
@@ -1643,7 +1672,7 @@ mod tests {
     #[test]
     fn short_probe_rays_sort_the_cells_as_full_rays_do() {
         let catalogue = crate::builtin_catalogue().expect("shapes");
-        let model = ContactModel::new(&SensorParams::default());
+        let model = ContactModel::new(&SensorParams::default()).expect("contact model");
         let r = model.dome_radius() * DOME_FRACTION;
         let s = 2.0 * r / PROBE_CELLS as f64;
         let coarse = (Grid::square(PROBE_CELLS, s), s * s / (4.0 * model.dome_radius()) * 1.01);

@@ -14,6 +14,7 @@
 //! traction `q` is the stimulus's force per area on the skin (MPa); the gap `g` (mm) is
 //! measured along the frame's `+z` and is negative for overlap.
 mod cut;
+mod dome;
 mod engine;
 mod fft2;
 mod frame;
@@ -33,6 +34,7 @@ mod tangential;
 pub(crate) mod trajectory;
 pub mod validate;
 
+pub use dome::{CACHE_ENV, DomeBody, cache_dir, spec_of as dome_spec};
 pub use engine::{ContactModel, Footprint, Influence, Simulation, StepReport, contact_disk_grid, initial_gap};
 pub use frame::{ContactFrame, press_direction};
 pub use grid::Grid;

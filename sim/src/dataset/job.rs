@@ -113,7 +113,7 @@ impl Job {
         recipe.validate(source)?;
         let plan = Plan::new(recipe, catalogue, source)?;
         let sensor = generate::recipe_sensor(&plan, base)?;
-        let model = ContactModel::new(&sensor);
+        let model = ContactModel::new(&sensor)?;
         let renderer = PinRenderer::new(&sensor, recipe.image_size)?;
         let scenes = plan
             .shapes

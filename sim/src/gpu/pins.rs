@@ -78,6 +78,10 @@ impl Gpu {
                 self.adapter
             )));
         };
+        // The finite-element dome's pins are a table product, done on the CPU.
+        if states.iter().any(|s| s.has_dome()) {
+            return Ok(states.iter().map(|s| s.pins()).collect());
+        }
         let loads: Vec<Option<PinLoad<'_>>> = states.iter().map(|s| s.pin_load()).collect();
         let mut out: Vec<Option<Vec<PinPose>>> = vec![None; states.len()];
         // Batches of whole states below the dispatch's size.

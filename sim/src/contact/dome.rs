@@ -1,0 +1,139 @@
+//! The dome body (`skin.model = "dome"`): the TacTip as it is built, a skin shell over the gel
+//! that fills it on the rigid base, as a finite-element model (tacsim-fem), behind the same
+//! contact solver.
+//!
+//! What it changes today: the pins. Each loaded cell's force (N; cut cells at their load
+//! point, refined cells at their sub-cells' centroid) acts at the point of the undeformed dome
+//! above the cell (the contact frame's sphere point, turned into the sensor frame), along the
+//! force's own direction in the contact frame (`(Qx, Qy, -P)`: the stimulus pushes along the
+//! contact frame's `-z`, not along the dome's normal), and every pin's tip displacement and
+//! rotation come from the dome's [`PinResponse`]: the finite-element solution, so a press
+//! bulges the skin elsewhere (the gel keeps its volume), the shell carries the motion far,
+//! and the dome curves away. The contact solve itself (which cells touch, their pressure and
+//! shear, stick and slip) uses the skin-on-gel layers' kernels of the same skin and gel
+//! (`layered.rs`) on the contact plane, with the gap measured on the curved dome as for every
+//! body.
+//!
+//! The response is built once per sensor (mesh, factorisation, one solve per pin read-out
+//! row: about 20 s at the default 8 cells on 2 cores) and kept on disk under a key of
+//! everything that shapes it ([`cache_dir`]), then in memory for the process.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use nalgebra::Vector3;
+use tacsim_fem::{DomeSpec, MAX_POISSON, Material, PinResponse, PinSite, response_key};
+
+use super::frame::ContactFrame;
+use super::pin_motion::CellForces;
+use crate::error::{Result, SimError};
+use crate::pins::{PinLayout, PinPose};
+use crate::sensor::SensorParams;
+
+/// Environment variable naming the folder of the dome's cached responses.
+pub const CACHE_ENV: &str = "TACSIM_CACHE_DIR";
+
+/// The folder the dome's responses are cached in: `$TACSIM_CACHE_DIR`, else
+/// `$XDG_CACHE_HOME/tacsim`, else `$HOME/.cache/tacsim`, else `tacsim-cache` in the
+/// system's temporary folder.
+pub fn cache_dir() -> PathBuf {
+    let var = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty()).map(PathBuf::from);
+    var(CACHE_ENV)
+        .or_else(|| var("XDG_CACHE_HOME").map(|d| d.join("tacsim")))
+        .or_else(|| var("HOME").map(|d| d.join(".cache").join("tacsim")))
+        .unwrap_or_else(|| std::env::temp_dir().join("tacsim-cache"))
+}
+
+/// The finite-element model of a sensor's dome: its spec and pins, and their response.
+#[derive(Debug)]
+pub struct DomeBody {
+    /// What the dome was built from.
+    pub spec: DomeSpec,
+    /// The pins' response to forces on the outer hemisphere.
+    pub response: PinResponse,
+}
+
+impl DomeBody {
+    /// The dome of a (validated) sensor: from this process's memory, else the cache folder,
+    /// else built and saved there. Poisson's ratios of 0.5 are taken as 0.4999 (the element's
+    /// limit, `tacsim_fem::MAX_POISSON`).
+    pub fn get(sensor: &SensorParams) -> Result<Arc<DomeBody>> {
+        type Cache = Mutex<HashMap<u64, Arc<DomeBody>>>;
+        static CACHE: OnceLock<Cache> = OnceLock::new();
+        let spec = spec_of(sensor)?;
+        let sites = sites_of(&PinLayout::new(sensor));
+        let key = response_key(&spec, &sites);
+        let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+        if let Some(body) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
+            return Ok(body.clone());
+        }
+        let response = PinResponse::cached(&cache_dir(), &spec, &sites, |_, _| {})?;
+        let body = Arc::new(DomeBody { spec, response });
+        cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, body.clone());
+        Ok(body)
+    }
+
+    /// The pins (sensor frame) under the cell forces of a contact state in `frame` (whose
+    /// contact plane touches the dome of radius `dome_radius_mm` at its apex).
+    pub(crate) fn pins(&self, layout: &PinLayout, frame: &ContactFrame, forces: &CellForces) -> Vec<PinPose> {
+        let r = self.spec.outer_radius_mm;
+        let loads = (0..forces.f.len()).map(|k| {
+            let (x, y, f) = (forces.x[k], forces.y[k], forces.f[k]);
+            let z = (r * r - x * x - y * y).max(0.0).sqrt();
+            let at = frame.to_sensor(Vector3::new(x, y, z));
+            let force = frame.to_sensor(Vector3::new(f[0], f[1], -f[2]));
+            ([at.x, at.y, at.z], [force.x, force.y, force.z])
+        });
+        // Loads off the hemisphere cannot occur: the gap keeps cells above the sensor's
+        // equator (`DomeCells`).
+        let (motions, _) = self.response.motions(loads);
+        layout
+            .pins
+            .iter()
+            .zip(motions)
+            .map(|(pin, m)| {
+                let (u, omega) = (Vector3::new(m[0], m[1], m[2]), Vector3::new(m[3], m[4], m[5]));
+                PinPose { tip: pin.tip + u, axis: (pin.normal + omega.cross(&pin.normal)).normalize() }
+            })
+            .collect()
+    }
+}
+
+/// The finite-element spec of a sensor: its dome's radius and skin, the skin's and gel's
+/// materials, the base `skin.base_depth_mm` below the apex (a skirt below the equator where
+/// deeper than the radius), and the resolution `skin.dome_cells`, `skin.dome_skin_layers`.
+pub fn spec_of(sensor: &SensorParams) -> Result<DomeSpec> {
+    let (d, k) = (&sensor.dome, &sensor.skin);
+    let material = |e: f64, nu: f64| Material::new(e, nu.min(MAX_POISSON));
+    let spec = DomeSpec {
+        outer_radius_mm: d.outer_radius_mm,
+        skin_thickness_mm: d.skin_thickness_mm,
+        skirt_mm: k.base_depth_mm - d.outer_radius_mm,
+        skin: material(k.youngs_modulus_mpa, k.poisson)?,
+        gel: material(k.gel_youngs_modulus_mpa, k.gel_poisson)?,
+        cells: k.dome_cells,
+        skin_layers: k.dome_skin_layers,
+    };
+    spec.validate()?;
+    Ok(spec)
+}
+
+/// The pins as the finite-element model reads them: base, tip and skin patch.
+fn sites_of(layout: &PinLayout) -> Vec<PinSite> {
+    layout
+        .pins
+        .iter()
+        .map(|p| PinSite {
+            base: [p.base.x, p.base.y, p.base.z],
+            tip: [p.tip.x, p.tip.y, p.tip.z],
+            patch_radius_mm: layout.patch_radius_mm,
+        })
+        .collect()
+}
+
+impl From<tacsim_fem::FemError> for SimError {
+    fn from(e: tacsim_fem::FemError) -> Self {
+        SimError::Dome(e.to_string())
+    }
+}
