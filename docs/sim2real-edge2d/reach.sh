@@ -6,6 +6,11 @@
 # the pin field (`pins.gel_dilation_per_n`), which needs a binary built with
 # docs/sim2real-edge2d/spread.patch applied (`git apply`); the option is not in tacsim.
 #
+# The dome candidates (`skin.model = "dome"`, the base at the equator of the preset's 40 mm
+# dome) build their dome into the cache folder on first use. NAMES="preset dome" runs only the
+# candidates named; REAL=../shared/data/real-tactip-edge2d-full compares with the lab's whole
+# turn.
+#
 #   cargo build --release && sh docs/sim2real-edge2d/reach.sh target/reach
 set -eu
 W=$1
@@ -27,6 +32,8 @@ patch-5|s/^patch_radius_mm = .*/patch_radius_mm = 5.0/
 lever-1.4|s/^length_mm = .*/length_mm = 1.4/
 poisson-0.30|s/^poisson = .*/poisson = 0.3/
 poisson-0.49|s/^poisson = .*/poisson = 0.49/
+dome|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = 40.0/
+dome-gel-0.02|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = 40.0/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.02/
 "
 if [ "${GEL:-0}" = 1 ]; then
     for k in 0.00002 0.0001 0.0002 0.001; do
@@ -38,6 +45,7 @@ fi
 SETS=""
 for line in $(printf "%s\n" "$CANDIDATES" | sed 's/ /@/g'); do
     name=${line%%|*}
+    case " ${NAMES:-$name} " in *" $name "*) ;; *) continue ;; esac
     expr=$(printf "%s" "${line#*|}" | sed 's/@/ /g')
     sed "$expr" "$PRESET" > "$W/$name.toml"
     sed -e "s/^per_shape = .*/per_shape = 1500/" -e "s|^sensor = .*|sensor = \"$W/$name.toml\"|" \

@@ -64,9 +64,17 @@ impl DomeBody {
         let spec = spec_of(sensor)?;
         let sites = sites_of(&PinLayout::new(sensor));
         let key = response_key(&spec, &sites);
+        static BUILDING: Mutex<()> = Mutex::new(());
         let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
-        if let Some(body) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
-            return Ok(body.clone());
+        let kept = || cache.lock().unwrap_or_else(|p| p.into_inner()).get(&key).cloned();
+        if let Some(body) = kept() {
+            return Ok(body);
+        }
+        // One dome is read or built at a time (each takes most of the memory and every core):
+        // the threads that wait for it then find it kept.
+        let _building = BUILDING.lock().unwrap_or_else(|p| p.into_inner());
+        if let Some(body) = kept() {
+            return Ok(body);
         }
         let response = PinResponse::cached(&cache_dir(), &spec, &sites, |_, _| {})?;
         let body = Arc::new(DomeBody { spec, response });
