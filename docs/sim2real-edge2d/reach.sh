@@ -34,6 +34,8 @@ poisson-0.30|s/^poisson = .*/poisson = 0.3/
 poisson-0.49|s/^poisson = .*/poisson = 0.49/
 dome|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = 40.0/
 dome-gel-0.02|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = 40.0/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.02/
+dome-gel-0.005|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = 40.0/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.005/
+skin-on-gel-0.005|s/^model = .*/model = \"skin-on-gel\"/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.005/
 "
 if [ "${GEL:-0}" = 1 ]; then
     for k in 0.00002 0.0001 0.0002 0.001; do
