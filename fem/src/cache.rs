@@ -89,3 +89,13 @@ pub(crate) fn key_of(words: &str) -> u64 {
         .bytes()
         .fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3))
 }
+
+/// Checks that `dir` takes a new file (creating it), so that a long build does not end in a
+/// failed write.
+pub(crate) fn check_writable(dir: &Path) -> Result<()> {
+    let probe = dir.join(format!(".tacsim-write-check-{}", std::process::id()));
+    fs::create_dir_all(dir)
+        .and_then(|()| fs::write(&probe, b""))
+        .and_then(|()| fs::remove_file(&probe))
+        .map_err(|e| error(dir, format!("the cache folder is not writable ({e}); set TACSIM_CACHE_DIR to one that is")))
+}

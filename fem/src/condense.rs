@@ -214,6 +214,7 @@ impl Compliance {
         if path.exists() {
             return Self::load(&path, key);
         }
+        cache::check_writable(dir)?;
         let dome = Dome::build(spec)?;
         let tables = Self::condense(&dome, max_polar_deg, pins, progress)?;
         tables.save(&path, spec)?;

@@ -342,6 +342,7 @@ impl PinResponse {
         if path.exists() {
             return Self::load(&path, key);
         }
+        cache::check_writable(dir)?;
         let dome = Dome::build(spec)?;
         let response = Self::compute(&dome, pins, progress)?;
         response.save(&path, spec)?;

@@ -144,3 +144,35 @@ fn dome_pins_do_not_depend_on_the_thread_count() {
     };
     assert_eq!(bits(&run(1)), bits(&run(2)));
 }
+
+#[test]
+fn a_damaged_or_unwritable_dome_cache_is_refused_naming_the_file() {
+    use tacsim_sim::contact::DomeBody;
+    // A skin modulus no other test uses: its dome is not kept in this process.
+    let mut s = sensor(SkinModel::Dome);
+    s.skin.dome_cells = 3;
+    s.skin.youngs_modulus_mpa = 1.2345;
+    let dir = std::env::temp_dir().join(format!("tacsim-dome-cache-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("dir");
+    // A folder where the cache folder should be a file's parent: not writable.
+    let blocked = dir.join("file");
+    std::fs::write(&blocked, b"x").expect("file");
+    let err = DomeBody::get_in(&s, &blocked.join("cache")).expect_err("unwritable");
+    assert!(err.to_string().contains("not writable") && err.to_string().contains("TACSIM_CACHE_DIR"), "{err}");
+    // A damaged file where the dome's should be: refused, naming it and what to do.
+    let good = dir.join("cache");
+    let file = DomeBody::cache_path(&s, &good).expect("path");
+    std::fs::create_dir_all(&good).expect("dir");
+    std::fs::write(&file, b"TACSIMPINS1\ngarbage").expect("damage");
+    let err = DomeBody::get_in(&s, &good).expect_err("damaged");
+    assert!(
+        err.to_string().contains(&file.display().to_string()) && err.to_string().contains("delete the file"),
+        "{err}"
+    );
+    // Deleted, it is built again.
+    std::fs::remove_file(&file).expect("delete");
+    DomeBody::get_in(&s, &good).expect("built");
+    assert!(file.exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -59,6 +59,17 @@ impl DomeBody {
     /// else built and saved there. Poisson's ratios of 0.5 are taken as 0.4999 (the element's
     /// limit, `tacsim_fem::MAX_POISSON`).
     pub fn get(sensor: &SensorParams) -> Result<Arc<DomeBody>> {
+        Self::get_in(sensor, &cache_dir())
+    }
+
+    /// The file in the cache folder `dir` that holds a sensor's dome.
+    pub fn cache_path(sensor: &SensorParams, dir: &std::path::Path) -> Result<PathBuf> {
+        let spec = spec_of(sensor)?;
+        Ok(PinResponse::path_in(dir, response_key(&spec, &sites_of(&PinLayout::new(sensor)))))
+    }
+
+    /// [`DomeBody::get`] with the cache folder `dir`.
+    pub fn get_in(sensor: &SensorParams, dir: &std::path::Path) -> Result<Arc<DomeBody>> {
         type Cache = Mutex<HashMap<u64, Arc<DomeBody>>>;
         static CACHE: OnceLock<Cache> = OnceLock::new();
         let spec = spec_of(sensor)?;
@@ -76,7 +87,7 @@ impl DomeBody {
         if let Some(body) = kept() {
             return Ok(body);
         }
-        let response = PinResponse::cached(&cache_dir(), &spec, &sites, |_, _| {})?;
+        let response = PinResponse::cached(dir, &spec, &sites, |_, _| {})?;
         let body = Arc::new(DomeBody { spec, response });
         cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, body.clone());
         Ok(body)
