@@ -99,7 +99,9 @@ pub enum SkinModel {
     /// `base_depth_mm` below the apex, as a finite-element model (`contact/dome.rs`,
     /// tacsim-fem) at `dome_cells` and `dome_skin_layers`. The pins move with the whole dome:
     /// a press bulges the skin elsewhere and the shell carries the motion far. The contact
-    /// solve uses the skin-on-gel kernels of the same materials.
+    /// solve uses the skin-on-gel kernels of the same materials. Not yet mesh-converged: the
+    /// pins under a 1.5 mm tap change by about 0.1 mm between 8 and 10 cells
+    /// (`docs/guide/fem.md`).
     Dome,
 }
 
