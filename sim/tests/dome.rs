@@ -176,3 +176,41 @@ fn a_damaged_or_unwritable_dome_cache_is_refused_naming_the_file() {
     assert!(file.exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+
+    /// Random tilted, yawed taps and slides on the built-in shapes: every cell's force lands on
+    /// the dome's hemisphere (a debug assertion in `contact/dome.rs`), and the pins are finite
+    /// and back at rest after lifting 15 mm (a tilted dome reaches R (1 - cos tilt) below its apex).
+    #[test]
+    fn dome_pins_take_every_load_on_random_tilted_paths(
+        shape in 0usize..64,
+        x in -8.0f64..8.0,
+        y in -8.0f64..8.0,
+        depth in 0.2f64..4.0,
+        yaw in -180.0f64..180.0,
+        rx in -30.0f64..30.0,
+        ry in -30.0f64..30.0,
+        slide in proptest::option::of((-2.0f64..2.0, -2.0f64..2.0)),
+    ) {
+        let cat = Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue");
+        let names = cat.names();
+        let mut scene = Scene::new();
+        scene.add(cat.get(&names[shape % names.len()]).expect("shape"), ObjectPose::default()).expect("add");
+        let model = ContactModel::new(&sensor(SkinModel::Dome)).expect("contact model");
+        let pose = SensorPose { x_mm: x, y_mm: y, depth_mm: depth, yaw_deg: yaw, rx_deg: rx, ry_deg: ry };
+        let path = match slide {
+            Some((dx, dy)) => SensorPath::slide(pose, [dx, dy], 0.5).expect("path"),
+            None => SensorPath::tap(pose),
+        };
+        let frames = path.then_lift(15.0).run(&model, &scene).expect("path");
+        for f in &frames {
+            proptest::prop_assert!(f.pins.iter().all(|p| p.tip.iter().chain(p.axis.iter()).all(|v| v.is_finite())));
+        }
+        let lifted = frames.last().expect("lift-off");
+        for (p, q) in lifted.pins.iter().zip(&model.layout.pins) {
+            proptest::prop_assert!((p.tip - q.tip).norm() < 1e-12);
+        }
+    }
+}
