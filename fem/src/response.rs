@@ -39,6 +39,11 @@ const MAGIC: &[u8] = b"TACSIMPINS1\n";
 /// Bins per side of the faces' index over the hemisphere's projection `(x, y) / R`.
 const BINS: usize = 64;
 
+/// The bin of a coordinate of the projection `(x, y) / R`, in [-1, 1].
+fn bin_of(v: f64) -> usize {
+    (((v + 1.0) * 0.5 * BINS as f64).floor().max(0.0) as usize).min(BINS - 1)
+}
+
 /// The pins' response to forces on the outer hemisphere.
 #[derive(Clone, Debug)]
 pub struct PinResponse {
@@ -166,7 +171,7 @@ impl PinResponse {
         table: Vec<f32>,
     ) -> Self {
         let mut bins = vec![Vec::new(); BINS * BINS];
-        let bin = |v: f64| (((v / radius_mm + 1.0) * 0.5 * BINS as f64).floor().max(0.0) as usize).min(BINS - 1);
+        let bin = |v: f64| bin_of(v / radius_mm);
         for (f, face) in faces.iter().enumerate() {
             let x = face.map(|k| nodes[k as usize]);
             let lo = [0, 1].map(|c| x.iter().map(|p| p[c]).fold(f64::INFINITY, f64::min));
@@ -195,8 +200,7 @@ impl PinResponse {
         if d.z < -1e-9 {
             return None;
         }
-        let bin = |v: f64| (((v + 1.0) * 0.5 * BINS as f64).floor().max(0.0) as usize).min(BINS - 1);
-        let candidates = &self.bins[bin(d.y) * BINS + bin(d.x)];
+        let candidates = &self.bins[bin_of(d.y) * BINS + bin_of(d.x)];
         let mut best: Option<(f64, u32, [f64; 3])> = None;
         for &f in candidates {
             let Some(l) = self.ray_on_face(f as usize, &d) else { continue };

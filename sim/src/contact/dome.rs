@@ -32,7 +32,7 @@ use crate::pins::{PinLayout, PinPose};
 use crate::sensor::SensorParams;
 
 /// Environment variable naming the folder of the dome's cached responses.
-pub const CACHE_ENV: &str = "TACSIM_CACHE_DIR";
+const CACHE_ENV: &str = "TACSIM_CACHE_DIR";
 
 /// The folder the dome's responses are cached in: `$TACSIM_CACHE_DIR`, else
 /// `$XDG_CACHE_HOME/tacsim`, else `$HOME/.cache/tacsim`, else `tacsim-cache` in the
@@ -64,17 +64,15 @@ impl DomeBody {
 
     /// The file in the cache folder `dir` that holds a sensor's dome.
     pub fn cache_path(sensor: &SensorParams, dir: &std::path::Path) -> Result<PathBuf> {
-        let spec = spec_of(sensor)?;
-        Ok(PinResponse::path_in(dir, response_key(&spec, &sites_of(&PinLayout::new(sensor)))))
+        let (_, _, key) = inputs_of(sensor)?;
+        Ok(PinResponse::path_in(dir, key))
     }
 
     /// [`DomeBody::get`] with the cache folder `dir`.
     pub fn get_in(sensor: &SensorParams, dir: &std::path::Path) -> Result<Arc<DomeBody>> {
         type Cache = Mutex<HashMap<u64, Arc<DomeBody>>>;
         static CACHE: OnceLock<Cache> = OnceLock::new();
-        let spec = spec_of(sensor)?;
-        let sites = sites_of(&PinLayout::new(sensor));
-        let key = response_key(&spec, &sites);
+        let (spec, sites, key) = inputs_of(sensor)?;
         static BUILDING: Mutex<()> = Mutex::new(());
         let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
         let kept = || cache.lock().unwrap_or_else(|p| p.into_inner()).get(&key).cloned();
@@ -94,7 +92,7 @@ impl DomeBody {
     }
 
     /// The pins (sensor frame) under the cell forces of a contact state in `frame` (whose
-    /// contact plane touches the dome of radius `dome_radius_mm` at its apex).
+    /// contact plane touches the dome at its apex).
     pub(crate) fn pins(&self, layout: &PinLayout, frame: &ContactFrame, forces: &CellForces) -> Vec<PinPose> {
         let r = self.spec.outer_radius_mm;
         let loads = (0..forces.f.len()).map(|k| {
@@ -120,10 +118,18 @@ impl DomeBody {
     }
 }
 
+/// What shapes a sensor's dome: its spec, its pins and their key.
+fn inputs_of(sensor: &SensorParams) -> Result<(DomeSpec, Vec<PinSite>, u64)> {
+    let spec = spec_of(sensor)?;
+    let sites = sites_of(&PinLayout::new(sensor));
+    let key = response_key(&spec, &sites);
+    Ok((spec, sites, key))
+}
+
 /// The finite-element spec of a sensor: its dome's radius and skin, the skin's and gel's
 /// materials, the base `skin.base_depth_mm` below the apex (a skirt below the equator where
 /// deeper than the radius), and the resolution `skin.dome_cells`, `skin.dome_skin_layers`.
-pub fn spec_of(sensor: &SensorParams) -> Result<DomeSpec> {
+fn spec_of(sensor: &SensorParams) -> Result<DomeSpec> {
     let (d, k) = (&sensor.dome, &sensor.skin);
     let material = |e: f64, nu: f64| Material::new(e, nu.min(MAX_POISSON));
     let spec = DomeSpec {

@@ -1221,7 +1221,8 @@ impl<'a> Simulation<'a> {
     }
 
     /// What the pins depend on in the current state (the grid's frame), `None` where no cell
-    /// is loaded (the pins are the undeformed layout's).
+    /// is loaded (the pins are the undeformed layout's) and for the dome, whose pins are not
+    /// the kernels' sums (ask [`Simulation::pins`]).
     pub(crate) fn pin_load(&self) -> Option<PinLoad<'_>> {
         let forces = self.cell_forces()?;
         let kernel = match &self.model.influence {

@@ -34,7 +34,7 @@ mod tangential;
 pub(crate) mod trajectory;
 pub mod validate;
 
-pub use dome::{CACHE_ENV, DomeBody, cache_dir, spec_of as dome_spec};
+pub use dome::{DomeBody, cache_dir};
 pub use engine::{ContactModel, Footprint, Influence, Simulation, StepReport, contact_disk_grid, initial_gap};
 pub use frame::{ContactFrame, press_direction};
 pub use grid::Grid;
