@@ -186,6 +186,12 @@ impl Dome {
         self.mesh.pressure_forces(&self.outer_faces, pressure)
     }
 
+    /// Consistent nodal forces (N) of a traction (MPa per unit area of the outer sphere) as a
+    /// function of the point and the unit outward normal.
+    pub fn traction_forces(&self, traction: impl Fn([f64; 3], [f64; 3]) -> [f64; 3]) -> Vec<[f64; 3]> {
+        self.mesh.traction_forces(&self.outer_faces, traction)
+    }
+
     /// Nodal displacements (mm) under nodal forces (N), one load case.
     pub fn solve(&self, forces: &[[f64; 3]]) -> Vec<[f64; 3]> {
         let mut rhs = self.stiffness.load(forces);

@@ -82,14 +82,25 @@ impl Mesh {
     /// Consistent nodal forces (N) of a pressure (MPa, pushing against the outward normal) on
     /// the given boundary faces, as a function of the point.
     pub fn pressure_forces(&self, faces: &[(usize, usize)], pressure: impl Fn([f64; 3]) -> f64) -> Vec<[f64; 3]> {
+        self.traction_forces(faces, |p, n| {
+            let q = pressure(p);
+            [-q * n[0], -q * n[1], -q * n[2]]
+        })
+    }
+
+    /// Consistent nodal forces (N) of a traction (MPa, force per unit area of the undeformed
+    /// face) on the given boundary faces, as a function of the point and the unit outward
+    /// normal.
+    pub fn traction_forces(
+        &self,
+        faces: &[(usize, usize)],
+        traction: impl Fn([f64; 3], [f64; 3]) -> [f64; 3],
+    ) -> Vec<[f64; 3]> {
         let mut f = vec![[0.0; 3]; self.nodes.len()];
         for &(e, face) in faces {
             let nodes = self.face_nodes(e, face);
             let x = nodes.map(|n| self.nodes[n]);
-            let fe = face_forces(&x, self.centroid(e), |p, n| {
-                let q = pressure(p);
-                [-q * n[0], -q * n[1], -q * n[2]]
-            });
+            let fe = face_forces(&x, self.centroid(e), &traction);
             for (fk, &n) in fe.iter().zip(&nodes) {
                 for c in 0..3 {
                     f[n][c] += fk[c];
