@@ -14,23 +14,17 @@
 
 use std::time::Instant;
 
-use tacsim_fem::{Compliance, Dome, DomeSpec, Material, PinSite, SOLVE_BLOCK};
+use tacsim_fem::{Compliance, Dome, PinSite, SOLVE_BLOCK};
+
+mod support;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let cells = args.get(1).map_or(Ok(10), |s| s.parse())?;
     let skin_layers = args.get(2).map_or(Ok(2), |s| s.parse())?;
     let patch_radius_mm: f64 = args.get(3).map_or(Ok(0.0), |s| s.parse())?;
-    let (r, t, pin_length) = (20.0, 0.66, 2.84);
-    let spec = DomeSpec {
-        outer_radius_mm: r,
-        skin_thickness_mm: t,
-        skirt_mm: 0.0,
-        skin: Material::new(1.0, 0.436)?,
-        gel: Material::new(0.1, 0.4999)?,
-        cells,
-        skin_layers,
-    };
+    let (r, t, pin_length) = support::SIZES_MM;
+    let spec = support::spec(cells, skin_layers)?;
     let clock = Instant::now();
     let dome = Dome::build(&spec)?;
     println!(
@@ -69,19 +63,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(cap) = args.get(4) {
         let cap: f64 = cap.parse()?;
-        let mut sites = Vec::new();
-        for ring in 0..=10usize {
-            for j in 0..(6 * ring).max(1) {
-                let th = (ring as f64 * 4.536_447).to_radians();
-                let ph = -0.358f64.to_radians() + std::f64::consts::TAU * j as f64 / (6 * ring).max(1) as f64;
-                let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
-                sites.push(PinSite {
-                    base: n.map(|v| v * (r - t)),
-                    tip: n.map(|v| v * (r - t - pin_length)),
-                    patch_radius_mm,
-                });
-            }
-        }
+        let sites = support::rings(patch_radius_mm);
         let clock = Instant::now();
         let c = Compliance::condense(&dome, cap, &sites, |_, _| {})?;
         println!(

@@ -325,6 +325,12 @@ pub struct ProbeTerm {
     /// `motion[i] += sum_k coefficients[i][k] u_e[k]`, `u_e[3 a + m]` node `a`'s direction
     /// `m`; rows 0-2 the tip's displacement (mm per mm), rows 3-5 the rotation (rad per mm).
     pub coefficients: [[f64; 30]; MOTION],
+    /// The point's barycentric coordinates in the element.
+    pub barycentric: [f64; 4],
+    /// From the point to the pin's tip (mm).
+    pub lever_mm: [f64; 3],
+    /// The term's share of the tip's motion (the shares of a probe sum to 1).
+    pub weight: f64,
 }
 
 /// Rows of a pin's motion: the tip's displacement (3), then the post's rotation (3).
@@ -353,7 +359,7 @@ impl ProbeTerm {
                 }
             }
         }
-        Self { nodes, coefficients }
+        Self { nodes, coefficients, barycentric: l, lever_mm: [lever.x, lever.y, lever.z], weight }
     }
 }
 

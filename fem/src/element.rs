@@ -34,7 +34,7 @@ pub fn edge_node(i: usize, j: usize) -> usize {
 
 /// The degree-2 rule of four points (barycentric coordinates, weight on the reference
 /// tetrahedron of volume 1/6): exact for the straight element's deviatoric stiffness.
-fn quadrature() -> [([f64; 4], f64); 4] {
+pub(crate) fn quadrature() -> [([f64; 4], f64); 4] {
     let a = 0.585_410_196_624_968_5;
     let b = 0.138_196_601_125_010_5;
     let w = 1.0 / 24.0;

@@ -28,6 +28,7 @@ pub const SOLVE_BLOCK: usize = 32;
 const HELD: usize = usize::MAX;
 
 /// The stiffness matrix of a mesh (N/mm) over its free degrees of freedom.
+#[derive(Clone)]
 pub struct Stiffness {
     /// Free index of each degree of freedom (`3 x nodes`), `usize::MAX` where held.
     free: Vec<usize>,
@@ -42,6 +43,16 @@ impl Stiffness {
     /// Assembles the stiffness of `mesh` with each region's material; `held[d]` holds degree
     /// of freedom `d` at zero displacement.
     pub fn assemble(mesh: &Mesh, material: impl Fn(Region) -> Material + Sync, held: &[bool]) -> Result<Self> {
+        Self::assemble_with(mesh, held, |e| matrices(&mesh.element_nodes(e), &material(mesh.regions[e])))
+    }
+
+    /// Assembles the element matrices `element(e)` of every element of `mesh` (the tangent of
+    /// a nonlinear material, say); `held[d]` holds degree of freedom `d` at zero displacement.
+    pub fn assemble_with(
+        mesh: &Mesh,
+        held: &[bool],
+        element: impl Fn(usize) -> ElementMatrices + Sync,
+    ) -> Result<Self> {
         let dofs = 3 * mesh.nodes.len();
         let mut free = vec![HELD; dofs];
         let mut free_count = 0;
@@ -84,10 +95,7 @@ impl Stiffness {
         let mut volume_change = Vec::with_capacity(mesh.elements.len());
         for start in (0..mesh.elements.len()).step_by(ELEMENT_BATCH) {
             let end = (start + ELEMENT_BATCH).min(mesh.elements.len());
-            let batch: Vec<ElementMatrices> = (start..end)
-                .into_par_iter()
-                .map(|e| matrices(&mesh.element_nodes(e), &material(mesh.regions[e])))
-                .collect();
+            let batch: Vec<ElementMatrices> = (start..end).into_par_iter().map(&element).collect();
             for (offset, m) in batch.into_iter().enumerate() {
                 let e = start + offset;
                 if m.min_jacobian.is_nan() || m.min_jacobian <= 0.0 {
@@ -118,6 +126,35 @@ impl Stiffness {
             }
         }
         Ok(Self { free, col_ptr, row_idx, values, volume_change })
+    }
+
+    /// Whether each degree of freedom (`3 node + direction`) is held.
+    pub fn held(&self) -> Vec<bool> {
+        self.free.iter().map(|&f| f == HELD).collect()
+    }
+
+    /// The product `K x` (N) over the free degrees of freedom, `x` in mm.
+    pub fn apply(&self, x: &[f64]) -> Vec<f64> {
+        let mut y = vec![0.0; self.size()];
+        for c in 0..self.size() {
+            for p in self.col_ptr[c]..self.col_ptr[c + 1] {
+                let (r, v) = (self.row_idx[p], self.values[p]);
+                y[r] += v * x[c];
+                if r != c {
+                    y[c] += v * x[r];
+                }
+            }
+        }
+        y
+    }
+
+    /// Adds `value` (N/mm) to the diagonal entry of free degree of freedom `free` (a spring to
+    /// the ground: a penalty).
+    pub fn add_to_diagonal(&mut self, free: usize, value: f64) {
+        // Rows are sorted and at most the column: the diagonal is a column's last entry.
+        let last = self.col_ptr[free + 1] - 1;
+        debug_assert_eq!(self.row_idx[last], free);
+        self.values[last] += value;
     }
 
     /// Free degrees of freedom (the system's size).

@@ -1,0 +1,41 @@
+//! What the examples share: the TacTip-like dome and the default sensor's pins on it.
+
+use tacsim_fem::{DomeSpec, Material, PinSite, Result};
+
+/// Outer radius, skin thickness and pin length (mm) of the calibrated TacTip.
+pub const SIZES_MM: (f64, f64, f64) = (20.0, 0.66, 2.84);
+
+/// The calibrated TacTip's dome (R 20 mm, skin 0.66 mm of 1 MPa / 0.436, gel 0.1 MPa /
+/// 0.4999) at `cells`, `skin_layers`.
+pub fn spec(cells: usize, skin_layers: usize) -> Result<DomeSpec> {
+    let (r, t, _) = SIZES_MM;
+    Ok(DomeSpec {
+        outer_radius_mm: r,
+        skin_thickness_mm: t,
+        skirt_mm: 0.0,
+        skin: Material::new(1.0, 0.436)?,
+        gel: Material::new(0.1, 0.4999)?,
+        cells,
+        skin_layers,
+    })
+}
+
+/// The default sensor's 331 pins: 10 rings 4.536 deg apart, `6 k` pins on ring `k`, bases on
+/// the skin's inner face.
+pub fn rings(patch_radius_mm: f64) -> Vec<PinSite> {
+    let (r, t, pin_length) = SIZES_MM;
+    let mut sites = Vec::new();
+    for ring in 0..=10usize {
+        for j in 0..(6 * ring).max(1) {
+            let th = (ring as f64 * 4.536_447).to_radians();
+            let ph = -0.358f64.to_radians() + std::f64::consts::TAU * j as f64 / (6 * ring).max(1) as f64;
+            let n = [th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos()];
+            sites.push(PinSite {
+                base: n.map(|v| v * (r - t)),
+                tip: n.map(|v| v * (r - t - pin_length)),
+                patch_radius_mm,
+            });
+        }
+    }
+    sites
+}
