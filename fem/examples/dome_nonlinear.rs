@@ -51,7 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!(
             "depth {:.1} mm: force linear {:.4} N, neo-Hookean {:.4} N ({:+.1}%); surface difference {surface:.4} mm; \
              pins: largest difference {worst:.4} mm (pin {worst_pin}), largest motion {moved:.3} mm, {:.1}%; \
-             penetration {:.1e} / {:.1e} mm; Newton {} / {} iterations",
+             penetration {:.1e} / {:.1e} mm; Newton {} / {} iterations ({} on the linear stiffness)",
             a.depth_mm,
             a.force_n,
             b.force_n,
@@ -61,6 +61,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             b.penetration_mm,
             a.iterations,
             b.iterations,
+            b.linear_steps,
         );
     }
     Ok(())

@@ -43,6 +43,16 @@ pub enum FemError {
         /// The degree of freedom (`3 node + direction`).
         dof: usize,
     },
+    /// Newton's method did not converge at a depth of a press, even on halved steps.
+    #[error(
+        "Newton's method did not converge in {iterations} iterations at depth {depth_mm} mm: take a smaller step_mm"
+    )]
+    NoConvergence {
+        /// The press's depth (mm).
+        depth_mm: f64,
+        /// Iterations tried.
+        iterations: usize,
+    },
     /// Reading or writing the cached condensed response.
     #[error("{path}: {message}")]
     Cache {

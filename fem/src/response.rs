@@ -29,8 +29,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::cache;
 use crate::dome::{Dome, DomeSpec, MOTION, PinSite};
-use crate::element::{face_shape, face_shape_derivatives};
-use crate::error::Result;
+use crate::element::{face_forces, face_shape, face_shape_derivatives};
+use crate::error::{FemError, Result};
 use crate::system::SOLVE_BLOCK;
 
 /// Bump when the table's meaning or the file's layout change.
@@ -61,6 +61,8 @@ pub struct PinResponse {
     /// Per surface degree of freedom `3 s + c`, the `6 P` rows of every pin's motion per unit
     /// force (mm/N for the tip, rad/N for the rotation), pin by pin.
     pub table: Vec<f32>,
+    /// The Gaussian patch's `s` (mm) each force is spread over (0: point forces).
+    pub spread_mm: f64,
     /// The faces binned by the bounds of their projection `(x, y) / R`.
     bins: Vec<Vec<u32>>,
 }
@@ -82,11 +84,15 @@ pub struct ResponseHeader {
     pub pins: usize,
     /// The spec, for a reader.
     pub spec: String,
+    /// The Gaussian patch's `s` (mm) the table spreads each force over (0: point forces).
+    #[serde(default)]
+    pub spread_mm: f64,
 }
 
-/// The key of a response's inputs: a 64-bit FNV-1a hash of the format, the spec and the pins.
-pub fn response_key(spec: &DomeSpec, pins: &[PinSite]) -> u64 {
-    let words = format!("pins {FORMAT} {spec:?} {pins:?}");
+/// The key of a response's inputs: a 64-bit FNV-1a hash of the format, the spec, the pins and
+/// the Gaussian patch's `s` (mm; 0 for point forces, [`PinResponse::spread`]).
+pub fn response_key(spec: &DomeSpec, pins: &[PinSite], spread_mm: f64) -> u64 {
+    let words = format!("pins {FORMAT} {spec:?} {pins:?} spread {spread_mm:?}");
     cache::key_of(&words)
 }
 
@@ -153,7 +159,7 @@ impl PinResponse {
             }
         }
         Ok(Self::with_bins(
-            response_key(&dome.spec, pins),
+            response_key(&dome.spec, pins, 0.0),
             dome.spec.outer_radius_mm,
             outer.iter().map(|&s| dome.mesh.nodes[s]).collect(),
             faces,
@@ -184,7 +190,76 @@ impl PinResponse {
                 }
             }
         }
-        Self { key, radius_mm, nodes, faces, pins, table, bins }
+        Self { key, radius_mm, nodes, faces, pins, table, spread_mm: 0.0, bins }
+    }
+
+    /// The response to the same forces spread as Gaussian patches on the outer sphere: a
+    /// force `F` at `X` acts as the traction `F g(Y) / int g`, `g(Y) = exp(-|Y - X|^2 / s^2)`
+    /// (`s = spread_mm`, the chord distance, cut at `3.5 s`), so that its total is `F`. Each
+    /// node's column is the patch centred on it, carried to the nodes by the faces'
+    /// consistent loads (the six-point rule); between nodes the faces' shape functions
+    /// interpolate the columns as they do the point load's. A patch a few elements wide is a
+    /// load the mesh resolves, unlike a point force (the contact engine adds the near field
+    /// from the layered kernels, `sim/src/contact/dome.rs`). Columns are computed in parallel,
+    /// each on its own, so the table does not depend on the thread count.
+    pub fn spread(&self, spread_mm: f64) -> Result<Self> {
+        if !(spread_mm > 0.0 && spread_mm <= self.radius_mm) {
+            return Err(FemError::Parameter {
+                field: "spread_mm",
+                value: spread_mm,
+                expected: "a Gaussian patch's width in (0, outer radius] mm",
+            });
+        }
+        let s2 = spread_mm * spread_mm;
+        let reach = 3.5 * spread_mm;
+        let rows = self.rows();
+        let nodes = &self.nodes;
+        let centre_of = |face: &[u32; 6]| {
+            let x = face.map(|k| Vector3::from(nodes[k as usize]));
+            let c = (x[0] + x[1] + x[2]) / 3.0;
+            let size = x.iter().map(|p| (p - c).norm()).fold(0.0, f64::max);
+            (c, size)
+        };
+        let centres: Vec<(Vector3<f64>, f64)> = self.faces.iter().map(centre_of).collect();
+        let columns: Vec<Vec<f32>> = (0..nodes.len())
+            .into_par_iter()
+            .map(|j| {
+                let xj = Vector3::from(nodes[j]);
+                let mut weights = vec![0.0f64; nodes.len()];
+                for (face, (c, size)) in self.faces.iter().zip(&centres) {
+                    if (c - xj).norm() > reach + size {
+                        continue;
+                    }
+                    let x = face.map(|k| nodes[k as usize]);
+                    let f = face_forces(&x, [0.0; 3], |p, _| {
+                        let d2 = (Vector3::from(p) - xj).norm_squared();
+                        [if d2 < reach * reach { (-d2 / s2).exp() } else { 0.0 }, 0.0, 0.0]
+                    });
+                    for (&k, fk) in face.iter().zip(f) {
+                        weights[k as usize] += fk[0];
+                    }
+                }
+                let total: f64 = weights.iter().sum();
+                let mut out = vec![0.0f64; 3 * rows];
+                for (k, &w) in weights.iter().enumerate() {
+                    if w == 0.0 {
+                        continue;
+                    }
+                    for c in 0..3 {
+                        let column = &self.table[(3 * k + c) * rows..(3 * k + c + 1) * rows];
+                        for (o, &t) in out[c * rows..(c + 1) * rows].iter_mut().zip(column) {
+                            *o += w / total * f64::from(t);
+                        }
+                    }
+                }
+                out.into_iter().map(|v| v as f32).collect()
+            })
+            .collect();
+        let table = columns.concat();
+        let mut out =
+            Self::with_bins(self.key, self.radius_mm, self.nodes.clone(), self.faces.clone(), self.pins, table);
+        out.spread_mm = spread_mm;
+        Ok(out)
     }
 
     /// Rows of the table (`6 P`).
@@ -293,6 +368,7 @@ impl PinResponse {
             faces: self.faces.len(),
             pins: self.pins,
             spec: format!("{spec:?}"),
+            spread_mm: self.spread_mm,
         };
         let nodes: Vec<f64> = self.nodes.iter().flatten().copied().collect();
         let faces: Vec<u32> = self.faces.iter().flatten().copied().collect();
@@ -329,26 +405,35 @@ impl PinResponse {
             return Err(err("a face names a node past the nodes stored".into()));
         }
         let table = cache::values_of(table, f32::from_le_bytes);
-        Ok(Self::with_bins(key, header.radius_mm, nodes, faces, header.pins, table))
+        let mut out = Self::with_bins(key, header.radius_mm, nodes, faces, header.pins, table);
+        out.spread_mm = header.spread_mm;
+        Ok(out)
     }
 
     /// The response for these inputs: read from `dir` where a file with their key is there,
     /// else built (the dome meshed, assembled, factorised and solved) and saved there.
+    /// With `spread_mm > 0` the table saved and returned is the point forces' spread over
+    /// Gaussian patches of that `s` ([`PinResponse::spread`]).
     pub fn cached(
         dir: &Path,
         spec: &DomeSpec,
         pins: &[PinSite],
+        spread_mm: f64,
         progress: impl Fn(usize, usize) + Sync,
     ) -> Result<Self> {
         spec.validate()?;
-        let key = response_key(spec, pins);
+        let key = response_key(spec, pins, spread_mm);
         let path = Self::path_in(dir, key);
         if path.exists() {
             return Self::load(&path, key);
         }
         cache::check_writable(dir)?;
         let dome = Dome::build(spec)?;
-        let response = Self::compute(&dome, pins, progress)?;
+        let mut response = Self::compute(&dome, pins, progress)?;
+        if spread_mm != 0.0 {
+            response = response.spread(spread_mm)?;
+            response.key = key;
+        }
         response.save(&path, spec)?;
         Ok(response)
     }

@@ -66,6 +66,9 @@ fn the_dome_body_keeps_the_solvers_invariants_history_and_lift_off() {
 /// one element of those holding its base, made the mesh lopsided: mirror pins of a centred
 /// tap moved apart by 0.26 mm at 4 cells, 0.14 mm with the split reflected into each octant,
 /// and 4.6e-6 mm (the table's f32 rounding) with the rotation the mean over the elements.
+/// With the layers' near field added, 2.5e-5 mm: its rotation is a forward difference
+/// (`pin_motion.rs`, 1e-3 mm steps along +x, +y, +z), not mirror symmetric (the skin-on-gel
+/// body's own mirror pins differ by 5.7e-5 mm on this tap).
 #[test]
 fn a_centred_tap_moves_the_dome_pins_as_mirrors() {
     let scene = scene_with("disk");
@@ -89,7 +92,7 @@ fn a_centred_tap_moves_the_dome_pins_as_mirrors() {
         worst = worst.max((ua.x - ub.x).abs()).max((ua.y + ub.y).abs()).max((ua.z - ub.z).abs());
     }
     println!("mirror pins differ by {worst:.2e} mm");
-    assert!(worst < 2e-5, "mirror pins differ by {worst} mm");
+    assert!(worst < 5e-5, "mirror pins differ by {worst} mm");
 }
 
 #[test]
@@ -98,7 +101,7 @@ fn a_press_on_the_dome_bulges_the_skin_outside_the_contact() {
     // away. The tap's contact reaches about sqrt(2 R d) = 7.7 mm from the axis (23 deg of the
     // dome); the rings beyond 1.5 times that angle move outwards along their normal on the
     // dome, by more than on the flat skin-on-gel layers of the same skin and gel (measured at
-    // 4 cells: +0.014, +0.052, +0.081 mm against -0.019, +0.011, +0.030 on rings 8-10).
+    // 4 cells: +0.007, +0.054, +0.088 mm against -0.019, +0.011, +0.030 on rings 8-10).
     let scene = scene_with("disk");
     let target = SensorPose::new(0.0, 0.0, 1.5, 0.0);
     let contact_deg = ((2.0 * 20.0 * 1.5f64).sqrt() / 20.0).asin().to_degrees();

@@ -6,13 +6,23 @@
 //! point, refined cells at their sub-cells' centroid) acts at the point of the undeformed dome
 //! above the cell (the contact frame's sphere point, turned into the sensor frame), along the
 //! force's own direction in the contact frame (`(Qx, Qy, -P)`: the stimulus pushes along the
-//! contact frame's `-z`, not along the dome's normal), and every pin's tip displacement and
-//! rotation come from the dome's [`PinResponse`]: the finite-element solution, so a press
-//! bulges the skin elsewhere (the gel keeps its volume), the shell carries the motion far,
-//! and the dome curves away. The contact solve itself (which cells touch, their pressure and
-//! shear, stick and slip) uses the skin-on-gel layers' kernels of the same skin and gel
-//! (`layered.rs`) on the contact plane, with the gap measured on the curved dome as for every
-//! body.
+//! contact frame's `-z`, not along the dome's normal). A pin's motion is split in two:
+//! ```text
+//! motion = dome(F spread over a Gaussian patch of s) + layers(F) - layers(F spread over the patch)
+//! ```
+//! The far field is the finite-element dome's response ([`PinResponse::spread`]) to the force
+//! spread as a Gaussian patch `exp(-d^2 / s^2)` about its point, `s` = [`SPREAD_ELEMENTS`]
+//! outer faces wide: a load the mesh resolves, so a press bulges the skin elsewhere (the gel
+//! keeps its volume), the shell carries the motion far and the dome curves away. The near
+//! field, what the patch leaves out within a few `s` of the force, comes from the skin-on-gel
+//! layers' kernels of the same skin and gel (`LayeredKernels::near_field`, summed by the
+//! layers' own pin rule, `pin_motion.rs`), exact for a flat skin where the dome's curvature
+//! matters least. A point force on elements 2-3 mm wide, 0.66 mm above the pins, was not
+//! converged: the pins of a tap across the disk's rim moved by 0.13 mm between 8 and 10 cells
+//! and 0.17 mm between 10 and 12 (`docs/experiments/fem-dome.md`). The contact solve itself
+//! (which cells touch, their pressure and shear, stick and slip) uses the skin-on-gel layers'
+//! kernels (`layered.rs`) on the contact plane, with the gap measured on the curved dome as for
+//! every body.
 //!
 //! The response is built once per sensor (mesh, factorisation, one solve per pin read-out
 //! row: about 20 s at the default 8 cells on 2 cores) and kept on disk under a key of
@@ -28,7 +38,7 @@ use tacsim_fem::{DomeSpec, MAX_POISSON, Material, PinResponse, PinSite, response
 use super::frame::ContactFrame;
 use super::pin_motion::CellForces;
 use crate::error::{Result, SimError};
-use crate::pins::{PinLayout, PinPose};
+use crate::pins::PinLayout;
 use crate::sensor::SensorParams;
 
 /// Environment variable naming the folder of the dome's cached responses.
@@ -50,7 +60,8 @@ pub fn cache_dir() -> PathBuf {
 pub struct DomeBody {
     /// What the dome was built from.
     pub spec: DomeSpec,
-    /// The pins' response to forces on the outer hemisphere.
+    /// The pins' response to forces on the outer hemisphere, each spread as a Gaussian patch
+    /// ([`DomeBody::spread_mm`]).
     pub response: PinResponse,
 }
 
@@ -85,15 +96,28 @@ impl DomeBody {
         if let Some(body) = kept() {
             return Ok(body);
         }
-        let response = PinResponse::cached(dir, &spec, &sites, |_, _| {})?;
+        let response = PinResponse::cached(dir, &spec, &sites, spread_of(&spec), |_, _| {})?;
         let body = Arc::new(DomeBody { spec, response });
         cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, body.clone());
         Ok(body)
     }
 
-    /// The pins (sensor frame) under the cell forces of a contact state in `frame` (whose
-    /// contact plane touches the dome at its apex).
-    pub(crate) fn pins(&self, layout: &PinLayout, frame: &ContactFrame, forces: &CellForces) -> Vec<PinPose> {
+    /// The Gaussian patch's `s` (mm) the far field spreads each force over:
+    /// [`SPREAD_ELEMENTS`] of the outer faces' size `pi R / (4 N)` at `N` cells.
+    pub fn spread_mm(&self) -> f64 {
+        spread_of(&self.spec)
+    }
+
+    /// The far field of every pin's motion under the cell forces of a contact state in `frame`
+    /// (whose contact plane touches the dome at its apex): the dome's response to each force
+    /// spread as a Gaussian patch, as the skin motion `(u, omega)` (mm, rad) at the pin's base
+    /// in the contact frame. `layout` holds the pins in the sensor frame.
+    pub(crate) fn far_motions(
+        &self,
+        layout: &PinLayout,
+        frame: &ContactFrame,
+        forces: &CellForces,
+    ) -> Vec<(Vector3<f64>, Vector3<f64>)> {
         let r = self.spec.outer_radius_mm;
         let loads = (0..forces.f.len()).map(|k| {
             let (x, y, f) = (forces.x[k], forces.y[k], forces.f[k]);
@@ -111,18 +135,31 @@ impl DomeBody {
             .iter()
             .zip(motions)
             .map(|(pin, m)| {
-                let (u, omega) = (Vector3::new(m[0], m[1], m[2]), Vector3::new(m[3], m[4], m[5]));
-                PinPose { tip: pin.tip + u, axis: (pin.normal + omega.cross(&pin.normal)).normalize() }
+                let (tip, omega) = (Vector3::new(m[0], m[1], m[2]), Vector3::new(m[3], m[4], m[5]));
+                // The response's rows are the tip's displacement: the base's is what the
+                // post's turn does not carry.
+                let u = tip - omega.cross(&(pin.tip - pin.base));
+                (frame.to_contact(u), frame.to_contact(omega))
             })
             .collect()
     }
+}
+
+/// The far field's Gaussian patch, in outer faces' sizes (see [`DomeBody::spread_mm`]): 1.5
+/// kept the pins within 0.041-0.048 mm between 8 and 10 cells, 1.0 within 0.055-0.069 and 2.0
+/// within 0.032-0.040 (`docs/experiments/fem-dome.md`); a wider patch leaves more to the flat
+/// layers.
+pub const SPREAD_ELEMENTS: f64 = 1.5;
+
+fn spread_of(spec: &DomeSpec) -> f64 {
+    SPREAD_ELEMENTS * std::f64::consts::PI * spec.outer_radius_mm / (4.0 * spec.cells as f64)
 }
 
 /// What shapes a sensor's dome: its spec, its pins and their key.
 fn inputs_of(sensor: &SensorParams) -> Result<(DomeSpec, Vec<PinSite>, u64)> {
     let spec = spec_of(sensor)?;
     let sites = sites_of(&PinLayout::new(sensor));
-    let key = response_key(&spec, &sites);
+    let key = response_key(&spec, &sites, spread_of(&spec));
     Ok((spec, sites, key))
 }
 

@@ -27,7 +27,7 @@ use super::layered::{Layer, LayeredBody, LayeredKernels};
 use super::matrix::MatrixCache;
 use super::normal::{self, Control, NormalSettings};
 use super::operator::{Component, HalfSpace, Operator, Pairing, Product};
-use super::pin_motion::{CellForces, PIN_SUBSQUARES, PinKernel, PinLoad, displaced_pins};
+use super::pin_motion::{CellForces, PIN_SUBSQUARES, PinKernel, PinLoad, displaced_pins, moved_pin, pin_motions};
 use super::pose::SensorPose;
 use super::precision::Precision;
 use super::refine::{self, FineGrids, Refinement};
@@ -119,7 +119,10 @@ impl ContactModel {
         let influence = match (skin.model, layers) {
             (_, None) => Influence::HalfSpace(HalfSpace { material, pairing: Pairing::RigidIndenter }),
             (SkinModel::Dome, Some(layers)) => {
-                Influence::Dome { contact: tables(layers), body: DomeBody::get(sensor)? }
+                let body = DomeBody::get(sensor)?;
+                let body_of = LayeredBody { layers: layers.clone() };
+                let near = LayeredKernels::near_field(&body_of, t, 3.0 * sensor.dome.outer_radius_mm, body.spread_mm());
+                Influence::Dome { contact: tables(layers), near, body }
             }
             (_, Some(layers)) => Influence::Layered(tables(layers)),
         };
@@ -164,10 +167,14 @@ pub enum Influence {
     /// Layers on a rigid base: tabulated kernels, pins at the top layer's bottom.
     Layered(Arc<LayeredKernels>),
     /// The finite-element dome ([`DomeBody`]): the contact solved with the skin-on-gel
-    /// layers' kernels (`contact`), the pins moved by the dome's response (`body`).
+    /// layers' kernels (`contact`), the pins moved by the dome's response to the forces
+    /// spread as Gaussian patches (`body`, the far field) plus the layers' near field (`near`:
+    /// a point force's kernels minus the same patch's).
     Dome {
         /// The skin-on-gel kernels of the same skin and gel.
         contact: Arc<LayeredKernels>,
+        /// Their near field at the pins ([`LayeredKernels::near_field`]).
+        near: Arc<LayeredKernels>,
         /// The dome.
         body: Arc<DomeBody>,
     },
@@ -1182,11 +1189,15 @@ impl<'a> Simulation<'a> {
     }
 
     fn pins_with(&self, exact: bool) -> Vec<PinPose> {
-        if let Influence::Dome { body, .. } = &self.model.influence {
-            return match self.cell_forces() {
-                Some(forces) => body.pins(&self.model.layout, &self.frame, &forces),
-                None => self.undeformed_pins(),
-            };
+        if let Influence::Dome { near, body, .. } = &self.model.influence {
+            let Some(forces) = self.cell_forces() else { return self.undeformed_pins() };
+            let kernel = PinKernel::Layered(near);
+            let near = pin_motions(&self.layout, &kernel, self.model.dome_radius(), &forces, exact);
+            let far = body.far_motions(&self.model.layout, &self.frame, &forces);
+            let poses = (self.layout.pins.iter().zip(near).zip(far))
+                .map(|((pin, a), b)| moved_pin(pin, &[(a.0 + b.0, a.1 + b.1)]))
+                .collect();
+            return self.frame.pins_to_sensor(poses);
         }
         match self.pin_load() {
             Some(load) => self.frame.pins_to_sensor(displaced_pins(

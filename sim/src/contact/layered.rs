@@ -255,10 +255,18 @@ pub(crate) fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
 /// Point-load kernels of a layered body, tabulated in `r` once per body: the surface
 /// correction to the top layer's half-space `[F_zz, F_pr, F_s, F_d]` and the pin-depth kernels
 /// `[F_zz, F_pr, F_zq, F_s, F_d]` with their depth derivatives (mm/N and mm/N per mm).
+///
+/// A near-field table ([`LayeredKernels::near_field`]) holds at the pin depth the point load's
+/// kernels minus those of the same force spread as a Gaussian patch
+/// `exp(-r^2 / s^2) / (pi s^2)` (transform `exp(-k^2 s^2 / 4)`): what the patch leaves out, a
+/// field that matters only within a few `s` of the load. Its surface table is the point
+/// load's.
 #[derive(Debug)]
 pub struct LayeredKernels {
     body: LayeredBody,
     pin_depth_mm: f64,
+    /// The Gaussian patch's `s` (mm) taken out of the depth tables; 0 for a point load's.
+    near_field_mm: f64,
     dr_mm: f64,
     surface: Vec<[f64; 4]>,
     depth: Vec<[f64; 5]>,
@@ -296,9 +304,15 @@ impl LayeredKernels {
     /// Kernels of `body` for radii up to `r_max_mm`, with pins at `pin_depth_mm` (inside the
     /// top layer or at its bottom). Cached: the same body and depths return the same tables.
     pub fn get(body: &LayeredBody, pin_depth_mm: f64, r_max_mm: f64) -> Arc<LayeredKernels> {
+        Self::near_field(body, pin_depth_mm, r_max_mm, 0.0)
+    }
+
+    /// [`LayeredKernels::get`] with the depth tables of a point load minus a Gaussian patch of
+    /// the same force, `spread_mm` its `s` (see the type's docs); 0 gives the point load's.
+    pub fn near_field(body: &LayeredBody, pin_depth_mm: f64, r_max_mm: f64, spread_mm: f64) -> Arc<LayeredKernels> {
         type Cache = Mutex<HashMap<Vec<u64>, Arc<LayeredKernels>>>;
         static CACHE: OnceLock<Cache> = OnceLock::new();
-        let mut key: Vec<u64> = vec![pin_depth_mm.to_bits(), r_max_mm.to_bits()];
+        let mut key: Vec<u64> = vec![pin_depth_mm.to_bits(), r_max_mm.to_bits(), spread_mm.to_bits()];
         for l in &body.layers {
             key.extend([l.thickness_mm, l.material.shear_modulus_mpa, l.material.poisson].map(f64::to_bits));
         }
@@ -306,12 +320,12 @@ impl LayeredKernels {
         if let Some(k) = cache.lock().unwrap_or_else(|p| p.into_inner()).get(&key) {
             return k.clone();
         }
-        let built = Arc::new(Self::build(body, pin_depth_mm, r_max_mm, TABLE_STEP_MM));
+        let built = Arc::new(Self::build(body, pin_depth_mm, r_max_mm, TABLE_STEP_MM, spread_mm));
         cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, built.clone());
         built
     }
 
-    fn build(body: &LayeredBody, pin_depth_mm: f64, r_max_mm: f64, dr_mm: f64) -> Self {
+    fn build(body: &LayeredBody, pin_depth_mm: f64, r_max_mm: f64, dr_mm: f64, near_field_mm: f64) -> Self {
         let h_top = body.layers[0].thickness_mm;
         let k_max = DECAY / (2.0 * h_top).min(pin_depth_mm.max(1e-3));
         // Intervals of half the shortest Bessel period; below k = DECAY / (2 H) (H: depth of
@@ -339,7 +353,11 @@ impl LayeredKernels {
                         let surf = [ds[0], ds[1], 0.5 * (ds[3] + ds[4]), 0.5 * (ds[3] - ds[4])];
                         let d = |a: &[f64; 5]| [a[0], a[1], a[2], 0.5 * (a[3] + a[4]), 0.5 * (a[3] - a[4])];
                         let (dd, dz) = (d(&s.depth), d(&s.depth_dz));
-                        let depth = [dd[0], dd[1], dd[2], dd[3], dd[4], dz[0], dz[1], dz[2], dz[3], dz[4]];
+                        let mut depth = [dd[0], dd[1], dd[2], dd[3], dd[4], dz[0], dz[1], dz[2], dz[3], dz[4]];
+                        if near_field_mm > 0.0 {
+                            let kept = 1.0 - (-0.25 * (k * near_field_mm).powi(2)).exp();
+                            depth = depth.map(|v| v * kept);
+                        }
                         // Weight includes k dk / (2 pi).
                         (k, w * dk * k / (2.0 * PI), surf, depth)
                     })
@@ -379,12 +397,17 @@ impl LayeredKernels {
         let (surface, both): (Vec<_>, Vec<[f64; 10]>) = rows.into_iter().unzip();
         let depth = both.iter().map(|b| std::array::from_fn(|j| b[j])).collect();
         let depth_dz = both.iter().map(|b| std::array::from_fn(|j| b[j + 5])).collect();
-        Self { body: body.clone(), pin_depth_mm, dr_mm, surface, depth, depth_dz }
+        Self { body: body.clone(), pin_depth_mm, near_field_mm, dr_mm, surface, depth, depth_dz }
     }
 
     /// The body.
     pub fn body(&self) -> &LayeredBody {
         &self.body
+    }
+
+    /// The Gaussian patch's `s` (mm) the depth tables leave out (0: a point load's tables).
+    pub fn near_field_mm(&self) -> f64 {
+        self.near_field_mm
     }
 
     /// Depth of the pin bases (mm).
@@ -485,6 +508,49 @@ mod tests {
                 .iter()
                 .map(|&(h, e, nu)| Layer { thickness_mm: h, material: Elastic::from_young(e, nu) })
                 .collect(),
+        }
+    }
+
+    /// The near field is the point load's kernel minus the Gaussian patch's, the patch's
+    /// computed here by quadrature of the point load's tables over the patch (polar
+    /// Gauss-Legendre rule out to 5 s).
+    #[test]
+    fn near_field_is_the_point_load_minus_a_gaussian_patch() {
+        let b = body(&[(0.66, 1.0, 0.436), (19.34, 0.1, 0.4999)]);
+        let (depth, s) = (0.66, 3.0);
+        let point = LayeredKernels::get(&b, depth, 60.0);
+        let near = LayeredKernels::near_field(&b, depth, 60.0, s);
+        assert_eq!(near.near_field_mm(), s);
+        let gl = gauss_legendre(96);
+        let angles = 256;
+        let scale = point.displacement([0.0, 0.0, 1.0], [0.0, 0.0, depth])[2].abs();
+        for r0 in [0.0, 1.5, 4.0, 9.0] {
+            for force in [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+                let mut patch = [0.0; 3];
+                for &(t, w) in &gl {
+                    let rho = 5.0 * s * t;
+                    let g = (-(rho / s).powi(2)).exp() / (PI * s * s);
+                    for a in 0..angles {
+                        let phi = 2.0 * PI * (a as f64 + 0.5) / angles as f64;
+                        let u = point.displacement(force, [r0 - rho * phi.cos(), -rho * phi.sin(), depth]);
+                        let weight = w * 5.0 * s * rho * (2.0 * PI / angles as f64) * g;
+                        for c in 0..3 {
+                            patch[c] += weight * u[c];
+                        }
+                    }
+                }
+                let (p, n) = (point.displacement(force, [r0, 0.0, depth]), near.displacement(force, [r0, 0.0, depth]));
+                for c in 0..3 {
+                    let err = (p[c] - patch[c] - n[c]).abs();
+                    assert!(
+                        err < 2e-3 * scale,
+                        "r {r0} force {force:?} component {c}: {} - {} against {}",
+                        p[c],
+                        patch[c],
+                        n[c]
+                    );
+                }
+            }
         }
     }
 
@@ -603,8 +669,8 @@ mod tests {
     #[test]
     fn interpolated_tables_equal_fine_tables() {
         let b = body(&[(1.5, 1.0, 0.5), (18.5, 0.1, 0.5)]);
-        let coarse = LayeredKernels::build(&b, 1.5, 20.0, TABLE_STEP_MM);
-        let fine = LayeredKernels::build(&b, 1.5, 20.0, 0.005);
+        let coarse = LayeredKernels::build(&b, 1.5, 20.0, TABLE_STEP_MM, 0.0);
+        let fine = LayeredKernels::build(&b, 1.5, 20.0, 0.005, 0.0);
         let scale = fine.depth[0][0].abs();
         for i in 0..400 {
             let r = 0.0173 + i as f64 * 0.0491;

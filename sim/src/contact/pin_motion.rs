@@ -520,15 +520,39 @@ pub fn displaced_pins(
     }
     layout
         .pins
+        .iter()
+        .zip(pin_motions(layout, kernel, dome_radius_mm, forces, exact))
+        .map(|(pin, motion)| moved_pin(pin, &[motion]))
+        .collect()
+}
+
+/// Every pin's skin motion (displacement mm, rotation rad; the means over its
+/// [`patch_points`]) in the frame of `layout` and the grid, for the given cell forces.
+pub(crate) fn pin_motions(
+    layout: &PinLayout,
+    kernel: &PinKernel<'_>,
+    dome_radius_mm: f64,
+    forces: &CellForces,
+    exact: bool,
+) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+    layout
+        .pins
         .par_iter()
         .map(|pin| {
             let base = pin.base.coords;
             let motions: Vec<_> = patch_points(layout, &base)
                 .map(|at| skin_motion(kernel, dome_radius_mm, forces, exact, &base, at))
                 .collect();
-            moved_pin(pin, &motions)
+            mean_motion(&motions)
         })
         .collect()
+}
+
+/// The mean of skin motions (displacement, rotation).
+fn mean_motion(motions: &[(Vector3<f64>, Vector3<f64>)]) -> (Vector3<f64>, Vector3<f64>) {
+    let n = motions.len() as f64;
+    let (u, omega) = motions.iter().fold((Vector3::zeros(), Vector3::zeros()), |s, m| (s.0 + m.0, s.1 + m.1));
+    (u / n, omega / n)
 }
 
 /// The points whose skin motion moves the pin with base `base`: the base, then with a skin
@@ -546,9 +570,7 @@ pub(crate) fn patch_points(layout: &PinLayout, base: &Vector3<f64>) -> impl Iter
 /// The pin moved by the skin motions (displacement mm, rotation rad) at its
 /// [`patch_points`], in their order: their mean displaces the base and turns the post.
 pub(crate) fn moved_pin(pin: &Pin, motions: &[(Vector3<f64>, Vector3<f64>)]) -> PinPose {
-    let n = motions.len() as f64;
-    let (u, omega) = motions.iter().fold((Vector3::zeros(), Vector3::zeros()), |s, m| (s.0 + m.0, s.1 + m.1));
-    let (u, omega) = (u / n, omega / n);
+    let (u, omega) = mean_motion(motions);
     let lever = pin.tip.coords - pin.base.coords;
     let axis = (pin.normal + omega.cross(&pin.normal)).normalize();
     PinPose { tip: (pin.tip.coords + u + omega.cross(&lever)).into(), axis }
