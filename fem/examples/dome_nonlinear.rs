@@ -23,14 +23,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let probes = dome.pin_probes(&sites)?;
     let press = FlatPress { depths_mm: vec![0.1, 1.0, 2.0, 3.0], step_mm, penalty_n_per_mm: 1000.0 };
     let clock = Instant::now();
-    let linear = press.run(&dome, Kinematics::Linear)?;
+    let linear = press.run(&dome, Kinematics::Linear, |d, n| eprintln!("linear: {d:.4} mm in {n} iterations"))?;
     println!(
         "{cells} cells, {} free dofs: linear press in {:.1} s",
         dome.stiffness.size(),
         clock.elapsed().as_secs_f64()
     );
     let clock = Instant::now();
-    let large = press.run(&dome, Kinematics::NeoHookean)?;
+    let large =
+        press.run(&dome, Kinematics::NeoHookean, |d, n| eprintln!("neo-Hookean: {d:.4} mm in {n} iterations"))?;
     println!("neo-Hookean press in {:.1} s", clock.elapsed().as_secs_f64());
     let outer = dome.outer_nodes(90.0);
     for (a, b) in linear.iter().zip(&large) {

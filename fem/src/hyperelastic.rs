@@ -194,8 +194,9 @@ impl FlatPress {
         Ok(())
     }
 
-    /// Presses `dome` with the given kinematics and returns the state at each reported depth.
-    pub fn run(&self, dome: &Dome, kinematics: Kinematics) -> Result<Vec<PressState>> {
+    /// Presses `dome` with the given kinematics and returns the state at each reported depth;
+    /// `progress` is told each depth solved (mm) and the Newton iterations it took.
+    pub fn run(&self, dome: &Dome, kinematics: Kinematics, progress: impl Fn(f64, usize)) -> Result<Vec<PressState>> {
         self.validate()?;
         let stiffness = &dome.stiffness;
         let held = stiffness.held();
@@ -220,6 +221,7 @@ impl FlatPress {
                     Ok(n) => {
                         (u, depth, iterations) = (trial, next, n);
                         halvings = halvings.saturating_sub(1);
+                        progress(depth, n);
                     }
                     Err(FemError::NoConvergence { .. }) if halvings < MAX_HALVINGS => halvings += 1,
                     Err(e) => return Err(e),

@@ -99,8 +99,8 @@ fn a_shallow_press_is_the_same_in_both_models_and_a_deep_one_is_not() {
     // `cargo run --release -p tacsim-fem --example dome_nonlinear -- 4 0.25 1`).
     let dome = Dome::build(&support::spec(4)).expect("dome");
     let depths = vec![0.1, 1.0];
-    let linear = press(depths.clone()).run(&dome, Kinematics::Linear).expect("linear press");
-    let large = press(depths).run(&dome, Kinematics::NeoHookean).expect("neo-Hookean press");
+    let linear = press(depths.clone()).run(&dome, Kinematics::Linear, |_, _| {}).expect("linear press");
+    let large = press(depths).run(&dome, Kinematics::NeoHookean, |_, _| {}).expect("neo-Hookean press");
     for (a, b) in linear.iter().zip(&large) {
         assert!(
             a.penetration_mm < 1e-3 && b.penetration_mm < 1e-3,
@@ -122,7 +122,7 @@ fn a_press_does_not_depend_on_the_thread_count() {
     let dome = Dome::build(&support::spec(3)).expect("dome");
     let run = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
-        pool.install(|| press(vec![0.5]).run(&dome, Kinematics::NeoHookean).expect("press"))
+        pool.install(|| press(vec![0.5]).run(&dome, Kinematics::NeoHookean, |_, _| {}).expect("press"))
     };
     let (one, two) = (run(1), run(2));
     assert_eq!(one[0].force_n.to_bits(), two[0].force_n.to_bits());
@@ -138,7 +138,7 @@ fn an_absurd_press_is_refused_with_the_field_named() {
         (FlatPress { step_mm: 0.0, ..press(vec![1.0]) }, "step_mm"),
         (FlatPress { penalty_n_per_mm: f64::NAN, ..press(vec![1.0]) }, "penalty_n_per_mm"),
     ] {
-        match p.run(&dome, Kinematics::Linear) {
+        match p.run(&dome, Kinematics::Linear, |_, _| {}) {
             Err(FemError::Parameter { field: f, .. }) => assert_eq!(f, field),
             other => panic!("{field}: {:?}", other.map(|s| s.len())),
         }

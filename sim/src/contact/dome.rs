@@ -105,7 +105,7 @@ impl DomeBody {
     /// The Gaussian patch's `s` (mm) the far field spreads each force over:
     /// [`SPREAD_ELEMENTS`] of the outer faces' size `pi R / (4 N)` at `N` cells.
     pub fn spread_mm(&self) -> f64 {
-        spread_of(&self.spec)
+        self.response.spread_mm
     }
 
     /// The far field of every pin's motion under the cell forces of a contact state in `frame`

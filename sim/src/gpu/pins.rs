@@ -78,7 +78,8 @@ impl Gpu {
                 self.adapter
             )));
         };
-        // The finite-element dome's pins are a table product, done on the CPU.
+        // The finite-element dome's pins (its table's far field, the layers' near field) are
+        // done on the CPU.
         if states.iter().any(|s| s.has_dome()) {
             return Ok(states.iter().map(|s| s.pins()).collect());
         }
