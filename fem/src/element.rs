@@ -109,6 +109,7 @@ pub fn position(x: &[[f64; 3]; 10], l: [f64; 4]) -> [f64; 3] {
 }
 
 /// An element's stiffness and volume-change row.
+#[derive(Clone)]
 pub struct ElementMatrices {
     /// Stiffness (N/mm), row `3 a + i`, column `3 b + j`.
     pub stiffness: Box<[[f64; 30]; 30]>,

@@ -270,23 +270,16 @@ impl FlatPress {
                             neo_hookean(&mesh.element_nodes(e), &ue, &material(mesh.regions[e]))
                         })
                         .collect();
-                    let mut internal = vec![0.0; stiffness.size()];
+                    let mut forces = vec![[0.0; 3]; mesh.nodes.len()];
                     for (e, s) in states.iter().enumerate() {
                         for (a, &n) in mesh.elements[e].iter().enumerate() {
-                            for i in 0..3 {
-                                if let Some(f) = stiffness.free_index(3 * n + i) {
-                                    internal[f] += s.force[3 * a + i];
-                                }
+                            for (i, f) in forces[n].iter_mut().enumerate() {
+                                *f += s.force[3 * a + i];
                             }
                         }
                     }
-                    let tangent = Stiffness::assemble_with(mesh, held, |e| ElementMatrices {
-                        stiffness: states[e].matrices.stiffness.clone(),
-                        volume_change: states[e].matrices.volume_change,
-                        volume: states[e].matrices.volume,
-                        min_jacobian: states[e].matrices.min_jacobian,
-                    })?;
-                    (tangent, internal)
+                    let tangent = Stiffness::assemble_with(mesh, held, |e| states[e].matrices.clone())?;
+                    (tangent, stiffness.load(&forces))
                 }
             };
             let mut residual: Vec<f64> = internal.iter().map(|f| -f).collect();

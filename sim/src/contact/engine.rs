@@ -115,16 +115,17 @@ impl ContactModel {
             SkinModel::SkinOnGel | SkinModel::Dome => Some(skin_on_gel()),
         };
         // Tables reach every grid offset (at most 2 sqrt(2) 0.95 R) and every pin offset.
-        let tables = |layers| LayeredKernels::get(&LayeredBody { layers }, t, 3.0 * sensor.dome.outer_radius_mm);
+        let r_max = 3.0 * sensor.dome.outer_radius_mm;
+        let tables = |body: &LayeredBody| LayeredKernels::get(body, t, r_max);
         let influence = match (skin.model, layers) {
             (_, None) => Influence::HalfSpace(HalfSpace { material, pairing: Pairing::RigidIndenter }),
             (SkinModel::Dome, Some(layers)) => {
-                let body = DomeBody::get(sensor)?;
-                let body_of = LayeredBody { layers: layers.clone() };
-                let near = LayeredKernels::near_field(&body_of, t, 3.0 * sensor.dome.outer_radius_mm, body.spread_mm());
-                Influence::Dome { contact: tables(layers), near, body }
+                let dome = DomeBody::get(sensor)?;
+                let layered = LayeredBody { layers };
+                let near = LayeredKernels::near_field(&layered, t, r_max, dome.spread_mm());
+                Influence::Dome { contact: tables(&layered), near, body: dome }
             }
-            (_, Some(layers)) => Influence::Layered(tables(layers)),
+            (_, Some(layers)) => Influence::Layered(tables(&LayeredBody { layers })),
         };
         Ok(Self {
             sensor: Arc::new(sensor.clone()),
