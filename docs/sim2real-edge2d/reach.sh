@@ -9,14 +9,16 @@
 # The dome candidates (`skin.model = "dome"`, the base at the equator of the preset's 40 mm
 # dome) build their dome into the cache folder on first use. NAMES="preset dome" runs only the
 # candidates named; REAL=../shared/data/real-tactip-edge2d-full compares with the lab's whole
-# turn.
+# turn. PRESET=FILE starts every candidate from another sensor file, DOME_BASE_MM=D puts the
+# dome candidates' base D mm below the apex (default 40, the 40 mm dome's equator).
 #
 #   cargo build --release && sh docs/sim2real-edge2d/reach.sh target/reach
 set -eu
 W=$1
 REAL=${REAL:-../shared/data/real-tactip-edge2d}
 TACSIM=${TACSIM:-target/release/tacsim}
-PRESET=sim/presets/tactip-331-edge2d.toml
+PRESET=${PRESET:-sim/presets/tactip-331-edge2d.toml}
+BASE=${DOME_BASE_MM:-40.0}
 mkdir -p "$W"
 W=$(cd "$W" && pwd)
 
@@ -32,9 +34,10 @@ patch-5|s/^patch_radius_mm = .*/patch_radius_mm = 5.0/
 lever-1.4|s/^length_mm = .*/length_mm = 1.4/
 poisson-0.30|s/^poisson = .*/poisson = 0.3/
 poisson-0.49|s/^poisson = .*/poisson = 0.49/
-dome|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = 40.0/
-dome-gel-0.02|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = 40.0/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.02/
-dome-gel-0.005|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = 40.0/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.005/
+dome|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/
+dome-gel-0.02|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.02/
+dome-gel-0.005|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.005/
+dome-gel-0.002|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.002/
 skin-on-gel-0.005|s/^model = .*/model = \"skin-on-gel\"/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.005/
 "
 if [ "${GEL:-0}" = 1 ]; then

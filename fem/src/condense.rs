@@ -27,7 +27,7 @@ use crate::error::{FemError, Result};
 use crate::system::SOLVE_BLOCK;
 
 /// Bump when the tables' meaning or the file's layout change.
-const FORMAT: u32 = 1;
+const FORMAT: u32 = 2;
 const MAGIC: &[u8] = b"TACSIMFEM1\n";
 
 /// The condensed response of a dome.

@@ -2,11 +2,12 @@
 //! it, clamped with the gel on the rigid base (the camera's window and the mount), meshed from
 //! its parameters, assembled and factorised once.
 //!
-//! Pins are stiff posts bonded to the skin's inner face: a pin's tip follows its base's rigid
-//! motion, `u_tip = u(X_b) + omega(X_b) x (X_t - X_b)` with the skin's rotation
-//! `omega = curl u / 2` at the base, both from the skin element that holds the base. With a
-//! skin patch ([`PinSite::patch_radius_mm`]) the tip takes the mean of that rule over the base
-//! and six points around it ([`PinProbe`]).
+//! Pins are stiff posts bonded to the skin's inner face: a pin's tip follows the rigid motion
+//! of the skin under its base, `u_tip = u(X) + omega(X) x (X_t - X)` with the skin's rotation
+//! `omega = curl u / 2`, taken as the mean of that rule at three depths through the skin under
+//! the base ([`THROUGH_SKIN`]), each from the skin element that holds the point. With a skin
+//! patch ([`PinSite::patch_radius_mm`]) the tip takes the mean of that rule over the base and
+//! six points around it ([`PinProbe`]).
 
 use nalgebra::Vector3;
 
@@ -27,7 +28,8 @@ pub struct PinSite {
     /// Radius (mm) of the skin patch the post is bonded to, as the sensor's
     /// `pins.patch_radius_mm`: 0, the skin's motion at the base alone; more, the mean of the
     /// base's and six points' on the inner face at that distance around it (the contact
-    /// engine's rule, `sim/src/contact/pin_motion.rs`, `patch_points`).
+    /// engine's rule, `sim/src/contact/pin_motion.rs`, `patch_points`). Each is read through
+    /// the skin's thickness ([`THROUGH_SKIN`]).
     pub patch_radius_mm: f64,
 }
 
@@ -246,11 +248,14 @@ impl Dome {
             .collect()
     }
 
-    /// The base is looked up a little outwards, in the skin: the curved elements' faces leave
-    /// the sphere between their nodes (by up to about `h^3 / R^2`), so the point is pushed out
-    /// by 0.1%, 1%, 10%, then 30% of the skin's thickness until a skin element holds it.
+    /// Each point of the pin's patch is read at the depths [`THROUGH_SKIN`] within the skin,
+    /// each a term of equal share. A point is looked up a little further out if no skin
+    /// element holds it (the curved elements' faces leave the sphere between their nodes, by up
+    /// to about `h^3 / R^2`): pushed by 0.1%, 1%, 10%, then 30% of the skin's thickness.
     fn probe_among(&self, boxes: &[(usize, [[f64; 3]; 2])], pin: usize, site: PinSite) -> Result<PinProbe> {
-        let points = site.patch_points();
+        let t = self.spec.skin_thickness_mm;
+        let points: Vec<Vector3<f64>> =
+            site.patch_points().into_iter().flat_map(|b| THROUGH_SKIN.map(|f| b + b.normalize() * (f * t))).collect();
         let weight = 1.0 / points.len() as f64;
         let mut terms = Vec::with_capacity(points.len());
         for b in points {
@@ -269,7 +274,7 @@ impl Dome {
         Ok(PinProbe { terms })
     }
 
-    /// The skin elements holding a point of the inner face (pushed outwards as needed), with
+    /// The skin elements holding a point of the skin (pushed outwards as needed), with
     /// the point's barycentric coordinates in each, and the point (mm). A point on a face,
     /// edge or vertex lies in every element that shares it: the displacement is the same in
     /// each, the rotation (a gradient) is not, and the probe takes their mean, so that the
@@ -297,6 +302,18 @@ impl Dome {
         None
     }
 }
+
+/// Where through the skin a pin reads its motion, as fractions of the skin's thickness out
+/// from its inner face: the midpoints of three equal slices. The post turns with the skin's
+/// mean rotation through its thickness (a thin shell's director), not with the gradient at
+/// one point of its inner face: that gradient, linear in each element and discontinuous
+/// between elements, made the pins depend on the mesh. On the convergence paths the pins of 8
+/// and 10 cells differed by up to 0.041-0.048 mm read at the inner face, 0.022-0.027 mm read
+/// through the skin; one to three element layers through the skin moved a pin 10 deg off the
+/// apex by up to 0.048 mm at the inner face, 0.017 mm through the skin
+/// (`docs/experiments/fem-dome.md`). The displacement read at a depth is carried to the tip
+/// with the rotation there, so a rigid motion still moves the tip exactly.
+pub const THROUGH_SKIN: [f64; 3] = [1.0 / 6.0, 0.5, 5.0 / 6.0];
 
 /// An element holding a point, and the point's barycentric coordinates in it.
 type Holding = (usize, [f64; 4]);

@@ -29,7 +29,7 @@ mod response;
 mod system;
 
 pub use condense::{Compliance, Header, key as condensation_key};
-pub use dome::{Dome, DomeSpec, MOTION, PinProbe, PinSite, ProbeTerm};
+pub use dome::{Dome, DomeSpec, MOTION, PinProbe, PinSite, ProbeTerm, THROUGH_SKIN};
 pub use element::{ElementMatrices, face_forces, face_shape, matrices};
 pub use error::{FemError, Result};
 pub use hyperelastic::{FlatPress, Kinematics, NonlinearElement, PressState, large_displacement, neo_hookean};

@@ -34,7 +34,7 @@ use crate::error::{FemError, Result};
 use crate::system::SOLVE_BLOCK;
 
 /// Bump when the table's meaning or the file's layout change.
-const FORMAT: u32 = 1;
+const FORMAT: u32 = 2;
 const MAGIC: &[u8] = b"TACSIMPINS1\n";
 /// Bins per side of the faces' index over the hemisphere's projection `(x, y) / R`.
 const BINS: usize = 64;

@@ -145,10 +145,11 @@ impl DomeBody {
     }
 }
 
-/// The far field's Gaussian patch, in outer faces' sizes (see [`DomeBody::spread_mm`]): 1.5
-/// kept the pins within 0.041-0.048 mm between 8 and 10 cells, 1.0 within 0.055-0.069 and 2.0
-/// within 0.032-0.040 (`docs/experiments/fem-dome.md`); a wider patch leaves more to the flat
-/// layers.
+/// The far field's Gaussian patch, in outer faces' sizes (see [`DomeBody::spread_mm`]): with
+/// the pins read at the skin's inner face (commit 4a47b14), 1.5 kept them within 0.041-0.048
+/// mm between 8 and 10 cells, 1.0 within 0.055-0.069 and 2.0 within 0.032-0.040; read through
+/// the skin (`tacsim_fem::THROUGH_SKIN`), 1.5 keeps them within 0.022-0.027 mm
+/// (`docs/experiments/fem-dome.md`). A wider patch leaves more to the flat layers.
 pub const SPREAD_ELEMENTS: f64 = 1.5;
 
 fn spread_of(spec: &DomeSpec) -> f64 {
