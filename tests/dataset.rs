@@ -65,9 +65,14 @@ fn same_seed_same_bytes_whatever_threads_and_shards() {
     let o = tacsim(&args);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(fa == files(&merged), "the merge rerun gives the same bytes");
-    // Merging an incomplete set is refused.
+    // Merging an incomplete set is refused, naming the missing shard.
     let o = tacsim(&["merge", "--out", s(&root.join("bad")), s(&shards[0]), s(&shards[2])]);
-    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("shard"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("shard 1 of 3 missing"), "{err}");
+    // A shard given twice is named as such, with its folders, not as the one that is missing.
+    let o = tacsim(&["merge", "--out", s(&root.join("bad")), s(&shards[0]), s(&shards[0]), s(&shards[2])]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("shard 0 of 3 is given 2 times") && err.contains("shard0"), "{err}");
     let _ = std::fs::remove_dir_all(&root);
 }
 

@@ -208,6 +208,9 @@ impl Default for SkinParams {
     }
 }
 
+/// Largest [`CameraParams::distance_mm`] (mm).
+pub const CAMERA_DISTANCE_MAX_MM: f64 = 1000.0;
+
 /// Default [`SkinParams::dome_cells`].
 pub const DEFAULT_DOME_CELLS: usize = 8;
 /// Fewest [`SkinParams::dome_cells`].
@@ -308,7 +311,7 @@ fn is_true(v: &bool) -> bool {
 #[serde(deny_unknown_fields, default)]
 pub struct CameraParams {
     /// Distance of the pinhole behind the dome centre (mm): the camera sits at
-    /// `z = -distance_mm` in the sensor frame.
+    /// `z = -distance_mm` in the sensor frame; in [0, [`CAMERA_DISTANCE_MAX_MM`]].
     pub distance_mm: f64,
     /// Full field of view across the image width (deg). Size-independent: the focal length in
     /// pixels is `(size / 2) / tan(fov / 2)`.
@@ -668,6 +671,14 @@ impl SensorParams {
         ] {
             check.finite(field, v)?;
         }
+        // Behind the dome centre: a negative distance puts the camera inside the dome, where it
+        // was refused as a distortion that folds the image (naming k1).
+        if !(0.0..=CAMERA_DISTANCE_MAX_MM).contains(&c.distance_mm) {
+            return check.bad(
+                "camera.distance_mm",
+                format!("must be in [0, {CAMERA_DISTANCE_MAX_MM}] mm (behind the dome centre), got {}", c.distance_mm),
+            );
+        }
         if !(c.fov_deg > 1.0 && c.fov_deg < 179.0) {
             return check.bad("camera.fov_deg", format!("must be in (1, 179) deg, got {}", c.fov_deg));
         }
@@ -874,6 +885,8 @@ mod tests {
             ("[pins]\npatch_radius_mm = 6.0\n", "pins.patch_radius_mm"),
             ("[pins]\npatch_radius_mm = -1.0\n", "pins.patch_radius_mm"),
             ("[pins]\npatch_radius_mm = inf\n", "pins.patch_radius_mm"),
+            ("[camera]\ndistance_mm = -5.0\n", "camera.distance_mm"),
+            ("[camera]\ndistance_mm = 1e300\n", "camera.distance_mm"),
             ("[skin]\ndome_slope = 4.0\n", "skin.dome_slope"),
             ("[skin]\ndome_slope = -0.5\n", "skin.dome_slope"),
             ("[skin]\ndome_slope = nan\n", "skin.dome_slope"),

@@ -425,20 +425,11 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
         };
         parts.push((shard, ds));
     }
-    let Some((first, _)) = parts.first() else { return Err(bad("no shard directories given".into())) };
-    let count = first.count;
+    if parts.is_empty() {
+        return Err(bad("no shard directories given".into()));
+    }
+    shard_set(&parts).map_err(bad)?;
     parts.sort_by_key(|(s, _)| s.index);
-    for (k, (s, ds)) in parts.iter().enumerate() {
-        if !ds.meta.same_dataset(&parts[0].1.meta) || s.count != count {
-            return Err(bad(format!("{} belongs to a different dataset or shard count", ds.dir.display())));
-        }
-        if s.index != k {
-            return Err(bad(format!("shard {k} of {count} is missing or given twice")));
-        }
-    }
-    if parts.len() != count {
-        return Err(bad(format!("{} of {count} shards given", parts.len())));
-    }
     // A folder that already holds this dataset is an interrupted merge: merging again finishes it.
     let target = Target { out: out.to_owned(), shard: None, resume: true };
     let meta = Meta { shard: None, ..parts[0].1.meta.clone() };
@@ -461,6 +452,45 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     write_atomic(&out.join("targets.csv"), &to_csv(&rows)?)?;
     write_atomic(&out.join("meta.json"), &meta.to_json()?)?;
     Ok(rows.len())
+}
+
+/// Checks that `parts` (at least one) are the shards of one dataset, each once and none
+/// missing; the reason names the directories. Regression: a shard given twice (and so another
+/// missing) was reported as the missing one "missing or given twice".
+fn shard_set(parts: &[(tacsim_data::Shard, tacsim_data::Dataset)]) -> std::result::Result<(), String> {
+    let (first, first_ds) = &parts[0];
+    let count = first.count;
+    for (s, ds) in parts {
+        if s.index >= s.count {
+            return Err(format!("{}: its meta.json names shard {} of {}", ds.dir.display(), s.index, s.count));
+        }
+        if !ds.meta.same_dataset(&first_ds.meta) || s.count != count {
+            return Err(format!(
+                "{} belongs to a different dataset or shard count than {}",
+                ds.dir.display(),
+                first_ds.dir.display()
+            ));
+        }
+    }
+    let mut holders: Vec<Vec<&Path>> = vec![Vec::new(); count];
+    for (s, ds) in parts {
+        holders[s.index].push(&ds.dir);
+    }
+    if let Some((i, dirs)) = holders.iter().enumerate().find(|(_, d)| d.len() > 1) {
+        let dirs: Vec<String> = dirs.iter().map(|d| d.display().to_string()).collect();
+        return Err(format!("shard {i} of {count} is given {} times: {}", dirs.len(), dirs.join(", ")));
+    }
+    let missing: Vec<String> =
+        holders.iter().enumerate().filter(|(_, d)| d.is_empty()).map(|(i, _)| i.to_string()).collect();
+    if !missing.is_empty() {
+        return Err(format!(
+            "shard{} {} of {count} missing: generate {} with `--shard i/{count}`",
+            if missing.len() > 1 { "s" } else { "" },
+            missing.join(", "),
+            if missing.len() > 1 { "them" } else { "it" }
+        ));
+    }
+    Ok(())
 }
 
 /// The GPU path against the CPU's on the `quick` recipe's samples (feature `wgpu`): the pins

@@ -430,7 +430,7 @@ impl Recipe {
         if !(t.depth_jitter_mm.is_finite() && t.depth_jitter_mm >= 0.0) {
             return check.bad("taps.depth_jitter_mm", format!("must be >= 0 mm, got {}", t.depth_jitter_mm));
         }
-        check.range("poses.depth_mm", p.depth_mm, 0.5 * t.depth_jitter_mm, f64::INFINITY).map_err(|e| match e {
+        check.range("poses.depth_mm", p.depth_mm, 0.5 * self.tap_jitter_mm(), f64::INFINITY).map_err(|e| match e {
             SimError::Invalid { source_name, reason, .. } => SimError::Invalid {
                 source_name,
                 field: "poses.depth_mm".into(),
@@ -438,8 +438,15 @@ impl Recipe {
             },
             other => other,
         })?;
-        if p.depth_mm[0] <= 0.0 {
-            return check.bad("poses.depth_mm", format!("must be above 0 mm (in contact), got {:?}", p.depth_mm));
+        if p.depth_mm[0] - 0.5 * self.tap_jitter_mm() <= 0.0 {
+            return check.bad(
+                "poses.depth_mm",
+                format!(
+                    "must be above 0 mm (in contact) less half the tap depth jitter ({} mm), got {:?}",
+                    0.5 * self.tap_jitter_mm(),
+                    p.depth_mm
+                ),
+            );
         }
         if t.per_pose == 0 && s.per_pose == 0 {
             return check.bad("taps.per_pose", "taps.per_pose and slides.per_pose cannot both be 0".into());
@@ -477,9 +484,17 @@ impl Recipe {
         check.within("slides.step_deg", s.step_deg, 0.01, 45.0, " deg")
     }
 
+    /// The tap depth jitter that applies (mm): none where the recipe makes no taps, whose
+    /// slides press at the pose's depth. Counted for a slides-only recipe, the default jitter
+    /// refused shallow poses and blamed `randomise.depth_offset_mm` in a recipe without
+    /// `[randomise]`.
+    fn tap_jitter_mm(&self) -> f64 {
+        if self.taps.per_pose == 0 { 0.0 } else { self.taps.depth_jitter_mm }
+    }
+
     /// `[randomise]`: each draw's range, and that no depth offset lifts a tap off.
     fn validate_randomise(&self, check: &Check) -> Result<()> {
-        let (d, p, t) = (&self.randomise, &self.poses, &self.taps);
+        let (d, p) = (&self.randomise, &self.poses);
         let side = f64::from(self.image_size);
         check.range("randomise.camera_shift_px", d.camera_shift_px, -side / 8.0, side / 8.0)?;
         check.range("randomise.camera_roll_deg", d.camera_roll_deg, -180.0, 180.0)?;
@@ -492,7 +507,7 @@ impl Recipe {
             return check
                 .bad("randomise.specks", format!("must be [low, high] with low <= high <= 1000, got {:?}", d.specks));
         }
-        if p.depth_mm[0] - 0.5 * t.depth_jitter_mm + d.depth_offset_mm[0] <= 0.0 {
+        if p.depth_mm[0] - 0.5 * self.tap_jitter_mm() + d.depth_offset_mm[0] <= 0.0 {
             return check.bad(
                 "randomise.depth_offset_mm",
                 format!(
@@ -606,6 +621,21 @@ mod tests {
         ] {
             let e = Recipe::from_toml_str(text, "r.toml").expect_err(text).to_string();
             assert!(e.contains("r.toml") && e.contains(field), "{text}: {e}");
+        }
+    }
+
+    /// What broke: a slides-only recipe with shallow poses and no `[randomise]` was refused
+    /// for `randomise.depth_offset_mm`, the taps' default depth jitter counted for slides.
+    #[test]
+    fn a_slides_only_recipe_is_not_refused_for_the_tap_jitter() {
+        for depth in ["0.3", "0.5"] {
+            let slides_only = format!("[taps]\nper_pose = 0\n[poses]\ndepth_mm = [{depth}, 1.0]\n");
+            Recipe::from_toml_str(&slides_only, "r.toml").expect("slides press at the pose's depth");
+            // With taps, half the default 1 mm jitter lifts the shallowest off, and the message
+            // names the poses' depth, not the randomisation the recipe does not have.
+            let taps = format!("[poses]\ndepth_mm = [{depth}, 1.0]\n");
+            let e = Recipe::from_toml_str(&taps, "r.toml").expect_err("jitter").to_string();
+            assert!(e.contains("poses.depth_mm") && e.contains("jitter"), "{e}");
         }
     }
 }
