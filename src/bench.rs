@@ -427,8 +427,8 @@ pub struct BenchOptions {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Taps and slides to time.
-    #[arg(long, default_value_t = 200)]
+    /// Taps and slides to time (1 to 100,000).
+    #[arg(long, default_value_t = 200, value_parser = crate::flags::bench_samples)]
     pub samples: usize,
     /// Write the run-time-vs-error plot (SVG) here.
     #[arg(long, default_value = "bench.svg")]

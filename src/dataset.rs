@@ -35,8 +35,8 @@ pub struct GenerateOptions {
     /// sensor's skin.model).
     #[arg(long)]
     pub skin: Option<tacsim_sim::SkinModel>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads (default: all cores; at most 4 per core).
+    #[arg(long, value_parser = crate::flags::threads)]
     pub threads: Option<usize>,
     /// Generate shard i of n (i/n, from 0): for job arrays; join with `tacsim merge`.
     #[arg(long, value_parser = parse_shard)]

@@ -4,7 +4,8 @@
 //! [`commands`] holds one function per subcommand, called by the thin `main.rs`; [`dataset`]
 //! runs `generate` and `merge`; [`explore`] runs the closed loop of `tacsim-explore` with learned perception and reports it (`run`); [`validation`] and [`mod@bench`] run the contact checks and
 //! benchmarks; [`learn`] trains and evaluates the networks of `tacsim-model`; [`sim2real`]
-//! measures how a network trained on simulated images reads a lab's real ones.
+//! measures how a network trained on simulated images reads a lab's real ones; [`flags`]
+//! bounds the command line's numbers.
 
 pub mod bench;
 pub mod calibrate;
@@ -13,6 +14,7 @@ pub mod dataset;
 pub mod device;
 pub mod edge_fit;
 pub mod explore;
+pub mod flags;
 pub mod learn;
 pub mod sim2real;
 pub mod validation;

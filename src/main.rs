@@ -21,8 +21,8 @@ enum Command {
     Render(RenderOptions),
     /// Run the analytic contact cases (Hertz, Cattaneo-Mindlin) and print errors.
     Validate {
-        /// Cells across the validation grid (odd).
-        #[arg(long, default_value_t = tacsim_sim::contact::validate::DEFAULT_CELLS)]
+        /// Cells across the validation grid (odd, 5 to 257).
+        #[arg(long, default_value_t = tacsim_sim::contact::validate::DEFAULT_CELLS, value_parser = tacsim::flags::validate_grid)]
         grid: usize,
         /// Print one JSON object instead of a table.
         #[arg(long)]

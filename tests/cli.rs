@@ -201,6 +201,29 @@ fn render_on_layered_skins() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// What broke (issue 88): `validate --grid 100001` aborted on a 1.9 TB allocation, `bench
+/// --samples 18446744073709551615` panicked, `validate --grid 1001` and `generate --threads
+/// 100000` ran past a minute with nothing written. Each is now refused as it is parsed,
+/// naming the flag and its range.
+#[test]
+fn absurd_command_line_numbers_are_refused_before_any_work() {
+    let dir = temp_dir("cli", "absurd");
+    let out = dir.join("data");
+    for (args, needle) in [
+        (vec!["validate", "--grid", "100001"], "[5, 257]"),
+        (vec!["validate", "--grid", "1001"], "[5, 257]"),
+        (vec!["bench", "--samples", "18446744073709551615"], "[1, 100000]"),
+        (vec!["generate", "quick", "--threads", "100000", "--out", s(&out)], "per core"),
+    ] {
+        let o = tacsim(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        let flag = args.iter().find(|a| a.starts_with("--")).expect("a flag");
+        assert!(!o.status.success() && err.contains(needle) && err.contains(flag), "{args:?}: {err}");
+    }
+    assert!(!out.exists(), "generate wrote before refusing its threads");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bad_poses_and_shapes_are_clear_errors() {
     let dir = temp_dir("cli", "badpose");
