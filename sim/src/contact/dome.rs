@@ -11,8 +11,8 @@
 //! motion = dome(F spread over a Gaussian patch of s) + layers(F) - layers(F spread over the patch)
 //! ```
 //! The far field is the finite-element dome's response ([`PinResponse::spread`]) to the force
-//! spread as a Gaussian patch `exp(-d^2 / s^2)` about its point, `s` = [`SPREAD_ELEMENTS`]
-//! outer faces wide: a load the mesh resolves, so a press bulges the skin elsewhere (the gel
+//! spread as a Gaussian patch `exp(-d^2 / s^2)` about its point, `s` = [`SPREAD_FACES`]
+//! outer faces of the default mesh wide, whatever the mesh: a load the mesh resolves, so a press bulges the skin elsewhere (the gel
 //! keeps its volume), the shell carries the motion far and the dome curves away. The near
 //! field, what the patch leaves out within a few `s` of the force, comes from the skin-on-gel
 //! layers' kernels of the same skin and gel (`LayeredKernels::near_field`, summed by the
@@ -103,7 +103,9 @@ impl DomeBody {
     }
 
     /// The Gaussian patch's `s` (mm) the far field spreads each force over:
-    /// [`SPREAD_ELEMENTS`] of the outer faces' size `pi R / (4 N)` at `N` cells.
+    /// [`SPREAD_FACES`] of the outer faces' size `pi R / (4 N)` at the default `N`
+    /// ([`crate::sensor::DEFAULT_DOME_CELLS`]) whatever the sensor's mesh: 2.95 mm on the
+    /// 20 mm dome.
     pub fn spread_mm(&self) -> f64 {
         self.response.spread_mm
     }
@@ -145,15 +147,18 @@ impl DomeBody {
     }
 }
 
-/// The far field's Gaussian patch, in outer faces' sizes (see [`DomeBody::spread_mm`]): with
-/// the pins read at the skin's inner face (commit 4a47b14), 1.5 kept them within 0.041-0.048
-/// mm between 8 and 10 cells, 1.0 within 0.055-0.069 and 2.0 within 0.032-0.040; read through
-/// the skin (`tacsim_fem::THROUGH_SKIN`), 1.5 keeps them within 0.022-0.027 mm
+/// The far field's Gaussian patch, in outer faces' sizes of the default mesh (see
+/// [`DomeBody::spread_mm`]). The patch is part of the model, so it stays put as the mesh is
+/// refined: shrinking with the faces (1.5 of each mesh's own), the split's part changed with
+/// the mesh and the pins of 10 and 12 cells differed by up to 0.020-0.022 mm, against
+/// 0.015-0.016 mm with the patch fixed (8 and 10 cells: 0.022-0.027 and 0.024-0.026 mm). With
+/// the pins read at the skin's inner face (commit 4a47b14), 1.5 faces kept them within
+/// 0.041-0.048 mm between 8 and 10 cells, 1.0 within 0.055-0.069 and 2.0 within 0.032-0.040
 /// (`docs/experiments/fem-dome.md`). A wider patch leaves more to the flat layers.
-pub const SPREAD_ELEMENTS: f64 = 1.5;
+pub const SPREAD_FACES: f64 = 1.5;
 
 fn spread_of(spec: &DomeSpec) -> f64 {
-    SPREAD_ELEMENTS * std::f64::consts::PI * spec.outer_radius_mm / (4.0 * spec.cells as f64)
+    SPREAD_FACES * std::f64::consts::PI * spec.outer_radius_mm / (4.0 * crate::sensor::DEFAULT_DOME_CELLS as f64)
 }
 
 /// What shapes a sensor's dome: its spec, its pins and their key.
