@@ -427,7 +427,7 @@ pub struct BenchOptions {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Taps and slides to time (1 to 100,000).
+    /// Taps and slides to time (4 to 100,000).
     #[arg(long, default_value_t = 200, value_parser = crate::flags::bench_samples)]
     pub samples: usize,
     /// Write the run-time-vs-error plot (SVG) here.
@@ -462,6 +462,7 @@ pub struct BenchOptions {
 pub fn run(o: &BenchOptions) -> Result<String> {
     let (samples_n, json, plot) = (o.samples, o.json, o.plot.as_path());
     anyhow::ensure!(samples_n >= 4, "--samples must be at least 4, got {samples_n}");
+    crate::commands::ensure_file_writable(plot)?;
     #[cfg(feature = "wgpu")]
     let gpu = crate::device::gpu(o.device)?;
     #[cfg(not(feature = "wgpu"))]

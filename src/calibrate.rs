@@ -94,11 +94,8 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     let base = crate::commands::SensorArgs { sensor: o.sensor.clone(), ..Default::default() }.load()?;
     // The outputs are checked writable before any work.
     let report_dir = o.report.clone().unwrap_or_else(|| default_report_dir(&o.output));
-    for dir in
-        [o.output.parent().filter(|d| !d.as_os_str().is_empty()), Some(report_dir.as_path())].into_iter().flatten()
-    {
-        crate::commands::ensure_writable(dir)?;
-    }
+    crate::commands::ensure_file_writable(&o.output)?;
+    crate::commands::ensure_writable(&report_dir)?;
     let reference = Reference::of(&folder, o.reference.as_deref(), o.consensus)?;
     // The edge's stimulus and contact point are checked before any tracking.
     let edge = o.edge.as_deref().map(|shape| crate::edge_fit::edge_stimulus(shape, o.edge_contact)).transpose()?;

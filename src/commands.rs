@@ -175,6 +175,16 @@ pub fn ensure_writable(dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Checks before any work that the file `path` can be written: not a folder, in a folder
+/// that exists or can be made and takes a file ([`ensure_writable`]). Regression (issue 88):
+/// `bench --plot` under a file or in /proc, and `calibrate -o` naming a folder, failed only
+/// after the computation, whose results were then lost.
+pub fn ensure_file_writable(path: &Path) -> Result<()> {
+    anyhow::ensure!(!path.is_dir(), "{} is a folder: name the file to write", path.display());
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    ensure_writable(dir).with_context(|| format!("{} cannot be written", path.display()))
+}
+
 /// A sensor named by a file path or, where no such file exists, by a built-in preset's name
 /// (`tactip-331-edge2d`); a relative path is taken from `dir` when given.
 pub fn sensor_file_or_preset(arg: &str, dir: Option<&Path>) -> Result<SensorParams> {

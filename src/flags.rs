@@ -24,11 +24,11 @@ pub fn validate_grid(text: &str) -> Result<usize, String> {
     Ok(n)
 }
 
-/// `bench --samples`: in [1, [`MAX_BENCH_SAMPLES`]].
+/// `bench --samples`: in [4, [`MAX_BENCH_SAMPLES`]].
 pub fn bench_samples(text: &str) -> Result<usize, String> {
     let n = whole(text)?;
-    if !(1..=MAX_BENCH_SAMPLES).contains(&n) {
-        return Err(format!("must be in [1, {MAX_BENCH_SAMPLES}], got {n}"));
+    if !(4..=MAX_BENCH_SAMPLES).contains(&n) {
+        return Err(format!("must be in [4, {MAX_BENCH_SAMPLES}], got {n}"));
     }
     Ok(n)
 }
@@ -59,9 +59,9 @@ mod tests {
             (validate_grid, "1001", "[5, 257]"),
             (validate_grid, "16", "odd"),
             (validate_grid, "-3", "whole number"),
-            (bench_samples, "18446744073709551615", "[1, 100000]"),
+            (bench_samples, "18446744073709551615", "[4, 100000]"),
             (bench_samples, "18446744073709551616", "whole number"),
-            (bench_samples, "0", "[1, 100000]"),
+            (bench_samples, "0", "[4, 100000]"),
             (threads, "100000", "per core"),
             (threads, "0", "per core"),
         ] {

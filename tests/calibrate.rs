@@ -98,6 +98,10 @@ fn malformed_lab_folders_are_clear_errors() {
     let e = run();
     assert!(e.contains("image_1.png"), "{e}");
     assert!(!preset.exists(), "no preset is written when the folder is bad");
+    // An output that names a folder is refused before any work (issue 88: it failed after
+    // the fit), so the bad recording is never read.
+    let e = err(&["calibrate", "--real", s(&lab), "-o", s(&dir), "--quick", "-q"]);
+    assert!(e.contains("is a folder") && !e.contains("image_1.png"), "{e}");
 }
 
 /// Copies `n` recordings of a lab folder (rows and images) into `dest`, each image passed

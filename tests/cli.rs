@@ -212,7 +212,7 @@ fn absurd_command_line_numbers_are_refused_before_any_work() {
     for (args, needle) in [
         (vec!["validate", "--grid", "100001"], "[5, 257]"),
         (vec!["validate", "--grid", "1001"], "[5, 257]"),
-        (vec!["bench", "--samples", "18446744073709551615"], "[1, 100000]"),
+        (vec!["bench", "--samples", "18446744073709551615"], "[4, 100000]"),
         (vec!["generate", "quick", "--threads", "100000", "--out", s(&out)], "per core"),
     ] {
         let o = tacsim(&args);
@@ -221,6 +221,15 @@ fn absurd_command_line_numbers_are_refused_before_any_work() {
         assert!(!o.status.success() && err.contains(needle) && err.contains(flag), "{args:?}: {err}");
     }
     assert!(!out.exists(), "generate wrote before refusing its threads");
+    // An output that cannot be written is refused before the benchmark runs (it failed after
+    // it, losing the figures): a plot under a file, in /proc, or naming a folder.
+    let file = dir.join("a-file");
+    std::fs::write(&file, b"").expect("file");
+    for plot in [file.join("bench.svg"), PathBuf::from("/proc/tacsim-bench.svg"), dir.clone()] {
+        let o = tacsim(&["bench", "--samples", "4", "--plot", s(&plot)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(s(&plot)) && !err.contains("taps/s"), "{plot:?}: {err}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
