@@ -205,9 +205,11 @@ fn encode(d: &Deformation, rig_only: bool) -> (Vec<f64>, Vec<f64>) {
 }
 
 /// Inverse of [`encode`] on `start`; `None` outside the physical bounds: depth offset
-/// -2..1.5 mm, friction 0.02..2, pivot 0..40 mm, its offset within 10 mm of the axis, pin
-/// length 0.5..3 mm, camera 4..80 mm, skin Poisson's ratio 0.3..0.5, depth compliance
-/// 0..0.3 mm^-0.5, tilt relaxation 0..0.15 per mm, base depth 3..25 mm, gel ratio 0.003..1.
+/// -2..1.5 mm, friction 0.02..2, pivot 0..40 mm, its offset within 10 mm of the axis, depth
+/// compliance 0..0.3 mm^-0.5, tilt relaxation 0..0.15 per mm, and in the full fit pin length
+/// 0.5..3 mm, camera 4..80 mm, skin Poisson's ratio 0.3..0.5, base depth 3..25 mm, gel ratio
+/// 0.003..1. With `rig_only` the sensor's own parameters are held, not bounded: a sensor with
+/// 3.1 mm pins had every evaluation refused, and the fit reported its start.
 fn decode(start: &Deformation, p: &[f64], rig_only: bool) -> Option<Deformation> {
     let mut d = start.clone();
     if rig_only {
@@ -221,15 +223,18 @@ fn decode(start: &Deformation, p: &[f64], rig_only: bool) -> Option<Deformation>
         decode_full(&mut d, p);
     }
     let within = |v: f64, lo: f64, hi: f64| v.is_finite() && (lo..=hi).contains(&v);
-    (within(d.depth_offset_mm, -2.0, 1.5)
+    let rig = within(d.depth_offset_mm, -2.0, 1.5)
         && within(d.friction, 0.02, 2.0)
         && within(d.pivot_mm, 0.0, 40.0)
         && within(d.pivot_offset_mm[0].hypot(d.pivot_offset_mm[1]), 0.0, 10.0)
-        && within(d.pin_length_mm, 0.5, 3.0)
+        && within(d.depth_compliance, 0.0, 0.3)
+        && within(d.tilt_relaxation_per_mm, 0.0, 0.15);
+    if rig_only {
+        return rig.then_some(d);
+    }
+    (rig && within(d.pin_length_mm, 0.5, 3.0)
         && within(d.camera_distance_mm, 4.0, 80.0)
         && within(d.poisson, 0.3, 0.5)
-        && within(d.depth_compliance, 0.0, 0.3)
-        && within(d.tilt_relaxation_per_mm, 0.0, 0.15)
         && within(d.base_depth_mm, 3.0, 25.0)
         && within(d.gel_ratio, 0.003, 1.0))
     .then_some(d)
@@ -335,6 +340,16 @@ pub fn calibrate(
         candidates.push(c);
     }
     let best = candidates.iter().min_by(|a, b| a.relative_error.total_cmp(&b.relative_error)).expect("one model");
+    // A search none of whose evaluations succeeded would report its start as a fit.
+    if !best.relative_error.is_finite() {
+        return Err(SimError::Analysis {
+            source_name: problem.reference.describe(),
+            reason: format!(
+                "no evaluation of the fit succeeded ({} tried per model): the sensor's parameters may lie outside the fit's bounds (see `decode` in sim/src/calibrate/fitting.rs)",
+                opts.search_evaluations
+            ),
+        });
+    }
     let frame = problem.frame(&best.deformation, &split.train)?;
     let polished = minimise(
         problem,
@@ -382,5 +397,12 @@ mod tests {
         let mut far = p.clone();
         far[3] = 11.0;
         assert!(decode(&d, &far, true).is_none(), "a pivot 11 mm off the axis");
+        // What broke: the held sensor was bounded as the full fit bounds it, so a sensor with
+        // 3.1 mm pins (a 0.4 mm skin at the calibrated tips) refused every rig evaluation.
+        let mut long_pins = d.clone();
+        long_pins.pin_length_mm = 3.1;
+        let (p, _) = encode(&long_pins, true);
+        assert_eq!(decode(&long_pins, &p, true), Some(long_pins.clone()));
+        assert!(decode(&long_pins, &encode(&long_pins, false).0, false).is_none(), "the full fit bounds it");
     }
 }
