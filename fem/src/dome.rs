@@ -309,8 +309,9 @@ impl Dome {
 /// one point of its inner face: that gradient, linear in each element and discontinuous
 /// between elements, made the pins depend on the mesh. On the convergence paths the pins of 8
 /// and 10 cells differed by up to 0.041-0.048 mm read at the inner face, 0.022-0.027 mm read
-/// through the skin (the contact engine's far field on a patch of 1.5 of each mesh's faces); one to three element layers through the skin moved a pin 10 deg off the
-/// apex by up to 0.048 mm at the inner face, 0.017 mm through the skin
+/// through the skin (the contact engine's far field on a patch of 1.5 of each mesh's faces);
+/// one to three element layers through the skin moved a pin 10 deg off the apex by up to
+/// 0.048 mm at the inner face, 0.017 mm through the skin
 /// (`docs/experiments/fem-dome.md`). The displacement read at a depth is carried to the tip
 /// with the rotation there, so a rigid motion still moves the tip exactly.
 pub const THROUGH_SKIN: [f64; 3] = [1.0 / 6.0, 0.5, 5.0 / 6.0];

@@ -12,9 +12,9 @@
 //! ```
 //! The far field is the finite-element dome's response ([`PinResponse::spread`]) to the force
 //! spread as a Gaussian patch `exp(-d^2 / s^2)` about its point, `s` = [`SPREAD_FACES`]
-//! outer faces of the default mesh wide, whatever the mesh: a load the mesh resolves, so a press bulges the skin elsewhere (the gel
-//! keeps its volume), the shell carries the motion far and the dome curves away. The near
-//! field, what the patch leaves out within a few `s` of the force, comes from the skin-on-gel
+//! outer faces of the default mesh wide, whatever the mesh: a load the mesh resolves, so a
+//! press bulges the skin elsewhere (the gel keeps its volume), the shell carries the motion
+//! far and the dome curves away. The near field, what the patch leaves out within a few `s` of the force, comes from the skin-on-gel
 //! layers' kernels of the same skin and gel (`LayeredKernels::near_field`, summed by the
 //! layers' own pin rule, `pin_motion.rs`), exact for a flat skin where the dome's curvature
 //! matters least. A point force on elements 2-3 mm wide, 0.66 mm above the pins, was not

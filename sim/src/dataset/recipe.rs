@@ -430,20 +430,13 @@ impl Recipe {
         if !(t.depth_jitter_mm.is_finite() && t.depth_jitter_mm >= 0.0) {
             return check.bad("taps.depth_jitter_mm", format!("must be >= 0 mm, got {}", t.depth_jitter_mm));
         }
-        check.range("poses.depth_mm", p.depth_mm, 0.5 * self.tap_jitter_mm(), f64::INFINITY).map_err(|e| match e {
-            SimError::Invalid { source_name, reason, .. } => SimError::Invalid {
-                source_name,
-                field: "poses.depth_mm".into(),
-                reason: format!("{reason} (the low end must leave room for half the tap depth jitter)"),
-            },
-            other => other,
-        })?;
-        if p.depth_mm[0] - 0.5 * self.tap_jitter_mm() <= 0.0 {
+        check.range("poses.depth_mm", p.depth_mm, 0.0, f64::INFINITY)?;
+        let half_jitter = 0.5 * self.tap_jitter_mm();
+        if p.depth_mm[0] <= half_jitter {
             return check.bad(
                 "poses.depth_mm",
                 format!(
-                    "must be above 0 mm (in contact) less half the tap depth jitter ({} mm), got {:?}",
-                    0.5 * self.tap_jitter_mm(),
+                    "must have its low end above half the tap depth jitter ({half_jitter} mm), so that every press is in contact, got {:?}",
                     p.depth_mm
                 ),
             );
