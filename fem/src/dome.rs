@@ -28,7 +28,7 @@ pub struct PinSite {
     /// Radius (mm) of the skin patch the post is bonded to, as the sensor's
     /// `pins.patch_radius_mm`: 0, the skin's motion at the base alone; more, the mean of the
     /// base's and six points' on the inner face at that distance around it (the contact
-    /// engine's rule, `sim/src/contact/pin_motion.rs`, `patch_points`). Each is read through
+    /// engine's rule, `sim/src/contact/pins/motion.rs`, `patch_points`). Each is read through
     /// the skin's thickness ([`THROUGH_SKIN`]).
     pub patch_radius_mm: f64,
 }

@@ -200,7 +200,7 @@ impl PinResponse {
     /// consistent loads (the six-point rule); between nodes the faces' shape functions
     /// interpolate the columns as they do the point load's. A patch a few elements wide is a
     /// load the mesh resolves, unlike a point force (the contact engine adds the near field
-    /// from the layered kernels, `sim/src/contact/dome.rs`). Columns are computed in parallel,
+    /// from the layered kernels, `sim/src/contact/body/dome.rs`). Columns are computed in parallel,
     /// each on its own, so the table does not depend on the thread count.
     pub fn spread(&self, spread_mm: f64) -> Result<Self> {
         if !(spread_mm > 0.0 && spread_mm <= self.radius_mm) {

@@ -96,7 +96,7 @@ pub enum SkinModel {
     SkinOnGel,
     /// The TacTip as it is built: a hemispherical skin shell (`dome.skin_thickness_mm`, the
     /// skin material) closed over the gel (the gel material) on a rigid base
-    /// `base_depth_mm` below the apex, as a finite-element model (`contact/dome.rs`,
+    /// `base_depth_mm` below the apex, as a finite-element model (`contact/body/dome.rs`,
     /// tacsim-fem) at `dome_cells` and `dome_skin_layers`. The pins move with the whole dome:
     /// a press bulges the skin elsewhere and the shell carries the motion far. The contact
     /// solve uses the skin-on-gel kernels of the same materials. Not yet mesh-converged: the
@@ -170,7 +170,7 @@ pub struct SkinParams {
     #[serde(skip_serializing_if = "is_true")]
     pub cut_edges: bool,
     /// Sub-cells per side of the loaded cells along a sharp edge, solved again for the pins
-    /// (`contact/refine.rs`), in [0, 6]; 0 or 1: none. Default 3: on the bench's taps across
+    /// (`contact/geometry/refine.rs`), in [0, 6]; 0 or 1: none. Default 3: on the bench's taps across
     /// the disk's rim it takes the pins' error at 13 cells from 0.20 to 0.088 mm (`tacsim
     /// bench --edge-subcells`, `docs/guide/contact.md`, "Sub-cells along an edge"); the
     /// second solve's cost grows about as its square.

@@ -67,7 +67,7 @@ fn the_dome_body_keeps_the_solvers_invariants_history_and_lift_off() {
 /// tap moved apart by 0.26 mm at 4 cells, 0.14 mm with the split reflected into each octant,
 /// and 4.6e-6 mm (the table's f32 rounding) with the rotation the mean over the elements.
 /// With the layers' near field added, 2.5e-5 mm: its rotation is a forward difference
-/// (`pin_motion.rs`, 1e-3 mm steps along +x, +y, +z), not mirror symmetric (the skin-on-gel
+/// (`pins/motion.rs`, 1e-3 mm steps along +x, +y, +z), not mirror symmetric (the skin-on-gel
 /// body's own mirror pins differ by 5.7e-5 mm on this tap).
 #[test]
 fn a_centred_tap_moves_the_dome_pins_as_mirrors() {
@@ -184,7 +184,7 @@ proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
 
     /// Random tilted, yawed taps and slides on the built-in shapes: every cell's force lands on
-    /// the dome's hemisphere (a debug assertion in `contact/dome.rs`), and the pins are finite
+    /// the dome's hemisphere (a debug assertion in `contact/body/dome.rs`), and the pins are finite
     /// and back at rest after lifting 15 mm (a tilted dome reaches R (1 - cos tilt) below its apex).
     #[test]
     fn dome_pins_take_every_load_on_random_tilted_paths(

@@ -13,39 +13,34 @@
 //! sensor's axes for an untilted path); pressure `p >= 0` presses into the skin; shear
 //! traction `q` is the stimulus's force per area on the skin (MPa); the gap `g` (mm) is
 //! measured along the frame's `+z` and is negative for overlap.
-mod cut;
-mod dome;
+mod algebra;
+mod body;
 mod engine;
-mod fft2;
-mod frame;
-mod grid;
-mod kernel;
-mod lanes;
-mod layered;
-mod matrix;
-mod normal;
-mod operator;
-mod pin_motion;
+mod geometry;
+mod model;
+mod pins;
 pub(crate) mod pose;
-mod precision;
-mod refine;
-mod stencil;
-mod tangential;
+mod solve;
 pub(crate) mod trajectory;
 pub mod validate;
 
-pub use dome::{DomeBody, cache_dir};
-pub use engine::{ContactModel, Footprint, Influence, Simulation, StepReport, contact_disk_grid, initial_gap};
-pub use frame::{ContactFrame, press_direction};
-pub use grid::Grid;
-pub use kernel::{Elastic, Kernel, point_load_displacement};
-pub use matrix::{CellMatrix, MatrixCache};
-pub use operator::{Component, HalfSpace, Operator, Pairing, Product};
-pub use pin_motion::PIN_SUBSQUARES;
+pub use algebra::matrix::{CellMatrix, MatrixCache};
+pub use algebra::precision::Precision;
+pub use body::dome::{DomeBody, cache_dir};
+pub use body::kernel::{Elastic, Kernel, point_load_displacement};
+pub use body::operator::{Component, HalfSpace, Operator, Pairing, Product};
+pub use body::{DomeContact, ElasticBody, PinKernel};
+pub use engine::Simulation;
+pub use geometry::footprint::{Footprint, contact_disk_grid};
+pub use geometry::frame::{ContactFrame, press_direction};
+pub use geometry::gap::initial_gap;
+pub use geometry::grid::Grid;
+pub use model::ContactModel;
+pub use pins::motion::PIN_SUBSQUARES;
 #[cfg(feature = "wgpu")]
-pub(crate) use pin_motion::{
-    PinKernel, PinLoad, motion_from_stencil, moved_pin, patch_points, sensor_displacement, sensor_motion, stencil,
+pub(crate) use pins::motion::{
+    PinLoad, motion_from_stencil, moved_pin, patch_points, sensor_displacement, sensor_motion, stencil,
 };
 pub use pose::MAX_TILT_DEG;
-pub use precision::Precision;
+pub use solve::coupled::StepReport;
 pub use trajectory::{MAX_PATH_STEPS, PathStep};

@@ -1,7 +1,9 @@
 //! Paths through poses (press, slide, lift) and running them: the trajectory API.
 
-use super::engine::{ContactModel, Simulation, StepReport};
+use super::engine::Simulation;
+use super::model::ContactModel;
 use super::pose::SensorPose;
+use super::solve::coupled::StepReport;
 use crate::error::{Result, SimError};
 use crate::pins::PinPose;
 use crate::scene::Scene;

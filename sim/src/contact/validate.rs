@@ -12,12 +12,12 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::grid::Grid;
-use super::kernel::Elastic;
-use super::matrix::MatrixCache;
-use super::normal::{self, Control, NormalSettings};
-use super::operator::{HalfSpace, Operator, Pairing};
-use super::tangential::{self, TangentialSettings};
+use super::algebra::matrix::MatrixCache;
+use super::body::kernel::Elastic;
+use super::body::operator::{HalfSpace, Operator, Pairing};
+use super::geometry::grid::Grid;
+use super::solve::normal::{self, Control, NormalSettings};
+use super::solve::tangential::{self, TangentialSettings};
 use crate::error::Result;
 
 /// The reference case's numbers.

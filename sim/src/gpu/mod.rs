@@ -5,7 +5,7 @@
 //!   samples in one dispatch, by the rule of [`crate::raster::draw_binary`], in f64 where the
 //!   adapter has it (`SHADER_F64`), else in f32.
 //! - [`Gpu::pins_batch`] (`pins.rs`, `pins.wgsl`): the pin poses of many contact states from
-//!   their tractions (the pin influence product of `contact/pin_motion.rs`), in f64 where
+//!   their tractions (the pin influence product of `contact/pins/motion.rs`), in f64 where
 //!   the adapter has it (`SHADER_F64`).
 //!
 //! On a machine without a GPU the adapter is a software Vulkan driver (lavapipe), which the

@@ -5,7 +5,7 @@
 //! The CPU's sums move to the GPU unchanged, in f64 (`SHADER_F64`): one invocation per pin
 //! point (a pin's base, and with a skin patch six more points about it), which sums the
 //! loaded cells' point forces in the CPU's order, with the CPU's grouping of far cells into
-//! blocks and near ones into sub-squares (`contact/pin_motion.rs`): on the half-space the
+//! blocks and near ones into sub-squares (`contact/pins/motion.rs`): on the half-space the
 //! displacement and the closed-form rotation at the point (`DepthKernel::motion`), on layers
 //! the displacements at the point's finite-difference stencil, whose gradient and rotation are
 //! then the CPU's own function. The pin's move is the CPU's. What can differ is the rounding

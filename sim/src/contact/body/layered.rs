@@ -30,7 +30,7 @@
 //! ```
 //! (`C_xz = C_zx` by reciprocity). On the surface the transforms of `C(k)` diverge like the
 //! half-space's `1/r`, so the operator uses the exact half-space rectangle coefficients of the
-//! top layer ([`super::operator`]) plus the transform of `C(k) - C_halfspace(k)`: finite at
+//! top layer ([`crate::contact::body::operator`]) plus the transform of `C(k) - C_halfspace(k)`: finite at
 //! `k = 0` after the factor `k`, decaying like `exp(-2 k h_top)`, and smooth in `r`. At the pin
 //! depth the transforms converge on their own (`exp(-k z)`).
 
@@ -41,7 +41,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
-use super::kernel::Elastic;
+use crate::contact::body::kernel::Elastic;
 
 /// One elastic layer.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -615,7 +615,7 @@ mod tests {
 
     #[test]
     fn thick_layer_depth_kernel_is_boussinesq_cerruti() {
-        use crate::contact::kernel::DepthKernel;
+        use crate::contact::body::kernel::DepthKernel;
         // 3 m of material under a pin 1.5 mm deep: the base holds the column back by about the
         // half-space's displacement at its depth, 0.1% of the field here.
         let b = body(&[(3000.0, 1.0, 0.4)]);
@@ -653,7 +653,7 @@ mod tests {
 
     #[test]
     fn a_stiff_skin_over_a_soft_gel_carries_a_point_shear_far() {
-        use crate::contact::kernel::DepthKernel;
+        use crate::contact::body::kernel::DepthKernel;
         // At the skin's inner surface, 10 mm from a point shear: a half-space of the skin
         // material falls off like 1 / distance; a skin over a gel ten times softer carries the
         // shear farther (0.47 of the pin above the load against 0.29).

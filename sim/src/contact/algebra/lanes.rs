@@ -3,7 +3,7 @@
 //! each lane, the bits of the same formula on `f64` (addition, multiplication, division and
 //! the square root are correctly rounded on every vector unit, and nothing is fused or
 //! reordered). The pin product evaluates the half-space's kernels for [`LANES`] point forces
-//! at a time this way (`pin_motion.rs`).
+//! at a time this way (`pins/motion.rs`).
 
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

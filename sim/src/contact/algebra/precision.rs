@@ -1,9 +1,9 @@
 //! The precision of the contact engine's dense products: [`Precision`] says which a solver
 //! may use, [`Coefficient`] is the type its tables and sums are kept in (`f64` or `f32`),
-//! shared by [`CellMatrix`](super::CellMatrix)'s panels and
-//! [`Operator::apply`](super::Operator::apply)'s dense products.
+//! shared by [`CellMatrix`](crate::contact::CellMatrix)'s panels and
+//! [`Operator::apply`](crate::contact::Operator::apply)'s dense products.
 
-/// How a [`CellMatrix`](super::CellMatrix) stores its coefficients, and so what its products add in.
+/// How a [`CellMatrix`](crate::contact::CellMatrix) stores its coefficients, and so what its products add in.
 ///
 /// Single precision halves the bytes a product streams and doubles the lanes of each vector
 /// instruction; each row's sum is then accumulated in `f32` (a relative rounding of about
@@ -36,7 +36,7 @@ impl Precision {
     }
 
     /// Bytes per coefficient.
-    pub(super) fn bytes(self) -> usize {
+    pub(in crate::contact) fn bytes(self) -> usize {
         match self {
             Self::Double => std::mem::size_of::<f64>(),
             Self::Single => std::mem::size_of::<f32>(),
@@ -45,7 +45,7 @@ impl Precision {
 }
 
 /// A coefficient type of the dense products: `f64`, or `f32` in [`Precision::Single`].
-pub(super) trait Coefficient:
+pub(in crate::contact) trait Coefficient:
     Copy + Default + std::ops::Add<Output = Self> + std::ops::Mul<Output = Self> + std::ops::AddAssign + std::iter::Sum
 {
     /// `v` rounded to this type.

@@ -15,13 +15,13 @@
 //! (the gradient is the slip), solved here by a projected heavy ball (Polyak's momentum) with
 //! restart, warm-started from the current tractions ([`minimise`]). The frictional
 //! dissipation of the step, `-sum q_i . s_i h^2 >= 0` (N mm), follows. Normal-tangential
-//! coupling is left to the caller, which alternates the two solves (see [`super::engine`]).
+//! coupling is left to the caller, which alternates the two solves (see [`crate::contact::engine`]).
 
-use super::cut::CutCoupling;
-use super::lanes::lane_sum;
-use super::matrix::{CellProduct, MatrixCache};
-use super::operator::{Component, Operator, Product};
-use super::precision::Precision;
+use crate::contact::algebra::lanes::lane_sum;
+use crate::contact::algebra::matrix::{CellProduct, MatrixCache};
+use crate::contact::algebra::precision::Precision;
+use crate::contact::body::operator::{Component, Operator, Product};
+use crate::contact::geometry::cut::CutCoupling;
 use crate::error::{Result, SimError};
 
 /// Solver settings.
@@ -39,7 +39,11 @@ pub struct TangentialSettings {
 
 impl Default for TangentialSettings {
     fn default() -> Self {
-        Self { tolerance: 1e-9, max_iterations: 20_000, dense_max_cells: super::normal::DENSE_MAX_CELLS }
+        Self {
+            tolerance: 1e-9,
+            max_iterations: 20_000,
+            dense_max_cells: crate::contact::solve::normal::DENSE_MAX_CELLS,
+        }
     }
 }
 
@@ -257,7 +261,7 @@ pub struct StepInput<'a> {
     /// An upper bound of the largest eigenvalue of `A_t` on the contact cells (mm/MPa), e.g.
     /// [`largest_eigenvalue`] on a superset of them; `None` computes it.
     pub lipschitz: Option<f64>,
-    /// The cells an edge cuts ([`super::cut`]): their own compliance beyond the operator's
+    /// The cells an edge cuts ([`crate::contact::geometry::cut`]): their own compliance beyond the operator's
     /// diagonal, and their coupling to the cells next to them; `None` without.
     pub(crate) cut: Option<&'a CutCoupling>,
 }
@@ -424,7 +428,7 @@ fn minimise(
     // The cut cells' coupling is in the gradient's products: its bound is added.
     let l = lipschitz + product.coupling_bound();
     let heavy = HeavyBall::new(l, op.checkerboard().clamp(l / MAX_CONDITION, l));
-    // The cut cells' own compliance `D` (diagonal, [`super::cut`]) is not in the gradient
+    // The cut cells' own compliance `D` (diagonal, [`crate::contact::geometry::cut`]) is not in the gradient
     // step but in the projection, exactly: the minimiser of `q.D q / 2 + |q - z|^2 / (2 step)`
     // on a disc is `z / (1 + step d)` projected on it (Xx and Yy have one diagonal, so `d` is
     // the same along both axes). A sliver's large `d` would otherwise shrink the step of
@@ -706,7 +710,7 @@ fn settle(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::operator::{HalfSpace, Pairing};
+    use crate::contact::body::operator::{HalfSpace, Pairing};
     use crate::contact::{Elastic, Grid};
 
     /// A 17 x 17 grid of `cell_mm` cells and the operator of a skin like the calibrated

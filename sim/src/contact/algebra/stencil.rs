@@ -221,7 +221,7 @@ mod tests {
     use nalgebra::DMatrix;
 
     use super::*;
-    use crate::contact::operator::{Component, HalfSpace, Operator, Pairing};
+    use crate::contact::body::operator::{Component, HalfSpace, Operator, Pairing};
     use crate::contact::{Elastic, Grid};
 
     /// The calibrated sensor's half-space on a grid of `n` cells a side.

@@ -5,7 +5,7 @@
 //! Cells carry uniform tractions; displacements are taken at cell centres. The coefficient
 //! `A_ab(d)` (mm/MPa) gives the displacement component `a` at a cell offset by `d` cells from a
 //! cell loaded with unit traction component `b`. On a half-space it is the exact rectangle
-//! integral of the point-load kernel ([`super::kernel`]), so the operator is block-Toeplitz and
+//! integral of the point-load kernel ([`crate::contact::body::kernel`]), so the operator is block-Toeplitz and
 //! scales linearly with the cell size: the unit-cell integrals are computed once per grid shape
 //! and cached.
 
@@ -15,12 +15,12 @@ use std::sync::{Arc, Mutex, OnceLock};
 
 use rustfft::num_complex::Complex64;
 
-use super::fft2::Fft2;
-use super::grid::Grid;
-use super::kernel::{Elastic, Kernel};
-use super::layered::{LayeredKernels, angular, gauss_legendre};
-use super::precision::{Coefficient, Precision};
-use super::stencil::InverseStencil;
+use crate::contact::algebra::precision::{Coefficient, Precision};
+use crate::contact::algebra::stencil::InverseStencil;
+use crate::contact::body::fft2::Fft2;
+use crate::contact::body::kernel::{Elastic, Kernel};
+use crate::contact::body::layered::{LayeredKernels, angular, gauss_legendre};
+use crate::contact::geometry::grid::Grid;
 
 /// A displacement component from a traction component: `Xz` is `u_x` from pressure `p`, `Zx`
 /// is `u_z` from shear traction `q_x`, and so on.
@@ -186,7 +186,7 @@ pub enum Product<'a> {
 impl<'a> Product<'a> {
     /// Dense over `src -> dst` when the problem has at most `dense_max_cells` cells (`cells`),
     /// FFT otherwise: the one place the choice is made (crossover measured in
-    /// `crate::contact::normal::DENSE_MAX_CELLS`).
+    /// `crate::contact::solve::normal::DENSE_MAX_CELLS`).
     pub fn by_size(cells: usize, dense_max_cells: usize, src: &'a [usize], dst: &'a [usize]) -> Self {
         if cells <= dense_max_cells { Product::Dense { src, dst } } else { Product::Fft }
     }
@@ -375,7 +375,7 @@ impl Operator {
     /// (the lesser of its two eigenvalues). A uniform traction sinks every cell together (the
     /// symbol at `(0, 0)`, which grows with the footprint); a checkerboard's cells mostly undo
     /// each other's, so it is about the smallest response a cell set has, and the tangential
-    /// solver takes it for its smallest eigenvalue ([`super::tangential`]). It is an
+    /// solver takes it for its smallest eigenvalue ([`crate::contact::solve::tangential`]). It is an
     /// estimate, not a bound: the truncated table's symbol dips below it elsewhere.
     pub fn checkerboard(&self) -> f64 {
         self.checkerboard
@@ -855,7 +855,7 @@ mod tests {
     }
 
     fn layered(layers: &[(f64, f64, f64)], pin_depth: f64, r_max: f64) -> Arc<LayeredKernels> {
-        use crate::contact::layered::{Layer, LayeredBody};
+        use crate::contact::body::layered::{Layer, LayeredBody};
         let body = LayeredBody {
             layers: layers
                 .iter()

@@ -21,7 +21,7 @@
 
 use std::f64::consts::PI;
 
-use super::lanes::Real;
+use crate::contact::algebra::lanes::Real;
 
 /// `a * asinh(b / a)` with the limit 0 at `a = 0`.
 fn a_asinh_b_over_a(a: f64, b: f64) -> f64 {
@@ -209,7 +209,7 @@ impl DepthKernel {
     /// ```
     /// (`c = 1 / (4 pi G)`, `k = 1 - 2 nu`; a normal load turns the skin about the horizontal
     /// circles around it, and only a tangential one twists it about `z`). The displacement is
-    /// [`DepthKernel::displacement`]'s to the last bit. On [`super::lanes::Lanes`], each lane
+    /// [`DepthKernel::displacement`]'s to the last bit. On [`crate::contact::algebra::lanes::Lanes`], each lane
     /// is the `f64` result's bits (one formula; the products written with the material
     /// constant last, which changes no bit).
     #[inline(always)]

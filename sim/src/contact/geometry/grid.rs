@@ -1,5 +1,5 @@
 //! The contact grid: square cells on the contact plane (the plane tangent to the undeformed dome
-//! at the apex of the path's [`super::frame::ContactFrame`]), in that frame's `(x, y)` axes (the
+//! at the apex of the path's [`crate::contact::geometry::frame::ContactFrame`]), in that frame's `(x, y)` axes (the
 //! sensor's for an untilted path).
 //!
 //! Cell `(i, j)` (column `i` along `x`, row `j` along `y`) has its centre at

@@ -8,11 +8,11 @@
 //! every cell. Products are dense on the candidates when there are few, FFT otherwise
 //! ([`ProductChoice`]).
 
-use super::cut::CutCoupling;
-use super::lanes::lane_sum;
-use super::matrix::{CellProduct, MatrixCache};
-use super::operator::{Component, Operator};
-use super::stencil::Preconditioner;
+use crate::contact::algebra::lanes::lane_sum;
+use crate::contact::algebra::matrix::{CellProduct, MatrixCache};
+use crate::contact::algebra::stencil::Preconditioner;
+use crate::contact::body::operator::{Component, Operator};
+use crate::contact::geometry::cut::CutCoupling;
 use crate::error::{Result, SimError};
 
 /// How the normal problem is driven.
@@ -66,7 +66,7 @@ impl Default for NormalSettings {
     }
 }
 
-/// Result of a normal solve; fields are grid fields (see [`super::grid::Grid`]).
+/// Result of a normal solve; fields are grid fields (see [`crate::contact::geometry::grid::Grid`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct NormalSolution {
     /// Contact pressure per cell (MPa), zero off contact.
@@ -94,7 +94,7 @@ impl NormalSolution {
 pub struct Extra<'a> {
     /// A normal displacement per cell (mm, e.g. from tangential tractions).
     pub displacement: Option<&'a [f64]>,
-    /// The cells an edge cuts ([`super::cut`]): their own compliance beyond the operator's
+    /// The cells an edge cuts ([`crate::contact::geometry::cut`]): their own compliance beyond the operator's
     /// diagonal, and their coupling to the cells next to them.
     pub(crate) cut: Option<&'a CutCoupling>,
 }
@@ -510,7 +510,7 @@ impl<'a> Problem<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::operator::{HalfSpace, Pairing};
+    use crate::contact::body::operator::{HalfSpace, Pairing};
     use crate::contact::{Elastic, Grid};
 
     /// A paraboloid (radius 50 mm) on a compressible half-space, 33 x 33 cells of 0.09 mm.

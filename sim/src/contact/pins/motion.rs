@@ -1,17 +1,17 @@
 //! Pin motion from the contact tractions: each pin base moves with the skin at its depth
 //! inside the body (depth form of the Boussinesq and Cerruti solutions,
-//! [`super::kernel::point_load_displacement`], one point force per loaded cell), and the pin,
+//! [`crate::contact::body::kernel::point_load_displacement`], one point force per loaded cell), and the pin,
 //! a stiff post, turns with the skin's local rotation `omega = curl(u) / 2` at its base:
 //! ```text
 //! tip' = tip + u(base) + omega x (tip - base),   axis' = axis + omega x axis
 //! ```
 //! The lever `tip - base` (pin length, mm) amplifies the skin's rotation, which is why the
 //! pins see curvature. Positions are taken relative to the contact plane (the tangent plane at
-//! the apex of the contact frame, [`super::frame`], in which the layout is given): on a half-space a base at sensor point `X` sits at lateral `(X.x, X.y)` and depth
-//! `R - X.z`; on layers ([`super::layered`]) every base sits at the skin's inner surface (the
+//! the apex of the contact frame, [`crate::contact::geometry::frame`], in which the layout is given): on a half-space a base at sensor point `X` sits at lateral `(X.x, X.y)` and depth
+//! `R - X.z`; on layers ([`crate::contact::body::layered`]) every base sits at the skin's inner surface (the
 //! top layer's bottom) under `(X.x, X.y)`: the dome unrolled onto the contact plane, so that
 //! the pins stay in the skin that carries them. On the half-space the rotation is in closed
-//! form ([`super::kernel::DepthKernel::motion`]), summed with the displacement in one pass; the
+//! form ([`crate::contact::body::kernel::DepthKernel::motion`]), summed with the displacement in one pass; the
 //! layered tables have no derivative in closed form and take a forward difference over
 //! `STEP_MM` (a stencil of four points). With a skin patch (`pins.patch_radius_mm`
 //! `a > 0`) `u(base)` and `omega` are the means over the base and six points on the circle of
@@ -27,22 +27,22 @@
 //! (`s` = [`PIN_SUBSQUARES`] by default), each a force `t h^2 / s^2` at its centre (the
 //! midpoint rule on the cell). On the bench's taps this takes the largest pin error against a
 //! 65-cell reference from 0.77 to 0.026 mm on 13 cells (`tacsim bench`,
-//! `docs/guide/contact.md`). A cell a sharp edge cuts ([`super::cut`]) carries the edge's
+//! `docs/guide/contact.md`). A cell a sharp edge cuts ([`crate::contact::geometry::cut`]) carries the edge's
 //! singular pressure over its covered rectangle ([`edge_profile`]); the loaded cells along an
-//! edge, solved again at sub-cells ([`super::refine`]), act as their sub-cells' point forces
+//! edge, solved again at sub-cells ([`crate::contact::geometry::refine`]), act as their sub-cells' point forces
 //! near a pin instead.
 
 use nalgebra::Vector3;
 use rayon::prelude::*;
 
-use super::cut::Cut;
-use super::grid::Grid;
-use super::kernel::DepthKernel;
 #[cfg(target_arch = "x86_64")]
-use super::lanes::Avx2Lanes;
-use super::lanes::{LANES, Lanes, Real};
-use super::layered::LayeredKernels;
-use super::refine::Refinement;
+use crate::contact::algebra::lanes::Avx2Lanes;
+use crate::contact::algebra::lanes::{LANES, Lanes, Real};
+use crate::contact::body::PinKernel;
+use crate::contact::body::kernel::DepthKernel;
+use crate::contact::geometry::cut::Cut;
+use crate::contact::geometry::grid::Grid;
+use crate::contact::geometry::refine::Refinement;
 use crate::pins::{Pin, PinLayout, PinPose};
 
 /// Finite-difference step for the rotation (mm).
@@ -56,35 +56,6 @@ const SUPER: usize = 2;
 /// A pin sees a group as one force when farther than this many group diagonals from its
 /// centroid (the monopole's relative error is of order `(diagonal / distance)^2`).
 const FAR_DIAGONALS: f64 = 2.0;
-
-/// Surface point load to displacement inside the body.
-#[derive(Clone, Copy, Debug)]
-pub enum PinKernel<'a> {
-    /// Boussinesq and Cerruti at depth; bases at their depth below the contact plane.
-    HalfSpace(DepthKernel),
-    /// Tabulated layered kernels; bases at the pin depth of the tables.
-    Layered(&'a LayeredKernels),
-}
-
-impl PinKernel<'_> {
-    /// Displacement (mm, `z` into the body) at `offset` (lateral, depth) from `force`.
-    #[inline]
-    fn displacement(&self, force: [f64; 3], offset: [f64; 3]) -> [f64; 3] {
-        match self {
-            PinKernel::HalfSpace(k) => k.displacement(force, offset),
-            PinKernel::Layered(k) => k.displacement(force, offset),
-        }
-    }
-
-    /// Depth (mm) of the point `p` (in the layout's frame) near the pin base `base` on a dome
-    /// of outer radius `dome_radius_mm`.
-    pub(crate) fn depth(&self, dome_radius_mm: f64, base: &Vector3<f64>, p: &Vector3<f64>) -> f64 {
-        match self {
-            PinKernel::HalfSpace(_) => dome_radius_mm - p.z,
-            PinKernel::Layered(k) => k.pin_depth_mm() + base.z - p.z,
-        }
-    }
-}
 
 /// A group of loaded cells (or blocks): their total force at the load-weighted centroid, and
 /// the range of its members.
@@ -146,8 +117,8 @@ pub struct CellForces {
     /// curve_y]` (mm): sub-square `(i, j)` sits at the cell's point plus `first + i step +
     /// i^2 curve` along `x` (`j` along `y`), each with an equal share of the force:
     /// [`CellForces::near_rule`]'s squares for a whole cell (no curve), [`edge_profile`]'s
-    /// strips for one an edge cuts ([`super::cut`]). No step (`[start, count, 0, 0, 0, 0]`):
-    /// a refined cell ([`super::refine`]), whose sub-cells are `count` of [`CellForces::points`]
+    /// strips for one an edge cuts ([`crate::contact::geometry::cut`]). No step (`[start, count, 0, 0, 0, 0]`):
+    /// a refined cell ([`crate::contact::geometry::refine`]), whose sub-cells are `count` of [`CellForces::points`]
     /// from `start`.
     pub(crate) subs: Vec<[f64; 6]>,
     /// The refined cells' sub-cells as point forces: `[x, y, Qx, Qy, P]` (mm, N).
@@ -361,7 +332,7 @@ impl CellForces {
     }
 }
 
-/// Where a cut cell's force acts ([`super::cut`]): its point (offset from the cell's centre,
+/// Where a cut cell's force acts ([`crate::contact::geometry::cut`]): its point (offset from the cell's centre,
 /// mm) and its sub-squares' layout ([`CellForces::subs`]) for `n` a side. A sharp edge's
 /// pressure is singular, `p ~ s^(-1/2)` at a distance `s` from it (a rigid punch's edge,
 /// Johnson 1985 sec. 2.8), so over the covered rectangle of width `w` across the edge the
@@ -622,7 +593,7 @@ pub(crate) struct PinLoad<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::kernel::Elastic;
+    use crate::contact::body::kernel::Elastic;
 
     /// A cut cell's sub-squares follow the edge's `s^(-1/2)` profile: equal forces at the
     /// strips' centroids `w (3 i^2 + 3 i + 1) / (3 n^2)` from the edge, whose mean is the

@@ -23,16 +23,16 @@
 //!   taps across the disk's rim, this one is closest to finer grids
 //!   (`docs/guide/contact.md`, "Cut cells");
 //! - the cells next to it see its coupling to them ([`CutCoupling`]); the pins see its force
-//!   at the sub-cells of a second solve along the edge ([`super::refine`]; with the profile
-//!   of `pin_motion::edge_profile` without it).
+//!   at the sub-cells of a second solve along the edge ([`crate::contact::geometry::refine`]; with the profile
+//!   of `pins::motion::edge_profile` without it).
 //!
 //! Every value is continuous in the edge's position as long as the edge stays in the cell; as
 //! the cell becomes whole its load point moves from a third of the side in from its border to
 //! its centre. On taps across the disk's rim the pins still move smoothly with the edge (test
 //! `an_edge_moves_the_contact_smoothly_across_a_cell`).
 
-use super::kernel::Kernel;
-use super::operator::Operator;
+use crate::contact::body::kernel::Kernel;
+use crate::contact::body::operator::Operator;
 
 /// Lines across the cell on which the covered length is taken exactly (the covered fraction
 /// and centroid are their midpoint sums, continuous in `d`).
@@ -96,7 +96,7 @@ impl Cut {
     /// Where the edge's profile puts the cell's force (offset from the cell's centre, mm, grid
     /// frame): a third of the covered width in from the edge across it (`p ~ s^(-1/2)`, the
     /// module's docs), at the covered part's centroid along it. The pins see the force there
-    /// (`pin_motion::edge_profile`), and the cell's gap and displacement are taken there.
+    /// (`pins::motion::edge_profile`), and the cell's gap and displacement are taken there.
     pub(crate) fn load_point_mm(&self) -> [f64; 2] {
         let mut point = self.centroid_mm;
         let (axis, t) = self.across();
@@ -177,7 +177,7 @@ pub(crate) fn compliance_ratio(phi: f64) -> f64 {
 /// Strips of equal force a cut cell's load is taken in across the edge for the solves' near
 /// field on the contact grid ([`CutCoupling`]; the sub-cells along an edge take fewer,
 /// `refine.rs`): the edge's profile, as the pins see it
-/// (`pin_motion::edge_profile`), strip `i` from `s = w (i / n)^2` to `w ((i + 1) / n)^2`.
+/// (`pins::motion::edge_profile`), strip `i` from `s = w (i / n)^2` to `w ((i + 1) / n)^2`.
 pub(crate) const STRIPS: usize = 3;
 
 /// The cells around a cut cell whose coupling to it is taken from the covered part: those
@@ -337,10 +337,10 @@ impl Patch {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::grid::Grid;
-    use crate::contact::kernel::Elastic;
-    use crate::contact::matrix::{CellProduct, MatrixCache};
-    use crate::contact::operator::{Component, HalfSpace, Operator, Pairing};
+    use crate::contact::algebra::matrix::{CellProduct, MatrixCache};
+    use crate::contact::body::kernel::Elastic;
+    use crate::contact::body::operator::{Component, HalfSpace, Operator, Pairing};
+    use crate::contact::geometry::grid::Grid;
 
     /// A straight edge across `x`: the covered fraction is the covered width over the side,
     /// the centroid halfway along it, and both move continuously as the edge crosses.

@@ -35,10 +35,10 @@
 
 use std::sync::Arc;
 
-use super::cut::CutCoupling;
-use super::grid::Grid;
-use super::operator::{Component, Operator, Product};
-use super::precision::{Coefficient, Precision};
+use crate::contact::algebra::precision::{Coefficient, Precision};
+use crate::contact::body::operator::{Component, Operator, Product};
+use crate::contact::geometry::cut::CutCoupling;
+use crate::contact::geometry::grid::Grid;
 
 /// Rows per panel.
 const LANES: usize = 32;
@@ -349,7 +349,7 @@ impl<'a, const B: usize> CellProduct<'a, B> {
         }
     }
 
-    /// The same products with the cut cells' `coupling` ([`super::cut`]): each one's extra
+    /// The same products with the cut cells' `coupling` ([`crate::contact::geometry::cut`]): each one's extra
     /// compliance to its own traction (relative to the operator's diagonal) added on the
     /// diagonal blocks' diagonals ([`CellProduct::cut`]), and its coupling to the cells next
     /// to it added to the operator's coefficients ([`CellProduct::apply_operator`]). `None`,
@@ -802,7 +802,7 @@ thread_local! {
 /// The last two [`CellMatrix`]es used, handed out again while the operator's grid, the blocks
 /// and the cells stay the same (the coupling rounds of a step mostly solve on the same cells;
 /// a normal solve on its contact first checks the other candidates with their matrix,
-/// [`super::normal::NormalSettings::contact_first`]).
+/// [`crate::contact::solve::normal::NormalSettings::contact_first`]).
 #[derive(Clone, Debug, Default)]
 pub struct MatrixCache {
     /// The most recently used first.
@@ -868,7 +868,7 @@ impl MatrixCache {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::operator::{HalfSpace, Pairing, Product};
+    use crate::contact::body::operator::{HalfSpace, Pairing, Product};
     use crate::contact::{Elastic, Grid};
 
     /// A compressible half-space on a 9 x 7 grid of 0.3 mm cells.

@@ -1,10 +1,10 @@
 //! Sub-cells along a sharp edge, for the pins (issue 31).
 //!
-//! A cut cell ([`super::cut`]) carries the right force for its neighbours and itself, but the
+//! A cut cell ([`crate::contact::geometry::cut`]) carries the right force for its neighbours and itself, but the
 //! pins, 0.66 mm under the skin on the calibrated sensor, also see *where* in the cell it
 //! acts, and on a coarse grid a cell is 1.5-2 mm wide: the dome's pressure rises several-fold
 //! across it towards the contact's centre, and the edge runs at a slant through it. The edge's
-//! one-dimensional profile (`pin_motion::edge_profile`) cannot place that. Here the cells next
+//! one-dimensional profile (`pins::motion::edge_profile`) cannot place that. Here the cells next
 //! to an edge are solved again at `r x r` sub-cells each (the sensor's `skin.edge_subcells`,
 //! [`crate::sensor::SkinParams::edge_subcells`], 3 by default), with the coarse
 //! solution around them held (a global-local step):
@@ -15,26 +15,26 @@
 //!   refined and the shear of all cells (each uniform over its cell), through the fine grid's
 //!   operator summed over a cell's sub-cells ([`FineGrid`]);
 //! - the sub-cells' pressures are the normal contact problem on them
-//!   ([`super::normal::solve`]) under the refined cells' total force (load control: the coarse
+//!   ([`crate::contact::solve::normal::solve`]) under the refined cells' total force (load control: the coarse
 //!   solve's force stays, its rigid offset is found);
 //! - each refined cell's shear follows its sub-cells' pressure (`q_s = q p_s / mean p_s`).
 //!
 //! The pins then see each loaded sub-cell as one point force when near (at its centre, a cut
 //! one at its load point, a whole one right behind the edge where the edge's profile puts its
 //! force: `cut::behind_edge_mm`), the cell's total at its centroid farther off ([`Refinement`],
-//! `pin_motion::CellForces`); the solve's tractions, its report and forces are the coarse
+//! `pins::motion::CellForces`); the solve's tractions, its report and forces are the coarse
 //! ones. On the bench's three worst taps across the disk's rim, 13 cells were 0.137 / 0.077 /
 //! 0.032 mm off 65 cells' pins; with 3 x 3 sub-cells 0.056 / 0.030 / 0.023, at 0.17 ms more
 //! solve on such a tap (`docs/guide/contact.md`, "Sub-cells along an edge").
 
 use std::ops::Range;
 
-use super::cut::{Cut, CutCoupling, behind_edge_mm};
-use super::grid::Grid;
-use super::matrix::MatrixCache;
-use super::normal::{self, Control, NormalSettings, ProductChoice};
-use super::operator::{Component, Operator};
-use super::precision::Precision;
+use crate::contact::algebra::matrix::MatrixCache;
+use crate::contact::algebra::precision::Precision;
+use crate::contact::body::operator::{Component, Operator};
+use crate::contact::geometry::cut::{Cut, CutCoupling, behind_edge_mm};
+use crate::contact::geometry::grid::Grid;
+use crate::contact::solve::normal::{self, Control, NormalSettings, ProductChoice};
 
 /// How far from a loaded cut cell the refined cells reach: every loaded cell within this many
 /// cells of one along both axes (a `(2 B + 1)`-cell square about it). The pins' error across
@@ -53,7 +53,7 @@ const BAND_CELLS: usize = 3;
 const CANDIDATE_GAP_SIDES: f64 = 0.5;
 
 /// Strips of the edge's profile in the fine cut cells' coupling to their neighbours (the
-/// coarse grid's take [`super::cut::STRIPS`], 3): a sub-cell is a third of a cell wide, and on
+/// coarse grid's take [`crate::contact::geometry::cut::STRIPS`], 3): a sub-cell is a third of a cell wide, and on
 /// the bench's taps across the disk's rim 2 strips move the pins' largest error against 65
 /// cells by under 0.001 mm on 13-33 cells (1: 0.082 / 0.040 / 0.029 mm on 13 / 17 / 25 cells
 /// against 0.088 / 0.038 / 0.028), for a quarter fewer kernel integrals (`paper`'s shard 250:
@@ -450,8 +450,8 @@ fn forces(coarse: &Coarse<'_>, r: usize, unit_mm: f64, cells: &[usize], subs: &[
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::kernel::Elastic;
-    use crate::contact::operator::{HalfSpace, Pairing};
+    use crate::contact::body::kernel::Elastic;
+    use crate::contact::body::operator::{HalfSpace, Pairing};
 
     fn half_space(grid: Grid) -> Operator {
         let material = Elastic::from_young(1.0, 0.436);

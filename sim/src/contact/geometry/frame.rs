@@ -19,7 +19,7 @@
 
 use nalgebra::{Matrix3, Point3, Rotation3, Unit, Vector3};
 
-use super::pose::SensorPose;
+use crate::contact::pose::SensorPose;
 use crate::pins::{PinLayout, PinPose};
 
 /// A press direction closer to the sensor's `+z` than this (rad) keeps the sensor frame.

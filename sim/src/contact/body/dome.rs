@@ -16,7 +16,7 @@
 //! press bulges the skin elsewhere (the gel keeps its volume), the shell carries the motion
 //! far and the dome curves away. The near field, what the patch leaves out within a few `s` of the force, comes from the skin-on-gel
 //! layers' kernels of the same skin and gel (`LayeredKernels::near_field`, summed by the
-//! layers' own pin rule, `pin_motion.rs`), exact for a flat skin where the dome's curvature
+//! layers' own pin rule, `pins/motion.rs`), exact for a flat skin where the dome's curvature
 //! matters least. A point force on elements 2-3 mm wide, 0.66 mm above the pins, was not
 //! converged: the pins of a tap across the disk's rim moved by 0.13 mm between 8 and 10 cells
 //! and 0.17 mm between 10 and 12 (`docs/experiments/fem-dome.md`). The contact solve itself
@@ -35,8 +35,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use nalgebra::Vector3;
 use tacsim_fem::{DomeSpec, MAX_POISSON, Material, PinResponse, PinSite, response_key};
 
-use super::frame::ContactFrame;
-use super::pin_motion::CellForces;
+use crate::contact::geometry::frame::ContactFrame;
 use crate::error::{Result, SimError};
 use crate::pins::PinLayout;
 use crate::sensor::SensorParams;
@@ -110,19 +109,19 @@ impl DomeBody {
         self.response.spread_mm
     }
 
-    /// The far field of every pin's motion under the cell forces of a contact state in `frame`
-    /// (whose contact plane touches the dome at its apex): the dome's response to each force
-    /// spread as a Gaussian patch, as the skin motion `(u, omega)` (mm, rad) at the pin's base
-    /// in the contact frame. `layout` holds the pins in the sensor frame.
+    /// The far field of every pin's motion under the point forces of a contact state in
+    /// `frame` (whose contact plane touches the dome at its apex), each `([x, y], f)`: its
+    /// point on the contact plane (mm) and its force `(Qx, Qy, P)` (N, `P` pressing): the dome's
+    /// response to each force spread as a Gaussian patch, as the skin motion `(u, omega)` (mm,
+    /// rad) at the pin's base in the contact frame. `layout` holds the pins in the sensor frame.
     pub(crate) fn far_motions(
         &self,
         layout: &PinLayout,
         frame: &ContactFrame,
-        forces: &CellForces,
+        forces: impl Iterator<Item = ([f64; 2], [f64; 3])>,
     ) -> Vec<(Vector3<f64>, Vector3<f64>)> {
         let r = self.spec.outer_radius_mm;
-        let loads = (0..forces.f.len()).map(|k| {
-            let (x, y, f) = (forces.x[k], forces.y[k], forces.f[k]);
+        let loads = forces.map(|([x, y], f)| {
             let z = (r * r - x * x - y * y).max(0.0).sqrt();
             let at = frame.to_sensor(Vector3::new(x, y, z));
             let force = frame.to_sensor(Vector3::new(f[0], f[1], -f[2]));
