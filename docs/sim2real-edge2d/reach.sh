@@ -38,6 +38,7 @@ dome|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE
 dome-gel-0.02|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.02/
 dome-gel-0.005|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.005/
 dome-gel-0.002|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.002/
+dome-gel-0.001|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.001/
 skin-on-gel-0.005|s/^model = .*/model = \"skin-on-gel\"/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.005/
 "
 if [ "${GEL:-0}" = 1 ]; then

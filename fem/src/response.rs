@@ -34,7 +34,7 @@ use crate::error::{FemError, Result};
 use crate::system::SOLVE_BLOCK;
 
 /// Bump when the table's meaning or the file's layout change.
-const FORMAT: u32 = 2;
+const FORMAT: u32 = 3;
 const MAGIC: &[u8] = b"TACSIMPINS1\n";
 /// Bins per side of the faces' index over the hemisphere's projection `(x, y) / R`.
 const BINS: usize = 64;
@@ -63,6 +63,11 @@ pub struct PinResponse {
     pub table: Vec<f32>,
     /// The Gaussian patch's `s` (mm) each force is spread over (0: point forces).
     pub spread_mm: f64,
+    /// The outer nodes' displacement (mm/N, sensor frame) under a unit force along each
+    /// sensor axis spread as the same Gaussian patch centred on the apex `(0, 0, R)`
+    /// ([`PinResponse::with_apex`]): `apex[(3 c + k) + 9 s]`, force axis `c`, displacement
+    /// axis `k`, node `s`; empty until computed.
+    pub apex: Vec<f32>,
     /// The faces binned by the bounds of their projection `(x, y) / R`.
     bins: Vec<Vec<u32>>,
 }
@@ -87,6 +92,9 @@ pub struct ResponseHeader {
     /// The Gaussian patch's `s` (mm) the table spreads each force over (0: point forces).
     #[serde(default)]
     pub spread_mm: f64,
+    /// Whether the file holds [`PinResponse::apex`] (after the table, `f32`).
+    #[serde(default)]
+    pub apex: bool,
 }
 
 /// The key of a response's inputs: a 64-bit FNV-1a hash of the format, the spec, the pins and
@@ -190,7 +198,7 @@ impl PinResponse {
                 }
             }
         }
-        Self { key, radius_mm, nodes, faces, pins, table, spread_mm: 0.0, bins }
+        Self { key, radius_mm, nodes, faces, pins, table, spread_mm: 0.0, apex: Vec::new(), bins }
     }
 
     /// The response to the same forces spread as Gaussian patches on the outer sphere: a
@@ -260,6 +268,84 @@ impl PinResponse {
             Self::with_bins(self.key, self.radius_mm, self.nodes.clone(), self.faces.clone(), self.pins, table);
         out.spread_mm = spread_mm;
         Ok(out)
+    }
+
+    /// The same response with [`PinResponse::apex`]: the surface's own displacement under the
+    /// Gaussian patch (`s` = [`PinResponse::spread_mm`], as [`PinResponse::spread`] spreads
+    /// each force; a point force at the apex where it is 0) of a unit force (1 N) along each
+    /// sensor axis at the apex of `dome`, the dome this response was computed from. Three
+    /// solves.
+    pub fn with_apex(mut self, dome: &Dome) -> Result<Self> {
+        let outer = dome.outer_nodes(90.0);
+        if outer.len() != self.nodes.len() {
+            return Err(FemError::Parameter {
+                field: "dome",
+                value: outer.len() as f64,
+                expected: "the dome the response was computed from (the same outer nodes)",
+            });
+        }
+        let apex = Vector3::new(0.0, 0.0, self.radius_mm);
+        let weights: Vec<f64> = if self.spread_mm > 0.0 {
+            let (s2, reach) = (self.spread_mm * self.spread_mm, 3.5 * self.spread_mm);
+            dome.traction_forces(|p, _| {
+                let d2 = (Vector3::from(p) - apex).norm_squared();
+                [if d2 < reach * reach { (-d2 / s2).exp() } else { 0.0 }, 0.0, 0.0]
+            })
+            .iter()
+            .map(|f| f[0])
+            .collect()
+        } else {
+            let (nodes, n) = self.locate([0.0, 0.0, self.radius_mm]).ok_or(FemError::Parameter {
+                field: "apex",
+                value: self.radius_mm,
+                expected: "a point of the outer hemisphere",
+            })?;
+            let mut w = vec![0.0; dome.mesh.nodes.len()];
+            for (&k, nk) in nodes.iter().zip(n) {
+                w[outer[k as usize]] += nk;
+            }
+            w
+        };
+        let total: f64 = weights.iter().sum();
+        let mut field = vec![0.0f32; 9 * outer.len()];
+        for c in 0..3 {
+            let forces: Vec<[f64; 3]> = weights
+                .iter()
+                .map(|w| {
+                    let mut f = [0.0; 3];
+                    f[c] = w / total;
+                    f
+                })
+                .collect();
+            let u = dome.solve(&forces);
+            for (s, &node) in outer.iter().enumerate() {
+                for k in 0..3 {
+                    field[9 * s + 3 * c + k] = u[node][k] as f32;
+                }
+            }
+        }
+        self.apex = field;
+        Ok(self)
+    }
+
+    /// The outer surface's displacement (mm/N, sensor frame) where the ray from the centre
+    /// through `x` meets it, under the apex's unit patch force along each sensor axis
+    /// ([`PinResponse::apex`]): `[force axis][displacement axis]`. `None` off the hemisphere
+    /// or before [`PinResponse::with_apex`].
+    pub fn apex_field(&self, x: [f64; 3]) -> Option<[[f64; 3]; 3]> {
+        if self.apex.len() != 9 * self.nodes.len() {
+            return None;
+        }
+        let (nodes, n) = self.locate(x)?;
+        let mut out = [[0.0; 3]; 3];
+        for (&k, w) in nodes.iter().zip(n) {
+            for (c, row) in out.iter_mut().enumerate() {
+                for (d, o) in row.iter_mut().enumerate() {
+                    *o += w * f64::from(self.apex[9 * k as usize + 3 * c + d]);
+                }
+            }
+        }
+        Some(out)
     }
 
     /// Rows of the table (`6 P`).
@@ -369,12 +455,14 @@ impl PinResponse {
             pins: self.pins,
             spec: format!("{spec:?}"),
             spread_mm: self.spread_mm,
+            apex: !self.apex.is_empty(),
         };
         let nodes: Vec<f64> = self.nodes.iter().flatten().copied().collect();
         let faces: Vec<u32> = self.faces.iter().flatten().copied().collect();
         let mut body = cache::bytes_of(&nodes, f64::to_le_bytes);
         body.extend(cache::bytes_of(&faces, u32::to_le_bytes));
         body.extend(cache::bytes_of(&self.table, f32::to_le_bytes));
+        body.extend(cache::bytes_of(&self.apex, f32::to_le_bytes));
         cache::write(path, MAGIC, &header, &body)
     }
 
@@ -385,7 +473,8 @@ impl PinResponse {
         let err = |message: String| cache::unusable(path, message);
         cache::check(path, (header.format, FORMAT), (&header.key, key))?;
         let rows = MOTION * header.pins;
-        let sizes = [8 * 3 * header.nodes, 4 * 6 * header.faces, 4 * rows * 3 * header.nodes];
+        let apex = if header.apex { 9 * header.nodes } else { 0 };
+        let sizes = [8 * 3 * header.nodes, 4 * 6 * header.faces, 4 * rows * 3 * header.nodes, 4 * apex];
         if data.len() != sizes.iter().sum::<usize>() {
             return Err(err(format!(
                 "{} bytes of tables where {} were expected",
@@ -394,7 +483,8 @@ impl PinResponse {
             )));
         }
         let (nodes, rest) = data.split_at(sizes[0]);
-        let (faces, table) = rest.split_at(sizes[1]);
+        let (faces, rest) = rest.split_at(sizes[1]);
+        let (table, apex) = rest.split_at(sizes[2]);
         let nodes: Vec<[f64; 3]> =
             cache::values_of(nodes, f64::from_le_bytes).chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
         let faces: Vec<[u32; 6]> = cache::values_of(faces, u32::from_le_bytes)
@@ -407,13 +497,15 @@ impl PinResponse {
         let table = cache::values_of(table, f32::from_le_bytes);
         let mut out = Self::with_bins(key, header.radius_mm, nodes, faces, header.pins, table);
         out.spread_mm = header.spread_mm;
+        out.apex = cache::values_of(apex, f32::from_le_bytes);
         Ok(out)
     }
 
     /// The response for these inputs: read from `dir` where a file with their key is there,
     /// else built (the dome meshed, assembled, factorised and solved) and saved there.
     /// With `spread_mm > 0` the table saved and returned is the point forces' spread over
-    /// Gaussian patches of that `s` ([`PinResponse::spread`]).
+    /// Gaussian patches of that `s` ([`PinResponse::spread`]), and it carries the surface's
+    /// response to the apex's patch ([`PinResponse::with_apex`]).
     pub fn cached(
         dir: &Path,
         spec: &DomeSpec,
@@ -434,6 +526,7 @@ impl PinResponse {
             response = response.spread(spread_mm)?;
             response.key = key;
         }
+        let response = response.with_apex(&dome)?;
         response.save(&path, spec)?;
         Ok(response)
     }

@@ -119,6 +119,8 @@ fn pin_response_cache_reads_back_what_it_wrote_and_refuses_other_files() {
     let read = PinResponse::cached(&dir, &spec, &sites, 0.0, |_, _| {}).expect("read");
     assert_eq!((built.key, &built.nodes, &built.faces, built.pins), (read.key, &read.nodes, &read.faces, read.pins));
     assert_eq!(built.table, read.table);
+    assert_eq!(built.apex.len(), 9 * built.nodes.len());
+    assert_eq!(built.apex, read.apex);
     assert_eq!(built.motions(loads()).0, read.motions(loads()).0);
     let other = PinResponse::load(&path, key ^ 1).expect_err("wrong key");
     assert!(other.to_string().contains("tacsim-pins-") && other.to_string().contains("delete the file"), "{other}");
@@ -175,4 +177,46 @@ fn a_spread_response_is_the_response_to_a_gaussian_patch() {
         assert!(largest < tolerance, "patch at {x:?}: {largest:.2e} of the largest motion");
     }
     assert!(raw.spread(0.0).is_err() && raw.spread(f64::NAN).is_err());
+}
+
+/// The surface's response to the apex's patch ([`PinResponse::with_apex`]) is the dome's
+/// displacement under that patch solved directly: at the outer nodes, to the `f32` table's
+/// rounding, for a force along each axis; `apex_field` reads it where a ray meets the surface.
+#[test]
+fn the_apex_field_is_the_domes_displacement_under_the_apex_patch() {
+    let dome = Dome::build(&spec()).expect("dome");
+    let s = 3.0;
+    let response = PinResponse::compute(&dome, &pins(0.0), |_, _| {})
+        .expect("response")
+        .spread(s)
+        .expect("spread")
+        .with_apex(&dome)
+        .expect("apex");
+    let apex = [0.0, 0.0, 20.0];
+    let g = |p: [f64; 3]| {
+        let d2: f64 = (0..3).map(|k| (p[k] - apex[k]).powi(2)).sum();
+        if d2 < (3.5 * s).powi(2) { (-d2 / (s * s)).exp() } else { 0.0 }
+    };
+    let total: f64 = dome.traction_forces(|p, _| [g(p), 0.0, 0.0]).iter().map(|v| v[0]).sum();
+    let outer = dome.outer_nodes(90.0);
+    for c in 0..3 {
+        let nodal = dome.traction_forces(|p, _| {
+            let mut f = [0.0; 3];
+            f[c] = g(p) / total;
+            f
+        });
+        let u = dome.solve(&nodal);
+        let scale = outer.iter().flat_map(|&n| u[n]).fold(0.0f64, |a, v| a.max(v.abs()));
+        for (i, &n) in outer.iter().enumerate() {
+            let read = response.apex_field(response.nodes[i]).expect("on the hemisphere");
+            for k in 0..3 {
+                assert!(
+                    (read[c][k] - u[n][k]).abs() <= 1e-5 * scale,
+                    "force {c}, node {n}: {:?} vs {:?}",
+                    read[c],
+                    u[n]
+                );
+            }
+        }
+    }
 }

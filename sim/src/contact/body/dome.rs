@@ -60,9 +60,20 @@ pub struct DomeBody {
     /// What the dome was built from.
     pub spec: DomeSpec,
     /// The pins' response to forces on the outer hemisphere, each spread as a Gaussian patch
-    /// ([`DomeBody::spread_mm`]).
+    /// ([`DomeBody::spread_mm`]), and the surface's own under the apex's patch.
     pub response: PinResponse,
+    /// [`DomeBody::apex_radial`]'s table, made on first use.
+    apex_radial: OnceLock<Vec<[f64; 4]>>,
 }
+
+/// Radial step (mm) of [`DomeBody::apex_radial`]'s table.
+const APEX_STEP_MM: f64 = 0.1;
+/// Azimuths the apex's field is averaged over at each radius.
+const APEX_AZIMUTHS: usize = 32;
+/// How far out (in dome radii, projected on the contact plane) the apex's field is read: as
+/// far as the contact's cells ([`crate::contact::geometry::gap`]'s `DOME_FRACTION`); held
+/// beyond.
+const APEX_REACH: f64 = 0.95;
 
 impl DomeBody {
     /// The dome of a (validated) sensor: from this process's memory, else the cache folder,
@@ -96,7 +107,7 @@ impl DomeBody {
             return Ok(body);
         }
         let response = PinResponse::cached(dir, &spec, &sites, spread_of(&spec), |_, _| {})?;
-        let body = Arc::new(DomeBody { spec, response });
+        let body = Arc::new(DomeBody { spec, response, apex_radial: OnceLock::new() });
         cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, body.clone());
         Ok(body)
     }
@@ -107,6 +118,50 @@ impl DomeBody {
     /// 20 mm dome.
     pub fn spread_mm(&self) -> f64 {
         self.response.spread_mm
+    }
+
+    /// The surface's response to a force at the apex spread as the far field's Gaussian patch,
+    /// as the layered kernels' radial functions `[F_zz, F_pr, F_s, F_d]` (mm/N) at `r` (mm)
+    /// from the apex on the contact plane, in the contact's conventions (force `(Qx, Qy, P)`,
+    /// `P` pressing; displacement `z` into the body; `layered.rs`'s `combine`): the
+    /// finite-element field at the dome's point above `(x, y)` averaged over the azimuth,
+    /// its reciprocal pair `F_pr`, `-F_zq` averaged too. Tabulated every [`APEX_STEP_MM`] up
+    /// to [`APEX_REACH`] of the radius, linear between, held beyond.
+    pub fn apex_radial(&self, r: f64) -> [f64; 4] {
+        let table = self.apex_radial.get_or_init(|| self.apex_table());
+        let t = (r.max(0.0) / APEX_STEP_MM).min((table.len() - 1) as f64);
+        let i = (t as usize).min(table.len().saturating_sub(2));
+        let f = t - i as f64;
+        std::array::from_fn(|j| table[i][j] + f * (table[i + 1][j] - table[i][j]))
+    }
+
+    fn apex_table(&self) -> Vec<[f64; 4]> {
+        let radius = self.spec.outer_radius_mm;
+        let n = (APEX_REACH * radius / APEX_STEP_MM).floor() as usize + 1;
+        (0..n.max(2))
+            .map(|i| {
+                let r = i as f64 * APEX_STEP_MM;
+                let z = (radius * radius - r * r).max(0.0).sqrt();
+                let mut sums = [0.0; 4];
+                for a in 0..APEX_AZIMUTHS {
+                    let theta = 2.0 * std::f64::consts::PI * (a as f64 + 0.5) / APEX_AZIMUTHS as f64;
+                    let (sn, c) = theta.sin_cos();
+                    let (c2, s2) = (c * c - sn * sn, 2.0 * sn * c);
+                    let Some(u) = self.response.apex_field([r * c, r * sn, z]) else { continue };
+                    // The contact's force (Qx, Qy, P) is the sensor's (Qx, Qy, -P); its
+                    // displacement (ux, uy, z into the body) the sensor's (ux, uy, -uz).
+                    let p = [-u[2][0], -u[2][1], u[2][2]];
+                    let qx = [u[0][0], u[0][1], -u[0][2]];
+                    let qy = [u[1][0], u[1][1], -u[1][2]];
+                    sums[0] += p[2];
+                    // F_pr from the pressure's radial motion, -F_zq from the shear's normal.
+                    sums[1] += 0.5 * (p[0] * c + p[1] * sn) - 0.5 * (qx[2] * c + qy[2] * sn);
+                    sums[2] += 0.5 * (qx[0] + qy[1]);
+                    sums[3] += 0.5 * (-qx[0] * c2 - qx[1] * s2 - qy[0] * s2 + qy[1] * c2);
+                }
+                sums.map(|v| v / APEX_AZIMUTHS as f64)
+            })
+            .collect()
     }
 
     /// The far field of every pin's motion under the point forces of a contact state in

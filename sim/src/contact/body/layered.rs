@@ -269,6 +269,9 @@ pub struct LayeredKernels {
     near_field_mm: f64,
     dr_mm: f64,
     surface: Vec<[f64; 4]>,
+    /// A near-field table's surface functions of the Gaussian patch itself (the whole
+    /// response, not a correction to the half-space); empty for a point load's table.
+    surface_patch: Vec<[f64; 4]>,
     depth: Vec<[f64; 5]>,
     depth_dz: Vec<[f64; 5]>,
 }
@@ -339,7 +342,9 @@ impl LayeredKernels {
             edges.push((k + if k < k_fine { fine } else { coarse }).min(k_max));
         }
         let gl = gauss_legendre(GAUSS_POINTS);
-        let samples: Vec<(f64, f64, [f64; 4], [f64; 10])> = edges
+        // One quadrature point: k, its weight, and the surface, patch and depth transforms.
+        type Sample = (f64, f64, [f64; 4], [f64; 4], [f64; 10]);
+        let samples: Vec<Sample> = edges
             .par_windows(2)
             .flat_map_iter(|e| {
                 let (k0, dk) = (e[0], e[1] - e[0]);
@@ -351,6 +356,9 @@ impl LayeredKernels {
                         let hs = body.half_space_surface(k);
                         let ds: [f64; 5] = std::array::from_fn(|j| s.surface[j] - hs[j]);
                         let surf = [ds[0], ds[1], 0.5 * (ds[3] + ds[4]), 0.5 * (ds[3] - ds[4])];
+                        let c = &s.surface;
+                        let spread = (-0.25 * (k * near_field_mm).powi(2)).exp();
+                        let patch = [c[0], c[1], 0.5 * (c[3] + c[4]), 0.5 * (c[3] - c[4])].map(|v| v * spread);
                         let d = |a: &[f64; 5]| [a[0], a[1], a[2], 0.5 * (a[3] + a[4]), 0.5 * (a[3] - a[4])];
                         let (dd, dz) = (d(&s.depth), d(&s.depth_dz));
                         let mut depth = [dd[0], dd[1], dd[2], dd[3], dd[4], dz[0], dz[1], dz[2], dz[3], dz[4]];
@@ -359,7 +367,7 @@ impl LayeredKernels {
                             depth = depth.map(|v| v * kept);
                         }
                         // Weight includes k dk / (2 pi).
-                        (k, w * dk * k / (2.0 * PI), surf, depth)
+                        (k, w * dk * k / (2.0 * PI), surf, patch, depth)
                     })
                     .collect::<Vec<_>>()
             })
@@ -368,13 +376,15 @@ impl LayeredKernels {
         // Bessel order per function: surface [0, 1, 0, 2]; depth [0, 1, 1, 0, 2] twice.
         const SURF_ORDER: [usize; 4] = [0, 1, 0, 2];
         const DEPTH_ORDER: [usize; 10] = [0, 1, 1, 0, 2, 0, 1, 1, 0, 2];
-        let rows: Vec<([f64; 4], [f64; 10])> = (0..n)
+        let with_patch = near_field_mm > 0.0;
+        let rows: Vec<([f64; 4], [f64; 4], [f64; 10])> = (0..n)
             .into_par_iter()
             .map(|i| {
                 let r = i as f64 * dr_mm;
                 let mut surf = [0.0; 4];
+                let mut patch = [0.0; 4];
                 let mut depth = [0.0; 10];
-                for (k, w, s, d) in &samples {
+                for (k, w, s, g, d) in &samples {
                     let x = k * r;
                     let j0 = libm::j0(x);
                     let j1 = libm::j1(x);
@@ -386,18 +396,33 @@ impl LayeredKernels {
                     for (o, (v, order)) in depth.iter_mut().zip(d.iter().zip(DEPTH_ORDER)) {
                         *o += w * v * j[order];
                     }
+                    if with_patch {
+                        for (o, (v, order)) in patch.iter_mut().zip(g.iter().zip(SURF_ORDER)) {
+                            *o += w * v * j[order];
+                        }
+                    }
                 }
                 // u_x from p is -cos(theta) int C_xz J1: store F_pr with its sign folded in.
                 surf[1] = -surf[1];
+                patch[1] = -patch[1];
                 depth[1] = -depth[1];
                 depth[6] = -depth[6];
-                (surf, depth)
+                (surf, patch, depth)
             })
             .collect();
-        let (surface, both): (Vec<_>, Vec<[f64; 10]>) = rows.into_iter().unzip();
+        let mut surface = Vec::with_capacity(n);
+        let mut surface_patch = Vec::with_capacity(if with_patch { n } else { 0 });
+        let mut both: Vec<[f64; 10]> = Vec::with_capacity(n);
+        for (surf, patch, depth) in rows {
+            surface.push(surf);
+            if with_patch {
+                surface_patch.push(patch);
+            }
+            both.push(depth);
+        }
         let depth = both.iter().map(|b| std::array::from_fn(|j| b[j])).collect();
         let depth_dz = both.iter().map(|b| std::array::from_fn(|j| b[j + 5])).collect();
-        Self { body: body.clone(), pin_depth_mm, near_field_mm, dr_mm, surface, depth, depth_dz }
+        Self { body: body.clone(), pin_depth_mm, near_field_mm, dr_mm, surface, surface_patch, depth, depth_dz }
     }
 
     /// The body.
@@ -438,6 +463,14 @@ impl LayeredKernels {
     /// Radial functions `[F_zz, F_pr, F_s, F_d]` (mm/N) of the surface correction at `r` (mm).
     pub(crate) fn surface_radial(&self, r: f64) -> [f64; 4] {
         self.lerp(&self.surface, &SURFACE_PARITY, r)
+    }
+
+    /// Radial functions `[F_zz, F_pr, F_s, F_d]` (mm/N) of the surface displacement under the
+    /// Gaussian patch a near-field table leaves out ([`LayeredKernels::near_field`]) at `r`
+    /// (mm) from its centre: the whole response, `C(k) exp(-k^2 s^2 / 4)` transformed;
+    /// `None` for a point load's table.
+    pub(crate) fn surface_patch_radial(&self, r: f64) -> Option<[f64; 4]> {
+        (!self.surface_patch.is_empty()).then(|| self.lerp(&self.surface_patch, &SURFACE_PARITY, r))
     }
 
     /// Surface displacement correction (mm) to the top layer's half-space at lateral offset

@@ -68,10 +68,15 @@ impl ElasticBody for LayeredKernels {
     }
 }
 
-/// The finite-element dome as the contact sees it: the contact solved with the skin-on-gel
-/// layers' kernels of the same skin and gel (`contact`), the pins moved by the dome's response
-/// to the forces spread as Gaussian patches (`dome`, the far field) plus the layers' near
-/// field (`near`: a point force's kernels minus the same patch's).
+/// The finite-element dome as the contact sees it, split as the pins are: a force's near field
+/// from the skin-on-gel layers of the same skin and gel (a point force's kernels minus the
+/// same force spread as a Gaussian patch, `near`), its far field from the dome (the patch's
+/// response, `dome`). On the contact plane the operator is the layers' (`contact`) plus the
+/// dome's surface response to the apex's patch less the layers' own to it
+/// ([`DomeContact::far_field_radial`]), as a function of the offset alone: every force is
+/// taken to act near the apex of the contact frame, where the dome is symmetric about its
+/// axis. The pins take the layers' near field plus the dome's response to each force's
+/// patch where it acts.
 #[derive(Debug)]
 pub struct DomeContact {
     /// The skin-on-gel kernels of the same skin and gel.
@@ -82,9 +87,21 @@ pub struct DomeContact {
     pub dome: Arc<DomeBody>,
 }
 
+impl DomeContact {
+    /// The dome's far field on the contact plane less the layers': radial functions
+    /// `[F_zz, F_pr, F_s, F_d]` (mm/N) at `r` (mm) of the dome's surface response to the
+    /// apex's Gaussian patch ([`DomeBody::apex_radial`]) minus the layers' response to the same
+    /// patch ([`LayeredKernels::surface_patch_radial`]).
+    pub fn far_field_radial(&self, r: f64) -> [f64; 4] {
+        let dome = self.dome.apex_radial(r);
+        let layers = self.near.surface_patch_radial(r).unwrap_or([0.0; 4]);
+        std::array::from_fn(|j| dome[j] - layers[j])
+    }
+}
+
 impl ElasticBody for DomeContact {
     fn operator(&self, grid: Grid) -> Operator {
-        Operator::layered(&self.contact, grid)
+        Operator::layered_with(&self.contact, grid, Some(&|r| self.far_field_radial(r)))
     }
 
     fn pin_kernel(&self) -> PinKernel<'_> {

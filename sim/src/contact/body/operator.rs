@@ -290,6 +290,14 @@ impl Operator {
     /// layer's exact half-space coefficients plus the cell integral (Gauss-Legendre) of the
     /// tabulated correction.
     pub fn layered(kernels: &LayeredKernels, grid: Grid) -> Self {
+        Self::layered_with(kernels, grid, None)
+    }
+
+    /// [`Operator::layered`] with a smooth correction of the body's own added to the layers'
+    /// (`extra`: radial functions `[F_zz, F_pr, F_s, F_d]`, mm/N, at `r` mm, in the layered
+    /// kernels' conventions), integrated over each cell by the same rule: the finite-element
+    /// dome's far field ([`crate::contact::body::DomeContact`]).
+    pub fn layered_with(kernels: &LayeredKernels, grid: Grid, extra: Option<&dyn Fn(f64) -> [f64; 4]>) -> Self {
         let top = kernels.body().layers[0].material;
         let mut op = Self::new(&HalfSpace { material: top, pairing: Pairing::RigidIndenter }, grid);
         let (nx, ny, h) = (grid.nx, grid.ny, grid.cell_mm);
@@ -307,7 +315,14 @@ impl Operator {
                     for &(t, wt) in &gl {
                         let (x, y) = (dx - (s - 0.5) * h, dy - (t - 0.5) * h);
                         let w = ws * wt * area;
-                        let [zz, pr, sh, d] = kernels.surface_radial(x.hypot(y));
+                        let mut radial = kernels.surface_radial(x.hypot(y));
+                        if let Some(extra) = extra {
+                            let more = extra(x.hypot(y));
+                            for (a, b) in radial.iter_mut().zip(more) {
+                                *a += b;
+                            }
+                        }
+                        let [zz, pr, sh, d] = radial;
                         let (c, sn, c2, s2) = angular(x, y);
                         // Zz, Xx, Yy, Xy, Zx, Zy, Xz, Yz.
                         let v = [zz, sh - c2 * d, sh + c2 * d, -s2 * d, -pr * c, -pr * sn, pr * c, pr * sn];
