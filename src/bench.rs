@@ -453,7 +453,7 @@ pub struct BenchOptions {
     pub device: crate::device::DeviceChoice,
     /// Every cell wholly in or out of contact by the gap at its centre, the reference
     /// grid's included (the sensor's `skin.cut_edges = false`; by default cells a sharp
-    /// edge cuts carry their load on the covered part, `docs/guide/contact.md`, "Cut cells").
+    /// edge cuts carry their load on the covered part, `docs/experiments/contact.md`, "Cut cells").
     #[arg(long)]
     pub no_edge_cuts: bool,
 }

@@ -1,7 +1,8 @@
 //! Tidy checks over the source tree: every Rust file starts with a `//!` doc comment saying
 //! what it is for (module docs are the map of the house), no file carries leftover debugging
 //! macros, the files and `tacsim` subcommands README.md, ARCHITECTURE.md and the guides in
-//! `docs/guide/` name exist, and the README stays a short front page linking every guide.
+//! `docs/guide/` name exist, the README stays a short front page linking every guide, the guides
+//! stay references under 60 KB, and no document dates a result other than by commit and date.
 
 use std::path::{Path, PathBuf};
 
@@ -157,4 +158,55 @@ fn the_readme_is_short_and_links_every_guide() {
         let name = guide.display().to_string();
         assert!(readme.contains(&name), "README.md does not link {name}");
     }
+}
+
+/// The Markdown files of the repository (README, ARCHITECTURE, `docs/`), relative to the root.
+fn markdown_files(root: &Path, dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(root.join(dir)) else { return };
+    for e in entries.flatten() {
+        let p = e.path();
+        let rel = p.strip_prefix(root).expect("under the root").to_path_buf();
+        if p.is_dir() {
+            markdown_files(root, &rel, out);
+        } else if p.extension().is_some_and(|x| x == "md") {
+            out.push(rel);
+        }
+    }
+}
+
+/// Words that date a result by who or when worked on it instead of by commit and date.
+const UNDATED: [&str; 3] = ["session", "working stretch", "this try"];
+
+/// The documents speak of the project, its commits and dates: no result is dated by the
+/// working session that produced it ("a later session", "this session's machine").
+#[test]
+fn the_docs_date_results_by_commit_and_date_only() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let mut docs = vec![PathBuf::from("README.md"), PathBuf::from("ARCHITECTURE.md")];
+    markdown_files(&root, Path::new("docs"), &mut docs);
+    assert!(docs.len() > 10, "found only {} Markdown files", docs.len());
+    let mut found = Vec::new();
+    for doc in &docs {
+        let text = std::fs::read_to_string(root.join(doc)).expect("readable").to_lowercase();
+        for (i, line) in text.lines().enumerate() {
+            found.extend(
+                UNDATED.iter().filter(|w| line.contains(*w)).map(|w| format!("{}:{}: {w}", doc.display(), i + 1)),
+            );
+        }
+    }
+    assert!(found.is_empty(), "date these by commit and date instead: {found:#?}");
+}
+
+/// No guide is a notebook: each stays under 60 KB, the history in `docs/experiments/`.
+#[test]
+fn the_guides_stay_references() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let long: Vec<String> = guides(&root)
+        .into_iter()
+        .filter_map(|g| {
+            let bytes = std::fs::metadata(root.join(&g)).expect("readable").len();
+            (bytes > 60_000).then(|| format!("{} ({bytes} bytes)", g.display()))
+        })
+        .collect();
+    assert!(long.is_empty(), "move the history into docs/experiments/: {long:?}");
 }

@@ -4,7 +4,7 @@
 //!
 //! The contact engine casts every ray of a footprint probe and of a gap field along one
 //! direction, for an untilted sensor straight down. parry's BVH walk costs about 2,400
-//! instructions a ray that reaches a built-in stimulus (`docs/guide/contact.md`), whose flat
+//! instructions a ray that reaches a built-in stimulus (`docs/experiments/contact.md`), whose flat
 //! tops are long thin triangles (a constrained Delaunay triangulation of the outline alone)
 //! with overlapping boxes; the triangles a ray tests over its bin (about 0.5 mm) are about
 //! five. Those whose footprint, grown by [`MARGIN_MM`], does not hold the ray are skipped
@@ -54,7 +54,7 @@ pub(crate) struct ColumnIndex {
 /// passed through the core's cache: each triangle a ray tests is a load from farther away.
 /// Kept apart (the tops, the sides and the triangles, three arrays in mesh order) a triangle
 /// was three or four cache lines; together, two adjacent ones, which
-/// [`ColumnIndex::fetch_ahead`] asks for ahead of the ray (issue 31, `docs/guide/contact.md`,
+/// [`ColumnIndex::fetch_ahead`] asks for ahead of the ray (issue 31, `docs/experiments/contact.md`,
 /// "Rays down the column index").
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(64))]

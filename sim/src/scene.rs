@@ -223,7 +223,7 @@ impl Scene {
         // bins' lists and triangles are then read forwards, row after row, where a grid's
         // rows at a slant to the mesh's would jump about them (issue 31: with the bins fetched
         // ahead below, the rays' share of a `paper` shard's samples 9.2-10.0% -> 6.1-7.4%,
-        // `docs/guide/contact.md`, "Rays down the column index").
+        // `docs/experiments/contact.md`, "Rays down the column index").
         // The rays in the first object's frame give the keys and serve its cast.
         // Each ray's key: its bin (`u32::MAX` off the index) above its place, one `u64` to sort
         // in the order of the pairs `(bin, place)`.

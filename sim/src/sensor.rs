@@ -165,14 +165,14 @@ pub struct SkinParams {
     /// part over the stimulus (its gap at that part's centroid, its stiffness that of the
     /// part, the pins feeling it there) instead of being wholly in or out by its centre. On
     /// by default: it takes the pins' error across edges 2-4x down on 13-33 cells (issue 31,
-    /// `docs/guide/contact.md`, "Cut cells"); `false` is the grid of before, each cell in or
+    /// `docs/experiments/contact.md`, "Cut cells"); `false` is the grid of before, each cell in or
     /// out by the gap at its centre.
     #[serde(skip_serializing_if = "is_true")]
     pub cut_edges: bool,
     /// Sub-cells per side of the loaded cells along a sharp edge, solved again for the pins
     /// (`contact/geometry/refine.rs`), in [0, 6]; 0 or 1: none. Default 3: on the bench's taps across
     /// the disk's rim it takes the pins' error at 13 cells from 0.20 to 0.088 mm (`tacsim
-    /// bench --edge-subcells`, `docs/guide/contact.md`, "Sub-cells along an edge"); the
+    /// bench --edge-subcells`, `docs/experiments/contact.md`, "Sub-cells along an edge"); the
     /// second solve's cost grows about as its square.
     #[serde(skip_serializing_if = "is_default_subcells")]
     pub edge_subcells: usize,

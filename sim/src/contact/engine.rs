@@ -447,7 +447,7 @@ mod tests {
     /// inside the cut cells (and their neighbours) only; last, 13 and 17 cells solved with
     /// 0-5 sub-cells a side along the edge ([`super::geometry::refine`]) against the default 65 cells.
     /// A diagnostic, not a check: `cargo test --release -p tacsim-sim --lib
-    /// edge_pin_error_budget -- --ignored --nocapture` (`docs/guide/contact.md`, "The edge's
+    /// edge_pin_error_budget -- --ignored --nocapture` (`docs/experiments/contact.md`, "The edge's
     /// profile in the pins" and "Sub-cells along an edge").
     #[test]
     #[ignore = "diagnostic: prints the edge error budget"]

@@ -84,7 +84,7 @@ impl ContactModel {
             // positions change by well under 1e-4 mm: at most 3.8e-5 mm from a tight solve on
             // the paths of test `default_tolerances_keep_the_pins_within_a_tenth_of_a_micron...`
             // (1.5e-5 at 1e-5 / 1e-4, which took 14% more instructions on the bench's slide and
-            // 8% more on its tap; issue 31, `docs/guide/contact.md`, "Tolerances three times
+            // 8% more on its tap; issue 31, `docs/experiments/contact.md`, "Tolerances three times
             // looser").
             normal: NormalSettings { tolerance: 3e-5, ..NormalSettings::default() },
             tangential: TangentialSettings { tolerance: 3e-4, ..TangentialSettings::default() },

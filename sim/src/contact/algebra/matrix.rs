@@ -14,14 +14,14 @@
 //! in the scalar fallback), so every row's sum is the sequential sum over its columns whatever
 //! the vector width: the same bits on every CPU. Fused, a column is 8 instructions on AVX2
 //! instead of 16 multiplies and adds and the register moves LLVM added around them (issue 31:
-//! a `paper` pose 2.237 -> 2.107 G instructions, `docs/guide/contact.md`).
+//! a `paper` pose 2.237 -> 2.107 G instructions, `docs/experiments/contact.md`).
 //!
 //! At the model's tolerances a matrix over [`DOUBLE_MAX_BYTES`] in double precision is built
 //! in single ([`Precision`], [`MatrixCache::down_to`]): half the bytes, so a 25-cell tap's
 //! contact (about 220 cells, 0.77 MB for the shear) and its normal candidates (385, 0.59 MB)
 //! fit under [`MAX_BYTES`] where their double matrices (1.5 and 1.2 MB) did not, and twice the
 //! lanes per instruction (issue 31: a 25-cell tap's solve on the disk's top 3.75 -> 1.51 ms;
-//! `cargo bench -p tacsim-sim --bench tap -- tap-solve`, `docs/guide/contact.md`,
+//! `cargo bench -p tacsim-sim --bench tap -- tap-solve`, `docs/experiments/contact.md`,
 //! "Single-precision matrices"). Smaller matrices stay double: built often and used for few
 //! products, they would cost more to round than they save.
 //!

@@ -20,7 +20,7 @@
 //! not. On the calibrated sensor's 25-cell grid the centre is 1.33, a side -0.20, a corner
 //! -0.07, the truncated symbol 0.23..1.85.
 //!
-//! `docs/guide/contact.md`, "The normal operator's inverse as a preconditioner".
+//! `docs/experiments/contact.md`, "The normal operator's inverse as a preconditioner".
 
 /// Neighbours a side of the stencil: 1, a cell and its eight neighbours. Two (25 taps) took
 /// 135 normal iterations on the bench's slide against 138, and 19 against 21 on its tap across

@@ -13,7 +13,7 @@
 //! ([`Cut::load_point_mm`]):
 //! - its gap is the gap at that point, where its own load acts (at the centroid instead, the
 //!   bench's rim taps were 0.212 / 0.080 mm off 65 cells on 13 / 25 cells, against 0.196 /
-//!   0.067: `docs/guide/contact.md`, "The near field of cut cells");
+//!   0.067: `docs/experiments/contact.md`, "The near field of cut cells");
 //! - its compliance to its own traction (the cell-average traction `t`, force `t h^2`) is
 //!   that of a square of the covered area under the same force: a uniformly loaded square of
 //!   side `c` on a half-space sinks at its centre by `4 asinh(1) (1 - nu^2) F / (pi E c)`
@@ -21,7 +21,7 @@
 //!   ([`compliance_ratio`]). Measured against the rectangle itself (Love's
 //!   `(phi asinh(1/phi) + asinh(phi)) / (2 phi asinh 1)`) and against `1 / phi` on the bench's
 //!   taps across the disk's rim, this one is closest to finer grids
-//!   (`docs/guide/contact.md`, "Cut cells");
+//!   (`docs/experiments/contact.md`, "Cut cells");
 //! - the cells next to it see its coupling to them ([`CutCoupling`]); the pins see its force
 //!   at the sub-cells of a second solve along the edge ([`crate::contact::geometry::refine`]; with the profile
 //!   of `pins::motion::edge_profile` without it).
@@ -153,7 +153,7 @@ fn steepest_axis(a: f64, b: f64) -> usize {
 /// pin error against 65 cells peak at 0.043 and 0.063 mm with the edge just past a sub-cell's
 /// side (0.4 and 0.7 of its cell), against 0.017-0.028 elsewhere (regression test
 /// `a_whole_sub_cell_behind_the_edge_takes_its_force_where_the_profile_puts_it`;
-/// `docs/guide/contact.md`, "The edge's profile behind a cut sub-cell").
+/// `docs/experiments/contact.md`, "The edge's profile behind a cut sub-cell").
 pub(crate) fn behind_edge_mm(d: f64, [a, b]: [f64; 2], side_mm: f64) -> [f64; 2] {
     let axis = steepest_axis(a, b);
     let slope = [a, b][axis];
@@ -189,7 +189,7 @@ const NEAR_CELLS: usize = 1;
 ///
 /// Without the coupling a cut cell acts on the other cells from its centre, as a whole cell;
 /// only its own compliance knew the cut, and on the bench's worst tap across the disk's rim
-/// half of the pins' error at 13 cells came from the solve (`docs/guide/contact.md`, "The
+/// half of the pins' error at 13 cells came from the solve (`docs/experiments/contact.md`, "The
 /// near field of cut cells"). Here the coefficient between a cut cell and a cell next to it
 /// is the covered part's: its load with the edge's profile over the covered rectangle
 /// ([`STRIPS`] strips), its displacement at its load point ([`Cut::load_point_mm`], where its

@@ -25,7 +25,7 @@
 //! `pins::motion::CellForces`); the solve's tractions, its report and forces are the coarse
 //! ones. On the bench's three worst taps across the disk's rim, 13 cells were 0.137 / 0.077 /
 //! 0.032 mm off 65 cells' pins; with 3 x 3 sub-cells 0.056 / 0.030 / 0.023, at 0.17 ms more
-//! solve on such a tap (`docs/guide/contact.md`, "Sub-cells along an edge").
+//! solve on such a tap (`docs/experiments/contact.md`, "Sub-cells along an edge").
 
 use std::ops::Range;
 
@@ -45,7 +45,7 @@ use crate::contact::solve::normal::{self, Control, NormalSettings, ProductChoice
 /// 13,17,25,33`), largest pin error 0.078 / 0.033 / 0.029 / 0.030 mm at 13 / 17 / 25 / 33 cells
 /// with the side neighbours, 0.031 / 0.025 at 17 / 25 cells with `B = 2`, 0.082 / 0.029 /
 /// 0.025 / 0.024 with 3: 17 cells keep every pin within 0.03 mm, the first grid under 25 to
-/// (issue 31, `docs/guide/contact.md`, "A wider band of sub-cells").
+/// (issue 31, `docs/experiments/contact.md`, "A wider band of sub-cells").
 const BAND_CELLS: usize = 3;
 
 /// A sub-cell is solved for when its initial gap is below this many coarse cell sides (a ray

@@ -27,7 +27,7 @@
 //! (`s` = [`PIN_SUBSQUARES`] by default), each a force `t h^2 / s^2` at its centre (the
 //! midpoint rule on the cell). On the bench's taps this takes the largest pin error against a
 //! 65-cell reference from 0.77 to 0.026 mm on 13 cells (`tacsim bench`,
-//! `docs/guide/contact.md`). A cell a sharp edge cuts ([`crate::contact::geometry::cut`]) carries the edge's
+//! `docs/experiments/contact.md`). A cell a sharp edge cuts ([`crate::contact::geometry::cut`]) carries the edge's
 //! singular pressure over its covered rectangle ([`edge_profile`]); the loaded cells along an
 //! edge, solved again at sub-cells ([`crate::contact::geometry::refine`]), act as their sub-cells' point forces
 //! near a pin instead.
@@ -343,7 +343,7 @@ impl CellForces {
 /// an edge: on the bench's worst tap across the disk's rim, 13 cells were 0.46 mm off 65
 /// cells, and 0.045 mm with each cut cell's force spread as 65 cells spread it; with this
 /// profile 0.30 mm (test `a_cut_cells_force_leans_to_the_edge_for_the_pins`,
-/// `docs/guide/contact.md`, "The edge's profile in the pins").
+/// `docs/experiments/contact.md`, "The edge's profile in the pins").
 fn edge_profile(cut: &Cut, n: usize) -> ([f64; 2], [f64; 6]) {
     let nf = n as f64;
     let mut subs = [0.0; 6];

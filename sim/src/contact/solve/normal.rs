@@ -308,7 +308,7 @@ impl<'a> Problem<'a> {
     /// the diagonal) carried nine times the force on the test's paraboloid; over the
     /// bench's 200 taps on the disk's top at 25 cells the normal iterations fell 3,664 -> 2,640
     /// and over its 40 across the rim 809 -> 681 (13 / 17 / 33 cells: -25 / -24 / -32% and -13
-    /// / -16 / -15%), the tangential within 0.6% (`docs/guide/contact.md`, "A first touch from
+    /// / -16 / -15%), the tangential within 0.6% (`docs/experiments/contact.md`, "A first touch from
     /// Hertz's pressure"); test `a_first_touch_starts_near_hertzs_pressure`.
     fn hertz_start(&self, pressure: &mut [f64]) {
         let depth = self.base.iter().map(|b| -b).fold(0.0, f64::max);

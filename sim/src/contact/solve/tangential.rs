@@ -408,7 +408,7 @@ const MAX_CONDITION: f64 = 1e4;
 /// problem is linear on it, and there the heavy ball converges at about the rate of
 /// conjugate gradients (issue 31: the accelerated gradient it replaced, Nesterov's momentum
 /// with adaptive restart, took 42 products on the 25-cell tap on the disk's top where this
-/// takes 25; `docs/guide/contact.md`, "The heavy ball").
+/// takes 25; `docs/experiments/contact.md`, "The heavy ball").
 fn minimise(
     product: &CellProduct<'_, 2>,
     input: &StepInput<'_>,
