@@ -31,6 +31,7 @@ mod render;
 mod rig;
 mod scene;
 mod sensor;
+mod shared;
 mod tracking;
 mod variation;
 
@@ -61,5 +62,6 @@ pub use sensor::{
     CameraParams, DEFAULT_EDGE_SUBCELLS, DomeParams, FramingParams, MAX_EDGE_SUBCELLS, MAX_IMAGE_OFFSET, PRESETS,
     PinParams, SensorParams, SkinModel, SkinParams, pin_count,
 };
+pub use shared::{SHARED_ENV, shared_folder, shared_for_test};
 pub use tracking::{Tracking, Warp, global_shift, global_warp, nearest_neighbours, track};
 pub use variation::Variation;

@@ -1,7 +1,10 @@
 //! The default sensor against the lab's real undeformed reference image
 //! (`../shared/data/real-tactip-surface3d/images/image_0.png`): same pin count and ring
-//! structure, ring radii within 1 px RMS, mean blob area within 15%. Skips, saying so, where
-//! the shared data is absent. Set `TACSIM_SHARED` to point at another `shared/` folder.
+//! structure, ring radii within 0.2 px RMS (0.4 px the largest), mean blob area within 2%
+//! (at commit 1805347: 0.118 px RMS, 0.238 px the largest, -0.1% area; the realistic render
+//! 0.140 px and 0.0%; `cargo test --release -p tacsim-sim --test calibration -- --nocapture`).
+//! Skips, saying so, where the shared data is absent, and fails under `CI=true`. Set
+//! `TACSIM_SHARED` to point at another `shared/` folder.
 
 mod common;
 
@@ -30,8 +33,9 @@ fn default_sensor_matches_the_real_reference() {
         sim.mean_area_px(),
         100.0 * cmp.area_rel_err
     );
-    assert!(cmp.ring_radius_rms_px <= 1.0, "ring radius RMS {} px", cmp.ring_radius_rms_px);
-    assert!(cmp.area_rel_err.abs() <= 0.15, "blob area error {}", cmp.area_rel_err);
+    assert!(cmp.ring_radius_rms_px <= 0.2, "ring radius RMS {} px", cmp.ring_radius_rms_px);
+    assert!(cmp.ring_radius_max_px <= 0.4, "largest ring radius error {} px", cmp.ring_radius_max_px);
+    assert!(cmp.area_rel_err.abs() <= 0.02, "blob area error {}", cmp.area_rel_err);
     // Same ring structure: 1 + 6k per ring. The real image loses a few rim pins of ring 10 to
     // the lab's threshold and mask; all inner rings are complete in both.
     let expected: Vec<usize> = (0..=10).map(|k| if k == 0 { 1 } else { 6 * k }).collect();
@@ -66,7 +70,7 @@ fn realistic_render_has_the_real_ring_structure() {
         real_p.mean_area_px()
     );
     assert_eq!(sim.pins, 331);
-    assert!(rms <= 1.0);
+    assert!(rms <= 0.2, "realistic ring-radius RMS {rms} px");
     let area_err = sim.mean_area_px() / real_p.mean_area_px() - 1.0;
-    assert!(area_err.abs() <= 0.15, "realistic blob area error {area_err}: rerun `cargo xtask fit-camera`");
+    assert!(area_err.abs() <= 0.02, "realistic blob area error {area_err}: rerun `cargo xtask fit-camera`");
 }

@@ -43,14 +43,9 @@ pub fn s(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
 
-/// The lab folder `../shared/data/<name>` (with its `targets.csv`), or `None` after printing
-/// why the test skips.
+/// The lab folder `data/<name>` of the shared folder (with its `targets.csv`;
+/// [`tacsim_sim::shared_for_test`]), or `None` after printing why the test skips; under
+/// `CI=true` a missing folder fails the test.
 pub fn lab_folder(name: &str) -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data").join(name);
-    if dir.join("targets.csv").is_file() {
-        Some(dir)
-    } else {
-        eprintln!("skipped: ../shared/data/{name} is not here");
-        None
-    }
+    tacsim_sim::shared_for_test(&format!("data/{name}/targets.csv")).and_then(|csv| csv.parent().map(Path::to_path_buf))
 }
