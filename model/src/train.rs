@@ -428,6 +428,18 @@ pub fn train_unshear(
 /// `init` starts from saved weights of the same network (fine-tuning a simulator-trained
 /// network on a lab's images; the same start on two backends). With `resume` an interrupted
 /// run continues from its newest checkpoint.
+///
+/// ```no_run
+/// use tacsim_model::{Backend, Corpus, PoseConfig, Silent, train_posenet};
+///
+/// // A dataset from `tacsim generate` (its images read at the network's side).
+/// let cfg = PoseConfig::default();
+/// let corpus = Corpus::open(std::path::Path::new("data/quick"), cfg.size)?;
+/// let (net, state) =
+///     train_posenet(&corpus, &cfg, Backend::default(), std::path::Path::new("runs/pose"), false, None, &mut Silent)?;
+/// # let _ = (net, state);
+/// # Ok::<(), tacsim_model::ModelError>(())
+/// ```
 pub fn train_posenet(
     corpus: &Corpus,
     cfg: &PoseConfig,

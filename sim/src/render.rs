@@ -30,6 +30,18 @@ pub const MIN_OFFSET_GAP_PX: f64 = 0.5;
 /// Renders one sensor at one image size. Building it checks that the undeformed pins are
 /// separate, large enough and inside the image, so every undeformed render shows exactly
 /// `pin_count` blobs.
+///
+/// ```
+/// use tacsim_sim::{PinRenderer, SensorParams};
+///
+/// let sensor = SensorParams::default();
+/// let renderer = PinRenderer::new(&sensor, 128)?;
+/// // The undeformed pins, as the camera inside the dome sees them: white blobs on black.
+/// let image = renderer.render(&renderer.layout().poses());
+/// assert_eq!(image.dimensions(), (128, 128));
+/// assert!(image.pixels().any(|p| p.0[0] == 255) && image.pixels().any(|p| p.0[0] == 0));
+/// # Ok::<(), tacsim_sim::SimError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct PinRenderer {
     camera: Camera,

@@ -27,6 +27,21 @@ use crate::error::{Result, SimError};
 /// fields of 489 recordings. The previous default, fitted to the undeformed reference image
 /// alone (`cargo xtask fit-camera`), is `sim/presets/tactip-331-camera.toml` and the starting
 /// point of that calibration.
+///
+/// ```
+/// use tacsim_sim::{SensorParams, SkinModel};
+///
+/// // The calibrated TacTip, or a sensor file that changes any of its fields.
+/// let sensor = SensorParams::default();
+/// assert_eq!(sensor.pins.rings, 10);
+/// let text = "[skin]\nmodel = \"skin-on-gel\"\ngel_youngs_modulus_mpa = 0.02\n";
+/// let soft = SensorParams::from_toml_str(text, "soft.toml")?;
+/// assert_eq!(soft.skin.model, SkinModel::SkinOnGel);
+/// // An absurd value is refused before any work, naming the file and the field.
+/// let err = SensorParams::from_toml_str("[skin]\ncells_across = 1\n", "bad.toml").unwrap_err();
+/// assert!(err.to_string().contains("bad.toml") && err.to_string().contains("cells_across"));
+/// # Ok::<(), tacsim_sim::SimError>(())
+/// ```
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SensorParams {

@@ -35,6 +35,28 @@ use crate::scene::Scene;
 
 /// A sensor moving over a scene with contact history: the state of a path's contact, moved
 /// on by [`Simulation::step`].
+///
+/// ```
+/// use tacsim_sim::contact::{ContactModel, Simulation};
+/// use tacsim_sim::{ObjectPose, Scene, SensorParams, SensorPose, builtin_catalogue};
+///
+/// let sensor = SensorParams::default();
+/// let model = ContactModel::new(&sensor)?;
+/// let mut scene = Scene::new();
+/// scene.add(builtin_catalogue()?.get("disk")?, ObjectPose::default())?;
+/// // A 1.5 mm tap on the disk's flat top, then a 1 mm slide along x at that depth.
+/// let poses: Vec<SensorPose> = (0..=4).map(|k| SensorPose::new(20.0 + 0.25 * k as f64, 0.0, 1.5, 0.0)).collect();
+/// let mut sim = Simulation::new(&model, &scene, &poses);
+/// for pose in &poses {
+///     let report = sim.step(*pose)?;
+///     assert!(report.in_contact && report.force_n[2] > 0.0 && report.dissipation_nmm >= 0.0);
+/// }
+/// // Friction on the skin opposes its motion over the disk (+x, the sensor's x at yaw 0).
+/// assert!(sim.report().force_n[0] < 0.0);
+/// let pins = sim.pins(); // every pin's tip and axis, sensor frame (mm)
+/// assert_eq!(pins.len(), 331);
+/// # Ok::<(), tacsim_sim::SimError>(())
+/// ```
 #[derive(Debug)]
 pub struct Simulation<'a> {
     model: &'a ContactModel,

@@ -81,6 +81,25 @@ pub fn base_sensor(recipe: &Recipe, recipe_path: Option<&Path>, sensor: Option<&
     }
 }
 
+/// A dataset from a recipe: built, then run into a folder (images, `targets.csv`,
+/// `meta.json`; `docs/guide/datasets.md`).
+///
+/// ```
+/// use tacsim_sim::dataset::{Job, Recipe};
+/// use tacsim_sim::{SensorParams, builtin_catalogue};
+///
+/// let text = "image_size = 128\ncells_across = 9\n[[shapes]]\nname = \"disk\"\n\
+///             [poses]\nper_shape = 1\n[taps]\nper_pose = 2\n[slides]\nper_pose = 0\n";
+/// let recipe = Recipe::from_toml_str(text, "tiny.toml")?;
+/// let job = Job::new(&recipe, "tiny.toml", &SensorParams::default(), &builtin_catalogue()?, None)?;
+/// let out = std::env::temp_dir().join(format!("tacsim-doc-job-{}", std::process::id()));
+/// let summary = job.run(&out, false, &|_done| {})?;
+/// assert_eq!(summary.written, job.images());
+/// assert!(out.join("targets.csv").is_file() && out.join("meta.json").is_file());
+/// # std::fs::remove_dir_all(&out).ok();
+/// # Ok::<(), tacsim_sim::SimError>(())
+/// ```
+///
 /// A recipe's run, everything built but nothing simulated or written.
 pub struct Job {
     /// The plan (its recipe validated).
