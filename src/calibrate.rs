@@ -11,6 +11,7 @@ use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use tacsim_data::LabFolder;
 use tacsim_data::write_atomic;
+use tacsim_sim::calibrate::edge;
 use tacsim_sim::calibrate::{
     Calibration, ConsensusRule, FitOptions, Observations, Problem, RecordingSplit, Reference, ReferenceSource, Report,
     comparison_row, fit, fit_camera_only, fit_pin_offsets, held_out, markdown, ring_table,
@@ -63,7 +64,7 @@ pub struct CalibrateOptions {
     /// labelled lateral offset, depth and yaw: fits the label map (signs, offsets, the rig's
     /// yield under load) and compares the edge's rounding (0, 1, 2, 4 mm), the pins' skin
     /// patch (0, 0.75, 1.5, 2.5 mm) and the dome's slope (0, 1, 2) on the held-out per-pin
-    /// error, the rest of the sensor held as given ([`crate::edge_fit`]). The preset written is
+    /// error, the rest of the sensor held as given ([`tacsim_sim::calibrate::edge::fit_edge`]). The preset written is
     /// the sensor with the best candidate's skin patch and dome slope.
     #[arg(long, conflicts_with_all = ["camera_only", "rig_only"])]
     pub edge: Option<String>,
@@ -98,7 +99,10 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     crate::commands::ensure_writable(&report_dir)?;
     let reference = Reference::of(&folder, o.reference.as_deref(), o.consensus)?;
     // The edge's stimulus and contact point are checked before any tracking.
-    let edge = o.edge.as_deref().map(|shape| crate::edge_fit::edge_stimulus(shape, o.edge_contact)).transpose()?;
+    let edge = match o.edge.as_deref() {
+        Some(shape) => Some(edge::edge_stimulus(&crate::commands::load_catalogue(None)?, shape, o.edge_contact)?),
+        None => None,
+    };
     if o.camera_only || o.pin_offsets {
         return camera_only(o, &reference, &base, &report_dir, command);
     }
@@ -118,17 +122,19 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     let obs = Observations::track(&folder, &reference)?;
     let split = RecordingSplit::of(&obs);
     if let Some((stimulus, contact)) = edge {
-        let summary = crate::edge_fit::edge_fit(&crate::edge_fit::EdgeFitJob {
-            options: o,
+        let real = o.real.display().to_string();
+        let report = edge::fit_edge(&edge::EdgeFit {
             stimulus,
             contact,
             obs: &obs,
             split: &split,
             base: &base,
-            report_dir: &report_dir,
+            quick: o.quick,
+            real: &real,
             command,
             progress: &progress,
         })?;
+        let summary = write_edge_report(o, &report, &base, &report_dir)?;
         spinner.finish_and_clear();
         return Ok(summary);
     }
@@ -314,4 +320,43 @@ fn camera_only(
     );
     write_atomic(&o.output, format!("{header}{}", sensor.to_toml()).as_bytes())?;
     Ok(format!("{summary}\nwrote {} and {}\n", o.output.display(), report_dir.join("report.md").display()))
+}
+
+/// Writes an edge fit's report (`report.json`, `report.md`) and its preset (the sensor with the
+/// winner's skin patch and dome slope); returns the summary to print.
+fn write_edge_report(
+    o: &CalibrateOptions,
+    report: &edge::EdgeReport,
+    base: &SensorParams,
+    report_dir: &Path,
+) -> Result<String> {
+    write_atomic(&report_dir.join("report.json"), &serde_json::to_vec_pretty(report)?)?;
+    write_atomic(&report_dir.join("report.md"), report.markdown().as_bytes())?;
+    let b = report.winner();
+    let header = format!(
+        "# {} with the skin patch and dome slope of edge taps of {} on `{}` fitted by `{}`.\n# Best: edge \
+         rounding {} mm, skin patch {} mm, dome slope {} (held-out per-pin error {:.3}); report: {}.\n\n",
+        base.name,
+        o.real.display(),
+        report.shape,
+        report.command,
+        b.edge_radius_mm,
+        b.patch_radius_mm,
+        b.dome_slope,
+        b.held_out_error,
+        report_dir.display()
+    );
+    write_atomic(&o.output, format!("{header}{}", report.sensor(base).to_toml()).as_bytes())?;
+    Ok(format!(
+        "{} taps fitted, {} held out; best: edge rounding {} mm, skin patch {} mm, dome slope {}: held-out per-pin \
+         error {:.3}\nwrote {} and {}\n",
+        report.fitted,
+        report.held_out,
+        b.edge_radius_mm,
+        b.patch_radius_mm,
+        b.dome_slope,
+        b.held_out_error,
+        o.output.display(),
+        report_dir.join("report.md").display()
+    ))
 }

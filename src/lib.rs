@@ -12,7 +12,6 @@ pub mod calibrate;
 pub mod commands;
 pub mod dataset;
 pub mod device;
-pub mod edge_fit;
 pub mod explore;
 pub mod flags;
 pub mod learn;

@@ -343,7 +343,7 @@ fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with()
     use tacsim_sim::stimulus::Catalogue;
 
     let mut sensor = SensorParams::preset("tactip-331-edge2d").expect("preset");
-    sensor.skin.cells_across = tacsim::edge_fit::grid_cells().expect("the edge fit's grid");
+    sensor.skin.cells_across = tacsim_sim::calibrate::edge::grid_cells().expect("the edge fit's grid");
     let shapes = Path::new(env!("CARGO_MANIFEST_DIR")).join("shapes");
     let square = Catalogue::load_dir(&shapes).expect("catalogue").get("square").expect("square");
     let (scene, frame) = edge_scene(square.with_edge_radius(Some(2.0)), [45.0, 0.0]).expect("edge");

@@ -11,7 +11,7 @@
 //! stimulus's edge.
 
 mod camera;
-mod edge;
+pub mod edge;
 mod evaluate;
 mod fitting;
 mod frame;

@@ -8,6 +8,10 @@
 //! indentation `= c - k c^1.5` with `c = depth_lab + d_0` (mm, deg; `k` the rig's yield under
 //! load, [`crate::rig::Press::depth_compliance`], so that a recipe's `[rig]` replays the map).
 
+mod search;
+
+pub use search::{CANDIDATES, Candidate, EdgeCandidate, EdgeFit, EdgeReport, edge_stimulus, fit_edge, grid_cells};
+
 use std::sync::Arc;
 
 use rayon::prelude::*;
