@@ -15,10 +15,10 @@
 //! `--frictionless`: the disk without friction (no shear but the coupling's: which error is
 //! the normal problem's); `--by-tap`: a line per tap, its error split into the pins' mean
 //! shift and what is left about it, and its normal and `x` force against the reference's.
-//! The taps are the bench's own (`tacsim::bench::samples` and `rim_samples`, its seeds).
+//! The taps are the bench's own (`tacsim_sim::bench::samples` and `rim_samples`, its seeds).
 
 use rayon::prelude::*;
-use tacsim::bench::{RIM_SEED, SAMPLES_SEED, disk_scene_with_friction, rim_samples, samples};
+use tacsim_sim::bench::{RIM_SEED, SAMPLES_SEED, disk_scene_with_friction, rim_samples, samples};
 use tacsim_sim::contact::{ContactModel, Simulation};
 use tacsim_sim::{PinPose, SensorParams, SensorPose};
 

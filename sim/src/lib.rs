@@ -35,6 +35,7 @@ mod shared;
 mod tracking;
 mod variation;
 
+pub mod bench;
 pub mod calibrate;
 pub mod contact;
 pub mod dataset;
