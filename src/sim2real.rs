@@ -5,7 +5,8 @@
 //! 1. `generate_sim`: the recipe's dataset with the sensor (`sim/`), or `--sim`, one made before;
 //! 2. `train_both`: the pose network on the simulated images (`sim-posenet/`) and the same
 //!    network, same settings, on the lab folder's fitting part (`real-posenet/`);
-//! 3. `score`: the label map (component, sign and offset, [`LabelMap::fit`]) from the
+//! 3. `score_transfer` (tacsim-model's `transfer::score`): the label map (component, sign and
+//!    offset, `LabelMap::fit`) from the
 //!    simulator-trained network's readings of the fitting part, then both networks on the
 //!    held-out part (the 20% `tacsim calibrate` never fits either);
 //! 4. `report.md`, `report.json`, `predictions.csv` (each held-out image's labels and both
@@ -27,8 +28,8 @@ use serde::Serialize;
 use tacsim_data::Column;
 use tacsim_data::Split;
 use tacsim_model::{
-    Backend, Corpus, LabelMap, Pose, PoseConfig, Span, corpus_images, label_difference, label_name, load_posenet,
-    predict_poses,
+    Backend, Corpus, Coverage, LabelScore, PoseConfig, Scores, Scoring, Span, label_name, score_transfer,
+    transfer_coverage,
 };
 
 use crate::dataset::GenerateOptions;
@@ -84,41 +85,6 @@ pub struct Sim2RealOptions {
     /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,
-}
-
-/// One label's errors on the held-out real images.
-#[derive(Clone, Debug, Serialize)]
-pub struct LabelScore {
-    /// The lab's label, with unit.
-    pub label: String,
-    /// Mean absolute error of the simulator-trained network through the label map.
-    pub sim_trained: f64,
-    /// Mean absolute error of the network trained on the lab's fitting part.
-    pub real_trained: f64,
-    /// `sim_trained / real_trained`.
-    pub ratio: f64,
-    /// Mean absolute error of always answering the fitting part's median (chance).
-    pub chance: f64,
-    /// Slope of the simulator-trained readings (through the map) against the labels, least
-    /// squares, for a length (1: the simulated images change with it as the real ones do;
-    /// below 1: the network reads real images as if they changed less). None for the yaw.
-    pub sim_trained_gain: Option<f64>,
-}
-
-/// How the simulated training poses cover the lab's, one simulated label: the lab's fitting
-/// part taken into the recipe's frame through the label map, against the simulated set.
-/// A recipe wider than the lab's span spends its samples on poses the lab never takes; lab
-/// poses outside the simulated span ask the network to extrapolate.
-#[derive(Clone, Debug, Serialize)]
-pub struct Coverage {
-    /// The simulated label.
-    pub label: Column,
-    /// The lab's fitting part, in the recipe's frame.
-    pub lab: Span,
-    /// The simulated training set.
-    pub sim: Span,
-    /// Share of the lab's fitting recordings outside the simulated span (0..1).
-    pub lab_outside: f64,
 }
 
 /// `report.json`.
@@ -207,11 +173,12 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     }
     let sim_cfg = PoseConfig { labels: sim_labels.clone(), ..cfg.clone() };
     let (sim_run, real_run) = train_both(o, [&sim_cfg, &real_cfg], &sim, &real)?;
-    let (labels, map, nearest, predictions) =
-        score(o, [&sim, &real], &real_labels, [&fitting, &held_out, &sim_rows], [&sim_run, &real_run])?;
+    let how = Scoring { backend: o.backend, size: o.size, adapt_norms: o.adapt_norms };
+    let Scores { labels, map, nearest, predictions } =
+        score_transfer(&how, [&sim, &real], &real_labels, [&fitting, &held_out, &sim_rows], [&sim_run, &real_run])?;
     tacsim_data::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
     write_grid(&report_dir.join("grid.png"), &sim, &real, &held_out, &nearest)?;
-    let coverage = coverage(&map, [&sim, &real], [&sim_rows, &fitting]);
+    let coverage = transfer_coverage(&map, [&sim, &real], [&sim_rows, &fitting]);
 
     let report = Sim2RealReport {
         command: command.to_owned(),
@@ -270,127 +237,6 @@ fn train_both(o: &Sim2RealOptions, cfg: [&PoseConfig; 2], sim: &Corpus, real: &C
     }
     let [(_, _, s, _), (_, _, r, _)] = runs;
     Ok((s, r))
-}
-
-/// What [`score`] finds: errors per label, the map, for each held-out image the nearest
-/// simulated tap, and `predictions.csv`.
-type Scores = (Vec<LabelScore>, LabelMap, Vec<usize>, String);
-
-/// Step 3: the label map on the fitting part, both networks on the held-out part; with, for
-/// each held-out image, the simulated training image nearest its label (for the grid).
-/// `rows`: the lab's fitting and held-out rows and the simulated training rows; `runs`: the
-/// simulator-trained and the real-trained network.
-fn score(
-    o: &Sim2RealOptions,
-    [sim, real]: [&Corpus; 2],
-    real_labels: &[Column],
-    [fitting, held_out, sim_rows]: [&[usize]; 3],
-    [sim_run, real_run]: [&Path; 2],
-) -> Result<Scores> {
-    let device = o.backend.device();
-    let images = |rows: &[usize]| corpus_images(real, rows);
-    let poses = |rows: &[usize]| -> Vec<Pose> { rows.iter().map(|&r| real.pose(r)).collect() };
-    let fit_images = images(fitting);
-    let (sim_net, _, sim_scale) = load_posenet(sim_run, &device)?;
-    let sim_net = if o.adapt_norms { sim_net.adapt_norms(&fit_images, o.size, &device) } else { sim_net };
-    let (real_net, _, real_scale) = load_posenet(real_run, &device)?;
-    let fit_truth = poses(fitting);
-    let fit_read = predict_poses(&sim_net, &sim_scale, &fit_images, o.size, &device);
-    let map = LabelMap::fit(&fit_read, &sim_scale.columns(), &fit_truth, real_labels)?;
-    let truth = poses(held_out);
-    let test_images = images(held_out);
-    let sim_read = predict_poses(&sim_net, &sim_scale, &test_images, o.size, &device);
-    let sim_err = map.errors(&sim_read, &truth);
-    let identity = LabelMap::identity(real_labels);
-    let real_read = predict_poses(&real_net, &real_scale, &test_images, o.size, &device);
-    let real_err = identity.errors(&real_read, &truth);
-    let mut csv = String::from("image");
-    for c in real_labels {
-        csv.push_str(&format!(",{c},{c}_sim_trained,{c}_real_trained"));
-    }
-    csv.push('\n');
-    for (k, &r) in held_out.iter().enumerate() {
-        csv.push_str(&real.dataset.rows[r].sensor_image);
-        for (m, l) in map.links.iter().zip(&identity.links) {
-            csv.push_str(&format!(
-                ",{:.4},{:.4},{:.4}",
-                truth[k].get(l.real),
-                m.apply(&sim_read[k]),
-                l.apply(&real_read[k])
-            ));
-        }
-        csv.push('\n');
-    }
-    // Chance: one constant for every image, the best on the fitting part.
-    let chance = LabelMap::constant(real_labels, &fit_truth).errors(&vec![Pose::default(); truth.len()], &truth);
-    let labels = map
-        .links
-        .iter()
-        .enumerate()
-        .map(|(k, l)| {
-            let gain = (!l.real.is_angle()).then(|| {
-                let pairs: Vec<(f64, f64)> =
-                    truth.iter().zip(&sim_read).map(|(t, p)| (t.get(l.real), l.apply(p))).collect();
-                slope(&pairs)
-            });
-            LabelScore {
-                label: label_name(l.real),
-                sim_trained: sim_err[k],
-                real_trained: real_err[k],
-                ratio: sim_err[k] / real_err[k],
-                chance: chance[k],
-                sim_trained_gain: gain,
-            }
-        })
-        .collect();
-    let nearest = truth
-        .iter()
-        .map(|t| {
-            let want = map.sim_pose(t);
-            // Label distance with 10 deg as far as 1 mm.
-            let d = |r: usize| {
-                let p = sim.pose(r);
-                map.links
-                    .iter()
-                    .map(|l| {
-                        let unit = if l.sim.is_angle() { 10.0 } else { 1.0 };
-                        (label_difference(l.sim, p.get(l.sim), want.get(l.sim)) / unit).powi(2)
-                    })
-                    .sum::<f64>()
-            };
-            sim_rows.iter().copied().min_by(|a, b| d(*a).total_cmp(&d(*b))).unwrap_or(0)
-        })
-        .collect();
-    Ok((labels, map, nearest, csv))
-}
-
-/// Per link of `map`: the lab's fitting poses (`real` at `rows[1]`) in the recipe's frame
-/// against the simulated training poses (`sim` at `rows[0]`).
-fn coverage(map: &LabelMap, [sim, real]: [&Corpus; 2], [sim_rows, fitting]: [&[usize]; 2]) -> Vec<Coverage> {
-    map.links
-        .iter()
-        .filter_map(|l| {
-            let lab: Vec<f64> = fitting.iter().map(|&r| l.invert(real.pose(r).get(l.real))).collect();
-            let simulated: Vec<f64> = sim_rows.iter().map(|&r| sim.pose(r).get(l.sim)).collect();
-            let (lab_span, sim_span) = (Span::of(l.sim, &lab)?, Span::of(l.sim, &simulated)?);
-            let outside = lab.iter().filter(|&&v| !sim_span.contains(l.sim, v)).count();
-            Some(Coverage {
-                label: l.sim,
-                lab: lab_span,
-                sim: sim_span,
-                lab_outside: outside as f64 / lab.len() as f64,
-            })
-        })
-        .collect()
-}
-
-/// Least-squares slope of `y` on `x` over `(x, y)` pairs (0 when `x` does not vary).
-fn slope(pairs: &[(f64, f64)]) -> f64 {
-    let n = pairs.len().max(1) as f64;
-    let (mx, my) = (pairs.iter().map(|p| p.0).sum::<f64>() / n, pairs.iter().map(|p| p.1).sum::<f64>() / n);
-    let sxx: f64 = pairs.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    let sxy: f64 = pairs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    if sxx > 0.0 { sxy / sxx } else { 0.0 }
 }
 
 /// `grid.png`: up to 8 held-out real images (top) over the simulated taps nearest their labels

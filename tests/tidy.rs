@@ -2,7 +2,8 @@
 //! what it is for (module docs are the map of the house), no file carries leftover debugging
 //! macros, the files and `tacsim` subcommands README.md, ARCHITECTURE.md and the guides in
 //! `docs/guide/` name exist, the README stays a short front page linking every guide, the guides
-//! stay references under 60 KB, and no document dates a result other than by commit and date.
+//! stay references under 60 KB, no document dates a result other than by commit and date, and no
+//! module of a crate imports in a cycle.
 
 use std::path::{Path, PathBuf};
 
@@ -209,4 +210,93 @@ fn the_guides_stay_references() {
         })
         .collect();
     assert!(long.is_empty(), "move the history into docs/experiments/: {long:?}");
+}
+
+/// A crate's modules (`a::b`, the root `""`) and their files, from `src`.
+fn modules(src: &Path) -> Vec<(String, PathBuf)> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    files
+        .into_iter()
+        .map(|f| {
+            let rel = f.strip_prefix(src).expect("under src").with_extension("");
+            let mut name = rel.components().map(|c| c.as_os_str().to_string_lossy().into_owned()).collect::<Vec<_>>();
+            if name.last().is_some_and(|n| n == "mod" || n == "lib" || n == "main") {
+                name.pop();
+            }
+            (name.join("::"), f)
+        })
+        .collect()
+}
+
+/// The modules a file names through `crate::` paths (comments and the test module left out):
+/// for each path the longest prefix that is a module of the crate.
+fn named_modules(text: &str, known: &[String]) -> Vec<String> {
+    let code: String = text
+        .split("#[cfg(test)]\nmod tests")
+        .next()
+        .unwrap_or_default()
+        .lines()
+        .filter(|l| !l.trim_start().starts_with("//"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let mut out = Vec::new();
+    for (i, _) in code.match_indices("crate::") {
+        let path: String = code[i + 7..]
+            .chars()
+            .take_while(|c| c.is_ascii_lowercase() || c.is_ascii_digit() || *c == '_' || *c == ':')
+            .collect();
+        let parts: Vec<&str> = path.split("::").filter(|p| !p.is_empty()).collect();
+        if let Some(m) = (1..=parts.len()).rev().map(|k| parts[..k].join("::")).find(|m| known.contains(m)) {
+            out.push(m);
+        }
+    }
+    out
+}
+
+/// Data flows one way: no file of a crate reaches, through `crate::` paths, a module that
+/// reaches it back (checked on every crate's sources; `super::` paths stay inside a module).
+#[test]
+fn no_module_of_the_workspace_imports_in_a_cycle() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let mut cycles = Vec::new();
+    for krate in ["src", "sim/src", "model/src", "data/src", "fem/src", "python/src"] {
+        let mods = modules(&root.join(krate));
+        let names: Vec<String> = mods.iter().map(|m| m.0.clone()).collect();
+        let edges: Vec<Vec<usize>> = mods
+            .iter()
+            .map(|(name, file)| {
+                let text = std::fs::read_to_string(file).expect("readable");
+                let mut to: Vec<usize> = named_modules(&text, &names)
+                    .iter()
+                    .filter(|m| *m != name && !m.is_empty())
+                    .filter_map(|m| names.iter().position(|n| n == m))
+                    .collect();
+                to.sort_unstable();
+                to.dedup();
+                to
+            })
+            .collect();
+        // A module reaches another when a path of edges leads there; a cycle is a pair that
+        // reach each other.
+        let reach = |from: usize| {
+            let mut seen = vec![false; names.len()];
+            let mut todo = edges[from].clone();
+            while let Some(v) = todo.pop() {
+                if !std::mem::replace(&mut seen[v], true) {
+                    todo.extend(&edges[v]);
+                }
+            }
+            seen
+        };
+        let all: Vec<Vec<bool>> = (0..names.len()).map(reach).collect();
+        for a in 0..names.len() {
+            for b in a + 1..names.len() {
+                if all[a][b] && all[b][a] {
+                    cycles.push(format!("{krate}: {} <-> {}", names[a], names[b]));
+                }
+            }
+        }
+    }
+    assert!(cycles.is_empty(), "modules that import each other (move the shared part down): {cycles:#?}");
 }

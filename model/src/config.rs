@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{ModelError, Result};
 use crate::network::Size;
-use crate::posenet::Column;
+use tacsim_data::Column;
 
 /// Which training the unshear model gets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 
-use burn::tensor::{Device, Tensor, TensorData};
+use burn::tensor::{Device, Tensor};
 use image::{GrayImage, Luma};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -17,7 +17,7 @@ use crate::checkpoint::{read_json, write_atomic, write_json};
 use crate::config::{Mode, PoseConfig, UnshearConfig};
 use crate::data::Corpus;
 use crate::error::{ModelError, Result};
-use crate::images::to_images;
+use crate::images::{stack, to_images};
 use crate::infer;
 use crate::metrics;
 use crate::posenet::{Column, Pose, PoseNet, PoseScale, decode_batch};
@@ -196,11 +196,6 @@ fn map_images(images: &[Vec<f32>], side: usize, device: &Device, f: impl Fn(Tens
         out.extend(to_images(f(stack(chunk, side, device))));
     }
     out
-}
-
-pub(crate) fn stack(images: &[Vec<f32>], side: usize, device: &Device) -> Tensor<4> {
-    let flat: Vec<f32> = images.iter().flatten().copied().collect();
-    Tensor::from_data(TensorData::new(flat, [images.len(), 1, side, side]), device)
 }
 
 /// The images of `rows` as network inputs (values in [0, 1]).

@@ -166,6 +166,13 @@ pub fn to_images(t: Tensor<4>) -> Vec<Vec<f32>> {
     (0..b).map(|k| values[k * h * w..(k + 1) * h * w].to_vec()).collect()
 }
 
+/// Images (each `side x side` values in [0, 1], row by row) as one batch tensor
+/// `[n, 1, side, side]` on `device`: the networks' input.
+pub(crate) fn stack(images: &[Vec<f32>], side: usize, device: &Device) -> Tensor<4> {
+    let flat: Vec<f32> = images.iter().flatten().copied().collect();
+    Tensor::from_data(TensorData::new(flat, [images.len(), 1, side, side]), device)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

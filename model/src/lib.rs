@@ -18,7 +18,8 @@
 //! - `infer.rs`: poses read from single images by trained runs ([`PoseReader`],
 //!   [`load_posenet`]);
 //! - `eval.rs`: the held-out scores of trained runs ([`evaluate`], [`EvalReport`]);
-//! - `transfer.rs`: label maps from a simulated dataset's labels to a lab's ([`LabelMap`]);
+//! - `transfer/`: label maps from a simulated dataset's labels to a lab's ([`LabelMap`]) and
+//!   sim2real's scoring on a lab's held-out part ([`score_transfer`]);
 //! - `metrics.rs`: SSIM, MS-SSIM and MSE, checked against reference values ([`ssim`]);
 //! - `bench.rs`: network throughput ([`measure_networks`]); `backend.rs`: which burn device
 //!   runs the networks ([`Backend`]).
@@ -54,5 +55,8 @@ pub use network::Size;
 pub use objective::StepLosses;
 pub use posenet::{Pose, PoseNet, PoseScale, decode_batch};
 pub use train::{EpochLog, Progress, Silent, TrainState, train_posenet, train_unshear};
-pub use transfer::{LabelMap, Span, difference as label_difference, label as label_name};
+pub use transfer::{
+    Coverage, LabelMap, LabelScore, Scores, Scoring, Span, coverage as transfer_coverage,
+    difference as label_difference, label as label_name, score as score_transfer,
+};
 pub use unshear::Unshear;

@@ -12,6 +12,10 @@
 //!
 //! `real = sign * sim + offset` (mm, or deg modulo 360 for a rotation).
 
+mod score;
+
+pub use score::{Coverage, LabelScore, Scores, Scoring, coverage, score};
+
 use serde::{Deserialize, Serialize};
 use tacsim_data::wrap_deg;
 

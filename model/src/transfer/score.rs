@@ -1,0 +1,196 @@
+//! Scoring a simulator-trained pose network on a lab's recordings (`tacsim sim2real`): the
+//! label map fitted on the lab's fitting part ([`LabelMap::fit`]), then the simulator-trained
+//! network through the map and a network trained on the lab's fitting part, both on the
+//! held-out part, per label against chance; and how the simulated training poses cover the
+//! lab's ([`coverage`]).
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::{LabelMap, Span};
+use crate::backend::Backend;
+use crate::data::Corpus;
+use crate::error::Result;
+use crate::eval::{corpus_images, predict_poses};
+use crate::infer::load_posenet;
+use crate::posenet::{Column, Pose};
+
+/// One label's errors on the held-out real images.
+#[derive(Clone, Debug, Serialize)]
+pub struct LabelScore {
+    /// The lab's label, with unit.
+    pub label: String,
+    /// Mean absolute error of the simulator-trained network through the label map.
+    pub sim_trained: f64,
+    /// Mean absolute error of the network trained on the lab's fitting part.
+    pub real_trained: f64,
+    /// `sim_trained / real_trained`.
+    pub ratio: f64,
+    /// Mean absolute error of always answering the fitting part's median (chance).
+    pub chance: f64,
+    /// Slope of the simulator-trained readings (through the map) against the labels, least
+    /// squares, for a length (1: the simulated images change with it as the real ones do;
+    /// below 1: the network reads real images as if they changed less). None for the yaw.
+    pub sim_trained_gain: Option<f64>,
+}
+
+/// How the simulated training poses cover the lab's, one simulated label: the lab's fitting
+/// part taken into the recipe's frame through the label map, against the simulated set.
+/// A recipe wider than the lab's span spends its samples on poses the lab never takes; lab
+/// poses outside the simulated span ask the network to extrapolate.
+#[derive(Clone, Debug, Serialize)]
+pub struct Coverage {
+    /// The simulated label.
+    pub label: Column,
+    /// The lab's fitting part, in the recipe's frame.
+    pub lab: Span,
+    /// The simulated training set.
+    pub sim: Span,
+    /// Share of the lab's fitting recordings outside the simulated span (0..1).
+    pub lab_outside: f64,
+}
+
+/// How [`score`] reads the images: the backend, the networks' side (px), and whether the
+/// simulator-trained network's batch-norm statistics are re-estimated on the lab's fitting
+/// images first.
+#[derive(Clone, Copy, Debug)]
+pub struct Scoring {
+    /// The backend the networks run on.
+    pub backend: Backend,
+    /// The networks' image side (px).
+    pub size: usize,
+    /// Re-estimate the simulator-trained network's batch norms on the lab's fitting images.
+    pub adapt_norms: bool,
+}
+
+/// What [`score`] finds.
+#[derive(Clone, Debug)]
+pub struct Scores {
+    /// Errors per label on the held-out part.
+    pub labels: Vec<LabelScore>,
+    /// The fitted label map.
+    pub map: LabelMap,
+    /// For each held-out image, the simulated training row nearest its label.
+    pub nearest: Vec<usize>,
+    /// `predictions.csv`: each held-out image's labels and both networks' readings, in the
+    /// lab's frame.
+    pub predictions: String,
+}
+
+/// The label map on the lab's fitting part, both networks on its held-out part; with, for
+/// each held-out image, the simulated training image nearest its label (for a grid).
+/// `rows`: the lab's fitting and held-out rows and the simulated training rows; `runs`: the
+/// simulator-trained and the real-trained networks' run folders.
+pub fn score(
+    how: &Scoring,
+    [sim, real]: [&Corpus; 2],
+    real_labels: &[Column],
+    [fitting, held_out, sim_rows]: [&[usize]; 3],
+    [sim_run, real_run]: [&Path; 2],
+) -> Result<Scores> {
+    let device = how.backend.device();
+    let images = |rows: &[usize]| corpus_images(real, rows);
+    let poses = |rows: &[usize]| -> Vec<Pose> { rows.iter().map(|&r| real.pose(r)).collect() };
+    let fit_images = images(fitting);
+    let (sim_net, _, sim_scale) = load_posenet(sim_run, &device)?;
+    let sim_net = if how.adapt_norms { sim_net.adapt_norms(&fit_images, how.size, &device) } else { sim_net };
+    let (real_net, _, real_scale) = load_posenet(real_run, &device)?;
+    let fit_truth = poses(fitting);
+    let fit_read = predict_poses(&sim_net, &sim_scale, &fit_images, how.size, &device);
+    let map = LabelMap::fit(&fit_read, &sim_scale.columns(), &fit_truth, real_labels)?;
+    let truth = poses(held_out);
+    let test_images = images(held_out);
+    let sim_read = predict_poses(&sim_net, &sim_scale, &test_images, how.size, &device);
+    let sim_err = map.errors(&sim_read, &truth);
+    let identity = LabelMap::identity(real_labels);
+    let real_read = predict_poses(&real_net, &real_scale, &test_images, how.size, &device);
+    let real_err = identity.errors(&real_read, &truth);
+    let mut csv = String::from("image");
+    for c in real_labels {
+        csv.push_str(&format!(",{c},{c}_sim_trained,{c}_real_trained"));
+    }
+    csv.push('\n');
+    for (k, &r) in held_out.iter().enumerate() {
+        csv.push_str(&real.dataset.rows[r].sensor_image);
+        for (m, l) in map.links.iter().zip(&identity.links) {
+            csv.push_str(&format!(
+                ",{:.4},{:.4},{:.4}",
+                truth[k].get(l.real),
+                m.apply(&sim_read[k]),
+                l.apply(&real_read[k])
+            ));
+        }
+        csv.push('\n');
+    }
+    // Chance: one constant for every image, the best on the fitting part.
+    let chance = LabelMap::constant(real_labels, &fit_truth).errors(&vec![Pose::default(); truth.len()], &truth);
+    let labels = map
+        .links
+        .iter()
+        .enumerate()
+        .map(|(k, l)| {
+            let gain = (!l.real.is_angle()).then(|| {
+                let pairs: Vec<(f64, f64)> =
+                    truth.iter().zip(&sim_read).map(|(t, p)| (t.get(l.real), l.apply(p))).collect();
+                slope(&pairs)
+            });
+            LabelScore {
+                label: super::label(l.real),
+                sim_trained: sim_err[k],
+                real_trained: real_err[k],
+                ratio: sim_err[k] / real_err[k],
+                chance: chance[k],
+                sim_trained_gain: gain,
+            }
+        })
+        .collect();
+    let nearest = truth
+        .iter()
+        .map(|t| {
+            let want = map.sim_pose(t);
+            // Label distance with 10 deg as far as 1 mm.
+            let d = |r: usize| {
+                let p = sim.pose(r);
+                map.links
+                    .iter()
+                    .map(|l| {
+                        let unit = if l.sim.is_angle() { 10.0 } else { 1.0 };
+                        (super::difference(l.sim, p.get(l.sim), want.get(l.sim)) / unit).powi(2)
+                    })
+                    .sum::<f64>()
+            };
+            sim_rows.iter().copied().min_by(|a, b| d(*a).total_cmp(&d(*b))).unwrap_or(0)
+        })
+        .collect();
+    Ok(Scores { labels, map, nearest, predictions: csv })
+}
+
+/// Per link of `map`: the lab's fitting poses (`real` at `rows[1]`) in the recipe's frame
+/// against the simulated training poses (`sim` at `rows[0]`).
+pub fn coverage(map: &LabelMap, [sim, real]: [&Corpus; 2], [sim_rows, fitting]: [&[usize]; 2]) -> Vec<Coverage> {
+    map.links
+        .iter()
+        .filter_map(|l| {
+            let lab: Vec<f64> = fitting.iter().map(|&r| l.invert(real.pose(r).get(l.real))).collect();
+            let simulated: Vec<f64> = sim_rows.iter().map(|&r| sim.pose(r).get(l.sim)).collect();
+            let (lab_span, sim_span) = (Span::of(l.sim, &lab)?, Span::of(l.sim, &simulated)?);
+            let outside = lab.iter().filter(|&&v| !sim_span.contains(l.sim, v)).count();
+            Some(Coverage {
+                label: l.sim,
+                lab: lab_span,
+                sim: sim_span,
+                lab_outside: outside as f64 / lab.len() as f64,
+            })
+        })
+        .collect()
+}
+
+/// Least-squares slope of `y` on `x` over `(x, y)` pairs (0 when `x` does not vary).
+fn slope(pairs: &[(f64, f64)]) -> f64 {
+    let n = pairs.len().max(1) as f64;
+    let (mx, my) = (pairs.iter().map(|p| p.0).sum::<f64>() / n, pairs.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxx: f64 = pairs.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = pairs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    if sxx > 0.0 { sxy / sxx } else { 0.0 }
+}
