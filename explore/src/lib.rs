@@ -1,4 +1,4 @@
-//! tacsim's closed loop: contour following (DESIGN.md section 6). A kinematic robot slides
+//! tacsim's closed loop: contour following (`docs/design.md`). A kinematic robot slides
 //! the sensor along a stimulus's edge, staying in contact so that every step carries sliding
 //! history from the contact engine; perception estimates the pose relative to the edge
 //! ([`oracle`], [`Geometric`] from the rendered image's pins, or a [`LearnedPerception`] the

@@ -1,4 +1,4 @@
-//! tacsim-model: the learning half (DESIGN.md section 5). It reads datasets through
+//! tacsim-model: the learning half (`docs/design.md`). It reads datasets through
 //! `tacsim-data` and never depends on the simulator.
 //!
 //! Modules are private; the surface is the list below, at the crate root (parry-style). In

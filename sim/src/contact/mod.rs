@@ -1,5 +1,5 @@
 //! Frictional elastic contact between the sensor skin and rigid stimuli: a boundary-element
-//! solver on a grid over the contact footprint (DESIGN.md section 3).
+//! solver on a grid over the contact footprint (`docs/design.md`).
 //!
 //! Data flows one way: a [`SensorPose`](crate::SensorPose) and the scene give the initial gap
 //! ([`initial_gap`]) on a [`Grid`]; the [`Operator`] (built from the [`Kernel`]s, products

@@ -1,4 +1,4 @@
-//! Analytic validation cases of the contact solver (DESIGN.md section 3): Hertz (normal) and
+//! Analytic validation cases of the contact solver (`docs/design.md`): Hertz (normal) and
 //! Cattaneo-Mindlin (tangential, constant normal load then a tangential force), both on
 //! CONTACT's reference geometry: two identical elastic bodies, `G = 200 MPa`, `nu = 0.42`,
 //! sphere `R = 50 mm`, contact radius `a = 1 mm` (`P = 9.1954 N`), `mu = 0.4`,

@@ -1,4 +1,4 @@
-//! Datasets with the paper's tap/slide protocol (DESIGN.md section 4): a [`Recipe`] (TOML)
+//! Datasets with the paper's tap/slide protocol (`docs/design.md`): a [`Recipe`] (TOML)
 //! becomes a deterministic [`Plan`] of samples (every random draw comes from the seed and the
 //! sample's own index, so any subset can be generated alone: shards, resumes, any thread
 //! count), which [`generate()`] renders into the directory format of `tacsim_data`; a [`Job`]
