@@ -178,6 +178,10 @@ fn markdown_files(root: &Path, dir: &Path, out: &mut Vec<PathBuf>) {
 /// Words that date a result by who or when worked on it instead of by commit and date.
 const UNDATED: [&str; 3] = ["session", "working stretch", "this try"];
 
+/// The same in code comments, where `session` alone may name a type.
+const UNDATED_IN_CODE: [&str; 6] =
+    ["a later session", "this session", "the same session", "previous session", "last session", "session's machine"];
+
 /// The documents speak of the project, its commits and dates: no result is dated by the
 /// working session that produced it ("a later session", "this session's machine").
 #[test]
@@ -192,6 +196,21 @@ fn the_docs_date_results_by_commit_and_date_only() {
         for (i, line) in text.lines().enumerate() {
             found.extend(
                 UNDATED.iter().filter(|w| line.contains(*w)).map(|w| format!("{}:{}: {w}", doc.display(), i + 1)),
+            );
+        }
+    }
+    // Comments in the code: the phrases (the word alone is also a training session's type).
+    let mut sources = Vec::new();
+    for dir in ["src", "tests", "sim", "model", "data", "fem", "explore", "python/src", "xtask"] {
+        rust_files(&root.join(dir), &mut sources);
+    }
+    // This file names the phrases it looks for.
+    for file in sources.iter().filter(|f| !f.ends_with("tests/tidy.rs")) {
+        let text = std::fs::read_to_string(file).expect("readable").to_lowercase();
+        for (i, line) in text.lines().enumerate() {
+            let dated = UNDATED_IN_CODE.iter().find(|w| line.contains(*w));
+            found.extend(
+                dated.map(|w| format!("{}:{}: {w}", file.strip_prefix(&root).unwrap_or(file).display(), i + 1)),
             );
         }
     }
