@@ -73,7 +73,43 @@ fn same_seed_same_bytes_whatever_threads_and_shards() {
     let o = tacsim(&["merge", "--out", s(&root.join("bad")), s(&shards[0]), s(&shards[0]), s(&shards[2])]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("shard 0 of 3 is given 2 times") && err.contains("shard0"), "{err}");
+    // A shard's damaged image is refused before anything is written, naming the file
+    // (regression: a truncated or RGB image merged with exit 0, issue 88).
+    let image = shards[1].join("images").join(first_image(&shards[1]));
+    let good = std::fs::read(&image).expect("a shard image");
+    let damaged: [(&str, Vec<u8>); 2] = [("truncated", good[..50].to_vec()), ("rgb", rgb_png(&good))];
+    for (what, bytes) in damaged {
+        std::fs::write(&image, &bytes).expect("damage the image");
+        let out = root.join(format!("bad-{what}"));
+        let o = tacsim(&args_with_out(&args, &out));
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(image.to_str().expect("utf-8")), "{what}: {err}");
+        assert!(!out.join("targets.csv").exists() && !out.join("images").join("image_0.png").exists(), "{what}: wrote");
+    }
+    std::fs::write(&image, &good).expect("restore the image");
     let _ = std::fs::remove_dir_all(&root);
+}
+
+/// The first image a dataset's `targets.csv` names.
+fn first_image(dir: &Path) -> String {
+    let csv = std::fs::read_to_string(dir.join("targets.csv")).expect("targets.csv");
+    let row = csv.lines().nth(1).expect("a row");
+    row.split(',').next().expect("sensor_image").to_owned()
+}
+
+/// The same image as an RGB PNG.
+fn rgb_png(grey_png: &[u8]) -> Vec<u8> {
+    let grey = image::load_from_memory(grey_png).expect("decodes").into_rgb8();
+    let mut out = std::io::Cursor::new(Vec::new());
+    grey.write_to(&mut out, image::ImageFormat::Png).expect("encodes");
+    out.into_inner()
+}
+
+/// `merge`'s arguments `args` with the output folder `out` instead.
+fn args_with_out<'a>(args: &[&'a str], out: &'a Path) -> Vec<&'a str> {
+    let mut a = args.to_vec();
+    a[2] = s(out);
+    a
 }
 
 #[test]

@@ -414,7 +414,8 @@ pub fn generate(
 
 /// Joins complete shards of one dataset into `out` (new or empty): images copied, rows
 /// concatenated in sample order, `meta.json` without the shard. The result equals the
-/// unsharded run byte for byte.
+/// unsharded run byte for byte. Every shard's images are checked first (decodable, 8-bit
+/// grey, the dataset's size), before anything is written.
 pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     let bad = |reason: String| SimError::Analysis { source_name: "tacsim merge".into(), reason };
     let mut parts = Vec::new();
@@ -430,6 +431,13 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     }
     shard_set(&parts).map_err(bad)?;
     parts.sort_by_key(|(s, _)| s.index);
+    // Every shard's images are checked before anything is written, as `--resume` checks a
+    // run's own: decodable, 8-bit grey, the dataset's size (regression: a truncated or RGB
+    // image merged with exit 0 and broke train, eval and sim2real later).
+    for (_, ds) in &parts {
+        ds.rows.par_iter().try_for_each(|r| ds.image(r).map(drop))?;
+        ds.reference()?;
+    }
     // A folder that already holds this dataset is an interrupted merge: merging again finishes it.
     let target = Target { out: out.to_owned(), shard: None, resume: true };
     let meta = Meta { shard: None, ..parts[0].1.meta.clone() };
