@@ -78,4 +78,11 @@ fn a_lab_folder_trains_the_pose_network_with_the_labs_preprocessing() {
     std::fs::write(lab.join("images").join(lines[1].split(',').next().expect("name")), b"not a png").expect("corrupt");
     let e = err(&["train", "posenet", "--data", s(&lab), "--out", s(&dir.join("again")), "--size", "64", "-q"]);
     assert!(e.contains("image_") && e.contains("not a readable image"), "{e}");
+    // A 1x1 image is refused as `calibrate` refuses it, naming the file and the sides allowed
+    // (regression, issue 88: train and sim2real ran on 1x1 images and wrote a report).
+    let first = lines[1].split(',').next().expect("name");
+    image::GrayImage::new(1, 1).save(lab.join("images").join(first)).expect("a 1x1 image");
+    let e = err(&["train", "posenet", "--data", s(&lab), "--out", s(&dir.join("tiny")), "--size", "64", "-q"]);
+    assert!(e.contains(first) && e.contains("1x1") && e.contains("[16, 8192]"), "{e}");
+    assert!(!dir.join("tiny").join("model.safetensors").exists());
 }

@@ -70,6 +70,31 @@ pub const OLDER_COLUMNS: [&str; 13] = [
     "move_6",
 ];
 
+/// Largest label magnitude a lab folder may carry (mm or deg): a robot's positions and a
+/// turn's angles sit far below; a larger one is a unit or export error (regression, issue 88:
+/// labels of 1e300 passed and gave a report with a 9e298 mm error).
+pub const MAX_LABEL: f64 = 1e6;
+
+/// The sides a lab image may have (px), checked by every command that reads the images:
+/// below 16 px no pin pattern shows, above 8192 px the image is not a TacTip frame (regression,
+/// issue 88: 1x1 images were refused by `calibrate` but trained on by `train` and `sim2real`).
+pub const LAB_IMAGE_SIDE_PX: std::ops::RangeInclusive<u32> = 16..=8192;
+
+/// Checks a lab image's size ([`LAB_IMAGE_SIDE_PX`]), naming the file.
+pub fn check_lab_image_size(path: &Path, width: u32, height: u32) -> Result<()> {
+    if LAB_IMAGE_SIDE_PX.contains(&width) && LAB_IMAGE_SIDE_PX.contains(&height) {
+        return Ok(());
+    }
+    Err(DataError::format(
+        path,
+        format!(
+            "is {width}x{height} px: a lab image's sides must be in [{}, {}] px",
+            LAB_IMAGE_SIDE_PX.start(),
+            LAB_IMAGE_SIDE_PX.end()
+        ),
+    ))
+}
+
 impl LabFolder {
     /// Reads `dir/targets.csv` (either naming of the columns) and checks that every image
     /// exists.
@@ -103,14 +128,22 @@ impl LabFolder {
             let rec = rec.map_err(|e| DataError::format(&csv_path, e.to_string()))?;
             let field = |name: &str| -> Result<f64> {
                 let s = rec.get(col[name]).unwrap_or("");
-                s.trim().parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| {
+                s.trim().parse::<f64>().ok().filter(|v| v.is_finite() && v.abs() <= MAX_LABEL).ok_or_else(|| {
                     DataError::format(
                         &csv_path,
-                        format!("line {}: column {name}: `{s}` is not a finite number", line + 2),
+                        format!("line {}: column {name}: `{s}` is not a number in [-{MAX_LABEL:e}, {MAX_LABEL:e}] (mm or deg)", line + 2),
                     )
                 })
             };
             let image = rec.get(col["sensor_image"]).unwrap_or("").to_owned();
+            // A plain path inside images/ (regression, issue 88: `../../../etc/passwd` was read).
+            let inside = Path::new(&image).components().all(|c| matches!(c, std::path::Component::Normal(_)));
+            if image.is_empty() || !inside {
+                return Err(DataError::format(
+                    &csv_path,
+                    format!("line {}: column sensor_image: `{image}` is not a file inside images/", line + 2),
+                ));
+            }
             if !dir.join("images").join(&image).is_file() {
                 return Err(DataError::format(&csv_path, format!("line {}: images/{image} does not exist", line + 2)));
             }
@@ -188,5 +221,29 @@ mod tests {
         let dir = folder("neither", "sensor_image,pose_x,pose_1\na.png,1,2\n", &["a.png"]);
         let e = LabFolder::open(&dir).expect_err("incomplete").to_string();
         assert!(e.contains("targets.csv") && e.contains("pose_y") && e.contains("move_1"), "{e}");
+    }
+
+    /// Regressions (issue 88): labels of 1e300 passed (only non-finite ones were refused), and
+    /// `sensor_image = ../../../etc/passwd` was read from outside `images/`.
+    #[test]
+    fn absurd_labels_and_images_outside_the_folder_are_refused() {
+        let head = "sensor_image,pose_1,pose_2,pose_3,pose_4,pose_5,pose_6,move_1,move_2,move_3,move_4,move_5,move_6\n";
+        let dir = folder("huge", &format!("{head}a.png,0,1e300,4,0,0,0,0,0,0,0,0,0\n"), &["a.png"]);
+        let e = LabFolder::open(&dir).expect_err("1e300").to_string();
+        assert!(
+            e.contains("targets.csv") && e.contains("line 2") && e.contains("pose_2") && e.contains("1e300"),
+            "{e}"
+        );
+        assert!(e.contains("1e6"), "names the range: {e}");
+        let dir = folder("edge", &format!("{head}a.png,0,1e6,4,0,0,-1e6,0,0,0,0,0,0\n"), &["a.png"]);
+        assert!(LabFolder::open(&dir).is_ok(), "the bounds themselves are labels");
+        for image in ["../targets.csv", "/etc/passwd", "images/../../x.png", ""] {
+            let dir = folder("outside", &format!("{head}{image},0,1,4,0,0,0,0,0,0,0,0,0\n"), &[]);
+            let e = LabFolder::open(&dir).expect_err(image).to_string();
+            assert!(e.contains("sensor_image") && e.contains("inside images/"), "{image}: {e}");
+        }
+        let e = check_lab_image_size(Path::new("x/a.png"), 1, 1).expect_err("1x1").to_string();
+        assert!(e.contains("x/a.png") && e.contains("1x1") && e.contains("[16, 8192]"), "{e}");
+        assert!(check_lab_image_size(Path::new("a.png"), 420, 420).is_ok());
     }
 }

@@ -76,6 +76,7 @@ impl Corpus {
             let img = image::open(&path)
                 .map_err(|e| ModelError::checkpoint(&path, format!("not a readable image: {e}")))?
                 .into_luma8();
+            tacsim_data::check_lab_image_size(&path, img.width(), img.height())?;
             Ok((img, path.display().to_string()))
         })?;
         let taps = rows.iter().filter(|r| r.kind == Kind::Tap).count();

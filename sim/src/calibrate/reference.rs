@@ -69,9 +69,6 @@ impl std::str::FromStr for ConsensusRule {
 pub const CONSENSUS_MIN: usize = 30;
 /// Most recordings a consensus reference is chosen among (the shallowest).
 pub const CONSENSUS_POOL: usize = 600;
-/// Largest image side read (px): a lab image is a processed camera frame.
-const MAX_SIDE: u32 = 8192;
-
 /// The circle of the pin field in an image (px).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PinField {
@@ -361,12 +358,7 @@ fn tightest_group(images: &[Vec<u64>], k: usize) -> Vec<usize> {
 fn read_checked(path: &std::path::Path) -> Result<GrayImage> {
     let img = read_png(path)?;
     let (w, h) = img.dimensions();
-    if w < 16 || h < 16 || w > MAX_SIDE || h > MAX_SIDE {
-        return Err(SimError::Image {
-            path: path.to_owned(),
-            reason: format!("is {w}x{h}: sides must be in [16, {MAX_SIDE}] px"),
-        });
-    }
+    tacsim_data::check_lab_image_size(path, w, h)?;
     Ok(img)
 }
 
