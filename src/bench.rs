@@ -48,7 +48,6 @@ pub struct BenchOptions {
 /// Runs the benchmark; returns the text to print.
 pub fn run(o: &BenchOptions) -> Result<String> {
     let (samples_n, json, plot) = (o.samples, o.json, o.plot.as_path());
-    anyhow::ensure!(samples_n >= tacsim_sim::bench::MIN_SAMPLES, "--samples must be at least 4, got {samples_n}");
     crate::commands::ensure_file_writable(plot)?;
     #[cfg(feature = "wgpu")]
     let gpu = crate::device::gpu(o.device)?;

@@ -24,11 +24,12 @@ pub fn validate_grid(text: &str) -> Result<usize, String> {
     Ok(n)
 }
 
-/// `bench --samples`: in [4, [`MAX_BENCH_SAMPLES`]].
+/// `bench --samples`: in [[`tacsim_sim::bench::MIN_SAMPLES`], [`MAX_BENCH_SAMPLES`]].
 pub fn bench_samples(text: &str) -> Result<usize, String> {
     let n = whole(text)?;
-    if !(4..=MAX_BENCH_SAMPLES).contains(&n) {
-        return Err(format!("must be in [4, {MAX_BENCH_SAMPLES}], got {n}"));
+    let min = tacsim_sim::bench::MIN_SAMPLES;
+    if !(min..=MAX_BENCH_SAMPLES).contains(&n) {
+        return Err(format!("must be in [{min}, {MAX_BENCH_SAMPLES}], got {n}"));
     }
     Ok(n)
 }

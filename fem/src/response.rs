@@ -104,6 +104,18 @@ pub fn response_key(spec: &DomeSpec, pins: &[PinSite], spread_mm: f64) -> u64 {
     cache::key_of(&words)
 }
 
+/// Where a Gaussian patch is cut ([`PinResponse::spread`]), in widths `s`.
+const PATCH_REACH: f64 = 3.5;
+
+/// The Gaussian patch's weight `exp(-|p - centre|^2 / s^2)` at `p` (chord distance, mm), cut
+/// at [`PATCH_REACH`] `s`: the far field's load ([`PinResponse::spread`],
+/// [`PinResponse::with_apex`]).
+fn patch_weight(p: [f64; 3], centre: Vector3<f64>, spread_mm: f64) -> f64 {
+    let d2 = (Vector3::from(p) - centre).norm_squared();
+    let reach = PATCH_REACH * spread_mm;
+    if d2 < reach * reach { (-d2 / (spread_mm * spread_mm)).exp() } else { 0.0 }
+}
+
 impl PinResponse {
     /// Solves for the response of a built dome's pins. Rows are solved [`SOLVE_BLOCK`] at a
     /// time, each block on one thread, so the table does not depend on the thread count;
@@ -218,8 +230,7 @@ impl PinResponse {
                 expected: "a Gaussian patch's width in (0, outer radius] mm",
             });
         }
-        let s2 = spread_mm * spread_mm;
-        let reach = 3.5 * spread_mm;
+        let reach = PATCH_REACH * spread_mm;
         let rows = self.rows();
         let nodes = &self.nodes;
         let centre_of = |face: &[u32; 6]| {
@@ -239,10 +250,7 @@ impl PinResponse {
                         continue;
                     }
                     let x = face.map(|k| nodes[k as usize]);
-                    let f = face_forces(&x, [0.0; 3], |p, _| {
-                        let d2 = (Vector3::from(p) - xj).norm_squared();
-                        [if d2 < reach * reach { (-d2 / s2).exp() } else { 0.0 }, 0.0, 0.0]
-                    });
+                    let f = face_forces(&x, [0.0; 3], |p, _| [patch_weight(p, xj, spread_mm), 0.0, 0.0]);
                     for (&k, fk) in face.iter().zip(f) {
                         weights[k as usize] += fk[0];
                     }
@@ -286,14 +294,10 @@ impl PinResponse {
         }
         let apex = Vector3::new(0.0, 0.0, self.radius_mm);
         let weights: Vec<f64> = if self.spread_mm > 0.0 {
-            let (s2, reach) = (self.spread_mm * self.spread_mm, 3.5 * self.spread_mm);
-            dome.traction_forces(|p, _| {
-                let d2 = (Vector3::from(p) - apex).norm_squared();
-                [if d2 < reach * reach { (-d2 / s2).exp() } else { 0.0 }, 0.0, 0.0]
-            })
-            .iter()
-            .map(|f| f[0])
-            .collect()
+            dome.traction_forces(|p, _| [patch_weight(p, apex, self.spread_mm), 0.0, 0.0])
+                .iter()
+                .map(|f| f[0])
+                .collect()
         } else {
             let (nodes, n) = self.locate([0.0, 0.0, self.radius_mm]).ok_or(FemError::Parameter {
                 field: "apex",

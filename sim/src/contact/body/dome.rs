@@ -2,27 +2,24 @@
 //! that fills it on the rigid base, as a finite-element model (tacsim-fem), behind the same
 //! contact solver.
 //!
-//! What it changes today: the pins. Each loaded cell's force (N; cut cells at their load
-//! point, refined cells at their sub-cells' centroid) acts at the point of the undeformed dome
-//! above the cell (the contact frame's sphere point, turned into the sensor frame), along the
-//! force's own direction in the contact frame (`(Qx, Qy, -P)`: the stimulus pushes along the
-//! contact frame's `-z`, not along the dome's normal). A pin's motion is split in two:
+//! The contact plane and the pins both see the dome through one split of a force's response:
 //! ```text
-//! motion = dome(F spread over a Gaussian patch of s) + layers(F) - layers(F spread over the patch)
+//! u(F) = dome(F spread over a Gaussian patch of s) + layers(F) - layers(F spread over the patch)
 //! ```
 //! The far field is the finite-element dome's response ([`PinResponse::spread`]) to the force
-//! spread as a Gaussian patch `exp(-d^2 / s^2)` about its point, `s` = [`SPREAD_FACES`]
-//! outer faces of the default mesh wide, whatever the mesh: a load the mesh resolves, so a
-//! press bulges the skin elsewhere (the gel keeps its volume), the shell carries the motion
-//! far and the dome curves away. The near field, what the patch leaves out within a few `s` of the force, comes from the skin-on-gel
-//! layers' kernels of the same skin and gel (`LayeredKernels::near_field`, summed by the
-//! layers' own pin rule, `pins/motion.rs`), exact for a flat skin where the dome's curvature
-//! matters least. A point force on elements 2-3 mm wide, 0.66 mm above the pins, was not
-//! converged: the pins of a tap across the disk's rim moved by 0.13 mm between 8 and 10 cells
-//! and 0.17 mm between 10 and 12 (`docs/experiments/fem-dome.md`). The contact solve itself
-//! (which cells touch, their pressure and shear, stick and slip) uses the skin-on-gel layers'
-//! kernels (`layered.rs`) on the contact plane, with the gap measured on the curved dome as for
-//! every body.
+//! spread as a Gaussian patch `exp(-d^2 / s^2)` about its point, `s` = [`SPREAD_FACES`] outer
+//! faces of the default mesh wide, whatever the mesh: a load the mesh resolves, so a press
+//! bulges the skin elsewhere (the gel keeps its volume), the shell carries the motion far and
+//! the dome curves away. The near field, what the patch leaves out within a few `s` of the
+//! force, comes from the skin-on-gel layers' kernels of the same skin and gel
+//! (`LayeredKernels::near_field`), exact for a flat skin where the dome's curvature matters
+//! least. On the contact plane the dome's part is its surface response to the apex's patch
+//! ([`DomeBody::apex_radial`], `DomeContact` in `mod.rs`); for the pins each loaded cell's
+//! force (N; cut cells at their load point, refined cells at their sub-cells' centroid) acts
+//! at the point of the undeformed dome above the cell, along its own direction in the contact
+//! frame (`(Qx, Qy, -P)`), the near field summed by the layers' own pin rule
+//! (`pins/motion.rs`). A point force on elements 2-3 mm wide, 0.66 mm above the pins, was not
+//! converged (`docs/experiments/fem-dome.md`).
 //!
 //! The response is built once per sensor (mesh, factorisation, one solve per pin read-out
 //! row: about 20 s at the default 8 cells on 2 cores) and kept on disk under a key of

@@ -363,8 +363,7 @@ impl LayeredKernels {
                         let (dd, dz) = (d(&s.depth), d(&s.depth_dz));
                         let mut depth = [dd[0], dd[1], dd[2], dd[3], dd[4], dz[0], dz[1], dz[2], dz[3], dz[4]];
                         if near_field_mm > 0.0 {
-                            let kept = 1.0 - (-0.25 * (k * near_field_mm).powi(2)).exp();
-                            depth = depth.map(|v| v * kept);
+                            depth = depth.map(|v| v * (1.0 - spread));
                         }
                         // Weight includes k dk / (2 pi).
                         (k, w * dk * k / (2.0 * PI), surf, patch, depth)
