@@ -1,4 +1,5 @@
-//! `tacsim generate` and `tacsim merge`: dataset recipes to image folders, with a progress bar.
+//! `tacsim generate`, `tacsim merge` and `tacsim verify`: dataset recipes to image folders, with
+//! a progress bar, and a dataset checked against its checksums.
 
 use std::path::{Path, PathBuf};
 
@@ -145,7 +146,31 @@ fn report(recipe: &Recipe, out: &Path, total: usize, s: &Summary) -> String {
         format!("{} samples touch nothing (poses.allow_no_contact): undeformed images\n", s.no_contact)
     } else {
         String::new()
+    } + &if s.rewritten > 0 {
+        format!(
+            "{} images on disk were not the ones recorded in the journal (swapped, edited, truncated, or never \
+             recorded) and were written again\n",
+            s.rewritten
+        )
+    } else {
+        String::new()
     }
+}
+
+/// `tacsim verify`: checks a dataset against its `SHA256SUMS`; an error listing every problem
+/// where one is found.
+pub fn verify(dir: &Path) -> Result<String> {
+    let v = tacsim_data::verify(dir)?;
+    if v.problems.is_empty() {
+        return Ok(format!("{}: {} files match SHA256SUMS; every image is readable\n", dir.display(), v.files));
+    }
+    anyhow::bail!(
+        "dataset {}: {} of {} files fail:\n  {}",
+        dir.display(),
+        v.problems.len(),
+        v.files,
+        v.problems.join("\n  ")
+    )
 }
 
 /// `tacsim merge`: joins shards into `out`.

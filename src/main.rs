@@ -45,6 +45,13 @@ enum Command {
         #[arg(required = true)]
         shards: Vec<PathBuf>,
     },
+    /// Check a dataset on its own: every file against its SHA256SUMS (a swapped, edited or
+    /// truncated image, an edited targets.csv), every image readable at the dataset's size.
+    /// Exits non-zero, listing each problem, where one is found.
+    Verify {
+        /// The dataset directory (`tacsim generate --out` or `tacsim merge --out`).
+        dir: PathBuf,
+    },
     /// Run closed-loop exploration scenarios (in parallel): a table, a JSON report and a plot
     /// per run; exits non-zero when any criterion fails.
     Run {
@@ -139,6 +146,9 @@ fn main() -> Result<ExitCode> {
         }
         Command::Merge { out, shards } => {
             print!("{}", tacsim::dataset::merge(&out, &shards)?);
+        }
+        Command::Verify { dir } => {
+            print!("{}", tacsim::dataset::verify(&dir)?);
         }
         Command::Run { scenarios, out, json, models, sensor } => {
             let sensor = sensor.load()?;

@@ -221,6 +221,31 @@ fn absurd_command_line_numbers_are_refused_before_any_work() {
         assert!(!o.status.success() && err.contains(needle) && err.contains(flag), "{args:?}: {err}");
     }
     assert!(!out.exists(), "generate wrote before refusing its threads");
+    // Training counts and rates, refused by the config's ranges naming the field (issue 88):
+    // an 8 TB allocation aborted the first, the next two ran on with nothing written.
+    for (args, needle) in [
+        (
+            vec!["train", "posenet", "--data", s(&dir), "--out", s(&out), "--epochs", "1000000000000"],
+            "epochs: 1000000000000 must lie in [1, 100000]",
+        ),
+        (
+            vec!["train", "posenet", "--data", s(&dir), "--out", s(&out), "--batch", "100000000"],
+            "batch: 100000000 must lie in [1, 4096]",
+        ),
+        (
+            vec!["train", "unshear", "--data", s(&dir), "--out", s(&out), "--lr-scale", "1e300"],
+            "lr_self_supervised: 5.000000000000001e295 must lie in (0, 1]",
+        ),
+        (
+            vec!["sim2real", "--real", s(&dir), "--out", s(&out), "--epochs", "1000000000000"],
+            "epochs: 1000000000000 must lie in [1, 100000]",
+        ),
+    ] {
+        let o = tacsim(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(needle), "{args:?}: {err}");
+    }
+    assert!(!out.exists(), "a training wrote before refusing its flags");
     // An output that cannot be written is refused before the benchmark runs (it failed after
     // it, losing the figures): a plot under a file, in /proc, or naming a folder.
     let file = dir.join("a-file");
@@ -246,6 +271,15 @@ fn bad_poses_and_shapes_are_clear_errors() {
         (vec!["--shape", "nosuch"], "unknown"),
         (vec!["--shape", "disk", "--slide-from", "1,x"], "not a number"),
         (vec!["--shape", "disk", "--slide-from", "1,0", "--step", "0"], "step_mm"),
+        // Absurd but parseable numbers (issue 88): refused, naming the field and its range; a
+        // pose 1e300 mm away rendered an undeformed image, a step of 1e300 mm was taken, and a
+        // slide from 1e300 mm blamed the step with a 300-digit number.
+        (vec!["--shape", "disk", "--pose", "1e300,0,1,0"], "pose.x_mm` must be within +-1e4 mm"),
+        (vec!["--shape", "disk", "--pose", "0,0,-1e9,0"], "pose.depth_mm` must be within +-1e4 mm"),
+        (vec!["--shape", "disk", "--pose", "0,0,1,1e300"], "pose.yaw_deg` must be within +-1e6 deg"),
+        (vec!["--shape", "disk", "--slide-from", "1,0", "--step", "1e300"], "[0.01, 10] mm"),
+        (vec!["--shape", "disk", "--slide-from", "1e300,0"], "slide_from` must be at most 100 mm"),
+        (vec!["--pins", "30301"], "K in [1, 30]"),
     ] {
         let mut a = vec!["render", "-o", out];
         a.extend(args.iter());
@@ -310,7 +344,8 @@ fn bench_json_reports_rates_breakdown_skips_and_curve() {
 }
 
 /// `render --slide-from 2,0 --step 1e-5` ran for minutes (200,000 contact solves) and
-/// `--step 1e-300` aborted on "capacity overflow": a path's length is checked before any work.
+/// `--step 1e-300` aborted on "capacity overflow": the step's range (0.01 to 10 mm, as a
+/// recipe's) is checked before any work (a path's step count is too, for recipes' slides).
 #[test]
 fn render_with_a_step_too_small_for_the_slide_was_a_hang_or_an_abort() {
     let dir = temp_dir("cli", "tiny-step");
@@ -330,7 +365,7 @@ fn render_with_a_step_too_small_for_the_slide_was_a_hang_or_an_abort() {
             "-o",
             s(&out),
         ]);
-        assert!(e.contains("step_mm") && e.contains("more than the 2000"), "{step}: {e}");
+        assert!(e.contains("step_mm") && e.contains("[0.01, 10] mm"), "{step}: {e}");
         assert!(!out.exists(), "{step}: nothing written");
         println!("--step {step}: refused in {:?}", started.elapsed());
     }

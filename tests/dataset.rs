@@ -44,7 +44,7 @@ fn same_seed_same_bytes_whatever_threads_and_shards() {
     generate(&a, &["--threads", "2"]);
     generate(&b, &["--threads", "1"]);
     let fa = files(&a);
-    assert_eq!(fa.len(), 300 + 1 + 2, "300 images, the reference, targets.csv and meta.json");
+    assert_eq!(fa.len(), 300 + 1 + 3, "300 images, the reference, targets.csv, meta.json and SHA256SUMS");
     assert!(fa == files(&b), "1 thread and 2 threads give the same bytes");
     generate(&c, &["--threads", "2", "--seed", "1"]);
     assert_ne!(fa["targets.csv"], files(&c)["targets.csv"], "another seed, other poses");
@@ -86,8 +86,23 @@ fn same_seed_same_bytes_whatever_threads_and_shards() {
         assert!(!o.status.success() && err.contains(image.to_str().expect("utf-8")), "{what}: {err}");
         assert!(!out.join("targets.csv").exists() && !out.join("images").join("image_0.png").exists(), "{what}: wrote");
     }
+    // A shard's image swapped for another of its images decodes and has the right size: its
+    // checksum finds it (issue 88).
+    let other = shards[1].join("images").join(image_name_of(&shards[1], 2));
+    std::fs::copy(&other, &image).expect("swap");
+    let out = root.join("bad-swapped");
+    let o = tacsim(&args_with_out(&args, &out));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("holds the same bytes as"), "swapped: {err}");
+    assert!(!out.join("targets.csv").exists(), "swapped: wrote");
     std::fs::write(&image, &good).expect("restore the image");
     let _ = std::fs::remove_dir_all(&root);
+}
+
+/// The image of row `k` (from 1) of a dataset's `targets.csv`.
+fn image_name_of(dir: &Path, k: usize) -> String {
+    let csv = std::fs::read_to_string(dir.join("targets.csv")).expect("targets.csv");
+    csv.lines().nth(k).expect("a row").split(',').next().expect("sensor_image").to_owned()
 }
 
 /// The first image a dataset's `targets.csv` names.
@@ -141,10 +156,61 @@ fn killed_run_resumes_to_the_same_bytes() {
     }
     generate(&cut, &["--resume"]);
     assert!(files(&full) == files(&cut), "resumed run equals the uninterrupted one");
+    // An image overwritten by a copy of another is a complete PNG of the right size: its
+    // recorded checksum makes --resume write it again (regression, issue 88: it was kept).
+    std::fs::copy(cut.join("images/image_8.png"), cut.join("images/image_5.png")).expect("swap");
+    let o = tacsim(&["generate", "quick", "--quiet", "--resume", "--out", s(&cut)]);
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && said.contains("1 images on disk were not the ones recorded"), "{said}");
+    assert!(files(&full) == files(&cut), "the swapped image is written again");
     // A different recipe never overwrites it.
     let o = tacsim(&["generate", "quick", "--quiet", "--seed", "7", "--resume", "--out", s(&cut)]);
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("different dataset"));
     assert!(files(&full) == files(&cut), "nothing changed");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// `tacsim verify` checks a dataset on its own (issue 88): a swapped image, a truncated one and
+/// an edited label row are each named with what to do; the intact dataset passes, and so does
+/// `sha256sum -c` on the same listing where coreutils is installed.
+#[test]
+fn verify_finds_a_swapped_a_truncated_image_and_an_edited_label_row() {
+    let root = fresh_path("data", "verify");
+    let dir = root.join("d");
+    generate(&dir, &[]);
+    let o = tacsim(&["verify", s(&dir)]);
+    assert!(o.status.success() && String::from_utf8_lossy(&o.stdout).contains("303 files match"), "{o:?}");
+    if let Ok(o) = Command::new("sha256sum").args(["-c", "--quiet", "SHA256SUMS"]).current_dir(&dir).output() {
+        assert!(o.status.success(), "sha256sum -c: {}", String::from_utf8_lossy(&o.stdout));
+    }
+    let images = dir.join("images");
+    let pristine = files(&dir);
+    let truncated = std::fs::read(images.join("image_9.png")).expect("image")[..50].to_vec();
+    let csv = String::from_utf8(pristine["targets.csv"].clone()).expect("utf-8");
+    let mut rows: Vec<String> = csv.lines().map(str::to_owned).collect();
+    let mut cells: Vec<String> = rows[4].split(',').map(str::to_owned).collect();
+    cells[1] = format!("{}", cells[1].parse::<f64>().expect("pose_x") + 0.5);
+    rows[4] = cells.join(",");
+    let damage: [(&str, &str, Vec<u8>, &str); 3] = [
+        (
+            "swapped",
+            "images/image_5.png",
+            pristine["images/image_8.png"].clone(),
+            "holds the same bytes as images/image_8.png",
+        ),
+        ("truncated", "images/image_9.png", truncated, "is damaged"),
+        ("edited row", "targets.csv", (rows.join("\n") + "\n").into_bytes(), "was changed after it was written"),
+    ];
+    for (what, name, bytes, says) in damage {
+        std::fs::write(dir.join(name), &bytes).expect("damage");
+        let o = tacsim(&["verify", s(&dir)]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains(name) && err.contains(says) && err.contains("1 of 303"),
+            "{what}: {err}"
+        );
+        std::fs::write(dir.join(name), &pristine[name]).expect("restore");
+    }
     let _ = std::fs::remove_dir_all(&root);
 }
 

@@ -143,15 +143,16 @@ impl Dataset {
     /// Loads a row's image: 8-bit grey at the dataset's `image_size`, as `tacsim generate`
     /// writes them (another size or an RGB image is an error naming the file).
     pub fn image(&self, row: &Row) -> Result<GrayImage> {
-        self.checked(&self.image_path(row))
+        self.checked_image(&self.image_path(row))
     }
 
     /// Loads the undeformed reference image (checked as [`Dataset::image`]).
     pub fn reference(&self) -> Result<GrayImage> {
-        self.checked(&self.dir.join("images").join(&self.meta.reference_image))
+        self.checked_image(&self.dir.join("images").join(&self.meta.reference_image))
     }
 
-    fn checked(&self, path: &Path) -> Result<GrayImage> {
+    /// Loads the image at `path`, checked as [`Dataset::image`].
+    pub fn checked_image(&self, path: &Path) -> Result<GrayImage> {
         let img = image::open(path).map_err(|e| DataError::format(path, format!("not a readable image: {e}")))?;
         let side = self.meta.image_size;
         if img.color() != image::ColorType::L8 || (img.width(), img.height()) != (side, side) {

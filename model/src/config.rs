@@ -144,13 +144,19 @@ impl UnshearConfig {
     /// Checks every field, naming the first bad one.
     pub fn validate(&self) -> Result<()> {
         self.net_size()?;
-        positive("batch", self.batch as f64)?;
-        for (field, v) in [
-            ("lr_self_supervised", self.lr_self_supervised),
-            ("lr_supervised", self.lr_supervised),
-            ("lr_step_factor", self.lr_step_factor),
-            ("epsilon", self.epsilon),
-        ] {
+        counts(&[
+            ("batch", self.batch, 1),
+            ("self_supervised_epochs", self.self_supervised_epochs, 0),
+            ("supervised_epochs", self.supervised_epochs, 0),
+            ("max_batches_per_epoch", self.max_batches_per_epoch, 0),
+            ("patch_count", self.patch_count, 0),
+            ("patch_px_at_256", self.patch_px_at_256, 1),
+            ("checkpoint_steps", self.checkpoint_steps, 1),
+        ])?;
+        for (field, v) in [("lr_self_supervised", self.lr_self_supervised), ("lr_supervised", self.lr_supervised)] {
+            learning_rate(field, v)?;
+        }
+        for (field, v) in [("lr_step_factor", self.lr_step_factor), ("epsilon", self.epsilon)] {
             positive(field, v)?;
         }
         for (field, v) in [("beta1", self.beta1), ("beta2", self.beta2), ("label_fraction", self.label_fraction)] {
@@ -249,16 +255,19 @@ impl PoseConfig {
     /// Checks every field, naming the first bad one.
     pub fn validate(&self) -> Result<()> {
         self.net_size()?;
-        positive("batch", self.batch as f64)?;
-        positive("epochs", self.epochs as f64)?;
-        positive("hidden", self.hidden as f64)?;
+        counts(&[
+            ("batch", self.batch, 1),
+            ("epochs", self.epochs, 1),
+            ("max_batches_per_epoch", self.max_batches_per_epoch, 0),
+            ("hidden", self.hidden, 1),
+        ])?;
         if self.labels.is_empty() {
             return Err(ModelError::config("labels", "is empty: name at least one targets.csv column, such as pose_x"));
         }
         if let Some(c) = self.labels.iter().enumerate().find(|(i, c)| self.labels[..*i].contains(c)).map(|(_, c)| c) {
             return Err(ModelError::config("labels", format!("names {c} twice")));
         }
-        positive("lr", self.lr)?;
+        learning_rate("lr", self.lr)?;
         positive("lr_step_factor", self.lr_step_factor)?;
         in_range("shift_fraction", self.shift_fraction, 0.0, 0.25)?;
         in_range("y_weight", self.y_weight, 0.0, 1e3)?;
@@ -282,6 +291,44 @@ fn positive(field: &str, v: f64) -> Result<()> {
         Ok(())
     } else {
         Err(ModelError::config(field, format!("{v} must be a positive number")))
+    }
+}
+
+/// The largest of each count a training takes (batch, epochs, batches per epoch, units, crops,
+/// checkpoint steps): far beyond any run that ends, small enough that nothing sized by it
+/// fails to allocate (regression, issue 88: `--epochs 1000000000000` aborted on an 8 TB
+/// allocation; `--batch 100000000` ran on with nothing written).
+pub const MAX_COUNT: [(&str, usize); 7] = [
+    ("batch", 4096),
+    ("epochs", 100_000),
+    ("self_supervised_epochs", 100_000),
+    ("supervised_epochs", 100_000),
+    ("max_batches_per_epoch", 10_000_000),
+    ("hidden", 65_536),
+    ("patch_count", 10_000),
+];
+
+/// The largest learning rate (a larger one diverges at once; `--lr-scale 1e300` ran on).
+pub const MAX_LEARNING_RATE: f64 = 1.0;
+
+/// Each `(field, value, least)`: an integer count in `[least, MAX_COUNT's]` (at most
+/// 1,000,000 for a field not in [`MAX_COUNT`]).
+fn counts(fields: &[(&str, usize, usize)]) -> Result<()> {
+    for &(field, v, least) in fields {
+        let most = MAX_COUNT.iter().find(|(f, _)| *f == field).map_or(1_000_000, |(_, m)| *m);
+        if !(least..=most).contains(&v) {
+            return Err(ModelError::config(field, format!("{v} must lie in [{least}, {most}]")));
+        }
+    }
+    Ok(())
+}
+
+/// A learning rate in `(0, MAX_LEARNING_RATE]`.
+fn learning_rate(field: &str, v: f64) -> Result<()> {
+    if v.is_finite() && v > 0.0 && v <= MAX_LEARNING_RATE {
+        Ok(())
+    } else {
+        Err(ModelError::config(field, format!("{v:e} must lie in (0, {MAX_LEARNING_RATE}] (after --lr-scale)")))
     }
 }
 

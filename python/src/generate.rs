@@ -16,7 +16,8 @@ use crate::sim_err;
 /// into `out`, as `tacsim generate` does (same bytes for the same seed, whatever `threads`).
 /// `progress(done, total)` is called as images are written (from worker threads, at most
 /// about 100 times; an exception it raises is re-raised at the end). Returns the summary:
-/// images, written, skipped (already there with `resume`), no_contact, wall_s.
+/// images, written, skipped (already there with `resume`), rewritten (there but not as recorded,
+/// written again), no_contact, wall_s.
 #[pyfunction]
 #[pyo3(signature = (
     recipe, out, sensor = None, seed = None, size = None, cells = None, threads = None, resume = false,
@@ -85,6 +86,7 @@ pub fn generate<'py>(
     d.set_item("images", total)?;
     d.set_item("written", summary.written)?;
     d.set_item("skipped", summary.skipped)?;
+    d.set_item("rewritten", summary.rewritten)?;
     d.set_item("no_contact", summary.no_contact)?;
     d.set_item("wall_s", summary.wall_s)?;
     Ok(d)

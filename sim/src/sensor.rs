@@ -520,7 +520,11 @@ impl SensorParams {
             SimError::invalid(
                 &self.name,
                 "pins",
-                format!("{pins} is not a centred-hexagonal pin count 1 + 3K(K+1) (7, 19, 37, 61, 91, 127, 169, 217, 271, 331, ...)"),
+                format!(
+                    "{pins} is not a centred-hexagonal pin count 1 + 3K(K+1) with K in [1, {MAX_RINGS}] (7, 19, 37, 61, \
+                     91, 127, 169, 217, 271, 331, ..., {})",
+                    pin_count(MAX_RINGS)
+                ),
             )
         })?;
         let mut out = self.clone();

@@ -41,6 +41,6 @@ pub use pins::motion::PIN_SUBSQUARES;
 pub(crate) use pins::motion::{
     PinLoad, motion_from_stencil, moved_pin, patch_points, sensor_displacement, sensor_motion, stencil,
 };
-pub use pose::MAX_TILT_DEG;
+pub use pose::{MAX_POSITION_MM, MAX_TILT_DEG, MAX_YAW_DEG};
 pub use solve::coupled::StepReport;
-pub use trajectory::{MAX_PATH_STEPS, PathStep};
+pub use trajectory::{MAX_PATH_STEPS, MAX_SLIDE_MM, MAX_STEP_MM, MIN_STEP_MM, PathStep};

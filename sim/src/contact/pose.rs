@@ -15,6 +15,15 @@ use crate::error::{Result, SimError};
 /// Largest tilt accepted (deg).
 pub const MAX_TILT_DEG: f64 = 45.0;
 
+/// The largest lateral position and height above the stimulus (mm) a pose may take: 10 m, far
+/// beyond any scene, so that a value such as 1e300 (which touches nothing and rendered an
+/// undeformed image) is refused (issue 88).
+pub const MAX_POSITION_MM: f64 = 1e4;
+
+/// The largest yaw (deg) a pose may take: a closed loop turning around a contour for its whole
+/// run stays far within it; beyond it (1e300 was taken) the angle's digits are lost.
+pub const MAX_YAW_DEG: f64 = 1e6;
+
 /// A sensor pose (mm, deg).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct SensorPose {
@@ -50,8 +59,9 @@ impl SensorPose {
         }
     }
 
-    /// Checks that every field is finite, the depth at most the dome radius and the tilt within
-    /// [`MAX_TILT_DEG`].
+    /// Checks that every field is finite, the position within [`MAX_POSITION_MM`], the depth at
+    /// most half the dome radius (and the height above at most [`MAX_POSITION_MM`]), the yaw
+    /// within [`MAX_YAW_DEG`] and the tilt within [`MAX_TILT_DEG`].
     pub fn validate(&self, source_name: &str, dome_radius_mm: f64) -> Result<()> {
         for (field, v) in [
             ("pose.x_mm", self.x_mm),
@@ -63,6 +73,20 @@ impl SensorPose {
         ] {
             if !v.is_finite() {
                 return Err(SimError::invalid(source_name, field, format!("must be a finite number, got {v}")));
+            }
+        }
+        for (field, v, most, unit) in [
+            ("pose.x_mm", self.x_mm, MAX_POSITION_MM, "mm"),
+            ("pose.y_mm", self.y_mm, MAX_POSITION_MM, "mm"),
+            ("pose.depth_mm", self.depth_mm, MAX_POSITION_MM, "mm"),
+            ("pose.yaw_deg", self.yaw_deg, MAX_YAW_DEG, "deg"),
+        ] {
+            if v.abs() > most {
+                return Err(SimError::invalid(
+                    source_name,
+                    field,
+                    format!("must be within +-{most:e} {unit}, got {v:e}"),
+                ));
             }
         }
         if self.depth_mm > 0.5 * dome_radius_mm {

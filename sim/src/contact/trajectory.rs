@@ -28,6 +28,14 @@ pub struct SensorPath {
 /// a path's length is bounded before any work starts.
 pub const MAX_PATH_STEPS: usize = 2_000;
 
+/// The smallest step (mm) of [`SensorPath::slide`] (a recipe's `slides.step_mm` too).
+pub const MIN_STEP_MM: f64 = 0.01;
+/// The largest step (mm) of [`SensorPath::slide`] (a recipe's `slides.step_mm` too; a step of
+/// 1e300 mm was taken).
+pub const MAX_STEP_MM: f64 = 10.0;
+/// The longest slide (mm) of [`SensorPath::slide`] (a slide from 1e300 mm blamed the step).
+pub const MAX_SLIDE_MM: f64 = 100.0;
+
 impl SensorPath {
     /// A tap: straight down onto `target` from out of contact, captured there.
     pub fn tap(target: SensorPose) -> Self {
@@ -36,12 +44,23 @@ impl SensorPath {
 
     /// The paper's slide: touch down at `target` shifted by `from_mm` (world `x, y`), then slide
     /// in a straight line to `target` in steps of at most `step_mm`, captured at the end.
+    /// `step_mm` in [[`MIN_STEP_MM`], [`MAX_STEP_MM`]], the slide at most [`MAX_SLIDE_MM`] long
+    /// (as a recipe's slides).
     pub fn slide(target: SensorPose, from_mm: [f64; 2], step_mm: f64) -> Result<Self> {
-        if !(step_mm.is_finite() && step_mm > 0.0) {
-            return Err(SimError::invalid("path", "step_mm", format!("must be a positive number, got {step_mm}")));
+        if !(step_mm.is_finite() && (MIN_STEP_MM..=MAX_STEP_MM).contains(&step_mm)) {
+            return Err(SimError::invalid(
+                "path",
+                "step_mm",
+                format!("must be in [{MIN_STEP_MM}, {MAX_STEP_MM}] mm, got {step_mm:e}"),
+            ));
         }
-        if !from_mm.iter().all(|v| v.is_finite()) {
-            return Err(SimError::invalid("path", "slide_from", format!("must be finite, got {from_mm:?}")));
+        let length = from_mm[0].hypot(from_mm[1]);
+        if !(length.is_finite() && length <= MAX_SLIDE_MM) {
+            return Err(SimError::invalid(
+                "path",
+                "slide_from",
+                format!("must be at most {MAX_SLIDE_MM} mm from the pose, got {from_mm:?} ({length:e} mm)"),
+            ));
         }
         let start = SensorPose { x_mm: target.x_mm + from_mm[0], y_mm: target.y_mm + from_mm[1], ..target };
         Self::slide_between(start, target, step_mm, f64::INFINITY)

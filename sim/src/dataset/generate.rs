@@ -2,18 +2,25 @@
 //! and in shards; and merging shards.
 //!
 //! Order of writes: `meta.json` and `targets.csv` (both fully determined by the plan) and the
-//! reference image first, then the sample images, each written atomically. A directory is
-//! complete when every image its rows name exists, which `--resume` finishes and
-//! `tacsim_data::Dataset::open` checks.
+//! reference image first, then the sample images, each written atomically and its SHA-256
+//! appended to the journal (`tacsim_data::JOURNAL_FILE`), last the listing `SHA256SUMS` of
+//! every file. A directory is complete when it holds the listing; `--resume` keeps an image
+//! only where its bytes are the recorded ones, and `merge` and `tacsim verify` check every file
+//! against the listing.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
 use serde::Serialize;
 use tacsim_data::to_csv;
-use tacsim_data::{Kind, Meta, Row, Shard};
+use tacsim_data::{
+    CHECKSUMS_FILE, JOURNAL_FILE, Journal, Kind, Meta, Row, Shard, image_entry, read_checksums, recorded_checksums,
+    sha256_hex, write_checksums,
+};
 
 use super::plan::{Plan, REFERENCE_IMAGE, Sample, image_name};
 use crate::SensorPath;
@@ -45,8 +52,11 @@ pub struct Target {
 pub struct Summary {
     /// Images written by this run.
     pub written: usize,
-    /// Images already present (resume).
+    /// Images already present with their recorded bytes (resume).
     pub skipped: usize,
+    /// Images present but not as recorded (swapped, edited, truncated, or written by a run
+    /// killed before it recorded them), written again (resume).
+    pub rewritten: usize,
     /// Samples (of the run's range) whose sensor touches nothing (`poses.allow_no_contact`).
     pub no_contact: usize,
     /// Taps and slides written.
@@ -151,14 +161,9 @@ fn prepare(target: &Target, meta: &Meta) -> Result<()> {
     Ok(())
 }
 
-/// Whether `path` holds a complete PNG of `size` x `size` (a resumed run keeps it).
-fn complete_image(path: &Path, size: u32) -> bool {
-    image::ImageReader::open(path)
-        .ok()
-        .and_then(|r| r.with_guessed_format().ok())
-        .and_then(|r| r.into_dimensions().ok())
-        .is_some_and(|d| d == (size, size))
-        && crate::png_io::read_png(path).is_ok()
+/// The SHA-256 of the file at `path`, `None` where it cannot be read.
+fn file_sha256(path: &Path) -> Option<String> {
+    std::fs::read(path).ok().map(|b| sha256_hex(&b))
 }
 
 /// Everything a sample needs that is shared by all samples.
@@ -315,18 +320,40 @@ pub fn generate(
     prepare(target, &meta)?;
     let out = &target.out;
     let rows: Vec<Row> = range.clone().map(|i| plan.row(&plan.sample(i))).collect();
-    write_atomic(&out.join("meta.json"), &meta.to_json()?)?;
-    write_atomic(&out.join("targets.csv"), &to_csv(&rows)?)?;
+    let (meta_bytes, csv_bytes) = (meta.to_json()?, to_csv(&rows)?);
+    write_atomic(&out.join("meta.json"), &meta_bytes)?;
+    write_atomic(&out.join("targets.csv"), &csv_bytes)?;
     let images = out.join("images");
     let reference = ctx.renderer.render(&PinLayout::new(sensor).poses());
-    write_atomic(&images.join(REFERENCE_IMAGE), &encode_png(&reference, PngDepth::Grey8)?)?;
+    let reference_png = encode_png(&reference, PngDepth::Grey8)?;
+    write_atomic(&images.join(REFERENCE_IMAGE), &reference_png)?;
 
-    let size = plan.recipe.image_size;
-    let todo: Vec<usize> = if target.resume {
-        range.clone().into_par_iter().filter(|&i| !complete_image(&images.join(image_name(i)), size)).collect()
-    } else {
-        range.clone().collect()
-    };
+    // Resuming, an image is kept where its bytes are the ones its run recorded (regression: a
+    // decodable image of the right size was kept, so one overwritten by a copy of another
+    // passed); the kept lines start the journal and the listing goes until the run ends.
+    let recorded = if target.resume { recorded_checksums(out) } else { HashMap::new() };
+    let kept: Vec<Option<String>> = range
+        .clone()
+        .into_par_iter()
+        .map(|i| {
+            let hex = recorded.get(&image_entry(&image_name(i)))?;
+            (file_sha256(&images.join(image_name(i))).as_ref() == Some(hex)).then(|| hex.clone())
+        })
+        .collect();
+    let journal_lines: String = (range.clone().zip(&kept))
+        .filter_map(|(i, hex)| Some(format!("{}  {}\n", hex.as_ref()?, image_entry(&image_name(i)))))
+        .collect();
+    write_atomic(&out.join(JOURNAL_FILE), journal_lines.as_bytes())?;
+    match std::fs::remove_file(out.join(CHECKSUMS_FILE)) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            return Err(SimError::io(out.join(CHECKSUMS_FILE), "remove", e));
+        }
+        _ => {}
+    }
+    let journal = Journal::open(out)?;
+    let todo: Vec<usize> = range.clone().zip(&kept).filter(|(_, k)| k.is_none()).map(|(i, _)| i).collect();
+    let rewritten = todo.iter().filter(|&&i| images.join(image_name(i)).exists()).count();
+    let written_sha: Mutex<HashMap<usize, String>> = Mutex::new(HashMap::new());
     let skipped = range.len() - todo.len();
     let done = std::sync::atomic::AtomicUsize::new(skipped);
     progress(skipped);
@@ -339,6 +366,9 @@ pub fn generate(
     let record = |i: usize, s: &Sample, png: &[u8], [solve, render, encode]: [f64; 3]| -> Result<()> {
         let tw = Instant::now();
         write_atomic_unsynced(&images.join(image_name(i)), png)?;
+        let hex = sha256_hex(png);
+        journal.record(&image_entry(&image_name(i)), &hex)?;
+        written_sha.lock().unwrap_or_else(|e| e.into_inner()).insert(i, hex);
         let write = tw.elapsed().as_secs_f64();
         add(0, solve);
         add(1, render);
@@ -394,11 +424,28 @@ pub fn generate(
         let (png, times) = sample_png(ctx, &s, known(i))?;
         record(i, &s, &png, times)
     })?;
+    // Every image is in place: the listing, in sample order, then no journal.
+    let mut written_sha = written_sha.into_inner().unwrap_or_else(|e| e.into_inner());
+    let mut entries = vec![
+        ("meta.json".to_owned(), sha256_hex(&meta_bytes)),
+        ("targets.csv".to_owned(), sha256_hex(&csv_bytes)),
+        (image_entry(REFERENCE_IMAGE), sha256_hex(&reference_png)),
+    ];
+    for (i, hex) in range.clone().zip(kept) {
+        let hex = hex.or_else(|| written_sha.remove(&i)).ok_or_else(|| SimError::Analysis {
+            source_name: out.display().to_string(),
+            reason: format!("image {i} was neither kept nor written (a bug: please report it)"),
+        })?;
+        entries.push((image_entry(&image_name(i)), hex));
+    }
+    write_checksums(out, &entries)?;
+    journal.finish()?;
     let secs = |k: usize| nanos[k].load(Ordering::Relaxed) as f64 * 1e-9;
     let taps = taps.into_inner();
     Ok(Summary {
         written,
         skipped,
+        rewritten,
         no_contact,
         taps,
         slides: written - taps,
@@ -414,8 +461,9 @@ pub fn generate(
 
 /// Joins complete shards of one dataset into `out` (new or empty): images copied, rows
 /// concatenated in sample order, `meta.json` without the shard. The result equals the
-/// unsharded run byte for byte. Every shard's images are checked first (decodable, 8-bit
-/// grey, the dataset's size), before anything is written.
+/// unsharded run byte for byte, its `SHA256SUMS` included. Every shard is verified first
+/// ([`tacsim_data::verify`]: each file against its listing, each image decodable 8-bit grey of
+/// the dataset's size), before anything is written.
 pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     let bad = |reason: String| SimError::Analysis { source_name: "tacsim merge".into(), reason };
     let mut parts = Vec::new();
@@ -431,12 +479,23 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     }
     shard_set(&parts).map_err(bad)?;
     parts.sort_by_key(|(s, _)| s.index);
-    // Every shard's images are checked before anything is written, as `--resume` checks a
-    // run's own: decodable, 8-bit grey, the dataset's size (regression: a truncated or RGB
-    // image merged with exit 0 and broke train, eval and sim2real later).
+    // Every shard's files are checked before anything is written: each image's bytes against
+    // the shard's listing (a swapped or edited image is found), decodable, 8-bit grey, the
+    // dataset's size (regression: a truncated or RGB image merged with exit 0 and broke
+    // train, eval and sim2real later).
+    let mut sums: HashMap<String, String> = HashMap::new();
     for (_, ds) in &parts {
-        ds.rows.par_iter().try_for_each(|r| ds.image(r).map(drop))?;
-        ds.reference()?;
+        let verified = tacsim_data::verify(&ds.dir)?;
+        if let Some(first) = verified.problems.first() {
+            let more = verified.problems.len() - 1;
+            let more = if more > 0 {
+                format!(" (and {more} more; `tacsim verify {}` lists them)", ds.dir.display())
+            } else {
+                String::new()
+            };
+            return Err(bad(format!("shard {}: {first}{more}", ds.dir.display())));
+        }
+        sums.extend(read_checksums(&ds.dir)?);
     }
     // A folder that already holds this dataset is an interrupted merge: merging again finishes it.
     let target = Target { out: out.to_owned(), shard: None, resume: true };
@@ -447,6 +506,9 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     for (_, ds) in &parts {
         for r in &ds.rows {
             let bytes = std::fs::read(ds.image_path(r)).map_err(|e| SimError::io(ds.image_path(r), "read", e))?;
+            if Some(&sha256_hex(&bytes)) != sums.get(&image_entry(&r.sensor_image)) {
+                return Err(bad(format!("{} changed while it was merged", ds.image_path(r).display())));
+            }
             write_atomic_unsynced(&images.join(&r.sensor_image), &bytes)?;
         }
         rows.extend(ds.rows.iter().cloned());
@@ -457,8 +519,20 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     let reference = parts[0].1.dir.join("images").join(&meta.reference_image);
     let bytes = std::fs::read(&reference).map_err(|e| SimError::io(&reference, "read", e))?;
     write_atomic(&images.join(&meta.reference_image), &bytes)?;
-    write_atomic(&out.join("targets.csv"), &to_csv(&rows)?)?;
-    write_atomic(&out.join("meta.json"), &meta.to_json()?)?;
+    let (meta_bytes, csv_bytes) = (meta.to_json()?, to_csv(&rows)?);
+    write_atomic(&out.join("targets.csv"), &csv_bytes)?;
+    write_atomic(&out.join("meta.json"), &meta_bytes)?;
+    let mut entries = vec![
+        ("meta.json".to_owned(), sha256_hex(&meta_bytes)),
+        ("targets.csv".to_owned(), sha256_hex(&csv_bytes)),
+        (image_entry(&meta.reference_image), sha256_hex(&bytes)),
+    ];
+    for r in &rows {
+        let name = image_entry(&r.sensor_image);
+        let hex = sums[&name].clone();
+        entries.push((name, hex));
+    }
+    write_checksums(out, &entries)?;
     Ok(rows.len())
 }
 

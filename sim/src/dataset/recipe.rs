@@ -5,6 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::check::{Check, Validate, load_toml};
+use crate::contact::{MAX_STEP_MM, MIN_STEP_MM};
 use crate::error::{Result, SimError};
 use crate::rig::{Press, RigFrame};
 use crate::sensor::SkinModel;
@@ -473,7 +474,7 @@ impl Recipe {
         if s.axes.is_empty() {
             return check.bad("slides.axes", "must list at least one of \"x\", \"y\", \"both\"".into());
         }
-        check.within("slides.step_mm", s.step_mm, 0.01, 10.0, " mm")?;
+        check.within("slides.step_mm", s.step_mm, MIN_STEP_MM, MAX_STEP_MM, " mm")?;
         check.within("slides.step_deg", s.step_deg, 0.01, 45.0, " deg")
     }
 

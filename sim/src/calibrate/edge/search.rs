@@ -82,7 +82,7 @@ pub fn edge_stimulus(
         return Err(flag(format!("--edge {shape}"), "the shape has no top-face contour, so no edge to tap".into()));
     }
     if let Some(reason) = off_the_edge(&stimulus.contour, c, shape) {
-        return Err(flag(format!("--edge-contact {},{}", c[0], c[1]), reason));
+        return Err(flag(format!("--edge-contact {:?},{:?}", c[0], c[1]), reason));
     }
     Ok((stimulus, c))
 }
