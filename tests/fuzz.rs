@@ -2,8 +2,9 @@
 //! in otherwise valid files, fed to every parser and validator of what users write: sensor,
 //! recipe and scenario TOML, dataset and lab CSV, OBJ meshes, PNG images. Each must give a
 //! clear error or a valid result, never a panic; a valid result must then be usable (a sensor
-//! builds its contact model and renderer, a recipe its plan). The case counts keep the whole
-//! file to seconds.
+//! builds its contact model and renderer, a recipe its plan); and every numeric flag of the
+//! command line (issue 88), where the command must end with a clear error or its result,
+//! never a panic, an abort or a hang. The case counts keep the whole file to seconds.
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -114,6 +115,62 @@ const RECIPES: [&str; 3] = [
     include_str!("../scenarios/datasets/edge-2d.toml"),
     include_str!("../scenarios/datasets/surface-3d.toml"),
 ];
+/// Every numeric flag of the commands, `{}` standing for the value. Each command's output is
+/// one it cannot write (a path under /proc) or its input an empty folder, so that an accepted
+/// value ends at that check instead of running the command's whole work.
+const FLAGS: [&str; 27] = [
+    "render -o OUT --size {}",
+    "render -o OUT --pins {}",
+    "render -o OUT --seed {} --grey",
+    "render -o OUT --shape disk --pose {},0,1,0",
+    "render -o OUT --shape disk --pose 0,0,{},0",
+    "render -o OUT --shape disk --pose 0,0,1,{}",
+    "render -o OUT --shape disk --pose 0,0,1,0,{},0",
+    "render -o OUT --shape disk --slide-from {},0",
+    "render -o OUT --shape disk --slide-from 1,0 --step {}",
+    "generate quick --out /proc/tacsim-fuzz --size {}",
+    "generate quick --out /proc/tacsim-fuzz --cells {}",
+    "generate quick --out /proc/tacsim-fuzz --seed {}",
+    "generate quick --out /proc/tacsim-fuzz --threads {}",
+    "bench --plot /proc/tacsim-fuzz.svg --samples {}",
+    "bench --plot /proc/tacsim-fuzz.svg --cells {}",
+    "bench --plot /proc/tacsim-fuzz.svg --edge-subcells {}",
+    "train posenet --data EMPTY --out OUT --epochs {}",
+    "train posenet --data EMPTY --out OUT --batch {}",
+    "train posenet --data EMPTY --out OUT --size {}",
+    "train posenet --data EMPTY --out OUT --max-batches {}",
+    "train unshear --data EMPTY --out OUT --lr-scale {}",
+    "train unshear --data EMPTY --out OUT --label-fraction {}",
+    "sim2real --real EMPTY --out OUT --epochs {}",
+    "sim2real --real EMPTY --out OUT --size {}",
+    "sim2real --real EMPTY --out OUT --threshold {}",
+    "eval --data EMPTY --out OUT --max-pairs {} EMPTY",
+    "calibrate --real EMPTY -o /proc/tacsim-fuzz.toml --edge square --edge-contact {},0",
+];
+
+/// Runs `tacsim args`, killed after `limit` (a hang, not a speed check): `None` where it
+/// had to be killed.
+fn run_bounded(args: &[String], limit: std::time::Duration) -> Option<std::process::Output> {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tacsim"))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("tacsim runs");
+    let start = std::time::Instant::now();
+    loop {
+        if child.try_wait().expect("wait").is_some() {
+            return Some(child.wait_with_output().expect("output"));
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            return None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
 const SCENARIO: &str = include_str!("../scenarios/explore/disk-geometric.toml");
 const OBJ: &str = "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 0 0 10\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n";
 
@@ -160,6 +217,27 @@ proptest! {
         let keep_newline = words[k].ends_with('\n');
         words[k] = if keep_newline { format!("{v}\n") } else { v };
         let _ = Mesh::from_obj_str(&words.join(" "), "fuzz.obj");
+    }
+
+    #[test]
+    fn command_line_numbers_are_an_error_or_a_result(which in 0..FLAGS.len(), v in value()) {
+        let dir = scratch("flags");
+        let empty = dir.join("empty");
+        std::fs::create_dir_all(&empty).expect("empty");
+        let out = dir.join("out");
+        let v = v.trim_matches('"').replace(['[', ']', ' '], "");
+        let args: Vec<String> = FLAGS[which]
+            .split(' ')
+            .map(|a| a.replace("{}", &v).replace("OUT", &out.to_string_lossy()).replace("EMPTY", &empty.to_string_lossy()))
+            .collect();
+        // The limit only tells a hang from a run: a refused value ends in milliseconds.
+        let o = run_bounded(&args, std::time::Duration::from_secs(60));
+        let Some(o) = o else { panic!("tacsim {args:?} still ran after 60 s") };
+        let err = String::from_utf8_lossy(&o.stderr);
+        prop_assert!(o.status.code().is_some(), "tacsim {:?} died on a signal: {}", args, err);
+        prop_assert!(!err.contains("panicked") && !err.contains("memory allocation"), "tacsim {:?}: {}", args, err);
+        prop_assert!(o.status.success() || err.contains("rror"), "tacsim {:?} failed without an error: {}", args, err);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

@@ -140,10 +140,61 @@ impl Mesh {
                 ));
             }
         }
-        if self.volume() <= 0.0 {
+        // Before the volume's sign: a surface that crosses itself (an outline that crosses
+        // itself, extruded) encloses lobes of both orientations, and was told to "flip the
+        // winding", as was its flipped copy (issue 88).
+        if let Some((a, b)) = self.crossing_faces() {
+            return Err(SimError::mesh(
+                source_name,
+                format!(
+                    "the surface crosses itself: faces {} and {} intersect (an outline that crosses itself, extruded, \
+                     does so); a stimulus must be a closed solid whose faces meet only at shared edges and vertices",
+                    a + 1,
+                    b + 1
+                ),
+            ));
+        }
+        let (lo, hi) = self.bounds();
+        let box_volume = (0..3).map(|k| hi[k] - lo[k]).product::<f64>();
+        if self.volume().abs() <= 1e-9 * box_volume {
+            return Err(SimError::mesh(
+                source_name,
+                "encloses no volume: its parts cancel (a surface that crosses itself through its edges, such as a \
+                 symmetric bow tie extruded) or it is flat",
+            ));
+        }
+        if self.volume() < 0.0 {
             return Err(SimError::mesh(source_name, "faces are oriented inwards (negative volume): flip the winding"));
         }
         Ok(())
+    }
+
+    /// The first pair of faces (indices, the lower first) that share no vertex yet cross,
+    /// `None` where the surface does not cross itself. Candidates from parry's BVH over the
+    /// faces' boxes (f32, loosened by [`CROSSING_MARGIN_MM`]); each pair then tested in f64
+    /// ([`faces_cross`]). parry's own triangle test (GJK in f32, with its tolerance) took the
+    /// built-in `foil`'s trailing edge, two side faces 2 um apart at a 0.02 deg tip, for a
+    /// crossing. Faces sharing a vertex or an edge are not tested: they touch by construction.
+    fn crossing_faces(&self) -> Option<(usize, usize)> {
+        use rapier3d::math::Vector;
+        use rapier3d::parry::bounding_volume::BoundingVolume;
+        use rapier3d::parry::shape::TriMesh;
+        let vertices: Vec<Vector> =
+            self.vertices.iter().map(|v| Vector::new(v[0] as f32, v[1] as f32, v[2] as f32)).collect();
+        // The manifold checks before this one leave faces TriMesh accepts; a mesh it refuses
+        // is left to them.
+        let mesh = TriMesh::new(vertices, self.triangles.clone()).ok()?;
+        let corners = |k: usize| self.triangles[k].map(|v| self.vertices[v as usize]);
+        for (i, t) in self.triangles.iter().enumerate() {
+            let aabb = mesh.triangle(i as u32).local_aabb().loosened(CROSSING_MARGIN_MM);
+            for j in mesh.bvh().intersect_aabb(&aabb) {
+                let j = j as usize;
+                if j > i && !self.triangles[j].iter().any(|v| t.contains(v)) && faces_cross(corners(i), corners(j)) {
+                    return Some((i, j));
+                }
+            }
+        }
+        None
     }
 
     /// Enclosed volume (mm^3), positive for outward-facing triangles.
@@ -239,6 +290,38 @@ impl Mesh {
     }
 }
 
+/// How far (mm) the f32 boxes of [`Mesh::crossing_faces`] are loosened, well beyond f32's
+/// rounding at a stimulus's size (1e-5 mm at 100 mm).
+const CROSSING_MARGIN_MM: f32 = 1e-3;
+
+/// Whether two triangles sharing no vertex cross: an edge of one passes through the other's
+/// interior (both ends strictly on opposite sides of its plane, and the edge strictly inside
+/// its three edges' planes), by the signs of the orientation determinants in f64. Two
+/// crossing triangles always have such an edge (the segment they share ends on two edges);
+/// triangles in one plane, or touching without crossing, do not count.
+fn faces_cross(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> bool {
+    // The signed volume of (p, q, r, s), six times the tetrahedron's.
+    let orient = |p: [f64; 3], q: [f64; 3], r: [f64; 3], s: [f64; 3]| dot(sub(p, s), cross(sub(q, s), sub(r, s)));
+    let scale = a.iter().chain(&b).flat_map(|v| v.iter()).fold(1.0f64, |m, c| m.max(c.abs()));
+    let eps = 1e-12 * scale.powi(3);
+    let strictly_one_side = |d: &[f64; 3]| d.iter().all(|&v| v > eps) || d.iter().all(|&v| v < -eps);
+    // Each triangle's corners against the other's plane: all on one side, no crossing.
+    let da = a.map(|p| orient(b[0], b[1], b[2], p));
+    let db = b.map(|p| orient(a[0], a[1], a[2], p));
+    if strictly_one_side(&da) || strictly_one_side(&db) {
+        return false;
+    }
+    // Edge k of `t` (corners k, k + 1, their plane sides `d`) through `u`'s interior.
+    let pierces = |t: &[[f64; 3]; 3], d: &[f64; 3], u: &[[f64; 3]; 3], k: usize| {
+        let (p, q, (dp, dq)) = (t[k], t[(k + 1) % 3], (d[k], d[(k + 1) % 3]));
+        if !((dp > eps && dq < -eps) || (dp < -eps && dq > eps)) {
+            return false;
+        }
+        strictly_one_side(&[orient(p, q, u[0], u[1]), orient(p, q, u[1], u[2]), orient(p, q, u[2], u[0])])
+    };
+    (0..3).any(|k| pierces(&a, &da, &b, k) || pierces(&b, &db, &a, k))
+}
+
 /// Winding number of a closed polygon around `p`.
 pub fn winding_number(poly: &[[f64; 2]], p: [f64; 2]) -> i32 {
     let mut w = 0;
@@ -314,6 +397,42 @@ mod tests {
             .join("\n");
         let e = Mesh::from_obj_str(&inside_out, "cube.obj").expect_err("inside out");
         assert!(e.to_string().contains("inwards"), "{e}");
+    }
+
+    /// A bow-tie outline ((0,0), (10,8), (10,0), (0,10): its edges 1 and 3 cross) extruded 2 mm,
+    /// the caps fanned: closed and manifold, but its surface crosses itself. It and its
+    /// flipped copy were both told to "flip the winding" (issue 88); both now name two faces
+    /// that cross. The symmetric bow tie, whose side faces cross only through their edges,
+    /// encloses no volume and is told so; the cube inside out is still told to flip.
+    #[test]
+    fn an_extruded_outline_that_crosses_itself_is_named_as_such_not_as_inside_out() {
+        let symmetric = "v 0 0 0\nv 10 10 0\nv 10 0 0\nv 0 10 0\nv 0 0 2\nv 10 10 2\nv 10 0 2\nv 0 10 2\n";
+        let outline = symmetric.replace("v 10 10", "v 10 8");
+        let faces = "f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+        let flipped: String = faces
+            .lines()
+            .map(|l| {
+                let mut v: Vec<&str> = l.trim_start_matches("f ").split(' ').collect();
+                v.reverse();
+                format!("f {}\n", v.join(" "))
+            })
+            .collect();
+        for (what, faces) in [("as drawn", faces.to_owned()), ("flipped", flipped)] {
+            let e = Mesh::from_obj_str(&format!("{outline}{faces}"), "bowtie.obj").expect_err(what);
+            let msg = e.to_string();
+            assert!(
+                msg.contains("bowtie.obj") && msg.contains("crosses itself") && !msg.contains("flip"),
+                "{what}: {msg}"
+            );
+            let e = Mesh::from_obj_str(&format!("{symmetric}{faces}"), "bowtie.obj").expect_err(what);
+            let msg = e.to_string();
+            assert!(msg.contains("encloses no volume") && !msg.contains("flip"), "symmetric, {what}: {msg}");
+        }
+        // Every built-in shape (convex, concave, spirals) passes the check.
+        for s in super::super::builtin::builtin_shapes() {
+            let m = Mesh::prism(&s.outline.polygon(0.5), s.height_mm, &s.entry.name).expect("a built-in prism");
+            assert!(m.crossing_faces().is_none(), "{}", s.entry.name);
+        }
     }
 
     #[test]
