@@ -48,7 +48,7 @@ pub struct BenchOptions {
 /// Runs the benchmark; returns the text to print.
 pub fn run(o: &BenchOptions) -> Result<String> {
     let (samples_n, json, plot) = (o.samples, o.json, o.plot.as_path());
-    crate::commands::ensure_file_writable(plot)?;
+    let _made = crate::commands::ensure_file_writable(plot)?;
     #[cfg(feature = "wgpu")]
     let gpu = crate::device::gpu(o.device)?;
     #[cfg(not(feature = "wgpu"))]

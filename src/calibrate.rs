@@ -95,8 +95,7 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     let base = crate::commands::SensorArgs { sensor: o.sensor.clone(), ..Default::default() }.load()?;
     // The outputs are checked writable before any work.
     let report_dir = o.report.clone().unwrap_or_else(|| default_report_dir(&o.output));
-    crate::commands::ensure_file_writable(&o.output)?;
-    crate::commands::ensure_writable(&report_dir)?;
+    let _made = crate::commands::ensure_file_writable(&o.output)?.and(crate::commands::ensure_writable(&report_dir)?);
     let reference = Reference::of(&folder, o.reference.as_deref(), o.consensus)?;
     // The edge's stimulus and contact point are checked before any tracking.
     let edge = match o.edge.as_deref() {

@@ -166,20 +166,48 @@ fn pressed_pins(sensor: &SensorParams, opts: &RenderOptions) -> Result<(Vec<PinP
     Ok((frame.pins.clone(), summary))
 }
 
-/// Creates `dir` and checks that files can be written in it, before any work.
-pub fn ensure_writable(dir: &Path) -> Result<()> {
+/// The folders a command made for its outputs. Dropped, each one still empty is removed
+/// again (the deepest first), so a run that fails leaves no empty folder behind (issue 88:
+/// `sim2real --out A --report FILE/x` and `calibrate` with a bad `--edge-contact` left `A/`
+/// and `NAME-report/`). Hold it until the command ends.
+#[must_use = "hold it until the command ends, or its folders are removed at once"]
+pub struct MadeDirs(Vec<PathBuf>);
+
+impl MadeDirs {
+    /// One guard for both, `later`'s folders (which may lie inside these) removed first.
+    pub fn and(mut self, mut later: MadeDirs) -> MadeDirs {
+        later.0.append(&mut self.0);
+        MadeDirs(std::mem::take(&mut later.0))
+    }
+}
+
+impl Drop for MadeDirs {
+    fn drop(&mut self) {
+        for dir in &self.0 {
+            // Only an empty folder goes: one the run wrote into stays.
+            let _ = std::fs::remove_dir(dir);
+        }
+    }
+}
+
+/// Creates `dir` and checks that files can be written in it, before any work; the folders it
+/// made are removed again, where still empty, when the guard is dropped.
+pub fn ensure_writable(dir: &Path) -> Result<MadeDirs> {
+    let made = MadeDirs(
+        dir.ancestors().take_while(|a| !a.as_os_str().is_empty() && !a.exists()).map(Path::to_owned).collect(),
+    );
     std::fs::create_dir_all(dir).with_context(|| format!("creating {} for the output", dir.display()))?;
     let probe = dir.join(".tacsim-write-check");
     std::fs::write(&probe, b"").with_context(|| format!("{} is not writable", dir.display()))?;
     let _ = std::fs::remove_file(&probe);
-    Ok(())
+    Ok(made)
 }
 
 /// Checks before any work that the file `path` can be written: not a folder, in a folder
 /// that exists or can be made and takes a file ([`ensure_writable`]). Regression (issue 88):
 /// `bench --plot` under a file or in /proc, and `calibrate -o` naming a folder, failed only
 /// after the computation, whose results were then lost.
-pub fn ensure_file_writable(path: &Path) -> Result<()> {
+pub fn ensure_file_writable(path: &Path) -> Result<MadeDirs> {
     anyhow::ensure!(!path.is_dir(), "{} is a folder: name the file to write", path.display());
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     ensure_writable(dir).with_context(|| format!("{} cannot be written", path.display()))

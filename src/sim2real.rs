@@ -137,8 +137,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         crate::dataset::recipe_base_sensor(&recipe, &generate_options(o))?;
     }
     let report_dir = o.report.clone().unwrap_or_else(|| o.out.clone());
-    crate::commands::ensure_writable(&o.out)?;
-    crate::commands::ensure_writable(&report_dir)?;
+    let _made = crate::commands::ensure_writable(&o.out)?.and(crate::commands::ensure_writable(&report_dir)?);
     let real = Corpus::open_lab(&o.real, &o.lab.preprocess(o.size))
         .with_context(|| format!("{} is not a lab folder (targets.csv + images/)", o.real.display()))?;
     let lab_train: Vec<usize> =

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use tacsim_sim::{detect_blobs, read_png};
 
 mod common;
-use common::{err, s, tacsim, temp_dir};
+use common::{err, ok, s, tacsim, temp_dir};
 
 fn render_and_count(dir: &Path, file: &str, extra: &[&str]) -> (u32, usize) {
     let out = dir.join(file);
@@ -255,6 +255,39 @@ fn absurd_command_line_numbers_are_refused_before_any_work() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success() && err.contains(s(&plot)) && !err.contains("taps/s"), "{plot:?}: {err}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A run that fails before its work leaves no empty folder behind (issue 88): `sim2real` made
+/// `--out` before refusing its `--report`, `calibrate` made `NAME-report/` before refusing its
+/// `--edge-contact`, and `bench` the plot's folder before refusing its `--cells`.
+#[test]
+fn a_failed_run_leaves_no_empty_folder() {
+    let dir = temp_dir("cli", "no-empty-folder");
+    let lab = dir.join("lab");
+    ok(&["generate", "quick", "--quiet", "--out", s(&lab)]);
+    let file = dir.join("a-file");
+    std::fs::write(&file, b"").expect("file");
+    let (out, report) = (dir.join("s2r/deep"), file.join("report"));
+    let _ = err(&["sim2real", "--real", s(&lab), "--out", s(&out), "--report", s(&report)]);
+    let _ = err(&[
+        "calibrate",
+        "--real",
+        s(&lab),
+        "--edge",
+        "square",
+        "--edge-contact",
+        "1e300,0",
+        "-o",
+        s(&dir.join("cal/c.toml")),
+    ]);
+    let _ = err(&["bench", "--cells", "4", "--plot", s(&dir.join("plots/b.svg"))]);
+    let mut left: Vec<String> = std::fs::read_dir(&dir)
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["a-file", "lab"], "folders left by failed runs");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

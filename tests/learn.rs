@@ -85,4 +85,9 @@ fn a_lab_folder_trains_the_pose_network_with_the_labs_preprocessing() {
     let e = err(&["train", "posenet", "--data", s(&lab), "--out", s(&dir.join("tiny")), "--size", "64", "-q"]);
     assert!(e.contains(first) && e.contains("1x1") && e.contains("[16, 8192]"), "{e}");
     assert!(!dir.join("tiny").join("model.safetensors").exists());
+    // One image of another size among the lab's is refused as `calibrate` refuses it, naming
+    // both files (regression, issue 88: train and sim2real resized each image alone).
+    image::GrayImage::new(64, 64).save(lab.join("images").join(first)).expect("a 64x64 image");
+    let e = err(&["train", "posenet", "--data", s(&lab), "--out", s(&dir.join("mixed")), "--size", "64", "-q"]);
+    assert!(e.contains(first) && e.contains("64x64 px") && e.contains("one size"), "{e}");
 }

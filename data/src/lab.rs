@@ -95,6 +95,22 @@ pub fn check_lab_image_size(path: &Path, width: u32, height: u32) -> Result<()> 
     ))
 }
 
+/// Checks that a lab image has its folder's size `expected` (px, that of `first`: the
+/// reference, or the first sample's file), naming both: `train` and `sim2real` resized a
+/// folder of mixed sizes image by image without a word (issue 88); `calibrate` refused it.
+pub fn check_lab_image_alike(path: &Path, size: (u32, u32), expected: (u32, u32), first: &str) -> Result<()> {
+    if size == expected {
+        return Ok(());
+    }
+    Err(DataError::format(
+        path,
+        format!(
+            "is {}x{} px but {first} is {}x{} px: a lab folder's images must all have one size",
+            size.0, size.1, expected.0, expected.1
+        ),
+    ))
+}
+
 impl LabFolder {
     /// Reads `dir/targets.csv` (either naming of the columns) and checks that every image
     /// exists.

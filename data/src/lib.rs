@@ -34,7 +34,7 @@ pub use checksum::{
 pub use column::Column;
 pub use error::{DataError, Result};
 pub use hash::{Fnv1a, SplitMix64, fnv1a, splitmix64};
-pub use lab::{LAB_IMAGE_SIDE_PX, LabFolder, LabSample, MAX_LABEL, check_lab_image_size};
+pub use lab::{LAB_IMAGE_SIDE_PX, LabFolder, LabSample, MAX_LABEL, check_lab_image_alike, check_lab_image_size};
 pub use loader::{Dataset, Subset};
 pub use meta::{Meta, PoseFrame, Shard};
 pub use row::{Kind, Row, Split, read_csv, to_csv};

@@ -71,12 +71,26 @@ impl Corpus {
                 ..Default::default()
             })
             .collect();
+        // Every image the first one's size (one lab-folder rule with calibrate's).
+        let first = folder.samples.first().map(|s| folder.image_path(s));
+        let first_size = match &first {
+            Some(p) => {
+                let (w, h) = image::image_dimensions(p)
+                    .map_err(|e| ModelError::checkpoint(p, format!("not a readable image: {e}")))?;
+                tacsim_data::check_lab_image_size(p, w, h)?;
+                Some((w, h))
+            }
+            None => None,
+        };
         let images = ImageSet::load(rows.len(), pre, |k| {
             let path = folder.image_path(&folder.samples[k]);
             let img = image::open(&path)
                 .map_err(|e| ModelError::checkpoint(&path, format!("not a readable image: {e}")))?
                 .into_luma8();
             tacsim_data::check_lab_image_size(&path, img.width(), img.height())?;
+            if let (Some(first), Some(size)) = (&first, first_size) {
+                tacsim_data::check_lab_image_alike(&path, img.dimensions(), size, &first.display().to_string())?;
+            }
             Ok((img, path.display().to_string()))
         })?;
         let taps = rows.iter().filter(|r| r.kind == Kind::Tap).count();

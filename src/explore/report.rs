@@ -70,7 +70,7 @@ pub fn run_files(
     // Each scenario's own sensor, loaded before any run (a bad file stops them all).
     let sensors = scenarios.iter().map(|s| s.sensor_or(sensor)).collect::<Result<Vec<_>, _>>()?;
     // The report directory, checked writable before any run.
-    crate::commands::ensure_writable(out).context("the report directory (--out)")?;
+    let _made = crate::commands::ensure_writable(out).context("the report directory (--out)")?;
     let plots = plot_names(files, &scenarios.iter().map(|s| s.name.as_str()).collect::<Vec<_>>());
     let mut runs = scenarios
         .par_iter()

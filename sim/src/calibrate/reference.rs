@@ -144,18 +144,7 @@ impl SquareCrop {
 
     /// Cuts `img` (of the [`source`](Self::source) size, else an error naming `path`).
     pub fn apply(&self, img: GrayImage, path: &std::path::Path) -> Result<GrayImage> {
-        if img.dimensions() != self.source {
-            return Err(SimError::Image {
-                path: path.to_owned(),
-                reason: format!(
-                    "is {}x{}, the reference {}x{}: every image of a lab folder has one size",
-                    img.width(),
-                    img.height(),
-                    self.source.0,
-                    self.source.1
-                ),
-            });
-        }
+        tacsim_data::check_lab_image_alike(path, img.dimensions(), self.source, "the reference")?;
         if self.is_identity() {
             return Ok(img);
         }
@@ -235,18 +224,8 @@ impl Reference {
         for s in &order {
             let path = folder.image_path(s);
             let img = read_checked(&path)?;
-            let (w, h) = *size.get_or_insert(img.dimensions());
-            if img.dimensions() != (w, h) {
-                return Err(SimError::Image {
-                    path,
-                    reason: format!(
-                        "is {}x{}, {} {w}x{h}: every image of a lab folder has one size",
-                        img.width(),
-                        img.height(),
-                        first.display()
-                    ),
-                });
-            }
+            let expected = *size.get_or_insert(img.dimensions());
+            tacsim_data::check_lab_image_alike(&path, img.dimensions(), expected, &first.display().to_string())?;
             bits.push(packed(&img));
         }
         let (w, h) = size.unwrap_or((0, 0));
