@@ -34,6 +34,15 @@ pub fn bench_samples(text: &str) -> Result<usize, String> {
     Ok(n)
 }
 
+/// `sim2real --finetune-min-steps`: in [1, 100,000].
+pub fn finetune_min_steps(text: &str) -> Result<usize, String> {
+    let n = whole(text)?;
+    if !(1..=100_000).contains(&n) {
+        return Err(format!("must be in [1, 100000], got {n}"));
+    }
+    Ok(n)
+}
+
 /// The most worker threads: [`THREADS_PER_CORE`] per core of this machine.
 pub fn max_threads() -> usize {
     THREADS_PER_CORE * std::thread::available_parallelism().map_or(1, |n| n.get())

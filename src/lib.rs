@@ -13,6 +13,7 @@ pub mod commands;
 pub mod dataset;
 pub mod device;
 pub mod explore;
+pub mod finetune;
 pub mod flags;
 pub mod learn;
 pub mod sim2real;

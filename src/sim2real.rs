@@ -79,6 +79,19 @@ pub struct Sim2RealOptions {
     /// unsupervised adaptation (AdaBN); the weights stay trained on simulated images only.
     #[arg(long)]
     pub adapt_norms: bool,
+    /// After the zero-shot run, the fine-tuning curve: for each of these counts K of the lab's
+    /// labelled fitting samples (`all`: every one), the simulator-trained network fine-tuned
+    /// on K and the same network trained from scratch on them, both on the held-out part
+    /// (finetune.md, finetune.json, finetune.svg). Example: 25,50,100,200,400,all
+    #[arg(long, value_parser = crate::finetune::ks)]
+    pub finetune: Option<crate::finetune::Ks>,
+    /// Seeds per K of the fine-tuning curve (1 to 20).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=20))]
+    pub finetune_seeds: u64,
+    /// The fewest optimiser steps of either arm of the curve at any K (1 to 100,000): a small K
+    /// trains more epochs to reach it.
+    #[arg(long, default_value_t = tacsim_model::FINETUNE_MIN_STEPS, value_parser = crate::flags::finetune_min_steps)]
+    pub finetune_min_steps: usize,
     /// The lab folder's preprocessing.
     #[command(flatten)]
     pub lab: LabOptions,
@@ -198,7 +211,24 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     tacsim_data::write_atomic(&report_dir.join("report.json"), json.as_bytes())?;
     let md = markdown(&report);
     tacsim_data::write_atomic(&report_dir.join("report.md"), md.as_bytes())?;
-    Ok(format!("{md}\nreport: {}\n", report_dir.join("report.md").display()))
+    let mut out = format!("{md}\nreport: {}\n", report_dir.join("report.md").display());
+    if let Some(ks) = &o.finetune {
+        let curve = tacsim_model::FinetuneCurve {
+            how,
+            real: &real,
+            labels: &real_labels,
+            fitting: &fitting,
+            held_out: &held_out,
+            sim_run: &sim_run,
+            cfg: &report.posenet,
+            min_steps: o.finetune_min_steps,
+            dir: o.out.join("finetune"),
+        };
+        let real_all: Vec<f64> = report.labels.iter().map(|l| l.real_trained).collect();
+        let md = crate::finetune::run(&curve, ks, o.finetune_seeds, &real_all, o.quiet, command, &report_dir)?;
+        out.push_str(&format!("\n{md}\nfine-tuning curve: {}\n", report_dir.join("finetune.md").display()));
+    }
+    Ok(out)
 }
 
 /// Step 1: the simulated set under `out/sim` (resumed when a previous run started it).

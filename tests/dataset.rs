@@ -163,6 +163,15 @@ fn killed_run_resumes_to_the_same_bytes() {
     let said = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success() && said.contains("1 images on disk were not the ones recorded"), "{said}");
     assert!(files(&full) == files(&cut), "the swapped image is written again");
+    // A folder written before datasets carried checksums (no SHA256SUMS, no journal) keeps
+    // its whole images on resume, as it did then, and gains its listing: the work of a long
+    // run is not redone.
+    std::fs::remove_file(cut.join("SHA256SUMS")).expect("an older folder");
+    std::fs::remove_file(cut.join("images/image_9.png")).expect("one image missing");
+    let o = tacsim(&["generate", "quick", "--resume", "--out", s(&cut)]);
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && said.contains("(1 written, 299 already there)"), "{said}");
+    assert!(files(&full) == files(&cut), "the older folder finishes to the same bytes, its listing added");
     // A different recipe never overwrites it.
     let o = tacsim(&["generate", "quick", "--quiet", "--seed", "7", "--resume", "--out", s(&cut)]);
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("different dataset"));

@@ -103,6 +103,47 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     let again = ok(&[&args[..], &["--epochs", "2", "-q"]].concat());
     let table = |t: &str| t.lines().filter(|l| l.starts_with("| pose_")).map(str::to_owned).collect::<Vec<_>>();
     assert_eq!(table(&again), table(&text));
+    // The fine-tuning curve (issue 87) on the finished zero-shot run: two K, one seed, a few
+    // steps; its report's fields, the same bytes from a second work folder, and a resumed
+    // point not trained again.
+    let curve = ["--epochs", "2", "--finetune", "8,all", "--finetune-seeds", "1", "--finetune-min-steps", "4", "-q"];
+    let with_curve = ok(&[&args[..], &curve[..]].concat());
+    assert!(with_curve.contains("# Fine-tuning curve") && with_curve.contains("labels saved"), "{with_curve}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("finetune.json")).expect("finetune.json"))
+            .expect("json");
+    let points = json["points"].as_array().expect("points");
+    assert_eq!(points.iter().map(|p| p["k"].as_u64().expect("k")).collect::<Vec<_>>(), [8, fitting]);
+    for p in points {
+        assert_eq!(p["epochs"].as_u64(), Some(if p["k"] == 8 { 4 } else { 2 }), "{p}");
+        for arm in ["pretrained", "scratch"] {
+            let errs = p[arm].as_array().expect(arm);
+            assert!(
+                errs.len() == 3 && errs.iter().all(|e| e.as_f64().is_some_and(|v| v.is_finite() && v >= 0.0)),
+                "{p}"
+            );
+        }
+    }
+    let curves = json["labels"].as_array().expect("labels");
+    assert_eq!(curves.len(), 3);
+    for c in curves {
+        assert!(c["real_all"].as_f64().is_some() && c["labels_saved"].as_array().expect("saved").len() == 2, "{c}");
+    }
+    assert!(std::fs::read_to_string(out.join("finetune.svg")).expect("svg").contains("<svg"));
+    let point = out.join("finetune/k8-s0/point.json");
+    let stamp = std::fs::metadata(&point).expect("point.json").modified().expect("mtime");
+    let md = std::fs::read_to_string(out.join("finetune.md")).expect("finetune.md");
+    ok(&[&args[..], &curve[..]].concat());
+    assert_eq!(std::fs::read_to_string(out.join("finetune.md")).expect("md"), md, "a rerun reads the points back");
+    assert_eq!(std::fs::metadata(&point).expect("point.json").modified().expect("mtime"), stamp, "not recomputed");
+    let other = dir.join("out-again");
+    let args2 = ["sim2real", "--real", s(&lab), "--recipe", s(&train), "--out", s(&other)];
+    ok(&[&args2[..], &curve[..]].concat());
+    assert_eq!(
+        std::fs::read_to_string(other.join("finetune/k8-s0/point.json")).expect("point"),
+        std::fs::read_to_string(&point).expect("point"),
+        "same seed, same curve"
+    );
     // `--sim`: the set made before (here the one the recipe generated) trains the same
     // networks to the same errors; a folder that holds no dataset is a clear error.
     let (set, given_out) = (out.join("sim"), dir.join("given"));

@@ -92,6 +92,25 @@ impl Column {
         let i = self.index();
         if i < 6 { row.pose()[i] } else { row.shear()[i - 6] }
     }
+
+    /// Sets the column's value in a row.
+    pub fn set(self, row: &mut Row, v: f64) {
+        let field = match self.index() {
+            0 => &mut row.pose_x,
+            1 => &mut row.pose_y,
+            2 => &mut row.pose_z,
+            3 => &mut row.pose_rx,
+            4 => &mut row.pose_ry,
+            5 => &mut row.pose_rz,
+            6 => &mut row.shear_x,
+            7 => &mut row.shear_y,
+            8 => &mut row.shear_z,
+            9 => &mut row.shear_rx,
+            10 => &mut row.shear_ry,
+            _ => &mut row.shear_rz,
+        };
+        *field = v;
+    }
 }
 
 impl fmt::Display for Column {
@@ -118,6 +137,11 @@ mod tests {
     #[test]
     fn names_kinds_and_values_agree_with_the_row() {
         let row = Row { pose_z: 3.0, pose_rz: -20.0, shear_x: 1.5, shear_rz: 2.0, ..Row::default() };
+        let mut set = Row::default();
+        for (k, c) in Column::ALL.into_iter().enumerate() {
+            c.set(&mut set, k as f64 + 0.5);
+        }
+        assert!(Column::ALL.into_iter().enumerate().all(|(k, c)| c.of(&set) == k as f64 + 0.5), "{set:?}");
         for c in Column::ALL {
             assert_eq!(c.name().parse::<Column>(), Ok(c));
             let json = serde_json::to_string(&c).expect("serialise");

@@ -56,7 +56,9 @@ pub use objective::StepLosses;
 pub use posenet::{Pose, PoseNet, PoseScale, decode_batch};
 pub use train::{EpochLog, Progress, Silent, TrainState, train_posenet, train_unshear};
 pub use transfer::{
-    Coverage, LabelMap, LabelScore, Scores, Scoring, Span, coverage as transfer_coverage,
-    difference as label_difference, label as label_name, score as score_transfer,
+    Coverage, Curve as FinetuneCurve, CurvePoint, LabelCurve, LabelMap, LabelScore, MATCH_FACTOR,
+    MIN_STEPS as FINETUNE_MIN_STEPS, Scores, Scoring, Span, Spread, coverage as transfer_coverage,
+    difference as label_difference, epochs_for as finetune_epochs, label as label_name, parse_ks as parse_finetune_ks,
+    score as score_transfer, summarise as summarise_finetune,
 };
 pub use unshear::Unshear;

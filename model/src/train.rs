@@ -421,12 +421,20 @@ pub fn train_unshear(
     Ok((model, state))
 }
 
+/// The label scale of the pose network run whose weights are at `weights` (its folder's
+/// `scale.json`), if it is one.
+fn init_scale(weights: &std::path::Path) -> Option<crate::posenet::PoseScale> {
+    let dir = if weights.is_dir() { weights } else { weights.parent()? };
+    read_json(&dir.join("scale.json")).ok()
+}
+
 /// Trains the pose network to read `cfg.labels` from the training rows of `corpus`
 /// ([`Corpus::pose_rows`]: the taps, or the slides for slide offsets or where there are no
 /// taps) into `out`.
 ///
 /// `init` starts from saved weights of the same network (fine-tuning a simulator-trained
-/// network on a lab's images; the same start on two backends). With `resume` an interrupted
+/// network on a lab's images; the same start on two backends), with that run's label scale
+/// where it reads the same labels. With `resume` an interrupted
 /// run continues from its newest checkpoint.
 ///
 /// ```no_run
@@ -459,7 +467,13 @@ pub fn train_posenet(
             cfg.labels.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
         )));
     }
-    let scale = corpus.pose_scale(&cfg.labels, &rows);
+    // Initialised from a pose network of the same labels, the run keeps that network's label
+    // scale, so that its head reads as it was trained to (fine-tuning on a few samples, whose
+    // own ranges differ from the run's).
+    let scale = match init.and_then(init_scale) {
+        Some(scale) if scale.columns() == cfg.labels => scale,
+        _ => corpus.pose_scale(&cfg.labels, &rows),
+    };
     let (device, model) = seeded(backend, cfg.seed, |device| {
         let model = canonical_ids(PoseNet::new(cfg.net_size()?, cfg.hidden, scale.width(), device));
         match init {

@@ -12,8 +12,10 @@
 //!
 //! `real = sign * sim + offset` (mm, or deg modulo 360 for a rotation).
 
+mod finetune;
 mod score;
 
+pub use finetune::{Curve, CurvePoint, LabelCurve, MATCH_FACTOR, MIN_STEPS, Spread, epochs_for, parse_ks, summarise};
 pub use score::{Coverage, LabelScore, Scores, Scoring, coverage, score};
 
 use serde::{Deserialize, Serialize};

@@ -161,6 +161,17 @@ fn prepare(target: &Target, meta: &Meta) -> Result<()> {
     Ok(())
 }
 
+/// Whether `path` holds a complete PNG of `size` x `size` (a folder written before checksums
+/// keeps it on resume).
+fn complete_image(path: &Path, size: u32) -> bool {
+    image::ImageReader::open(path)
+        .ok()
+        .and_then(|r| r.with_guessed_format().ok())
+        .and_then(|r| r.into_dimensions().ok())
+        .is_some_and(|d| d == (size, size))
+        && crate::png_io::read_png(path).is_ok()
+}
+
 /// The SHA-256 of the file at `path`, `None` where it cannot be read.
 fn file_sha256(path: &Path) -> Option<String> {
     std::fs::read(path).ok().map(|b| sha256_hex(&b))
@@ -332,12 +343,21 @@ pub fn generate(
     // decodable image of the right size was kept, so one overwritten by a copy of another
     // passed); the kept lines start the journal and the listing goes until the run ends.
     let recorded = if target.resume { recorded_checksums(out) } else { HashMap::new() };
+    // A folder written before datasets carried checksums (no listing, no journal) keeps each
+    // image that decodes whole at the dataset's size, as resuming did then, so that its work is
+    // not redone; its checksums start here.
+    let legacy = target.resume && !out.join(CHECKSUMS_FILE).exists() && !out.join(JOURNAL_FILE).exists();
+    let size = plan.recipe.image_size;
     let kept: Vec<Option<String>> = range
         .clone()
         .into_par_iter()
         .map(|i| {
+            let path = images.join(image_name(i));
+            if legacy {
+                return complete_image(&path, size).then(|| file_sha256(&path)).flatten();
+            }
             let hex = recorded.get(&image_entry(&image_name(i)))?;
-            (file_sha256(&images.join(image_name(i))).as_ref() == Some(hex)).then(|| hex.clone())
+            (file_sha256(&path).as_ref() == Some(hex)).then(|| hex.clone())
         })
         .collect();
     let journal_lines: String = (range.clone().zip(&kept))

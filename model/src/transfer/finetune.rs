@@ -1,0 +1,336 @@
+//! How many real labels pretraining on tacsim saves (`tacsim sim2real --finetune`): for each
+//! number `K` of the lab's labelled fitting samples and each seed, (a) the simulator-trained
+//! network fine-tuned on those `K` and (b) the same network trained from scratch on them, both
+//! scored on the held-out part as the zero-shot run scores its two networks.
+//!
+//! - The `K` samples: a seeded choice stratified over the lab's first scored label (the
+//!   fitting rows sorted by it, cut into `K` equal runs, one drawn from each), so that a small
+//!   `K` still spans the lab's range ([`stratified`]).
+//! - (a) reads the simulator's labels: the `K` labels go into the simulated frame through a
+//!   label map fitted on those `K` alone (as a lab with `K` labels would fit it), the network
+//!   starts from the simulator-trained weights and its label scale, and its readings go back
+//!   through the same map.
+//! - (b) reads the lab's labels directly, from freshly initialised weights.
+//! - Equal budget: both arms train the same epochs, so the same optimiser steps, at the same
+//!   learning rate and rule as the real-trained network (`lr`, times `lr_step_factor` after
+//!   half the epochs); a small `K` trains more epochs so that each arm takes at least
+//!   [`Curve::min_steps`] steps (default [`MIN_STEPS`]; [`epochs_for`]).
+//!
+//! Each point's two runs and its scores live in `k{K}-s{seed}/` under the curve's folder: a
+//! finished point is read back, not recomputed; an interrupted one resumes its runs.
+
+use std::path::{Path, PathBuf};
+
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+use tacsim_data::Split;
+
+use super::{LabelMap, Scoring};
+use crate::checkpoint::{read_json, write_json};
+use crate::config::PoseConfig;
+use crate::data::Corpus;
+use crate::error::{ModelError, Result};
+use crate::eval::{corpus_images, predict_poses};
+use crate::infer::load_posenet;
+use crate::posenet::{Column, Pose};
+use crate::train::{Progress, train_posenet};
+
+/// The fewest optimiser steps either arm takes by default, whatever `K` ([`epochs_for`],
+/// [`Curve::min_steps`]).
+pub const MIN_STEPS: usize = 300;
+
+/// "Matches the real-trained network": within this factor of its error on all fitting
+/// samples (issue 87's bound).
+pub const MATCH_FACTOR: f64 = 1.2;
+
+/// The epochs both arms train at `k` samples: `epochs` (the real-trained network's), raised
+/// where `k` gives too few batches for `min_steps` steps.
+pub fn epochs_for(k: usize, batch: usize, epochs: usize, min_steps: usize) -> usize {
+    let per_epoch = k.div_ceil(batch.max(1)).max(1);
+    epochs.max(min_steps.div_ceil(per_epoch))
+}
+
+/// Parses `25,50,100,all` into sample counts (`None`: every fitting sample), each at least
+/// 2, in increasing order.
+pub fn parse_ks(text: &str) -> std::result::Result<Vec<Option<usize>>, String> {
+    let mut ks = Vec::new();
+    for part in text.split(',').map(str::trim) {
+        let k = if part == "all" {
+            None
+        } else {
+            let k: usize = part.parse().map_err(|_| format!("`{part}` is not a sample count or `all`"))?;
+            if !(2..=1_000_000).contains(&k) {
+                return Err(format!("{k} samples: each K must be in [2, 1000000] or `all`"));
+            }
+            Some(k)
+        };
+        if ks.last().is_some_and(|last: &Option<usize>| last.is_none() || k.is_some_and(|k| Some(k) <= *last)) {
+            return Err(format!("`{text}`: give the counts in increasing order, `all` last"));
+        }
+        ks.push(k);
+    }
+    if ks.is_empty() {
+        return Err("no sample counts given".into());
+    }
+    Ok(ks)
+}
+
+/// A seeded choice of `k` of `rows`, stratified over `label`: `rows` sorted by it (ties by
+/// row), cut into `k` runs of (nearly) equal length, one row drawn from each. All of `rows`
+/// (sorted) where `k` is at least their number.
+pub fn stratified(corpus: &Corpus, rows: &[usize], label: Column, k: usize, seed: u64) -> Vec<usize> {
+    let mut sorted = rows.to_vec();
+    sorted.sort_by(|&a, &b| corpus.pose(a).get(label).total_cmp(&corpus.pose(b).get(label)).then(a.cmp(&b)));
+    if k >= sorted.len() {
+        return sorted;
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(tacsim_data::splitmix64(seed ^ (k as u64).rotate_left(32)));
+    (0..k)
+        .map(|i| {
+            let (lo, hi) = (i * sorted.len() / k, (i + 1) * sorted.len() / k);
+            sorted[rng.random_range(lo..hi)]
+        })
+        .collect()
+}
+
+/// One point of the curve: `k` samples, one seed, the held-out error per lab label (in the
+/// order of the curve's labels) of both arms.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CurvePoint {
+    /// Labelled real samples the arms trained on.
+    pub k: usize,
+    /// The seed of the choice and of both trainings (added to the config's).
+    pub seed: u64,
+    /// Epochs of both arms ([`epochs_for`]).
+    pub epochs: usize,
+    /// (a) the simulator-trained network fine-tuned: mean absolute error per label (mm or deg).
+    pub pretrained: Vec<f64>,
+    /// (b) the network trained from scratch on the same samples.
+    pub scratch: Vec<f64>,
+    /// The label map fitted on the `k` samples, as `LabelMap::describe` writes it.
+    pub map: Vec<String>,
+}
+
+/// Everything a curve's points share.
+pub struct Curve<'a> {
+    /// How the networks read images.
+    pub how: Scoring,
+    /// The lab's corpus.
+    pub real: &'a Corpus,
+    /// The lab labels scored.
+    pub labels: &'a [Column],
+    /// The lab's fitting rows (the samples are drawn from them) and held-out rows (the test).
+    pub fitting: &'a [usize],
+    /// The held-out rows.
+    pub held_out: &'a [usize],
+    /// The simulator-trained network's run.
+    pub sim_run: &'a Path,
+    /// The pose network's settings (the real-trained network's; labels are set per arm).
+    pub cfg: &'a PoseConfig,
+    /// The fewest optimiser steps of either arm at any `K` (default [`MIN_STEPS`]).
+    pub min_steps: usize,
+    /// The curve's folder (`k{K}-s{seed}/` per point).
+    pub dir: PathBuf,
+}
+
+impl Curve<'_> {
+    /// The point of `k` samples (capped at the fitting part) and `seed`: read back where it
+    /// is finished, else trained (resuming its runs) and scored.
+    pub fn point(&self, k: usize, seed: u64, progress: &mut dyn Progress) -> Result<CurvePoint> {
+        let k = k.min(self.fitting.len());
+        let dir = self.dir.join(format!("k{k}-s{seed}"));
+        let done = dir.join("point.json");
+        if done.is_file() {
+            return read_json(&done);
+        }
+        if k < 2 {
+            return Err(ModelError::Insufficient(format!("{k} fitting samples: a curve point needs at least 2")));
+        }
+        let rows = stratified(self.real, self.fitting, self.labels[0], k, seed);
+        let epochs = epochs_for(k, self.cfg.batch, self.cfg.epochs, self.min_steps);
+        let device = self.how.backend.device();
+        let truth = |rows: &[usize]| -> Vec<Pose> { rows.iter().map(|&r| self.real.pose(r)).collect() };
+        let held_images = corpus_images(self.real, self.held_out);
+        let held_truth = truth(self.held_out);
+        let seed_cfg = self.cfg.seed.wrapping_add(seed);
+
+        // (a) Pretrained: the map from the simulator-trained network's readings of the k.
+        let (sim_net, _, sim_scale) = load_posenet(self.sim_run, &device)?;
+        let read = predict_poses(&sim_net, &sim_scale, &corpus_images(self.real, &rows), self.how.size, &device);
+        let map = LabelMap::fit(&read, &sim_scale.columns(), &truth(&rows), self.labels)?;
+        let sim_labels = sim_scale.columns();
+        let as_sim = self.training_set(&rows, |pose| map.sim_pose(pose), &sim_labels);
+        let cfg = PoseConfig { labels: sim_labels, epochs, seed: seed_cfg, ..self.cfg.clone() };
+        let run = dir.join("pretrained");
+        let weights = self.sim_run.join("model.safetensors");
+        train_posenet(
+            &as_sim,
+            &cfg,
+            self.how.backend,
+            &run,
+            run.join("config.json").is_file(),
+            Some(&weights),
+            progress,
+        )?;
+        let (net, _, scale) = load_posenet(&run, &device)?;
+        let pretrained = map.errors(&predict_poses(&net, &scale, &held_images, self.how.size, &device), &held_truth);
+
+        // (b) From scratch, on the lab's own labels.
+        let own = self.training_set(&rows, |pose| *pose, self.labels);
+        let cfg = PoseConfig { labels: self.labels.to_vec(), epochs, seed: seed_cfg, ..self.cfg.clone() };
+        let run = dir.join("scratch");
+        train_posenet(&own, &cfg, self.how.backend, &run, run.join("config.json").is_file(), None, progress)?;
+        let (net, _, scale) = load_posenet(&run, &device)?;
+        let scratch = LabelMap::identity(self.labels)
+            .errors(&predict_poses(&net, &scale, &held_images, self.how.size, &device), &held_truth);
+
+        let point = CurvePoint { k, seed, epochs, pretrained, scratch, map: map.describe() };
+        write_json(&done, &point)?;
+        Ok(point)
+    }
+
+    /// The lab's corpus with `rows` its only training rows, each labelled `relabel(pose)` in
+    /// the columns `labels` (every other row held out of training).
+    fn training_set(&self, rows: &[usize], relabel: impl Fn(&Pose) -> Pose, labels: &[Column]) -> Corpus {
+        let mut dataset = self.real.dataset.clone();
+        for r in &mut dataset.rows {
+            r.split = Split::Test;
+        }
+        for &i in rows {
+            let pose = relabel(&self.real.pose(i));
+            let row = &mut dataset.rows[i];
+            row.split = Split::Train;
+            for &c in labels {
+                c.set(row, pose.get(c));
+            }
+        }
+        Corpus { dataset, images: self.real.images.clone() }
+    }
+}
+
+/// Mean, least and greatest of a label's error over the seeds.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Spread {
+    /// Mean over the seeds (mm or deg).
+    pub mean: f64,
+    /// Least.
+    pub min: f64,
+    /// Greatest.
+    pub max: f64,
+}
+
+impl Spread {
+    fn of(values: &[f64]) -> Self {
+        let mean = values.iter().sum::<f64>() / values.len().max(1) as f64;
+        let min = values.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        Self { mean, min, max }
+    }
+}
+
+/// One label's curve: both arms at every `K`, against the real-trained network on all
+/// fitting samples.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LabelCurve {
+    /// The lab label with its unit.
+    pub label: String,
+    /// The real-trained network's held-out error with every fitting sample (the zero-shot
+    /// run's).
+    pub real_all: f64,
+    /// `K` in increasing order.
+    pub k: Vec<usize>,
+    /// (a) over the seeds, per `K`.
+    pub pretrained: Vec<Spread>,
+    /// (b) over the seeds, per `K`.
+    pub scratch: Vec<Spread>,
+    /// The least `K` at which (a)'s mean is within [`MATCH_FACTOR`] of `real_all`.
+    pub pretrained_matches_at: Option<usize>,
+    /// Per `K`: labels saved, the `K` from-scratch training needs to reach (a)'s mean error at
+    /// this `K` (linear in log K between measured points) over this `K`; `None` where no
+    /// measured `K` of (b) reaches it.
+    pub labels_saved: Vec<Option<f64>>,
+}
+
+/// The curves per label from the points of every `K` and seed (`labels` in the points'
+/// order, `real_all` the real-trained network's errors).
+pub fn summarise(points: &[CurvePoint], labels: &[Column], real_all: &[f64]) -> Vec<LabelCurve> {
+    let mut ks: Vec<usize> = points.iter().map(|p| p.k).collect();
+    ks.sort_unstable();
+    ks.dedup();
+    labels
+        .iter()
+        .enumerate()
+        .map(|(j, &c)| {
+            let at = |k: usize, arm: fn(&CurvePoint) -> &Vec<f64>| {
+                Spread::of(&points.iter().filter(|p| p.k == k).map(|p| arm(p)[j]).collect::<Vec<_>>())
+            };
+            let pretrained: Vec<Spread> = ks.iter().map(|&k| at(k, |p| &p.pretrained)).collect();
+            let scratch: Vec<Spread> = ks.iter().map(|&k| at(k, |p| &p.scratch)).collect();
+            let matches =
+                ks.iter().zip(&pretrained).find(|(_, s)| s.mean <= MATCH_FACTOR * real_all[j]).map(|(&k, _)| k);
+            let saved = ks
+                .iter()
+                .zip(&pretrained)
+                .map(|(&k, a)| k_reaching(&ks, &scratch, a.mean).map(|kb| kb / k as f64))
+                .collect();
+            LabelCurve {
+                label: super::label(c),
+                real_all: real_all[j],
+                k: ks.clone(),
+                pretrained,
+                scratch,
+                pretrained_matches_at: matches,
+                labels_saved: saved,
+            }
+        })
+        .collect()
+}
+
+/// The (fractional) `K` at which the curve `scratch` over `ks` first comes down to `error`:
+/// linear in log K between the measured points; `None` where it never does.
+fn k_reaching(ks: &[usize], scratch: &[Spread], error: f64) -> Option<f64> {
+    let first = scratch.iter().position(|s| s.mean <= error)?;
+    if first == 0 {
+        return Some(ks[0] as f64);
+    }
+    let (k0, k1) = ((ks[first - 1] as f64).ln(), (ks[first] as f64).ln());
+    let (e0, e1) = (scratch[first - 1].mean, scratch[first].mean);
+    let t = if e0 > e1 { (e0 - error) / (e0 - e1) } else { 1.0 };
+    Some((k0 + t.clamp(0.0, 1.0) * (k1 - k0)).exp())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sample_counts_parse_in_order_with_all_last() {
+        assert_eq!(parse_ks("25,50, 100,all"), Ok(vec![Some(25), Some(50), Some(100), None]));
+        for bad in ["", "50,25", "all,25", "1", "x", "25,25"] {
+            assert!(parse_ks(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn small_k_trains_at_least_min_steps_and_all_keeps_the_epochs() {
+        assert_eq!(epochs_for(25, 32, 30, MIN_STEPS), 300);
+        assert_eq!(epochs_for(100, 32, 30, MIN_STEPS), 75);
+        assert_eq!(epochs_for(2000, 32, 30, MIN_STEPS), 30);
+        assert!(epochs_for(400, 32, 30, MIN_STEPS) * 400usize.div_ceil(32) >= MIN_STEPS);
+        assert_eq!(epochs_for(10, 32, 2, 1), 2);
+    }
+
+    /// Labels saved: the K from scratch needs for the pretrained error, log-linear between
+    /// measured points; none where scratch never gets there.
+    #[test]
+    fn labels_saved_interpolate_in_log_k() {
+        let s = |mean| Spread { mean, min: mean, max: mean };
+        let ks = [25, 100, 400];
+        let scratch = [s(4.0), s(2.0), s(1.0)];
+        assert_eq!(k_reaching(&ks, &scratch, 5.0), Some(25.0));
+        let k = k_reaching(&ks, &scratch, 3.0).expect("reached");
+        assert!((k - 50.0).abs() < 1e-9, "{k}");
+        assert_eq!(k_reaching(&ks, &scratch, 0.5), None);
+    }
+}
