@@ -16,8 +16,9 @@ its axis, pressing); image ``u`` runs right and ``v`` down (px).
 """
 
 from ._tacsim import Contact, Dataset, Scene, Sensor, generate, shapes, slide_many
+from .sim2real import sim2real
 
-__all__ = ["Contact", "Dataset", "Scene", "Sensor", "generate", "shapes", "slide_many"]
+__all__ = ["Contact", "Dataset", "Scene", "Sensor", "generate", "shapes", "sim2real", "slide_many"]
 
 try:  # The environments need gymnasium (pip install gymnasium); the engine does not.
     import gymnasium as _gymnasium  # noqa: F401

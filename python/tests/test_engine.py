@@ -204,3 +204,17 @@ def test_a_generated_dataset_as_arrays(tmp_path):
         data.samples("training")
     with pytest.raises(OSError):
         tacsim.Dataset(str(tmp_path / "nothing"))
+
+
+def test_sim2real_runs_the_command_line_tool_and_says_what_is_missing(tmp_path, monkeypatch):
+    monkeypatch.delenv("TACSIM_BIN", raising=False)
+    monkeypatch.setenv("PATH", str(tmp_path))
+    with pytest.raises(FileNotFoundError) as e:
+        tacsim.sim2real(tmp_path / "lab", tmp_path / "out")
+    assert "cargo install --path ." in str(e.value)
+    monkeypatch.undo()
+    # The tool's own message comes back, before any work: not a lab folder.
+    with pytest.raises(RuntimeError) as e:
+        tacsim.sim2real(tmp_path / "no-lab", tmp_path / "out", finetune=[25, "all"], tacsim_bin=tacsim_binary())
+    assert "lab folder" in str(e.value)
+    assert not (tmp_path / "out").exists()
