@@ -405,5 +405,5 @@ fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with()
     // The dome-slope candidates ran, and lost to the rounding the taps were simulated with.
     assert!(md.contains(&format!("| 0 | {} | 1 |", sensor.pins.patch_radius_mm)), "{md}");
     let e = err(&["calibrate", "--real", s(&lab), "--edge", "square", "--edge-contact", "30,0", "-o", s(&preset)]);
-    assert!(e.contains("--edge-contact 30,0") && e.contains("from the edge"), "{e}");
+    assert!(e.contains("--edge-contact 30.0,0.0") && e.contains("from the edge"), "{e}");
 }
