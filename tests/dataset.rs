@@ -494,7 +494,7 @@ fn the_gpu_path_writes_the_cpus_bytes() {
     generate(&gpu, &["--device", "gpu", "--shard", "0/10"]);
     generate(&auto, &["--device", "auto", "--threads", "1", "--shard", "0/10"]);
     let fc = files(&cpu);
-    assert_eq!(fc.len(), 33, "30 images, the reference, targets.csv and meta.json: {:?}", fc.keys());
+    assert_eq!(fc.len(), 34, "30 images, the reference, targets.csv, meta.json and SHA256SUMS: {:?}", fc.keys());
     assert!(fc == files(&gpu), "--device gpu wrote other bytes than the CPU");
     assert!(fc == files(&auto), "--device auto wrote other bytes than the CPU");
     let _ = std::fs::remove_dir_all(&root);

@@ -17,6 +17,7 @@ use std::sync::{Arc, OnceLock};
 
 use nalgebra::Vector3;
 
+use super::body::PinKernel;
 use super::body::operator::Operator;
 use super::geometry::cut::{Cut, CutCoupling};
 use super::geometry::edge::cut_cells;
@@ -26,7 +27,7 @@ use super::geometry::gap::{DomeCells, dome_slope, gaps_below, hits_at, rigid_sli
 use super::geometry::grid::Grid;
 use super::geometry::refine::{self, Refinement};
 use super::model::ContactModel;
-use super::pins::motion::{CellForces, PinLoad, displaced_pins, moved_pin, pin_motions};
+use super::pins::motion::{CellForces, PinLoad, displaced_pins, moved_pin, near_field_motions};
 use super::pose::SensorPose;
 use super::solve::coupled::{ContactState, Coupled, StepReport};
 use crate::error::{Result, SimError};
@@ -316,10 +317,13 @@ impl<'a> Simulation<'a> {
     }
 
     fn pins_with(&self, exact: bool) -> Vec<PinPose> {
-        if let Some(dome) = self.model.body.far_field() {
+        // The dome: its far field from the finite-element table, its near field from the
+        // layers' tables (`DomeContact::pin_kernel`).
+        if let (Some(dome), PinKernel::Layered(near_field)) =
+            (self.model.body.far_field(), self.model.body.pin_kernel())
+        {
             let Some(forces) = self.cell_forces() else { return self.undeformed_pins() };
-            let kernel = self.model.body.pin_kernel();
-            let near = pin_motions(&self.layout, &kernel, self.model.dome_radius(), &forces, exact);
+            let near = near_field_motions(&self.layout, near_field, &forces, exact);
             let points = (0..forces.f.len()).map(|k| ([forces.x[k], forces.y[k]], forces.f[k]));
             let far = dome.far_motions(&self.model.layout, &self.frame, points);
             let poses = (self.layout.pins.iter().zip(near).zip(far))

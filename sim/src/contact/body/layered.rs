@@ -459,6 +459,69 @@ impl LayeredKernels {
         })
     }
 
+    /// [`Self::lerp`] and its derivative in `r` (per mm): the cubic's own, zero beyond the
+    /// table where the value is held.
+    #[inline]
+    fn lerp_with_slope<const N: usize>(&self, table: &[[f64; N]], parity: &[f64; N], r: f64) -> ([f64; N], [f64; N]) {
+        let end = (table.len() - 3) as f64;
+        let t = (r / self.dr_mm).min(end);
+        let i = t as usize;
+        let f = t - i as f64;
+        let (p1, p2, p3) = (&table[i], &table[i + 1], &table[i + 2]);
+        let p0 = if i > 0 { table[i - 1] } else { std::array::from_fn(|j| parity[j] * p2[j]) };
+        let held = r / self.dr_mm >= end;
+        let mut value = [0.0; N];
+        let mut slope = [0.0; N];
+        for j in 0..N {
+            let (a, b, c, d) = (p0[j], p1[j], p2[j], p3[j]);
+            let (q, w) = (2.0 * a - 5.0 * b + 4.0 * c - d, 3.0 * (b - c) + d - a);
+            value[j] = b + 0.5 * f * (c - a + f * (q + f * w));
+            if !held {
+                slope[j] = 0.5 * (c - a + f * (2.0 * q + 3.0 * f * w)) / self.dr_mm;
+            }
+        }
+        (value, slope)
+    }
+
+    /// Displacement (mm, `z` into the body) at the pins' depth and lateral offset `(x, y)`
+    /// (field minus load, mm) from the surface force `(qx, qy, p)` (N), with its gradient
+    /// `[d/dx, d/dy, d/d depth]` (per mm) in closed form: the radial functions' slopes from the
+    /// interpolating cubics, the angular terms' derivatives (`dc/dx = s^2 / r`, `dc2/dx =
+    /// 4 c s^2 / r`, `ds2/dx = -2 s c2 / r`, ...), and the depth derivative from the `d/dz`
+    /// tables (the displacement is linear in depth about the pins' depth). What the pins' four-point
+    /// stencil approximates by forward differences (`pins/motion.rs`), in one table lookup.
+    pub(crate) fn displacement_and_gradient(&self, force: [f64; 3], x: f64, y: f64) -> ([f64; 3], [[f64; 3]; 3]) {
+        let r2 = x * x + y * y;
+        let r = r2.sqrt();
+        let (f, df) = self.lerp_with_slope(&self.depth, &DEPTH_PARITY, r);
+        let g = self.lerp(&self.depth_dz, &DEPTH_PARITY, r);
+        let u = combine(force, x, y, f[0], f[1], f[2], f[3], f[4]);
+        let d_depth = combine(force, x, y, g[0], g[1], g[2], g[3], g[4]);
+        if r2 == 0.0 {
+            // The limit at the load: `pr` and `zq` are odd in r, so `p pr c = p pr'(0) x` and
+            // `zq (qx c + qy s) = zq'(0) (qx x + qy y)`; the even terms are flat there.
+            let [qx, qy, p] = force;
+            let (dpr, dzq) = (df[1], df[2]);
+            return (u, [[p * dpr, 0.0, dzq * qx], [0.0, p * dpr, dzq * qy], d_depth]);
+        }
+        let (c, sn, c2) = (x / r, y / r, (x * x - y * y) / r2);
+        // Along x (dr/dx = c) and y (dr/dy = s): the radial slopes with the angles held, plus
+        // the angles' own change with the radial functions held.
+        let along = |dr: f64, dc: f64, dsn: f64, dc2: f64, ds2: f64| {
+            let radial = combine(force, x, y, df[0] * dr, df[1] * dr, df[2] * dr, df[3] * dr, df[4] * dr);
+            let [qx, qy, p] = force;
+            let (pr, zq, d) = (f[1], f[2], f[4]);
+            [
+                radial[0] + p * pr * dc - qx * dc2 * d - qy * ds2 * d,
+                radial[1] + p * pr * dsn - qx * ds2 * d + qy * dc2 * d,
+                radial[2] + zq * (qx * dc + qy * dsn),
+            ]
+        };
+        let dx = along(c, sn * sn / r, -c * sn / r, 4.0 * c * sn * sn / r, -2.0 * sn * c2 / r);
+        let dy = along(sn, -c * sn / r, c * c / r, -4.0 * c * c * sn / r, 2.0 * c * c2 / r);
+        (u, [dx, dy, d_depth])
+    }
+
     /// Radial functions `[F_zz, F_pr, F_s, F_d]` (mm/N) of the surface correction at `r` (mm).
     pub(crate) fn surface_radial(&self, r: f64) -> [f64; 4] {
         self.lerp(&self.surface, &SURFACE_PARITY, r)
@@ -540,6 +603,50 @@ mod tests {
                 .iter()
                 .map(|&(h, e, nu)| Layer { thickness_mm: h, material: Elastic::from_young(e, nu) })
                 .collect(),
+        }
+    }
+
+    /// The closed-form gradient of the pins' displacement is the tables' own: central
+    /// differences (1e-5 mm; 1e-8 through the origin) of [`LayeredKernels::displacement`] agree within 1e-6 of the
+    /// gradient's size, at offsets on and between the tables' knots, near and far, for a
+    /// force of all three components; the displacement is the same bits. Regression: right
+    /// under the load (offset 0, a pin over a sub-square's centre) the lateral gradient was
+    /// taken as 0, where the odd terms' slopes make it `p pr'(0)` and `zq'(0) q`.
+    #[test]
+    fn the_closed_form_gradient_is_the_tables_own() {
+        let b = body(&[(0.66, 1.0, 0.436), (19.34, 0.02, 0.4999)]);
+        let k = LayeredKernels::near_field(&b, 0.66, 60.0, 3.0);
+        let force = [0.3, -0.2, 1.1];
+        for (x, y) in [
+            (0.0, 0.0),
+            (0.05, 0.0),
+            (0.01, 0.02),
+            (-0.003, 0.001),
+            (0.1, -0.07),
+            (0.4, 0.3),
+            (-1.7, 2.2),
+            (3.0, -0.01),
+            (-6.5, -4.25),
+            (12.0, 9.0),
+            (0.0, 25.0),
+        ] {
+            let (u, g) = k.displacement_and_gradient(force, x, y);
+            let depth = k.pin_depth_mm();
+            // Through the origin the differences see `|r|`, first order in the step: a finer one.
+            let h = if x == 0.0 && y == 0.0 { 1e-8 } else { 1e-5 };
+            assert_eq!(u, k.displacement(force, [x, y, depth]), "({x}, {y})");
+            let fd = |d: [f64; 3]| -> [f64; 3] {
+                let (p, m) = (
+                    k.displacement(force, [x + d[0], y + d[1], depth + d[2]]),
+                    k.displacement(force, [x - d[0], y - d[1], depth - d[2]]),
+                );
+                std::array::from_fn(|c| (p[c] - m[c]) / (2.0 * h))
+            };
+            let expected = [fd([h, 0.0, 0.0]), fd([0.0, h, 0.0]), fd([0.0, 0.0, h])];
+            let size = expected.iter().flatten().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (a, e) in g.iter().flatten().zip(expected.iter().flatten()) {
+                assert!((a - e).abs() <= 1e-6 * size, "({x}, {y}): {g:?} vs {expected:?}");
+            }
         }
     }
 

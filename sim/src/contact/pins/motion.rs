@@ -40,6 +40,7 @@ use crate::contact::algebra::lanes::Avx2Lanes;
 use crate::contact::algebra::lanes::{LANES, Lanes, Real};
 use crate::contact::body::PinKernel;
 use crate::contact::body::kernel::DepthKernel;
+use crate::contact::body::layered::LayeredKernels;
 use crate::contact::geometry::cut::Cut;
 use crate::contact::geometry::grid::Grid;
 use crate::contact::geometry::refine::Refinement;
@@ -506,17 +507,62 @@ pub(crate) fn pin_motions(
     forces: &CellForces,
     exact: bool,
 ) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+    patch_means(layout, |base, at| skin_motion(kernel, dome_radius_mm, forces, exact, base, at))
+}
+
+/// Each pin's mean of `motion(base, point)` over its [`patch_points`], on all cores.
+fn patch_means(
+    layout: &PinLayout,
+    motion: impl Fn(&Vector3<f64>, Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) + Sync,
+) -> Vec<(Vector3<f64>, Vector3<f64>)> {
     layout
         .pins
         .par_iter()
         .map(|pin| {
             let base = pin.base.coords;
-            let motions: Vec<_> = patch_points(layout, &base)
-                .map(|at| skin_motion(kernel, dome_radius_mm, forces, exact, &base, at))
-                .collect();
+            let motions: Vec<_> = patch_points(layout, &base).map(|at| motion(&base, at)).collect();
             mean_motion(&motions)
         })
         .collect()
+}
+
+/// Every pin's near-field skin motion (displacement mm, rotation rad; the means over its
+/// [`patch_points`]) in the frame of `layout` and the grid, from the layered near-field
+/// tables `kernel` (the dome body's, `body/dome.rs`): the rotation from the displacement's
+/// gradient in closed form ([`LayeredKernels::displacement_and_gradient`]), one table lookup per
+/// force where the four-point stencil of [`pin_motions`] takes four. The dome's pins run on
+/// the CPU only, so no GPU kernel mirrors the stencil here (`Simulation::has_dome`).
+pub(crate) fn near_field_motions(
+    layout: &PinLayout,
+    kernel: &LayeredKernels,
+    forces: &CellForces,
+    exact: bool,
+) -> Vec<(Vector3<f64>, Vector3<f64>)> {
+    patch_means(layout, |_, at| near_field_motion(kernel, forces, exact, at))
+}
+
+/// The near-field skin motion at `at` (a point at the pins' depth, as every patch point is).
+fn near_field_motion(
+    kernel: &LayeredKernels,
+    forces: &CellForces,
+    exact: bool,
+    at: Vector3<f64>,
+) -> (Vector3<f64>, Vector3<f64>) {
+    let mut u = [0.0; 3];
+    let mut grad = [[0.0; 3]; 3];
+    forces.each_force(&at, kernel.pin_depth_mm(), exact, |cx, cy, f| {
+        let (v, g) = kernel.displacement_and_gradient(f, at.x - cx, at.y - cy);
+        for c in 0..3 {
+            u[c] += v[c];
+            for k in 0..3 {
+                grad[k][c] += g[k][c];
+            }
+        }
+    });
+    // The grid's frame: z out of the body, so depth falls as z rises.
+    let [gx, gy, gd] = grad.map(sensor_displacement);
+    let gz = -gd;
+    (sensor_displacement(u), 0.5 * Vector3::new(gy.z - gz.y, gz.x - gx.z, gx.y - gy.x))
 }
 
 /// The mean of skin motions (displacement, rotation).
@@ -684,6 +730,50 @@ mod tests {
             }
         }
         CellForces::new(&grid, (&p, &qx, &qy), None, None, PIN_SUBSQUARES)
+    }
+
+    /// The dome's near field takes each pin's rotation from the tables' gradient in closed
+    /// form instead of the four-point stencil (2.5x faster pins, `tacsim bench --skin dome`):
+    /// the displacements agree to rounding (the stencil's depth `d + z - z` is not `d` to the
+    /// last bit), the rotations within 1e-3 of the largest (the
+    /// stencil's forward differences of 1e-3 mm are what differ), for pins with and without a
+    /// skin patch, grouped and `exact`.
+    #[test]
+    fn the_domes_near_field_rotation_is_the_stencils_without_its_differences() {
+        use crate::contact::body::layered::{Layer, LayeredBody};
+        let body = LayeredBody {
+            layers: vec![
+                Layer { thickness_mm: 0.66, material: Elastic::from_young(1.0, 0.436) },
+                Layer { thickness_mm: 19.34, material: Elastic::from_young(0.02, 0.4999) },
+            ],
+        };
+        let tables = LayeredKernels::near_field(&body, 0.66, 60.0, 2.9);
+        let forces = loaded_forces();
+        for patch in [0.0, 1.5] {
+            let mut sensor = crate::sensor::SensorParams::default();
+            sensor.pins.patch_radius_mm = patch;
+            let layout = PinLayout::new(&sensor);
+            for exact in [false, true] {
+                let closed = near_field_motions(&layout, &tables, &forces, exact);
+                let stencil = pin_motions(&layout, &PinKernel::Layered(&tables), 20.0, &forces, exact);
+                let largest = stencil.iter().fold(0.0f64, |m, s| m.max(s.1.norm()));
+                let farthest = stencil.iter().fold(0.0f64, |m, s| m.max(s.0.norm()));
+                for (a, b) in closed.iter().zip(&stencil) {
+                    assert!(
+                        (a.0 - b.0).norm() <= 1e-12 * farthest,
+                        "patch {patch}, exact {exact}: {:?} vs {:?}",
+                        a.0,
+                        b.0
+                    );
+                    assert!(
+                        (a.1 - b.1).norm() <= 1e-3 * largest,
+                        "patch {patch}, exact {exact}: {:?} vs {:?}",
+                        a.1,
+                        b.1
+                    );
+                }
+            }
+        }
     }
 
     /// What changed: the kernel is evaluated on `LANES` forces at once, in `LANES` running
