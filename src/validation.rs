@@ -1,127 +1,13 @@
-//! `tacsim validate`: the analytic contact cases with their bounds, and the grid-refinement
-//! study with measured orders of convergence.
+//! `tacsim validate`: prints the analytic contact cases with their bounds and the
+//! grid-refinement study (`tacsim_sim::contact::validate::study` runs them).
 
 use anyhow::Result;
-use serde::Serialize;
-use tacsim_sim::contact::validate::{self, CattaneoReport, HertzReport};
-
-/// Bounds every case must meet on the default grid (the acceptance limits).
-pub mod bounds {
-    /// |relative error| of the Hertz force.
-    pub const HERTZ_FORCE: f64 = 0.005;
-    /// |relative error| of the Hertz contact radius.
-    pub const HERTZ_RADIUS: f64 = 0.01;
-    /// |relative error| of the Hertz peak pressure.
-    pub const HERTZ_PMAX: f64 = 0.01;
-    /// |relative error| of the Cattaneo shift.
-    pub const CATTANEO_SHIFT: f64 = 0.002;
-    /// Error of the Cattaneo stick radius (cells).
-    pub const CATTANEO_STICK_CELLS: f64 = 1.0;
-}
-
-/// Grids of the refinement study.
-pub const REFINEMENTS: [usize; 4] = [17, 33, 65, 129];
-
-/// One refinement level.
-#[derive(Debug, Serialize)]
-pub struct Level {
-    /// Cells across the grid.
-    pub grid: usize,
-    /// Cells across the contact diameter.
-    pub cells_across_contact: f64,
-    /// Hertz force relative error.
-    pub hertz_force_rel_err: f64,
-    /// Hertz peak-pressure relative error.
-    pub hertz_pmax_rel_err: f64,
-    /// Cattaneo shift relative error at the reference `nu = 0.42`.
-    pub cattaneo_shift_rel_err: f64,
-    /// Cattaneo shift relative error at `nu = 0`, where the theory is exact.
-    pub cattaneo_nu0_shift_rel_err: f64,
-    /// Wall time of the three cases (s).
-    pub seconds: f64,
-}
-
-/// The whole answer of `tacsim validate --json`.
-#[derive(Debug, Serialize)]
-pub struct Validation {
-    /// Cells across the grid.
-    pub grid: usize,
-    /// Cells across the contact diameter.
-    pub cells_across_contact: f64,
-    /// The Hertz case.
-    pub hertz: HertzReport,
-    /// The Cattaneo-Mindlin case.
-    pub cattaneo: CattaneoReport,
-    /// Whether every bound holds.
-    pub pass: bool,
-    /// The refinement study, when asked for.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub convergence: Option<Vec<Level>>,
-    /// Measured orders between successive levels (`log2(e_n / e_2n)`), per quantity.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub orders: Option<Orders>,
-}
-
-/// Measured orders of convergence between successive refinement levels.
-#[derive(Debug, Serialize)]
-pub struct Orders {
-    /// Hertz force.
-    pub hertz_force: Vec<f64>,
-    /// Hertz peak pressure.
-    pub hertz_pmax: Vec<f64>,
-    /// Cattaneo shift at `nu = 0`.
-    pub cattaneo_nu0_shift: Vec<f64>,
-}
-
-fn orders(errors: &[f64]) -> Vec<f64> {
-    errors.windows(2).map(|w| (w[0].abs() / w[1].abs()).log2()).collect()
-}
+use tacsim_sim::contact::validate::{self, bounds};
 
 /// Runs the cases; returns the text to print and whether every bound holds.
 pub fn run(grid: usize, json: bool, convergence: bool) -> Result<(String, bool)> {
-    anyhow::ensure!(grid >= 5 && grid % 2 == 1, "--grid must be odd and at least 5, got {grid}");
-    let hertz = validate::hertz(grid)?;
-    let cattaneo = validate::cattaneo(grid)?;
-    let pass = hertz.force_rel_err.abs() <= bounds::HERTZ_FORCE
-        && hertz.radius_rel_err.abs() <= bounds::HERTZ_RADIUS
-        && hertz.pmax_rel_err.abs() <= bounds::HERTZ_PMAX
-        && cattaneo.shift_rel_err.abs() <= bounds::CATTANEO_SHIFT
-        && cattaneo.stick_radius_err_cells <= bounds::CATTANEO_STICK_CELLS;
-    let mut study = None;
-    let mut order = None;
-    if convergence {
-        let mut levels = Vec::new();
-        for n in REFINEMENTS {
-            let start = std::time::Instant::now();
-            let h = validate::hertz(n)?;
-            let c = validate::cattaneo(n)?;
-            let c0 = validate::cattaneo_with(n, 0.0)?;
-            levels.push(Level {
-                grid: n,
-                cells_across_contact: h.cells_across_contact,
-                hertz_force_rel_err: h.force_rel_err,
-                hertz_pmax_rel_err: h.pmax_rel_err,
-                cattaneo_shift_rel_err: c.shift_rel_err,
-                cattaneo_nu0_shift_rel_err: c0.shift_rel_err,
-                seconds: start.elapsed().as_secs_f64(),
-            });
-        }
-        order = Some(Orders {
-            hertz_force: orders(&levels.iter().map(|l| l.hertz_force_rel_err).collect::<Vec<_>>()),
-            hertz_pmax: orders(&levels.iter().map(|l| l.hertz_pmax_rel_err).collect::<Vec<_>>()),
-            cattaneo_nu0_shift: orders(&levels.iter().map(|l| l.cattaneo_nu0_shift_rel_err).collect::<Vec<_>>()),
-        });
-        study = Some(levels);
-    }
-    let v = Validation {
-        grid,
-        cells_across_contact: hertz.cells_across_contact,
-        hertz,
-        cattaneo,
-        pass,
-        convergence: study,
-        orders: order,
-    };
+    let v = validate::study(grid, convergence)?;
+    let pass = v.pass;
     if json {
         return Ok((serde_json::to_string_pretty(&v)? + "\n", pass));
     }
