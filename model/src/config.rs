@@ -145,13 +145,13 @@ impl UnshearConfig {
     pub fn validate(&self) -> Result<()> {
         self.net_size()?;
         counts(&[
-            ("batch", self.batch, 1),
-            ("self_supervised_epochs", self.self_supervised_epochs, 0),
-            ("supervised_epochs", self.supervised_epochs, 0),
-            ("max_batches_per_epoch", self.max_batches_per_epoch, 0),
-            ("patch_count", self.patch_count, 0),
-            ("patch_px_at_256", self.patch_px_at_256, 1),
-            ("checkpoint_steps", self.checkpoint_steps, 1),
+            ("batch", self.batch, 1, MAX_BATCH),
+            ("self_supervised_epochs", self.self_supervised_epochs, 0, MAX_EPOCHS),
+            ("supervised_epochs", self.supervised_epochs, 0, MAX_EPOCHS),
+            ("max_batches_per_epoch", self.max_batches_per_epoch, 0, MAX_BATCHES_PER_EPOCH),
+            ("patch_count", self.patch_count, 0, 10_000),
+            ("patch_px_at_256", self.patch_px_at_256, 1, 256),
+            ("checkpoint_steps", self.checkpoint_steps, 1, 1_000_000),
         ])?;
         for (field, v) in [("lr_self_supervised", self.lr_self_supervised), ("lr_supervised", self.lr_supervised)] {
             learning_rate(field, v)?;
@@ -256,10 +256,10 @@ impl PoseConfig {
     pub fn validate(&self) -> Result<()> {
         self.net_size()?;
         counts(&[
-            ("batch", self.batch, 1),
-            ("epochs", self.epochs, 1),
-            ("max_batches_per_epoch", self.max_batches_per_epoch, 0),
-            ("hidden", self.hidden, 1),
+            ("batch", self.batch, 1, MAX_BATCH),
+            ("epochs", self.epochs, 1, MAX_EPOCHS),
+            ("max_batches_per_epoch", self.max_batches_per_epoch, 0, MAX_BATCHES_PER_EPOCH),
+            ("hidden", self.hidden, 1, 65_536),
         ])?;
         if self.labels.is_empty() {
             return Err(ModelError::config("labels", "is empty: name at least one targets.csv column, such as pose_x"));
@@ -294,28 +294,22 @@ fn positive(field: &str, v: f64) -> Result<()> {
     }
 }
 
-/// The largest of each count a training takes (batch, epochs, batches per epoch, units, crops,
-/// checkpoint steps): far beyond any run that ends, small enough that nothing sized by it
-/// fails to allocate (regression, issue 88: `--epochs 1000000000000` aborted on an 8 TB
-/// allocation; `--batch 100000000` ran on with nothing written).
-pub const MAX_COUNT: [(&str, usize); 7] = [
-    ("batch", 4096),
-    ("epochs", 100_000),
-    ("self_supervised_epochs", 100_000),
-    ("supervised_epochs", 100_000),
-    ("max_batches_per_epoch", 10_000_000),
-    ("hidden", 65_536),
-    ("patch_count", 10_000),
-];
+/// The largest batch, epochs (each phase) and batches per epoch a training takes: far beyond
+/// any run that ends, small enough that nothing sized by them fails to allocate (regression,
+/// issue 88: `--epochs 1000000000000` aborted on an 8 TB allocation; `--batch 100000000` ran
+/// on with nothing written).
+pub const MAX_BATCH: usize = 4096;
+/// See [`MAX_BATCH`].
+pub const MAX_EPOCHS: usize = 100_000;
+/// See [`MAX_BATCH`].
+pub const MAX_BATCHES_PER_EPOCH: usize = 10_000_000;
 
 /// The largest learning rate (a larger one diverges at once; `--lr-scale 1e300` ran on).
 pub const MAX_LEARNING_RATE: f64 = 1.0;
 
-/// Each `(field, value, least)`: an integer count in `[least, MAX_COUNT's]` (at most
-/// 1,000,000 for a field not in [`MAX_COUNT`]).
-fn counts(fields: &[(&str, usize, usize)]) -> Result<()> {
-    for &(field, v, least) in fields {
-        let most = MAX_COUNT.iter().find(|(f, _)| *f == field).map_or(1_000_000, |(_, m)| *m);
+/// Each `(field, value, least, most)`: an integer count in `[least, most]`.
+fn counts(fields: &[(&str, usize, usize, usize)]) -> Result<()> {
+    for &(field, v, least, most) in fields {
         if !(least..=most).contains(&v) {
             return Err(ModelError::config(field, format!("{v} must lie in [{least}, {most}]")));
         }
