@@ -37,6 +37,40 @@ fn generate(out: &Path, extra: &[&str]) {
     assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
 }
 
+/// The Slurm job array of `docs/guide/cluster.md` (`docs/cluster/shards.sbatch`, then
+/// `merge.sbatch`), run here as Slurm runs it (one process per array task, the task's
+/// variables set), gives the bytes of one machine's run; a rerun of a task resumes its shard.
+#[test]
+fn the_slurm_job_array_scripts_make_the_one_machine_dataset() {
+    let root = fresh_path("data", "slurm");
+    let one = root.join("one");
+    generate(&one, &[]);
+    let out = root.join("array");
+    let docs = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/cluster");
+    let run = |script: &str, task: Option<usize>| {
+        let mut cmd = Command::new("bash");
+        cmd.arg(docs.join(script))
+            .env("OUT", &out)
+            .env("TACSIM", env!("CARGO_BIN_EXE_tacsim"))
+            .env("TACSIM_ARGS", "--quiet")
+            .env("SLURM_CPUS_PER_TASK", "1");
+        if let Some(i) = task {
+            cmd.env("SLURM_ARRAY_TASK_COUNT", "3").env("SLURM_ARRAY_TASK_ID", i.to_string());
+        }
+        let o = cmd.output().expect("bash");
+        assert!(o.status.success(), "{script} {task:?}: {}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    for i in 0..3 {
+        run("shards.sbatch", Some(i));
+    }
+    // A task run again (a requeued one) finds its shard done.
+    run("shards.sbatch", Some(1));
+    let merged = run("merge.sbatch", None);
+    assert!(merged.contains("300 images"), "{merged}");
+    assert!(files(&one) == files(&out), "the array's merge equals the single run");
+}
+
 #[test]
 fn same_seed_same_bytes_whatever_threads_and_shards() {
     let root = fresh_path("data", "determinism");

@@ -5,7 +5,8 @@
 //! `target/python-venv`; the extension builds into its own target folder beside cargo's (a
 //! second cargo may not share the folder of the `cargo test` that runs it). Needs `python3`
 //! with `venv` and pip's registry; where either is missing the test says what to install and
-//! passes, except under `CI=true`, where it fails.
+//! passes, except under `CI=true`, where it fails. The venv holds the package's extras too
+//! (gymnasium for the environments, ray for `tacsim.ray`), so no test of the suite skips.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -61,6 +62,7 @@ fn the_python_package_passes_its_pytest_suite() {
         "numpy",
         "pytest",
         "gymnasium>=1,<2",
+        "ray>=2.9",
     ]));
     if let Err(e) = pip {
         return unavailable(&e);

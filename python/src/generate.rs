@@ -17,11 +17,12 @@ use crate::sim_err;
 /// `progress(done, total)` is called as images are written (from worker threads, at most
 /// about 100 times; an exception it raises is re-raised at the end). Returns the summary:
 /// images, written, skipped (already there with `resume`), rewritten (there but not as recorded,
-/// written again), no_contact, wall_s.
+/// written again), no_contact, wall_s. `shard = (i, n)` generates shard `i` of `n` (from 0) as
+/// `tacsim generate --shard i/n` does; [`merge`] joins the shards.
 #[pyfunction]
 #[pyo3(signature = (
     recipe, out, sensor = None, seed = None, size = None, cells = None, threads = None, resume = false,
-    force = false, progress = None
+    force = false, progress = None, shard = None
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn generate<'py>(
@@ -36,16 +37,12 @@ pub fn generate<'py>(
     resume: bool,
     force: bool,
     progress: Option<Py<PyAny>>,
+    shard: Option<(usize, usize)>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let (r, source) = Recipe::file_or_builtin(recipe).map_err(sim_err)?;
-    let r = r.with_overrides(seed, size, cells);
     if threads.is_some_and(|n| !(1..=1024).contains(&n)) {
         return Err(PyValueError::new_err(format!("threads must be in [1, 1024], got {threads:?}")));
     }
-    let base = dataset::base_sensor(&r, Some(Path::new(recipe)), sensor).map_err(sim_err)?;
-    let catalogue = tacsim_sim::builtin_catalogue().map_err(sim_err)?;
-    let job = Job::new(&r, &source, &base, &catalogue, None).map_err(sim_err)?;
-    job.estimate().map_err(sim_err)?.check(&source, force).map_err(sim_err)?;
+    let job = job_of(recipe, sensor, (seed, size, cells), force, shard)?;
     let total = job.images();
     let step = total.div_ceil(100).max(1);
     let reported = AtomicUsize::new(0);
@@ -90,4 +87,54 @@ pub fn generate<'py>(
     d.set_item("no_contact", summary.no_contact)?;
     d.set_item("wall_s", summary.wall_s)?;
     Ok(d)
+}
+
+/// Joins the shards of one recipe (folders written by `generate(..., shard=(i, n))`, every
+/// `i` of `n` once) into `out`, as `tacsim merge` does: each shard is checked against its
+/// SHA256SUMS first, and the result has the bytes of the unsharded run. Returns the images
+/// merged.
+#[pyfunction]
+pub fn merge(py: Python<'_>, out: &str, shards: Vec<String>) -> PyResult<usize> {
+    let shards: Vec<std::path::PathBuf> = shards.iter().map(std::path::PathBuf::from).collect();
+    py.detach(|| dataset::merge(Path::new(out), &shards)).map_err(sim_err)
+}
+
+/// The images `generate` would make for these arguments (a shard's with `shard`), with every
+/// check it makes before writing (the recipe, the sensor, the size limits without `force`),
+/// nothing simulated or written: what a driver checks before it hands shards out.
+#[pyfunction]
+#[pyo3(signature = (recipe, sensor = None, seed = None, size = None, cells = None, force = false, shard = None))]
+pub fn plan(
+    recipe: &str,
+    sensor: Option<&str>,
+    seed: Option<u64>,
+    size: Option<u32>,
+    cells: Option<usize>,
+    force: bool,
+    shard: Option<(usize, usize)>,
+) -> PyResult<usize> {
+    Ok(job_of(recipe, sensor, (seed, size, cells), force, shard)?.images())
+}
+
+/// The job of `recipe` with the overrides `(seed, size, cells)`, checked as `tacsim generate`
+/// checks it before writing (the size limits unless `force`).
+fn job_of(
+    recipe: &str,
+    sensor: Option<&str>,
+    (seed, size, cells): (Option<u64>, Option<u32>, Option<usize>),
+    force: bool,
+    shard: Option<(usize, usize)>,
+) -> PyResult<Job> {
+    if let Some((i, n)) = shard
+        && i >= n
+    {
+        return Err(PyValueError::new_err(format!("shard ({i}, {n}): need 0 <= i < n")));
+    }
+    let (r, source) = Recipe::file_or_builtin(recipe).map_err(sim_err)?;
+    let r = r.with_overrides(seed, size, cells);
+    let base = dataset::base_sensor(&r, Some(Path::new(recipe)), sensor).map_err(sim_err)?;
+    let catalogue = tacsim_sim::builtin_catalogue().map_err(sim_err)?;
+    let job = Job::new(&r, &source, &base, &catalogue, shard).map_err(sim_err)?;
+    job.estimate().map_err(sim_err)?.check(&source, force).map_err(sim_err)?;
+    Ok(job)
 }

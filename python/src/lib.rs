@@ -43,5 +43,7 @@ fn _tacsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(scene::shapes, m)?)?;
     m.add_function(wrap_pyfunction!(contact::slide_many, m)?)?;
     m.add_function(wrap_pyfunction!(generate::generate, m)?)?;
+    m.add_function(wrap_pyfunction!(generate::merge, m)?)?;
+    m.add_function(wrap_pyfunction!(generate::plan, m)?)?;
     Ok(())
 }

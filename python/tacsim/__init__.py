@@ -15,10 +15,10 @@ its axis, pressing); image ``u`` runs right and ``v`` down (px).
 (128, 128)
 """
 
-from ._tacsim import Contact, Dataset, Scene, Sensor, generate, shapes, slide_many
+from ._tacsim import Contact, Dataset, Scene, Sensor, generate, merge, plan, shapes, slide_many
 from .sim2real import sim2real
 
-__all__ = ["Contact", "Dataset", "Scene", "Sensor", "generate", "shapes", "sim2real", "slide_many"]
+__all__ = ["Contact", "Dataset", "Scene", "Sensor", "generate", "merge", "plan", "shapes", "sim2real", "slide_many"]
 
 try:  # The environments need gymnasium (pip install gymnasium); the engine does not.
     import gymnasium as _gymnasium  # noqa: F401

@@ -32,11 +32,29 @@ def generate(
     resume: bool = False,
     force: bool = False,
     progress: Optional[Callable[[int, int], None]] = None,
+    shard: Optional[Tuple[int, int]] = None,
 ) -> dict:
     """The dataset of a recipe (file or built-in name) into out, as `tacsim generate` writes it
     (same bytes for a seed); progress(done, total) about 100 times; returns the summary
-    (images, written, skipped, no_contact, wall_s). More than 1,000,000 images or about
-    16 GiB need force=True."""
+    (images, written, skipped, rewritten, no_contact, wall_s). More than 1,000,000 images or
+    about 16 GiB need force=True. shard=(i, n): shard i of n (from 0), joined by merge."""
+
+def plan(
+    recipe: str,
+    sensor: Optional[str] = None,
+    seed: Optional[int] = None,
+    size: Optional[int] = None,
+    cells: Optional[int] = None,
+    force: bool = False,
+    shard: Optional[Tuple[int, int]] = None,
+) -> int:
+    """The images generate would make for these arguments (a shard's with shard), after every
+    check it makes before writing; nothing simulated or written."""
+
+def merge(out: str, shards: Sequence[str]) -> int:
+    """Joins the shards of one recipe (every i of n once) into out, as `tacsim merge` does:
+    each checked against its SHA256SUMS first; the bytes of the unsharded run. Returns the
+    images merged."""
 
 class Sensor:
     """A TacTip: dome, skin, pins, camera."""
