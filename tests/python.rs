@@ -6,7 +6,8 @@
 //! second cargo may not share the folder of the `cargo test` that runs it). Needs `python3`
 //! with `venv` and pip's registry; where either is missing the test says what to install and
 //! passes, except under `CI=true`, where it fails. The venv holds the package's extras too
-//! (gymnasium for the environments, ray for `tacsim.ray`), so no test of the suite skips.
+//! (gymnasium for the environments, ray for `tacsim.ray`, stable-baselines3 and torch for a
+//! policy trained on them), so no test of the suite skips.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -63,6 +64,10 @@ fn the_python_package_passes_its_pytest_suite() {
         "pytest",
         "gymnasium>=1,<2",
         "ray>=2.9",
+        // A policy trained on the environments (python/tests/test_sb3.py). PyPI's torch is
+        // its CUDA build: about 5 GB with its libraries, 1 minute to install here, once.
+        "stable-baselines3>=2.3,<3",
+        "torch>=2.3",
     ]));
     if let Err(e) = pip {
         return unavailable(&e);

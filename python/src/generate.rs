@@ -91,12 +91,16 @@ pub fn generate<'py>(
 
 /// Joins the shards of one recipe (folders written by `generate(..., shard=(i, n))`, every
 /// `i` of `n` once) into `out`, as `tacsim merge` does: each shard is checked against its
-/// SHA256SUMS first, and the result has the bytes of the unsharded run. Returns the images
-/// merged.
+/// SHA256SUMS first, and the result has the bytes of the unsharded run. With `move`, each
+/// checked image is renamed into `out` instead of copied: the shards lose their images (for
+/// shards that are removed next). Returns the images merged.
 #[pyfunction]
-pub fn merge(py: Python<'_>, out: &str, shards: Vec<String>) -> PyResult<usize> {
+#[pyo3(signature = (out, shards, r#move = false))]
+pub fn merge(py: Python<'_>, out: &str, shards: Vec<String>, r#move: bool) -> PyResult<usize> {
     let shards: Vec<std::path::PathBuf> = shards.iter().map(std::path::PathBuf::from).collect();
-    py.detach(|| dataset::merge(Path::new(out), &shards)).map_err(sim_err)
+    let out = Path::new(out);
+    py.detach(|| if r#move { dataset::merge_moving(out, &shards) } else { dataset::merge(out, &shards) })
+        .map_err(sim_err)
 }
 
 /// The images `generate` would make for these arguments (a shard's with `shard`), with every

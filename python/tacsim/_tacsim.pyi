@@ -51,10 +51,11 @@ def plan(
     """The images generate would make for these arguments (a shard's with shard), after every
     check it makes before writing; nothing simulated or written."""
 
-def merge(out: str, shards: Sequence[str]) -> int:
+def merge(out: str, shards: Sequence[str], move: bool = False) -> int:
     """Joins the shards of one recipe (every i of n once) into out, as `tacsim merge` does:
-    each checked against its SHA256SUMS first; the bytes of the unsharded run. Returns the
-    images merged."""
+    each checked against its SHA256SUMS first; the bytes of the unsharded run. move=True
+    renames each checked image into out instead of copying it (the shards lose their images).
+    Returns the images merged."""
 
 class Sensor:
     """A TacTip: dome, skin, pins, camera."""

@@ -247,7 +247,8 @@ def generate(
         max_retries=max_retries,
         progress=progress,
     )
-    _tacsim.merge(str(target), [r.folder for r in runs])
+    # Shards that are removed next give their images up: renamed, not copied.
+    _tacsim.merge(str(target), [r.folder for r in runs], move=not keep_shards)
     if keep_shards:
         record = {"wall_s": time.monotonic() - start, "shards": [r.__dict__ for r in runs]}
         (root / "runs.json").write_text(json.dumps(record, indent=1))

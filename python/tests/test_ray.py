@@ -107,5 +107,17 @@ def test_the_ray_vector_env_equals_the_local_one(cluster):
         ended += int(ra[2].sum() + ra[3].sum())
     assert ended >= n, "each environment ended (and was reset) at least once"
     remote.close()
+    # The same-step autoreset (Stable-Baselines3's): the ended episodes' last observations too.
+    kwargs["autoreset_mode"] = "same_step"
+    remote, local = RayEdgeFollowVectorEnv(num_envs=3, actors=2, **kwargs), EdgeFollowVectorEnv(num_envs=3, **kwargs)
+    remote.reset(seed=2), local.reset(seed=2)
+    for _ in range(6):
+        ra, rb = remote.step(np.zeros((3, 3), np.float32)), local.step(np.zeros((3, 3), np.float32))
+        for x, y in zip(ra[:4], rb[:4]):
+            np.testing.assert_array_equal(x, y)
+    assert ra[3].all() and list(ra[4]["_final_obs"]) == [True] * 3
+    for x, y in zip(ra[4]["final_obs"], rb[4]["final_obs"]):
+        np.testing.assert_array_equal(x, y)
+    remote.close()
     with pytest.raises(ValueError, match=r"actors must be a whole number in \[1, num_envs = 2\], got 3"):
         RayEdgeFollowVectorEnv(num_envs=2, actors=3)

@@ -13,9 +13,11 @@ Observation (``obs_type``): ``"image"``, the binary pin image ``uint8 (size, siz
 (n, 2)`` px; or ``"both"`` (a dict). Reward: progress along the contour (mm) minus
 ``deviation_weight`` x the distance of the sensor's axis from the edge (mm). The episode
 ends (terminated) when the loop closes or the sensor leaves the edge by more than
-``max_deviation_mm``; ``max_episode_steps`` truncates it. Options of ``reset``: ``shape``
-(a built-in name), ``obj_path``, ``start_mm`` (a point near the edge; default: a random
-point of the contour drawn from the seed).
+``max_deviation_mm``; ``max_episode_steps`` truncates it. ``shape`` is a built-in name, or a
+list of them: each ``reset`` then draws one from the environment's generator (a policy
+trained over several stimuli). Options of ``reset``: ``shape`` (a built-in name), ``obj_path``,
+``start_mm`` (a point near the edge; default: a random point of the contour drawn from the
+seed).
 """
 
 import math
@@ -61,6 +63,13 @@ class EdgeFollowEnv(gym.Env):
         self.max_step_mm, self.max_lateral_mm, self.max_turn_deg = max_step_mm, max_lateral_mm, max_turn_deg
         self.substep_mm, self.deviation_weight, self.max_deviation_mm = substep_mm, deviation_weight, max_deviation_mm
         self.render_mode = render_mode
+        if isinstance(shape, (list, tuple)):
+            if not shape or not all(isinstance(name, str) for name in shape):
+                raise ValueError(f"shape must be a built-in name or a non-empty list of them, got {shape!r}")
+            self._shapes = list(shape)
+            shape = self._shapes[0]
+        else:
+            self._shapes = None
         self._shape, self._obj_path = shape, obj_path
         self._load(shape, obj_path)
         n = self.sensor.pin_count
@@ -98,6 +107,10 @@ class EdgeFollowEnv(gym.Env):
         options = options or {}
         if "shape" in options or "obj_path" in options:
             self._load(options.get("shape", self._shape), options.get("obj_path"))
+        elif self._shapes is not None and self._obj_path is None:
+            name = self._shapes[int(self.np_random.integers(len(self._shapes)))]
+            if self.scene.names != [name]:
+                self._load(name, None)
         if "start_mm" in options:
             start = np.asarray(options["start_mm"], dtype=np.float64)
         else:

@@ -5,8 +5,8 @@ vector API.
 as an ``EdgeFollowVectorEnv`` (the Rust vector env: every slide of its slice in one call on its
 node's cores) and the driver sends each actor its slice of the actions and joins the results.
 Environment ``i`` is seeded ``seed + i`` as in the local vector env, and each actor autoresets
-its own environments the same way (next step), so the two give the same observations, rewards
-and ends for the same seeds and actions. Needs the ``ray`` extra
+its own environments the same way (``autoreset_mode``, as the local one's), so the two give the
+same observations, rewards and ends for the same seeds and actions. Needs the ``ray`` extra
 (``pip install './python[ray]'``); connects to ``address`` or starts a local cluster where Ray is
 not initialised.
 """
@@ -25,10 +25,12 @@ def _ray():
 def _actor_class(ray, cpus):
     @ray.remote(num_cpus=cpus)
     class EnvSlice:
-        def __init__(self, num_envs, max_episode_steps, kwargs):
+        def __init__(self, num_envs, max_episode_steps, autoreset_mode, kwargs):
             from tacsim.envs.vector import EdgeFollowVectorEnv
 
-            self.env = EdgeFollowVectorEnv(num_envs=num_envs, max_episode_steps=max_episode_steps, **kwargs)
+            self.env = EdgeFollowVectorEnv(
+                num_envs=num_envs, max_episode_steps=max_episode_steps, autoreset_mode=autoreset_mode, **kwargs
+            )
 
         def spaces(self):
             return self.env.single_observation_space, self.env.single_action_space
@@ -56,6 +58,7 @@ class RayEdgeFollowVectorEnv(gym.vector.VectorEnv):
         address=None,
         cpus_per_actor=1,
         max_episode_steps=500,
+        autoreset_mode="next_step",
         **kwargs,
     ):
         if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
@@ -64,6 +67,10 @@ class RayEdgeFollowVectorEnv(gym.vector.VectorEnv):
             raise ValueError(f"actors must be a whole number in [1, num_envs = {num_envs}], got {actors!r}")
         if isinstance(cpus_per_actor, bool) or not isinstance(cpus_per_actor, (int, float)) or not cpus_per_actor > 0:
             raise ValueError(f"cpus_per_actor must be a positive number, got {cpus_per_actor!r}")
+        modes = {"next_step": gym.vector.AutoresetMode.NEXT_STEP, "same_step": gym.vector.AutoresetMode.SAME_STEP}
+        if autoreset_mode not in modes:
+            raise ValueError(f"autoreset_mode must be next_step or same_step, got {autoreset_mode!r}")
+        self.metadata = {**self.metadata, "autoreset_mode": modes[autoreset_mode]}
         ray = _ray()
         if not ray.is_initialized():
             ray.init(address=address, include_dashboard=False, log_to_driver=False)
@@ -76,7 +83,7 @@ class RayEdgeFollowVectorEnv(gym.vector.VectorEnv):
         self._starts = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
         cls = _actor_class(ray, cpus_per_actor)
         self._ray = ray
-        self._actors = [cls.remote(n, int(max_episode_steps), kwargs) for n in sizes]
+        self._actors = [cls.remote(n, int(max_episode_steps), autoreset_mode, kwargs) for n in sizes]
         self.single_observation_space, self.single_action_space = ray.get(self._actors[0].spaces.remote())
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)

@@ -3,8 +3,12 @@
 Each step solves every environment's slide and renders its image in Rust (rayon, the GIL
 released: ``tacsim.slide_many``); the rest (servo targets, rewards) is numpy. Environment ``i``
 is seeded ``seed + i`` and gives exactly what a single ``EdgeFollowEnv`` so seeded gives for
-the same actions, whatever the thread count. Autoreset: next step (gymnasium's default), an
-environment that ended is reset on the following ``step`` call, its action ignored.
+the same actions, whatever the thread count. Autoreset (``autoreset_mode``): ``"next_step"``
+(gymnasium's default), an environment that ended is reset on the following ``step`` call, its
+action ignored; or ``"same_step"``, reset in the step that ended it, whose observation is
+then the new episode's first and ``infos["final_obs"]``, ``infos["final_info"]`` (with
+``"_final_obs"``, ``"_final_info"`` masks) hold the ended one's last, as gymnasium's
+``AutoresetMode.SAME_STEP`` (what Stable-Baselines3 expects; ``tacsim.envs.sb3``).
 """
 
 import gymnasium as gym
@@ -21,9 +25,14 @@ class EdgeFollowVectorEnv(gym.vector.VectorEnv):
 
     metadata = {"autoreset_mode": gym.vector.AutoresetMode.NEXT_STEP}
 
-    def __init__(self, num_envs=4, max_episode_steps=500, **kwargs):
+    def __init__(self, num_envs=4, max_episode_steps=500, autoreset_mode="next_step", **kwargs):
         if num_envs < 1:
             raise ValueError(f"num_envs must be at least 1, got {num_envs}")
+        modes = {"next_step": gym.vector.AutoresetMode.NEXT_STEP, "same_step": gym.vector.AutoresetMode.SAME_STEP}
+        if autoreset_mode not in modes:
+            raise ValueError(f"autoreset_mode must be next_step or same_step, got {autoreset_mode!r}")
+        self.metadata = {**self.metadata, "autoreset_mode": modes[autoreset_mode]}
+        self._same_step = autoreset_mode == "same_step"
         self.envs = [EdgeFollowEnv(**kwargs) for _ in range(num_envs)]
         self.num_envs = num_envs
         self.max_episode_steps = int(max_episode_steps)
@@ -74,6 +83,21 @@ class EdgeFollowVectorEnv(gym.vector.VectorEnv):
             obs[i], rewards[i], terminated[i], _, infos[i] = self.envs[i].finish_step(targets[k], images[k])
             self._steps[i] += 1
             truncated[i] = not terminated[i] and self._steps[i] >= self.max_episode_steps
+        if self._same_step:
+            ended = terminated | truncated
+            final_obs, final_info = [None] * self.num_envs, [None] * self.num_envs
+            for i in np.flatnonzero(ended):
+                # The environment's own generator draws the new start.
+                final_obs[i], final_info[i] = obs[i], infos[i]
+                obs[i], infos[i] = self.envs[i].reset()
+                self._steps[i] = 0
+            out = self._infos(infos)
+            if ended.any():
+                out["final_obs"] = np.array(final_obs, dtype=object)
+                out["_final_obs"] = ended.copy()
+                out["final_info"] = np.array(final_info, dtype=object)
+                out["_final_info"] = ended.copy()
+            return self._batch(obs), rewards, terminated, truncated, out
         for i in range(self.num_envs):
             if self._ended[i]:
                 # Next-step autoreset: the environment's own generator draws the new start.

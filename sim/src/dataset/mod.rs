@@ -9,7 +9,7 @@ mod job;
 mod plan;
 mod recipe;
 
-pub use generate::{Summary, generate, merge, recipe_sensor};
+pub use generate::{Summary, generate, merge, merge_moving, recipe_sensor};
 pub use job::{Job, MAX_UNFORCED_BYTES, MAX_UNFORCED_IMAGES, OutputEstimate, base_sensor};
 pub use plan::{LabelFrame, Plan, PosePlan, REFERENCE_IMAGE, Sample, image_name};
 pub use recipe::{
