@@ -72,8 +72,10 @@ fn the_python_package_passes_its_pytest_suite() {
     if let Err(e) = pip {
         return unavailable(&e);
     }
+    // With the package's extras, as `pip install './python[ray,rl]'` installs them (their
+    // packages are there from the line above: this checks the extras' names and pins).
     run(Command::new(venv.join("bin/maturin"))
-        .args(["develop", "--quiet", "-m"])
+        .args(["develop", "--quiet", "--extras", "ray,rl", "-m"])
         .arg(root.join("python/Cargo.toml"))
         .env("VIRTUAL_ENV", &venv)
         .env("CARGO_TARGET_DIR", cargo_target().join("python")))

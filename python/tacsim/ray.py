@@ -228,6 +228,9 @@ def generate(
     root = Path(shard_root) if shard_root is not None else target.with_name(target.name + ".shards")
     if root.resolve() == target.resolve() or target.resolve() in root.resolve().parents:
         raise ValueError(f"shard_root {root} lies inside out {target}: name a folder beside it")
+    # The recipe, the sensor and the size limits before Ray starts (generate_shards checks
+    # them again for its own callers).
+    _tacsim.plan(recipe, sensor=sensor, seed=seed, size=size, cells=cells, force=force)
     if shards is None:
         if not ray.is_initialized():
             ray.init(address=address, include_dashboard=False, log_to_driver=False)

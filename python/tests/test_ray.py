@@ -74,6 +74,8 @@ def test_bad_arguments_are_refused_before_any_task_runs(tmp_path):
         tray.generate_shards("quick", str(tmp_path / "s"), 2, cpus_per_shard=0)
     with pytest.raises(ValueError, match="no-such-recipe"):
         tray.generate_shards("no-such-recipe", str(tmp_path / "s"), 2, cpus_per_shard=1)
+    with pytest.raises(ValueError, match="no-such-recipe"):
+        tray.generate("no-such-recipe", str(tmp_path / "s"))
     (tmp_path / "file").write_text("not a folder")
     with pytest.raises(ValueError, match="is not a folder"):
         tray.generate("quick", str(tmp_path / "file"), shards=2, cpus_per_shard=1)
