@@ -73,6 +73,11 @@ def _writable_folder(path: Path, what: str) -> None:
         raise PermissionError(f"{what} {path}: {probe} is not writable; name a folder you can write")
 
 
+def _absolute_if_file(value: Optional[str]) -> Optional[str]:
+    """A recipe's or sensor's file as an absolute path (a built-in name as it is)."""
+    return str(Path(value).absolute()) if value is not None and Path(value).is_file() else value
+
+
 def _node_cpus(ray) -> int:
     """The fewest CPUs of any alive node: a task that asks for them fits on every node."""
     cpus = [int(n["Resources"].get("CPU", 0)) for n in ray.nodes() if n.get("Alive")]
@@ -170,8 +175,10 @@ def generate_shards(
     _check_count("max_retries", max_retries, 0, 100)
     if cpus_per_shard is not None:
         _check_count("cpus_per_shard", cpus_per_shard, 1, 1024)
-    root = Path(shard_root)
+    # Workers need not share the driver's working directory: paths go to them absolute.
+    root = Path(shard_root).absolute()
     _writable_folder(root, "shard folder")
+    recipe, sensor = _absolute_if_file(recipe), _absolute_if_file(sensor)
     options = {"sensor": sensor, "seed": seed, "size": size, "cells": cells, "force": force}
     # The recipe, the sensor and the size limits, checked here before any task is handed out.
     images = _tacsim.plan(recipe, **options)
