@@ -151,7 +151,7 @@ def _reporter(progress: Progress) -> Optional[Callable[[int, int], None]]:
 def generate_shards(
     recipe: str,
     shard_root: str,
-    shards: int,
+    shards: Optional[int] = None,
     address: Optional[str] = None,
     *,
     cpus_per_shard: Optional[int] = None,
@@ -164,14 +164,15 @@ def generate_shards(
     progress: Progress = False,
     _kill_after: Optional[Tuple[int, int]] = None,
 ) -> List[ShardRun]:
-    """Runs shard ``i`` of ``shards`` for every ``i`` as a Ray task (``shard_root/shard-i-of-n``),
-    each resuming what is there; returns each shard's :class:`ShardRun` in order. A task whose
+    """Runs shard ``i`` of ``shards`` (default: one per alive node) for every ``i`` as a Ray task
+    (``shard_root/shard-i-of-n``), each resuming what is there; returns each shard's :class:`ShardRun` in order. A task whose
     worker dies is retried up to ``max_retries`` times. ``cpus_per_shard`` (default: the fewest
     CPUs of any node, so a task takes a whole node) is both the task's Ray resource and the
     engine's threads. Connects to ``address`` (``ray.init``'s: ``"auto"``, ``"ray://host:10001"``)
     where Ray is not initialised yet, else starts a local cluster."""
     ray = _ray()
-    _check_count("shards", shards, 1, 100_000)
+    if shards is not None:
+        _check_count("shards", shards, 1, 100_000)
     _check_count("max_retries", max_retries, 0, 100)
     if cpus_per_shard is not None:
         _check_count("cpus_per_shard", cpus_per_shard, 1, 1024)
@@ -184,6 +185,8 @@ def generate_shards(
     images = _tacsim.plan(recipe, **options)
     if not ray.is_initialized():
         ray.init(address=address, include_dashboard=False, log_to_driver=False)
+    if shards is None:
+        shards = max(1, sum(1 for n in ray.nodes() if n.get("Alive")))
     cpus = cpus_per_shard if cpus_per_shard is not None else _node_cpus(ray)
     root.mkdir(parents=True, exist_ok=True)
     task = ray.remote(num_cpus=cpus, max_retries=max_retries)(_shard_task(ray))
@@ -229,19 +232,12 @@ def generate(
     filesystem every node sees) and are removed after the merge unless ``keep_shards``. Rerun
     the same call to resume. ``progress``: a line on stderr (True), nothing (False), or
     ``progress(done, total)``. Returns the merged :class:`tacsim.Dataset`."""
-    ray = _ray()
+    _ray()  # its install hint before anything else
     target = Path(out)
     _writable_folder(target, "out")
     root = Path(shard_root) if shard_root is not None else target.with_name(target.name + ".shards")
     if root.resolve() == target.resolve() or target.resolve() in root.resolve().parents:
         raise ValueError(f"shard_root {root} lies inside out {target}: name a folder beside it")
-    # The recipe, the sensor and the size limits before Ray starts (generate_shards checks
-    # them again for its own callers).
-    _tacsim.plan(recipe, sensor=sensor, seed=seed, size=size, cells=cells, force=force)
-    if shards is None:
-        if not ray.is_initialized():
-            ray.init(address=address, include_dashboard=False, log_to_driver=False)
-        shards = max(1, sum(1 for n in ray.nodes() if n.get("Alive")))
     start = time.monotonic()
     runs = generate_shards(
         recipe,

@@ -52,6 +52,8 @@ def test_four_shards_on_ray_have_the_bytes_of_one_machine(tmp_path, cluster, one
     runs = tray.generate_shards("quick", str(tmp_path / "again"), 4, cpus_per_shard=1)
     again = tray.generate_shards("quick", str(tmp_path / "again"), 4, cpus_per_shard=1)
     assert [r.images for r in runs] == [75, 75, 75, 75]
+    # By default one shard per alive node: one here.
+    assert [r.shards for r in tray.generate_shards("quick", str(tmp_path / "nodes"), cpus_per_shard=1)] == [1]
     assert all(r.written == 0 and r.skipped == r.images for r in again), again
 
 

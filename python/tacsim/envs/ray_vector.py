@@ -15,6 +15,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector.utils import batch_space
 
+from .vector import autoreset_mode_of
+
 
 def _ray():
     from tacsim.ray import _ray as ray_module
@@ -67,10 +69,7 @@ class RayEdgeFollowVectorEnv(gym.vector.VectorEnv):
             raise ValueError(f"actors must be a whole number in [1, num_envs = {num_envs}], got {actors!r}")
         if isinstance(cpus_per_actor, bool) or not isinstance(cpus_per_actor, (int, float)) or not cpus_per_actor > 0:
             raise ValueError(f"cpus_per_actor must be a positive number, got {cpus_per_actor!r}")
-        modes = {"next_step": gym.vector.AutoresetMode.NEXT_STEP, "same_step": gym.vector.AutoresetMode.SAME_STEP}
-        if autoreset_mode not in modes:
-            raise ValueError(f"autoreset_mode must be next_step or same_step, got {autoreset_mode!r}")
-        self.metadata = {**self.metadata, "autoreset_mode": modes[autoreset_mode]}
+        self.metadata = {**self.metadata, "autoreset_mode": autoreset_mode_of(autoreset_mode)}
         ray = _ray()
         if not ray.is_initialized():
             ray.init(address=address, include_dashboard=False, log_to_driver=False)

@@ -20,6 +20,14 @@ import tacsim
 from .edge_follow import EdgeFollowEnv
 
 
+def autoreset_mode_of(name):
+    """Gymnasium's ``AutoresetMode`` named ``"next_step"`` or ``"same_step"``."""
+    modes = {"next_step": gym.vector.AutoresetMode.NEXT_STEP, "same_step": gym.vector.AutoresetMode.SAME_STEP}
+    if name not in modes:
+        raise ValueError(f"autoreset_mode must be next_step or same_step, got {name!r}")
+    return modes[name]
+
+
 class EdgeFollowVectorEnv(gym.vector.VectorEnv):
     """``num_envs`` EdgeFollow environments (keyword arguments as ``EdgeFollowEnv``)."""
 
@@ -28,10 +36,7 @@ class EdgeFollowVectorEnv(gym.vector.VectorEnv):
     def __init__(self, num_envs=4, max_episode_steps=500, autoreset_mode="next_step", **kwargs):
         if num_envs < 1:
             raise ValueError(f"num_envs must be at least 1, got {num_envs}")
-        modes = {"next_step": gym.vector.AutoresetMode.NEXT_STEP, "same_step": gym.vector.AutoresetMode.SAME_STEP}
-        if autoreset_mode not in modes:
-            raise ValueError(f"autoreset_mode must be next_step or same_step, got {autoreset_mode!r}")
-        self.metadata = {**self.metadata, "autoreset_mode": modes[autoreset_mode]}
+        self.metadata = {**self.metadata, "autoreset_mode": autoreset_mode_of(autoreset_mode)}
         self._same_step = autoreset_mode == "same_step"
         self.envs = [EdgeFollowEnv(**kwargs) for _ in range(num_envs)]
         self.num_envs = num_envs

@@ -116,7 +116,7 @@ pub(super) fn ms_single<T>(n: usize, mut f: impl FnMut(usize) -> Result<T>) -> R
 }
 
 /// Where a tap's time goes (ms per tap, in the calling thread's pool): footprint grid, gap
-/// and solve, pins, render.
+/// and solve (with the solvers' mean iterations), pins, render.
 pub(super) fn tap_breakdown(
     model: &ContactModel,
     scene: &Scene,
@@ -124,12 +124,15 @@ pub(super) fn tap_breakdown(
     taps: &[(SensorPose, [f64; 2])],
 ) -> Result<Breakdown> {
     let (mut footprint, mut solve, mut pins_t, mut render_t) = (0.0, 0.0, 0.0, 0.0);
+    let mut iterations = [0usize; 2];
     for (pose, _) in taps {
         let t = Instant::now();
         let mut sim = Simulation::new(model, scene, &[*pose]);
         footprint += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        sim.step(*pose)?;
+        let report = sim.step(*pose)?;
+        iterations[0] += report.normal_iterations;
+        iterations[1] += report.tangential_iterations;
         // The sub-cells along an edge, found when first asked for, are the solve's.
         std::hint::black_box(sim.refined_cells());
         solve += t.elapsed().as_secs_f64();
@@ -141,7 +144,15 @@ pub(super) fn tap_breakdown(
         render_t += t.elapsed().as_secs_f64();
     }
     let per = |s: f64| s * 1e3 / taps.len() as f64;
-    Ok(Breakdown { footprint_ms: per(footprint), solve_ms: per(solve), pins_ms: per(pins_t), render_ms: per(render_t) })
+    let mean = |n: usize| n as f64 / taps.len() as f64;
+    Ok(Breakdown {
+        footprint_ms: per(footprint),
+        solve_ms: per(solve),
+        pins_ms: per(pins_t),
+        render_ms: per(render_t),
+        normal_iterations: mean(iterations[0]),
+        tangential_iterations: mean(iterations[1]),
+    })
 }
 
 pub(super) fn measure_skips(sensor: &SensorParams, scene: &Scene, poses: &[(SensorPose, [f64; 2])]) -> Result<Skips> {

@@ -26,6 +26,10 @@ pub struct Breakdown {
     pub pins_ms: f64,
     /// 256x256 render.
     pub render_ms: f64,
+    /// The normal solver's iterations a tap (summed over the coupling's alternations).
+    pub normal_iterations: f64,
+    /// The tangential solver's iterations a tap.
+    pub tangential_iterations: f64,
 }
 
 /// What each skip saves: the time with the skip (as the engine runs) against the time without it
@@ -163,7 +167,7 @@ impl BenchReport {
             "{} threads, {} cells across the footprint (mean {:.0} in contact), {} x {} sub-cells along edges{}\n\
              taps:   {:>9.1} frames/s  (solve + pins + 256x256 render; first pass {:.1})\n\
              slides: {:>9.1} samples/s (touch down {SLIDE_MM} mm away, {STEP_MM} mm steps, capture; first pass {:.1})\n\
-             a tap, one thread: footprint {:.3} ms, gap + solve {:.3} ms, pins {:.3} ms, render {:.3} ms\n",
+             a tap, one thread: footprint {:.3} ms, gap + solve {:.3} ms ({:.1} normal + {:.1} tangential iterations), pins {:.3} ms, render {:.3} ms\n",
             self.threads,
             self.cells_across,
             self.mean_contact_cells,
@@ -176,6 +180,8 @@ impl BenchReport {
             self.first_pass.slide_samples_per_s,
             b.footprint_ms,
             b.solve_ms,
+            b.normal_iterations,
+            b.tangential_iterations,
             b.pins_ms,
             b.render_ms,
         );

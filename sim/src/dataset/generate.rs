@@ -492,8 +492,7 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
 /// `out` instead of copied (copied where a rename cannot cross filesystems), so the shards
 /// lose their images. The same bytes as [`merge`]. Interrupted, it leaves shards without some
 /// images: generating them again with `--resume` makes only those, and the merge then
-/// finishes. On the `paper` recipe's 120,000 images a copy and the shards' removal took 22 s
-/// of a 106 s run on 2 cores (`docs/guide/cluster.md`).
+/// finishes. What the copy costs a large recipe: `docs/guide/cluster.md`, "Measured".
 pub fn merge_moving(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     merge_with(out, shards, Images::Move)
 }
