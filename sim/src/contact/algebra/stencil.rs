@@ -46,38 +46,46 @@ impl InverseStencil {
         let cos = Cosines::of(n);
         let p = cos.period();
         let offsets = || -(n as isize - 1)..n as isize;
+        // `cos(2 pi k d / P)` for every frequency (rows) and offset of the square (columns),
+        // looked up once: the sums below take the same values in the same order.
+        let width = 2 * n - 1;
+        let by_offset: Vec<f64> =
+            (0..p).flat_map(|k| offsets().map(move |d| (k, d))).map(|(k, d)| cos.at(k, d)).collect();
+        let cosines = |k: usize| &by_offset[k * width..(k + 1) * width];
         // Along x first, `b(kx, dy)`, then along y.
-        let mut along_x = vec![0.0; p * (2 * n - 1)];
+        let mut along_x = vec![0.0; p * width];
         for (row, dy) in offsets().enumerate() {
             let line: Vec<f64> = offsets().map(|dx| table(dx, dy)).collect();
             for kx in 0..p {
-                along_x[row * p + kx] = offsets().zip(&line).map(|(dx, v)| v * cos.at(kx, dx)).sum();
+                along_x[row * p + kx] = line.iter().zip(cosines(kx)).map(|(v, c)| v * c).sum();
             }
         }
         let largest = table(0, 0).abs();
         let mut inverse = vec![0.0; p * p];
         for ky in 0..p {
+            let cy = cosines(ky);
             for kx in 0..p {
-                let a: f64 = offsets().enumerate().map(|(row, dy)| along_x[row * p + kx] * cos.at(ky, dy)).sum();
+                let a: f64 = (0..width).map(|row| along_x[row * p + kx] * cy[row]).sum();
                 // The table's symbol is positive (the operator is); where a truncated far
                 // field rounds it near zero, it is held off it.
                 inverse[ky * p + kx] = 1.0 / a.max(1e-3 * largest);
             }
         }
         let mut taps = [0.0; WIDTH * WIDTH];
+        let near = cos.near();
         for (slot, tap) in taps.iter_mut().enumerate() {
             let (dx, dy) = offset(slot);
             let mut sum = 0.0;
             for ky in 0..p {
-                let row: f64 = (0..p).map(|kx| inverse[ky * p + kx] * cos.at(kx, dx)).sum();
-                sum += row * cos.at(ky, dy);
+                let row: f64 = (0..p).map(|kx| inverse[ky * p + kx] * near.at(kx, dx)).sum();
+                sum += row * near.at(ky, dy);
             }
             *tap = sum * table(0, 0) / (p * p) as f64;
         }
         let mut stencil = Self { taps };
         // Positive definite on every cell set: the truncated symbol above zero. Raised by
         // `delta`, its lowest is `MIN_SYMBOL` of the new centre.
-        let lowest = stencil.lowest_symbol(&cos);
+        let lowest = stencil.lowest_symbol(&near);
         let centre = RADIUS * WIDTH + RADIUS;
         if lowest < MIN_SYMBOL * stencil.taps[centre] {
             stencil.taps[centre] += (MIN_SYMBOL * stencil.taps[centre] - lowest) / (1.0 - MIN_SYMBOL);
@@ -91,18 +99,18 @@ impl InverseStencil {
         nx.min(ny).min(MAX_SQUARE)
     }
 
-    /// The lowest of the stencil's symbol over the frequencies of the periodic grid `cos`.
-    fn lowest_symbol(&self, cos: &Cosines) -> f64 {
+    /// The lowest of the stencil's symbol over the frequencies of the periodic grid `near`.
+    fn lowest_symbol(&self, near: &NearCosines) -> f64 {
         let mut lowest = f64::INFINITY;
-        for ky in 0..cos.period() {
-            for kx in 0..cos.period() {
+        for ky in 0..near.period() {
+            for kx in 0..near.period() {
                 let symbol: f64 = self
                     .taps
                     .iter()
                     .enumerate()
                     .map(|(slot, m)| {
                         let (dx, dy) = offset(slot);
-                        m * cos.at(kx, dx) * cos.at(ky, dy)
+                        m * near.at(kx, dx) * near.at(ky, dy)
                     })
                     .sum();
                 lowest = lowest.min(symbol);
@@ -142,6 +150,28 @@ impl Cosines {
     /// `cos(2 pi k d / P)`.
     fn at(&self, k: usize, d: isize) -> f64 {
         self.0[(k as isize * d).rem_euclid(self.0.len() as isize) as usize]
+    }
+
+    /// The cosines of the stencil's own offsets (`|d| <= RADIUS`), looked up once.
+    fn near(&self) -> NearCosines {
+        let r = RADIUS as isize;
+        NearCosines(
+            (0..self.period()).flat_map(|k| (-r..=r).map(move |d| (k, d))).map(|(k, d)| self.at(k, d)).collect(),
+        )
+    }
+}
+
+/// [`Cosines::at`] for the offsets `|d| <= RADIUS`: the same values, by index.
+struct NearCosines(Vec<f64>);
+
+impl NearCosines {
+    fn period(&self) -> usize {
+        self.0.len() / WIDTH
+    }
+
+    /// `cos(2 pi k d / P)`, `|d| <= RADIUS`.
+    fn at(&self, k: usize, d: isize) -> f64 {
+        self.0[k * WIDTH + (d + RADIUS as isize) as usize]
     }
 }
 
@@ -309,7 +339,7 @@ mod tests {
                 assert!((s - d).abs() < 1e-12, "{nx} x {ny}: {s} against {d}");
             }
             let n = InverseStencil::square(nx, ny);
-            let lowest = stencil.lowest_symbol(&Cosines::of(n));
+            let lowest = stencil.lowest_symbol(&Cosines::of(n).near());
             assert!(lowest >= 0.999 * MIN_SYMBOL * stencil.tap(0, 0), "{nx} x {ny}: {lowest}");
         }
     }

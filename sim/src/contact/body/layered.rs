@@ -41,6 +41,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
+use crate::contact::algebra::lanes::Real;
 use crate::contact::body::kernel::Elastic;
 
 /// One elastic layer.
@@ -491,34 +492,83 @@ impl LayeredKernels {
     /// tables (the displacement is linear in depth about the pins' depth). What the pins' four-point
     /// stencil approximates by forward differences (`pins/motion.rs`), in one table lookup.
     pub(crate) fn displacement_and_gradient(&self, force: [f64; 3], x: f64, y: f64) -> ([f64; 3], [[f64; 3]; 3]) {
-        let r2 = x * x + y * y;
-        let r = r2.sqrt();
-        let (f, df) = self.lerp_with_slope(&self.depth, &DEPTH_PARITY, r);
-        let g = self.lerp(&self.depth_dz, &DEPTH_PARITY, r);
-        let u = combine(force, x, y, f[0], f[1], f[2], f[3], f[4]);
-        let d_depth = combine(force, x, y, g[0], g[1], g[2], g[3], g[4]);
-        if r2 == 0.0 {
+        if x * x + y * y == 0.0 {
             // The limit at the load: `pr` and `zq` are odd in r, so `p pr c = p pr'(0) x` and
             // `zq (qx c + qy s) = zq'(0) (qx x + qy y)`; the even terms are flat there.
+            let (f, df) = self.lerp_with_slope(&self.depth, &DEPTH_PARITY, 0.0);
+            let g = self.lerp(&self.depth_dz, &DEPTH_PARITY, 0.0);
+            let u = combine(force, x, y, f[0], f[1], f[2], f[3], f[4]);
+            let d_depth = combine(force, x, y, g[0], g[1], g[2], g[3], g[4]);
             let [qx, qy, p] = force;
             let (dpr, dzq) = (df[1], df[2]);
             return (u, [[p * dpr, 0.0, dzq * qx], [0.0, p * dpr, dzq * qy], d_depth]);
         }
-        let (c, sn, c2) = (x / r, y / r, (x * x - y * y) / r2);
-        // Along x (dr/dx = c) and y (dr/dy = s): the radial slopes with the angles held, plus
-        // the angles' own change with the radial functions held.
-        let along = |dr: f64, dc: f64, dsn: f64, dc2: f64, ds2: f64| {
-            let radial = combine(force, x, y, df[0] * dr, df[1] * dr, df[2] * dr, df[3] * dr, df[4] * dr);
-            let [qx, qy, p] = force;
-            let (pr, zq, d) = (f[1], f[2], f[4]);
-            [
-                radial[0] + p * pr * dc - qx * dc2 * d - qy * ds2 * d,
-                radial[1] + p * pr * dsn - qx * ds2 * d + qy * dc2 * d,
-                radial[2] + zq * (qx * dc + qy * dsn),
-            ]
+        self.displacement_and_gradient_lanes(force, ([x], [y]), |v: [f64; 1]| v[0])
+    }
+
+    /// [`Self::displacement_and_gradient`] of `N` forces at once (the pins take
+    /// [`LANES`](crate::contact::algebra::lanes::LANES)),
+    /// each at its own offset `(x, y)` (mm; none with `x^2 + y^2 = 0`, where the angles need
+    /// the scalar limit): the table rows are gathered lane by lane, the rest is one formula on `T`
+    /// ([`Real`]; `f64` with `N = 1` is the scalar's), so each lane gives the same bits on
+    /// every kind of lanes. One division a force: the angles and the radial slopes by
+    /// reciprocals. `lanes` makes values into `T`.
+    #[inline(always)]
+    pub(crate) fn displacement_and_gradient_lanes<T: Real, const N: usize>(
+        &self,
+        force: [T; 3],
+        (x, y): ([f64; N], [f64; N]),
+        lanes: impl Fn([f64; N]) -> T,
+    ) -> ([T; 3], [[T; 3]; 3]) {
+        let end = (self.depth.len() - 3) as f64;
+        let mut r = [0.0; N];
+        let mut frac = [0.0; N];
+        let mut slope = [0.0; N];
+        // Each lane's rows `i - 1 .. i + 2` of both tables (the row before the first from
+        // the functions' parity, as [`Self::lerp`] takes it).
+        let mut at = [0usize; N];
+        let mut first = [[[0.0; 5]; N]; 2];
+        let per_mm = 1.0 / self.dr_mm;
+        for l in 0..N {
+            r[l] = (x[l] * x[l] + y[l] * y[l]).sqrt();
+            // Beyond the table the value is held and its slope is zero.
+            let t = r[l] * per_mm;
+            let (t, held) = if t < end { (t, false) } else { (end, true) };
+            at[l] = t as usize;
+            frac[l] = t - at[l] as f64;
+            slope[l] = if held { 0.0 } else { 0.5 * per_mm };
+            for (table, first) in [&self.depth, &self.depth_dz].into_iter().zip(first.iter_mut()) {
+                let i = at[l];
+                first[l] =
+                    if i > 0 { table[i - 1] } else { std::array::from_fn(|j| DEPTH_PARITY[j] * table[i + 1][j]) };
+            }
+        }
+        let (f, slope) = (lanes(frac), lanes(slope));
+        // Function `j` of row `k` (0: the row before the interval) of `table`, lane by lane.
+        let row = |table: &[[f64; 5]], first: &[[f64; 5]; N], k: usize, j: usize| {
+            lanes(std::array::from_fn(|l| if k == 0 { first[l][j] } else { table[at[l] + k - 1][j] }))
         };
-        let dx = along(c, sn * sn / r, -c * sn / r, 4.0 * c * sn * sn / r, -2.0 * sn * c2 / r);
-        let dy = along(sn, -c * sn / r, c * c / r, -4.0 * c * c * sn / r, 2.0 * c * c2 / r);
+        let (mut v, mut df, mut g) = ([f; 5], [f; 5], [f; 5]);
+        for j in 0..5 {
+            let [a, b, c, d] = std::array::from_fn(|k| row(&self.depth, &first[0], k, j));
+            let (q, w) = (a * 2.0 - b * 5.0 + c * 4.0 - d, (b - c) * 3.0 + d - a);
+            v[j] = b + f * 0.5 * (c - a + f * (q + f * w));
+            df[j] = (c - a + f * (q * 2.0 + f * 3.0 * w)) * slope;
+            let [a, b, c, d] = std::array::from_fn(|k| row(&self.depth_dz, &first[1], k, j));
+            g[j] = b + f * 0.5 * (c - a + f * (a * 2.0 - b * 5.0 + c * 4.0 - d + f * ((b - c) * 3.0 + d - a)));
+        }
+        let inv = f.splat_like(1.0) / lanes(r);
+        let (c, sn) = (lanes(x) * inv, lanes(y) * inv);
+        let angles = (c, sn, c * c - sn * sn, c * sn * 2.0);
+        let c2 = angles.2;
+        let u = combine_lanes(force, angles, v);
+        let d_depth = combine_lanes(force, angles, g);
+        // Along x (dr/dx = c) and y (dr/dy = s): the radial slopes with the angles held, plus
+        // the angles' own change with the radial functions held (`dc/dx = s^2 / r`, `dc2/dx =
+        // 4 c s^2 / r`, `ds2/dx = -2 s c2 / r`, ...).
+        let (ss, cs, cc) = (sn * sn * inv, c * sn * inv, c * c * inv);
+        let dx = along_lanes(force, angles, &v, &df, [c, ss, -cs, c * ss * 4.0, -(sn * c2 * inv * 2.0)]);
+        let dy = along_lanes(force, angles, &v, &df, [sn, -cs, cc, -(c * cs * 4.0), c * c2 * inv * 2.0]);
         (u, [dx, dy, d_depth])
     }
 
@@ -593,6 +643,40 @@ fn combine(force: [f64; 3], x: f64, y: f64, zz: f64, pr: f64, zq: f64, s: f64, d
     ]
 }
 
+/// The displacement's derivative along a lateral direction on lanes
+/// ([`LayeredKernels::displacement_and_gradient`]'s `along`): the radial slopes `df` times
+/// `dr` with the angles held, plus the angles' own change `(dc, dsn, dc2, ds2)` with the radial
+/// functions `v` held.
+#[inline(always)]
+fn along_lanes<T: Real>(
+    force: [T; 3],
+    angles: (T, T, T, T),
+    v: &[T; 5],
+    df: &[T; 5],
+    [dr, dc, dsn, dc2, ds2]: [T; 5],
+) -> [T; 3] {
+    let radial = combine_lanes(force, angles, df.map(|d| d * dr));
+    let [qx, qy, p] = force;
+    let (pr, zq, d) = (v[1], v[2], v[4]);
+    [
+        radial[0] + p * pr * dc - qx * dc2 * d - qy * ds2 * d,
+        radial[1] + p * pr * dsn - qx * ds2 * d + qy * dc2 * d,
+        radial[2] + zq * (qx * dc + qy * dsn),
+    ]
+}
+
+/// [`combine`] on lanes, with the angles `(cos theta, sin theta, cos 2 theta, sin 2 theta)`
+/// given and the radial functions `[zz, pr, zq, s, d]`.
+#[inline(always)]
+fn combine_lanes<T: Real>(force: [T; 3], (c, sn, c2, s2): (T, T, T, T), [zz, pr, zq, s, d]: [T; 5]) -> [T; 3] {
+    let [qx, qy, p] = force;
+    [
+        p * pr * c + qx * (s - c2 * d) - qy * s2 * d,
+        p * pr * sn - qx * s2 * d + qy * (s + c2 * d),
+        p * zz + zq * (qx * c + qy * sn),
+    ]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -609,7 +693,8 @@ mod tests {
     /// The closed-form gradient of the pins' displacement is the tables' own: central
     /// differences (1e-5 mm; 1e-8 through the origin) of [`LayeredKernels::displacement`] agree within 1e-6 of the
     /// gradient's size, at offsets on and between the tables' knots, near and far, for a
-    /// force of all three components; the displacement is the same bits. Regression: right
+    /// force of all three components; the displacement is the same to rounding (1e-15 of its
+    /// size). Regression: right
     /// under the load (offset 0, a pin over a sub-square's centre) the lateral gradient was
     /// taken as 0, where the odd terms' slopes make it `p pr'(0)` and `zq'(0) q`.
     #[test]
@@ -634,7 +719,13 @@ mod tests {
             let depth = k.pin_depth_mm();
             // Through the origin the differences see `|r|`, first order in the step: a finer one.
             let h = if x == 0.0 && y == 0.0 { 1e-8 } else { 1e-5 };
-            assert_eq!(u, k.displacement(force, [x, y, depth]), "({x}, {y})");
+            // The same tables and formula; the angles by one reciprocal here (one division a
+            // force on the pins' lanes) and by divisions there: equal to rounding.
+            let plain = k.displacement(force, [x, y, depth]);
+            let scale = plain.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (a, b) in u.iter().zip(&plain) {
+                assert!((a - b).abs() <= 1e-15 * scale, "({x}, {y}): {u:?} vs {plain:?}");
+            }
             let fd = |d: [f64; 3]| -> [f64; 3] {
                 let (p, m) = (
                     k.displacement(force, [x + d[0], y + d[1], depth + d[2]]),

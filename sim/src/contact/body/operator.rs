@@ -315,9 +315,10 @@ impl Operator {
                     for &(t, wt) in &gl {
                         let (x, y) = (dx - (s - 0.5) * h, dy - (t - 0.5) * h);
                         let w = ws * wt * area;
-                        let mut radial = kernels.surface_radial(x.hypot(y));
+                        let r = x.hypot(y);
+                        let mut radial = kernels.surface_radial(r);
                         if let Some(extra) = extra {
-                            let more = extra(x.hypot(y));
+                            let more = extra(r);
                             for (a, b) in radial.iter_mut().zip(more) {
                                 *a += b;
                             }

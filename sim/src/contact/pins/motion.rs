@@ -465,6 +465,84 @@ fn kernel_sums(kernel: &DepthKernel, seen: &SeenForces, depth: f64) -> ([f64; 3]
     lane_sums(kernel, seen, depth, Lanes, |v| v.0)
 }
 
+/// The near field's displacement and its gradient ([`LayeredKernels::displacement_and_gradient`])
+/// summed over [`SeenForces`], [`LANES`] forces at a time in `LANES` running sums, added
+/// together in lane order at the end, as [`lane_sums`] does the half-space's; a run with a
+/// force right at the point (whose angles need the scalar limit) and the forces after the
+/// last full run one at a time. Every kind of lanes gives the same bits.
+#[inline(always)]
+fn near_field_lane_sums<T: Real>(
+    kernel: &LayeredKernels,
+    seen: &SeenForces,
+    lanes: impl Fn([f64; LANES]) -> T,
+    values: impl Fn(T) -> [f64; LANES],
+) -> ([f64; 3], [[f64; 3]; 3]) {
+    let zero = lanes([0.0; LANES]);
+    let (mut u, mut grad) = ([zero; 3], [[zero; 3]; 3]);
+    let (mut one_u, mut one_grad) = ([0.0; 3], [[0.0; 3]; 3]);
+    let mut one_at_a_time = |k: usize| {
+        let force = [seen.f[0][k], seen.f[1][k], seen.f[2][k]];
+        let (v, g) = kernel.displacement_and_gradient(force, seen.dx[k], seen.dy[k]);
+        for c in 0..3 {
+            one_u[c] += v[c];
+            for d in 0..3 {
+                one_grad[d][c] += g[d][c];
+            }
+        }
+    };
+    let n = seen.dx.len() / LANES * LANES;
+    for start in (0..n).step_by(LANES) {
+        let run = |v: &[f64]| -> [f64; LANES] { std::array::from_fn(|l| v[start + l]) };
+        let (dx, dy) = (run(&seen.dx), run(&seen.dy));
+        if (0..LANES).any(|l| dx[l] * dx[l] + dy[l] * dy[l] == 0.0) {
+            (start..start + LANES).for_each(&mut one_at_a_time);
+            continue;
+        }
+        let force = [lanes(run(&seen.f[0])), lanes(run(&seen.f[1])), lanes(run(&seen.f[2]))];
+        let (v, g) = kernel.displacement_and_gradient_lanes(force, (dx, dy), &lanes);
+        for c in 0..3 {
+            u[c] = u[c] + v[c];
+            for d in 0..3 {
+                grad[d][c] = grad[d][c] + g[d][c];
+            }
+        }
+    }
+    (n..seen.dx.len()).for_each(&mut one_at_a_time);
+    let total = |v: T| values(v).iter().sum::<f64>();
+    let u: [f64; 3] = std::array::from_fn(|c| total(u[c]) + one_u[c]);
+    let grad: [[f64; 3]; 3] = std::array::from_fn(|d| std::array::from_fn(|c| total(grad[d][c]) + one_grad[d][c]));
+    (u, grad)
+}
+
+/// [`near_field_lane_sums`] on AVX2.
+#[cfg(target_arch = "x86_64")]
+struct Avx2NearSums<'a> {
+    simd: pulp::x86::V3,
+    kernel: &'a LayeredKernels,
+    seen: &'a SeenForces,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl pulp::WithSimd for Avx2NearSums<'_> {
+    type Output = ([f64; 3], [[f64; 3]; 3]);
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) -> Self::Output {
+        let simd = self.simd;
+        near_field_lane_sums(self.kernel, self.seen, |v| Avx2Lanes::new(simd, v), Avx2Lanes::to_array)
+    }
+}
+
+/// [`near_field_lane_sums`] on the best lanes this CPU has: AVX2, else [`Lanes`] (the same
+/// bits).
+fn near_field_sums(kernel: &LayeredKernels, seen: &SeenForces) -> ([f64; 3], [[f64; 3]; 3]) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(simd) = pulp::x86::V3::try_new() {
+        return pulp::Simd::vectorize(simd, Avx2NearSums { simd, kernel, seen });
+    }
+    near_field_lane_sums(kernel, seen, Lanes, |v| v.0)
+}
+
 /// The half-space's displacement and rotation (kernel frame, `z` into the body) in the grid's
 /// frame, where into the body is `-z`: the mirror turns `u_z` and, the rotation being an axial
 /// vector, `omega_x` and `omega_y`.
@@ -548,16 +626,10 @@ fn near_field_motion(
     exact: bool,
     at: Vector3<f64>,
 ) -> (Vector3<f64>, Vector3<f64>) {
-    let mut u = [0.0; 3];
-    let mut grad = [[0.0; 3]; 3];
-    forces.each_force(&at, kernel.pin_depth_mm(), exact, |cx, cy, f| {
-        let (v, g) = kernel.displacement_and_gradient(f, at.x - cx, at.y - cy);
-        for c in 0..3 {
-            u[c] += v[c];
-            for k in 0..3 {
-                grad[k][c] += g[k][c];
-            }
-        }
+    let (u, grad) = SEEN.with_borrow_mut(|seen| {
+        seen.clear();
+        forces.each_force(&at, kernel.pin_depth_mm(), exact, |cx, cy, f| seen.push(at.x - cx, at.y - cy, f));
+        near_field_sums(kernel, seen)
     });
     // The grid's frame: z out of the body, so depth falls as z rises.
     let [gx, gy, gd] = grad.map(sensor_displacement);
@@ -740,14 +812,7 @@ mod tests {
     /// skin patch, grouped and `exact`.
     #[test]
     fn the_domes_near_field_rotation_is_the_stencils_without_its_differences() {
-        use crate::contact::body::layered::{Layer, LayeredBody};
-        let body = LayeredBody {
-            layers: vec![
-                Layer { thickness_mm: 0.66, material: Elastic::from_young(1.0, 0.436) },
-                Layer { thickness_mm: 19.34, material: Elastic::from_young(0.02, 0.4999) },
-            ],
-        };
-        let tables = LayeredKernels::near_field(&body, 0.66, 60.0, 2.9);
+        let tables = near_field_tables();
         let forces = loaded_forces();
         for patch in [0.0, 1.5] {
             let mut sensor = crate::sensor::SensorParams::default();
@@ -830,6 +895,104 @@ mod tests {
                     let bits =
                         |(u, w): ([f64; 3], [f64; 3])| u.iter().chain(&w).map(|v| v.to_bits()).collect::<Vec<_>>();
                     assert_eq!(bits(avx2), bits(plain), "at ({x}, {y}), {keep} forces");
+                }
+            }
+            assert!(remainders >= 6, "{remainders} runs with a remainder");
+        }
+    }
+
+    /// The dome's near-field tables of the test above (a 0.66 mm skin on a soft gel).
+    fn near_field_tables() -> std::sync::Arc<LayeredKernels> {
+        use crate::contact::body::layered::{Layer, LayeredBody};
+        let body = LayeredBody {
+            layers: vec![
+                Layer { thickness_mm: 0.66, material: Elastic::from_young(1.0, 0.436) },
+                Layer { thickness_mm: 19.34, material: Elastic::from_young(0.02, 0.4999) },
+            ],
+        };
+        LayeredKernels::near_field(&body, 0.66, 60.0, 2.9)
+    }
+
+    /// The forces a point at `(x, y)` sees, as the pins gather them.
+    fn seen_at(forces: &CellForces, (x, y): (f64, f64), exact: bool) -> SeenForces {
+        let mut seen = SeenForces::default();
+        forces.each_force(&Vector3::new(x, y, 0.0), 0.66, exact, |cx, cy, f| seen.push(x - cx, y - cy, f));
+        seen
+    }
+
+    /// What changed: the near field's displacement and gradient are evaluated on `LANES`
+    /// forces at once. Each lane is the scalar formula's bits (offsets inside the table, past
+    /// its end, and on its first interval), and over the forces a point sees (near, inside
+    /// and far from the load, grouped and `exact`, one force right at the point) the sums
+    /// stay within 1e-12 of one force at a time relative to their size.
+    #[test]
+    fn the_near_field_by_lanes_matches_one_force_at_a_time() {
+        let tables = near_field_tables();
+        let beyond = tables.r_max_mm() + 3.0;
+        let (x, y) = ([0.01, -1.3, 7.5, beyond], [0.02, 0.7, -4.0, 1.0]);
+        let force = [[0.1, -0.2, 0.3], [-0.05, 0.0, 1.0], [0.0, 0.3, 0.2], [0.2, 0.1, 0.5]];
+        let f = |c: usize| Lanes(std::array::from_fn(|l| force[l][c]));
+        let (u, g) = tables.displacement_and_gradient_lanes([f(0), f(1), f(2)], (x, y), Lanes);
+        for l in 0..LANES {
+            let (us, gs) = tables.displacement_and_gradient(force[l], x[l], y[l]);
+            for c in 0..3 {
+                assert_eq!(u[c].0[l].to_bits(), us[c].to_bits(), "lane {l}, u[{c}]");
+                for d in 0..3 {
+                    assert_eq!(g[d][c].0[l].to_bits(), gs[d][c].to_bits(), "lane {l}, grad[{d}][{c}]");
+                }
+            }
+        }
+        let forces = loaded_forces();
+        let mut runs_at_the_point = 0;
+        for at in [(0.05, -0.1), (1.4, 0.9), (-4.0, 3.0), (9.0, -12.0), (forces.x[0], forces.y[0])] {
+            for exact in [false, true] {
+                let seen = seen_at(&forces, at, exact);
+                runs_at_the_point += usize::from(seen.dx.iter().zip(&seen.dy).any(|(x, y)| *x == 0.0 && *y == 0.0));
+                let (mut u1, mut g1) = ([0.0; 3], [[0.0; 3]; 3]);
+                for k in 0..seen.dx.len() {
+                    let f = [seen.f[0][k], seen.f[1][k], seen.f[2][k]];
+                    let (v, g) = tables.displacement_and_gradient(f, seen.dx[k], seen.dy[k]);
+                    (0..3).for_each(|c| u1[c] += v[c]);
+                    (0..9).for_each(|i| g1[i / 3][i % 3] += g[i / 3][i % 3]);
+                }
+                let (u, g) = near_field_lane_sums(&tables, &seen, Lanes, |v| v.0);
+                let norm = |v: &[f64]| v.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let diff = |a: &[f64], b: &[f64]| norm(&a.iter().zip(b).map(|(a, b)| a - b).collect::<Vec<_>>());
+                assert!(diff(&u, &u1) <= 1e-12 * norm(&u1), "at {at:?} exact {exact}: {u:?} vs {u1:?}");
+                let (g, g1) = (g.concat(), g1.concat());
+                assert!(diff(&g, &g1) <= 1e-12 * norm(&g1), "at {at:?} exact {exact}: {g:?} vs {g1:?}");
+                assert!(norm(&u1) > 0.0 && norm(&g1) > 0.0);
+            }
+        }
+        assert!(runs_at_the_point > 0, "no force right at a point");
+    }
+
+    /// The near field's AVX2 lanes give the bits of plain [`Lanes`], for every remainder
+    /// (skipped, saying so, on a CPU without AVX2).
+    #[test]
+    fn the_near_fields_avx2_lanes_give_the_bits_of_plain_lanes() {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let Some(simd) = pulp::x86::V3::try_new() else {
+                println!("skipped: this CPU has no AVX2");
+                return;
+            };
+            let (tables, forces) = (near_field_tables(), loaded_forces());
+            let mut remainders = 0;
+            for at in [(0.05, -0.1), (1.4, 0.9), (-4.0, 3.0), (forces.x[0], forces.y[0])] {
+                for drop in 0..LANES {
+                    let mut seen = seen_at(&forces, at, false);
+                    let keep = seen.dx.len() - drop;
+                    seen.dx.truncate(keep);
+                    seen.dy.truncate(keep);
+                    seen.f.iter_mut().for_each(|v| v.truncate(keep));
+                    remainders += usize::from(!keep.is_multiple_of(LANES));
+                    let avx2 = pulp::Simd::vectorize(simd, Avx2NearSums { simd, kernel: &tables, seen: &seen });
+                    let plain = near_field_lane_sums(&tables, &seen, Lanes, |v| v.0);
+                    let bits = |(u, g): ([f64; 3], [[f64; 3]; 3])| {
+                        u.iter().chain(g.concat().iter()).map(|v| v.to_bits()).collect::<Vec<_>>()
+                    };
+                    assert_eq!(bits(avx2), bits(plain), "at {at:?}, {keep} forces");
                 }
             }
             assert!(remainders >= 6, "{remainders} runs with a remainder");
