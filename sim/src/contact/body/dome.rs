@@ -32,6 +32,7 @@ use std::sync::{Arc, Mutex, OnceLock};
 use nalgebra::Vector3;
 use tacsim_fem::{DomeSpec, MAX_POISSON, Material, PinResponse, PinSite, response_key};
 
+use crate::contact::algebra::lanes::Real;
 use crate::contact::geometry::frame::ContactFrame;
 use crate::error::{Result, SimError};
 use crate::pins::PinLayout;
@@ -125,11 +126,33 @@ impl DomeBody {
     /// its reciprocal pair `F_pr`, `-F_zq` averaged too. Tabulated every [`APEX_STEP_MM`] up
     /// to [`APEX_REACH`] of the radius, linear between, held beyond.
     pub fn apex_radial(&self, r: f64) -> [f64; 4] {
+        self.apex_radial_lanes([r], &|v: [f64; 1]| v[0])
+    }
+
+    /// [`Self::apex_radial`] at `N` radii at once: the rows gathered per lane, the line on `T`
+    /// ([`Real`]), each lane the bits of one radius alone. `lanes` makes values into `T`.
+    #[inline(always)]
+    pub(crate) fn apex_radial_lanes<T: Real, const N: usize>(
+        &self,
+        r: [f64; N],
+        lanes: &impl Fn([f64; N]) -> T,
+    ) -> [T; 4] {
         let table = self.apex_radial.get_or_init(|| self.apex_table());
-        let t = (r.max(0.0) / APEX_STEP_MM).min((table.len() - 1) as f64);
-        let i = (t as usize).min(table.len().saturating_sub(2));
-        let f = t - i as f64;
-        std::array::from_fn(|j| table[i][j] + f * (table[i + 1][j] - table[i][j]))
+        let mut at = [0usize; N];
+        let mut frac = [0.0; N];
+        for l in 0..N {
+            let t = (r[l].max(0.0) / APEX_STEP_MM).min((table.len() - 1) as f64);
+            at[l] = (t as usize).min(table.len().saturating_sub(2));
+            frac[l] = t - at[l] as f64;
+        }
+        let f = lanes(frac);
+        let mut out = [f; 4];
+        for (j, out) in out.iter_mut().enumerate() {
+            let (a, b) =
+                (lanes(std::array::from_fn(|l| table[at[l]][j])), lanes(std::array::from_fn(|l| table[at[l] + 1][j])));
+            *out = a + f * (b - a);
+        }
+        out
     }
 
     fn apex_table(&self) -> Vec<[f64; 4]> {

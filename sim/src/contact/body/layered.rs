@@ -572,6 +572,61 @@ impl LayeredKernels {
         (u, [dx, dy, d_depth])
     }
 
+    /// [`Self::lerp`] at `N` radii at once: the rows gathered per lane, the cubic on `T`
+    /// ([`Real`]), each lane the bits of [`Self::lerp`] at its radius. `lanes` makes values
+    /// into `T`.
+    #[inline(always)]
+    fn lerp_lanes<T: Real, const F: usize, const N: usize>(
+        &self,
+        table: &[[f64; F]],
+        parity: &[f64; F],
+        r: [f64; N],
+        lanes: &impl Fn([f64; N]) -> T,
+    ) -> [T; F] {
+        let end = (table.len() - 3) as f64;
+        let mut at = [0usize; N];
+        let mut frac = [0.0; N];
+        let mut first = [[0.0; F]; N];
+        for l in 0..N {
+            let t = (r[l] / self.dr_mm).min(end);
+            at[l] = t as usize;
+            frac[l] = t - at[l] as f64;
+            let i = at[l];
+            first[l] = if i > 0 { table[i - 1] } else { std::array::from_fn(|j| parity[j] * table[i + 1][j]) };
+        }
+        let f = lanes(frac);
+        // Plain loops, not closures, around the lanes' arithmetic: it stays inlined where the
+        // vector unit's instructions are enabled.
+        let mut out = [f; F];
+        for (j, out) in out.iter_mut().enumerate() {
+            let row =
+                |k: usize| lanes(std::array::from_fn(|l| if k == 0 { first[l][j] } else { table[at[l] + k - 1][j] }));
+            let (a, b, c, d) = (row(0), row(1), row(2), row(3));
+            *out = b + f * 0.5 * (c - a + f * (a * 2.0 - b * 5.0 + c * 4.0 - d + f * ((b - c) * 3.0 + d - a)));
+        }
+        out
+    }
+
+    /// [`Self::surface_radial`] at `N` radii at once, each lane its bits.
+    #[inline(always)]
+    pub(crate) fn surface_radial_lanes<T: Real, const N: usize>(
+        &self,
+        r: [f64; N],
+        lanes: &impl Fn([f64; N]) -> T,
+    ) -> [T; 4] {
+        self.lerp_lanes(&self.surface, &SURFACE_PARITY, r, lanes)
+    }
+
+    /// [`Self::surface_patch_radial`] at `N` radii at once, each lane its bits.
+    #[inline(always)]
+    pub(crate) fn surface_patch_radial_lanes<T: Real, const N: usize>(
+        &self,
+        r: [f64; N],
+        lanes: &impl Fn([f64; N]) -> T,
+    ) -> Option<[T; 4]> {
+        (!self.surface_patch.is_empty()).then(|| self.lerp_lanes(&self.surface_patch, &SURFACE_PARITY, r, lanes))
+    }
+
     /// Radial functions `[F_zz, F_pr, F_s, F_d]` (mm/N) of the surface correction at `r` (mm).
     pub(crate) fn surface_radial(&self, r: f64) -> [f64; 4] {
         self.lerp(&self.surface, &SURFACE_PARITY, r)

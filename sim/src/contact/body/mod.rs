@@ -15,7 +15,9 @@ use crate::contact::geometry::grid::Grid;
 use dome::DomeBody;
 use kernel::DepthKernel;
 use layered::LayeredKernels;
-use operator::{HalfSpace, Operator};
+use operator::{HalfSpace, Operator, RadialCorrection};
+
+use crate::contact::algebra::lanes::{LANES, Real};
 
 /// An elastic body behind the skin surface: what the contact solve and the pins ask of it.
 ///
@@ -99,9 +101,23 @@ impl DomeContact {
     }
 }
 
+impl RadialCorrection for DomeContact {
+    /// [`DomeContact::far_field_radial`] at [`LANES`] radii at once, each lane its bits.
+    #[inline(always)]
+    fn radial<T: Real>(&self, r: [f64; LANES], lanes: &impl Fn([f64; LANES]) -> T) -> [T; 4] {
+        let dome = self.dome.apex_radial_lanes(r, lanes);
+        let layers = self.near.surface_patch_radial_lanes(r, lanes).unwrap_or([lanes([0.0; LANES]); 4]);
+        let mut out = dome;
+        for (out, layers) in out.iter_mut().zip(layers) {
+            *out = *out - layers;
+        }
+        out
+    }
+}
+
 impl ElasticBody for DomeContact {
     fn operator(&self, grid: Grid) -> Operator {
-        Operator::layered_with(&self.contact, grid, Some(&|r| self.far_field_radial(r)))
+        Operator::layered_with(&self.contact, grid, Some(self))
     }
 
     fn pin_kernel(&self) -> PinKernel<'_> {
