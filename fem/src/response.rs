@@ -433,10 +433,7 @@ impl PinResponse {
                 if fc == 0.0 {
                     continue;
                 }
-                let column = &self.table[(3 * s + c) * rows..(3 * s + c + 1) * rows];
-                for (o, &t) in out.iter_mut().zip(column) {
-                    *o += fc * f64::from(t);
-                }
+                add_column(&mut out, fc, &self.table[(3 * s + c) * rows..(3 * s + c + 1) * rows]);
             }
         }
         let motions = out.chunks_exact(MOTION).map(|m| std::array::from_fn(|i| m[i])).collect();
@@ -533,5 +530,62 @@ impl PinResponse {
         let response = response.with_apex(&dome)?;
         response.save(&path, spec)?;
         Ok(response)
+    }
+}
+
+/// `out += w * column` (an f32 column into f64 sums), row by row, each the bits of
+/// `out[i] += w * f64::from(column[i])` (no fused multiply-add); compiled with AVX2 where the
+/// CPU has it, four rows an instruction (a dome tap's pins read about 750 columns).
+fn add_column(out: &mut [f64], w: f64, column: &[f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(simd) = pulp::x86::V3::try_new() {
+        return pulp::Simd::vectorize(simd, AddColumn { out, w, column });
+    }
+    AddColumn { out, w, column }.run();
+}
+
+/// [`add_column`]'s loop.
+struct AddColumn<'a> {
+    out: &'a mut [f64],
+    w: f64,
+    column: &'a [f32],
+}
+
+impl AddColumn<'_> {
+    #[inline(always)]
+    fn run(self) {
+        for (o, &t) in self.out.iter_mut().zip(self.column) {
+            *o += self.w * f64::from(t);
+        }
+    }
+}
+
+impl pulp::WithSimd for AddColumn<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        self.run();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The column sums compiled for AVX2 are the scalar loop's bits (no fused multiply-add),
+    /// rows in full runs of four and a remainder alike.
+    #[test]
+    fn a_column_adds_the_scalar_loops_bits() {
+        let column: Vec<f32> = (0..1_987).map(|i| ((i * 7919 % 1000) as f32 - 500.0) * 1.37e-3).collect();
+        let start: Vec<f64> = (0..1_987).map(|i| (i as f64 * 0.618).sin() * 1e-2).collect();
+        let w = 0.123_456_789_f64;
+        let mut got = start.clone();
+        add_column(&mut got, w, &column);
+        let want: Vec<f64> = start.iter().zip(&column).map(|(o, &t)| o + w * f64::from(t)).collect();
+        assert_eq!(
+            got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            want.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
     }
 }
