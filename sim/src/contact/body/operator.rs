@@ -293,7 +293,7 @@ impl Operator {
     /// layer's exact half-space coefficients plus the cell integral (Gauss-Legendre) of the
     /// tabulated correction.
     pub fn layered(kernels: &LayeredKernels, grid: Grid) -> Self {
-        Self::layered_with::<Layers>(kernels, grid, None)
+        Self::layered_with::<NoCorrection>(kernels, grid, None)
     }
 
     /// [`Operator::layered`] with a smooth correction of the body's own added to the layers'
@@ -578,9 +578,9 @@ pub(crate) trait RadialCorrection: Sync {
 }
 
 /// No correction: the layers alone ([`Operator::layered`]).
-pub(crate) enum Layers {}
+pub(crate) enum NoCorrection {}
 
-impl RadialCorrection for Layers {
+impl RadialCorrection for NoCorrection {
     fn radial<T: Real>(&self, _: [f64; LANES], _: &impl Fn([f64; LANES]) -> T) -> [T; 4] {
         match *self {}
     }
