@@ -46,24 +46,22 @@ impl InverseStencil {
         let cos = Cosines::of(n);
         let p = cos.period();
         let offsets = || -(n as isize - 1)..n as isize;
-        // `cos(2 pi k d / P)` for every frequency (rows) and offset of the square (columns),
-        // looked up once: the sums below take the same values in the same order.
+        // Every frequency's cosines at the square's offsets, looked up once: the sums below
+        // take the same values in the same order.
         let width = 2 * n - 1;
-        let by_offset: Vec<f64> =
-            (0..p).flat_map(|k| offsets().map(move |d| (k, d))).map(|(k, d)| cos.at(k, d)).collect();
-        let cosines = |k: usize| &by_offset[k * width..(k + 1) * width];
+        let square = cos.reaching(n - 1);
         // Along x first, `b(kx, dy)`, then along y.
         let mut along_x = vec![0.0; p * width];
         for (row, dy) in offsets().enumerate() {
             let line: Vec<f64> = offsets().map(|dx| table(dx, dy)).collect();
             for kx in 0..p {
-                along_x[row * p + kx] = line.iter().zip(cosines(kx)).map(|(v, c)| v * c).sum();
+                along_x[row * p + kx] = line.iter().zip(square.row(kx)).map(|(v, c)| v * c).sum();
             }
         }
         let largest = table(0, 0).abs();
         let mut inverse = vec![0.0; p * p];
         for ky in 0..p {
-            let cy = cosines(ky);
+            let cy = square.row(ky);
             for kx in 0..p {
                 let a: f64 = (0..width).map(|row| along_x[row * p + kx] * cy[row]).sum();
                 // The table's symbol is positive (the operator is); where a truncated far
@@ -72,7 +70,7 @@ impl InverseStencil {
             }
         }
         let mut taps = [0.0; WIDTH * WIDTH];
-        let near = cos.near();
+        let near = cos.reaching(RADIUS);
         for (slot, tap) in taps.iter_mut().enumerate() {
             let (dx, dy) = offset(slot);
             let mut sum = 0.0;
@@ -99,8 +97,9 @@ impl InverseStencil {
         nx.min(ny).min(MAX_SQUARE)
     }
 
-    /// The lowest of the stencil's symbol over the frequencies of the periodic grid `near`.
-    fn lowest_symbol(&self, near: &NearCosines) -> f64 {
+    /// The lowest of the stencil's symbol over the frequencies of the periodic grid `near`
+    /// (its cosines at the stencil's offsets).
+    fn lowest_symbol(&self, near: &OffsetCosines) -> f64 {
         let mut lowest = f64::INFINITY;
         for ky in 0..near.period() {
             for kx in 0..near.period() {
@@ -152,26 +151,37 @@ impl Cosines {
         self.0[(k as isize * d).rem_euclid(self.0.len() as isize) as usize]
     }
 
-    /// The cosines of the stencil's own offsets (`|d| <= RADIUS`), looked up once.
-    fn near(&self) -> NearCosines {
-        let r = RADIUS as isize;
-        NearCosines(
-            (0..self.period()).flat_map(|k| (-r..=r).map(move |d| (k, d))).map(|(k, d)| self.at(k, d)).collect(),
-        )
+    /// The cosines at the offsets `|d| <= reach`, looked up once.
+    fn reaching(&self, reach: usize) -> OffsetCosines {
+        let r = reach as isize;
+        let values = (0..self.period()).flat_map(|k| (-r..=r).map(move |d| self.at(k, d))).collect();
+        OffsetCosines { reach, values }
     }
 }
 
-/// [`Cosines::at`] for the offsets `|d| <= RADIUS`: the same values, by index.
-struct NearCosines(Vec<f64>);
+/// [`Cosines::at`] for the offsets `|d| <= reach`, by index: each frequency's row of them.
+struct OffsetCosines {
+    reach: usize,
+    values: Vec<f64>,
+}
 
-impl NearCosines {
-    fn period(&self) -> usize {
-        self.0.len() / WIDTH
+impl OffsetCosines {
+    fn width(&self) -> usize {
+        2 * self.reach + 1
     }
 
-    /// `cos(2 pi k d / P)`, `|d| <= RADIUS`.
+    fn period(&self) -> usize {
+        self.values.len() / self.width()
+    }
+
+    /// Frequency `k`'s cosines, offsets `-reach..=reach` in order.
+    fn row(&self, k: usize) -> &[f64] {
+        &self.values[k * self.width()..(k + 1) * self.width()]
+    }
+
+    /// `cos(2 pi k d / P)`, `|d| <= reach`.
     fn at(&self, k: usize, d: isize) -> f64 {
-        self.0[k * WIDTH + (d + RADIUS as isize) as usize]
+        self.row(k)[(d + self.reach as isize) as usize]
     }
 }
 
@@ -339,7 +349,7 @@ mod tests {
                 assert!((s - d).abs() < 1e-12, "{nx} x {ny}: {s} against {d}");
             }
             let n = InverseStencil::square(nx, ny);
-            let lowest = stencil.lowest_symbol(&Cosines::of(n).near());
+            let lowest = stencil.lowest_symbol(&Cosines::of(n).reaching(RADIUS));
             assert!(lowest >= 0.999 * MIN_SYMBOL * stencil.tap(0, 0), "{nx} x {ny}: {lowest}");
         }
     }

@@ -449,15 +449,7 @@ impl LayeredKernels {
     /// each function's parity (`J0`, `J2` transforms are even in `r`, `J1` ones odd).
     #[inline]
     fn lerp<const N: usize>(&self, table: &[[f64; N]], parity: &[f64; N], r: f64) -> [f64; N] {
-        let t = (r / self.dr_mm).min((table.len() - 3) as f64);
-        let i = t as usize;
-        let f = t - i as f64;
-        let (p1, p2, p3) = (&table[i], &table[i + 1], &table[i + 2]);
-        let p0 = if i > 0 { table[i - 1] } else { std::array::from_fn(|j| parity[j] * p2[j]) };
-        std::array::from_fn(|j| {
-            let (a, b, c, d) = (p0[j], p1[j], p2[j], p3[j]);
-            b + 0.5 * f * (c - a + f * (2.0 * a - 5.0 * b + 4.0 * c - d + f * (3.0 * (b - c) + d - a)))
-        })
+        self.lerp_lanes(table, parity, [r], &|v: [f64; 1]| v[0])
     }
 
     /// [`Self::lerp`] and its derivative in `r` (per mm): the cubic's own, zero beyond the
@@ -554,8 +546,7 @@ impl LayeredKernels {
             let (q, w) = (a * 2.0 - b * 5.0 + c * 4.0 - d, (b - c) * 3.0 + d - a);
             v[j] = b + f * 0.5 * (c - a + f * (q + f * w));
             df[j] = (c - a + f * (q * 2.0 + f * 3.0 * w)) * slope;
-            let [a, b, c, d] = std::array::from_fn(|k| row(&self.depth_dz, &first[1], k, j));
-            g[j] = b + f * 0.5 * (c - a + f * (a * 2.0 - b * 5.0 + c * 4.0 - d + f * ((b - c) * 3.0 + d - a)));
+            g[j] = catmull_rom(std::array::from_fn(|k| row(&self.depth_dz, &first[1], k, j)), f);
         }
         let inv = f.splat_like(1.0) / lanes(r);
         let (c, sn) = (lanes(x) * inv, lanes(y) * inv);
@@ -572,9 +563,9 @@ impl LayeredKernels {
         (u, [dx, dy, d_depth])
     }
 
-    /// [`Self::lerp`] at `N` radii at once: the rows gathered per lane, the cubic on `T`
-    /// ([`Real`]), each lane the bits of [`Self::lerp`] at its radius. `lanes` makes values
-    /// into `T`.
+    /// [`Self::lerp`] at `N` radii at once (`N = 1` on `f64` is it): the rows gathered per
+    /// lane, the cubic ([`catmull_rom`]) on `T` ([`Real`]), each lane the bits of one radius
+    /// alone. `lanes` makes values into `T`.
     #[inline(always)]
     fn lerp_lanes<T: Real, const F: usize, const N: usize>(
         &self,
@@ -601,8 +592,7 @@ impl LayeredKernels {
         for (j, out) in out.iter_mut().enumerate() {
             let row =
                 |k: usize| lanes(std::array::from_fn(|l| if k == 0 { first[l][j] } else { table[at[l] + k - 1][j] }));
-            let (a, b, c, d) = (row(0), row(1), row(2), row(3));
-            *out = b + f * 0.5 * (c - a + f * (a * 2.0 - b * 5.0 + c * 4.0 - d + f * ((b - c) * 3.0 + d - a)));
+            *out = catmull_rom([row(0), row(1), row(2), row(3)], f);
         }
         out
     }
@@ -617,9 +607,12 @@ impl LayeredKernels {
         self.lerp_lanes(&self.surface, &SURFACE_PARITY, r, lanes)
     }
 
-    /// [`Self::surface_patch_radial`] at `N` radii at once, each lane its bits.
+    /// Radial functions `[F_zz, F_pr, F_s, F_d]` (mm/N) of the surface displacement under the
+    /// Gaussian patch a near-field table leaves out ([`LayeredKernels::near_field`]) at `N`
+    /// radii `r` (mm) from its centre at once, each lane the bits of its radius alone: the
+    /// whole response, `C(k) exp(-k^2 s^2 / 4)` transformed; `None` for a point load's table.
     #[inline(always)]
-    pub(crate) fn surface_patch_radial_lanes<T: Real, const N: usize>(
+    pub(crate) fn surface_patch_radial<T: Real, const N: usize>(
         &self,
         r: [f64; N],
         lanes: &impl Fn([f64; N]) -> T,
@@ -629,15 +622,7 @@ impl LayeredKernels {
 
     /// Radial functions `[F_zz, F_pr, F_s, F_d]` (mm/N) of the surface correction at `r` (mm).
     pub(crate) fn surface_radial(&self, r: f64) -> [f64; 4] {
-        self.lerp(&self.surface, &SURFACE_PARITY, r)
-    }
-
-    /// Radial functions `[F_zz, F_pr, F_s, F_d]` (mm/N) of the surface displacement under the
-    /// Gaussian patch a near-field table leaves out ([`LayeredKernels::near_field`]) at `r`
-    /// (mm) from its centre: the whole response, `C(k) exp(-k^2 s^2 / 4)` transformed;
-    /// `None` for a point load's table.
-    pub(crate) fn surface_patch_radial(&self, r: f64) -> Option<[f64; 4]> {
-        (!self.surface_patch.is_empty()).then(|| self.lerp(&self.surface_patch, &SURFACE_PARITY, r))
+        self.surface_radial_lanes([r], &|v: [f64; 1]| v[0])
     }
 
     /// Surface displacement correction (mm) to the top layer's half-space at lateral offset
@@ -696,6 +681,13 @@ fn combine(force: [f64; 3], x: f64, y: f64, zz: f64, pr: f64, zq: f64, s: f64, d
         p * pr * sn - qx * s2 * d + qy * (s + c2 * d),
         p * zz + zq * (qx * c + qy * sn),
     ]
+}
+
+/// The Catmull-Rom cubic through the rows `[a, b, c, d]` at the fraction `f` of the way
+/// from `b` to `c`.
+#[inline(always)]
+fn catmull_rom<T: Real>([a, b, c, d]: [T; 4], f: T) -> T {
+    b + f * 0.5 * (c - a + f * (a * 2.0 - b * 5.0 + c * 4.0 - d + f * ((b - c) * 3.0 + d - a)))
 }
 
 /// The displacement's derivative along a lateral direction on lanes

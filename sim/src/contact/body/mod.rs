@@ -17,7 +17,7 @@ use kernel::DepthKernel;
 use layered::LayeredKernels;
 use operator::{HalfSpace, Operator, RadialCorrection};
 
-use crate::contact::algebra::lanes::{LANES, Real};
+use crate::contact::algebra::lanes::Real;
 
 /// An elastic body behind the skin surface: what the contact solve and the pins ask of it.
 ///
@@ -95,18 +95,16 @@ impl DomeContact {
     /// apex's Gaussian patch ([`DomeBody::apex_radial`]) minus the layers' response to the same
     /// patch ([`LayeredKernels::surface_patch_radial`]).
     pub fn far_field_radial(&self, r: f64) -> [f64; 4] {
-        let dome = self.dome.apex_radial(r);
-        let layers = self.near.surface_patch_radial(r).unwrap_or([0.0; 4]);
-        std::array::from_fn(|j| dome[j] - layers[j])
+        self.radial([r], &|v: [f64; 1]| v[0])
     }
 }
 
 impl RadialCorrection for DomeContact {
-    /// [`DomeContact::far_field_radial`] at [`LANES`] radii at once, each lane its bits.
+    /// [`DomeContact::far_field_radial`] at `N` radii at once, each lane its bits.
     #[inline(always)]
-    fn radial<T: Real>(&self, r: [f64; LANES], lanes: &impl Fn([f64; LANES]) -> T) -> [T; 4] {
+    fn radial<T: Real, const N: usize>(&self, r: [f64; N], lanes: &impl Fn([f64; N]) -> T) -> [T; 4] {
         let dome = self.dome.apex_radial_lanes(r, lanes);
-        let layers = self.near.surface_patch_radial_lanes(r, lanes).unwrap_or([lanes([0.0; LANES]); 4]);
+        let layers = self.near.surface_patch_radial(r, lanes).unwrap_or([lanes([0.0; N]); 4]);
         let mut out = dome;
         for (out, layers) in out.iter_mut().zip(layers) {
             *out = *out - layers;

@@ -570,18 +570,18 @@ impl Operator {
 
 /// A body's own smooth part of the contact plane's kernel, added to the layers' in
 /// [`Operator::layered_with`] (the finite-element dome's far field): radial functions
-/// `[F_zz, F_pr, F_s, F_d]` (mm/N, the layered kernels' conventions) at [`LANES`] radii (mm)
-/// at once, each lane the bits of its radius alone.
+/// `[F_zz, F_pr, F_s, F_d]` (mm/N, the layered kernels' conventions) at `N` radii (mm) at
+/// once, each lane the bits of its radius alone (`N = 1` on `f64`: one radius).
 pub(crate) trait RadialCorrection: Sync {
     /// The functions at the radii `r`; `lanes` makes values into `T`.
-    fn radial<T: Real>(&self, r: [f64; LANES], lanes: &impl Fn([f64; LANES]) -> T) -> [T; 4];
+    fn radial<T: Real, const N: usize>(&self, r: [f64; N], lanes: &impl Fn([f64; N]) -> T) -> [T; 4];
 }
 
 /// No correction: the layers alone ([`Operator::layered`]).
 pub(crate) enum NoCorrection {}
 
 impl RadialCorrection for NoCorrection {
-    fn radial<T: Real>(&self, _: [f64; LANES], _: &impl Fn([f64; LANES]) -> T) -> [T; 4] {
+    fn radial<T: Real, const N: usize>(&self, _: [f64; N], _: &impl Fn([f64; N]) -> T) -> [T; 4] {
         match *self {}
     }
 }
@@ -965,7 +965,7 @@ mod tests {
     struct Smooth;
 
     impl RadialCorrection for Smooth {
-        fn radial<T: Real>(&self, r: [f64; LANES], lanes: &impl Fn([f64; LANES]) -> T) -> [T; 4] {
+        fn radial<T: Real, const N: usize>(&self, r: [f64; N], lanes: &impl Fn([f64; N]) -> T) -> [T; 4] {
             let r = lanes(r);
             let g = r.splat_like(1.0) / (r.splat_like(1.0) + r * r * 0.1);
             [g, g * 0.5, -(g * 0.25), g * r * 0.01]
