@@ -269,7 +269,9 @@ impl<'a> Simulation<'a> {
             return None;
         }
         let scale_free = self.model.body.scale_free();
-        let fine = || self.model.fine_grids.get(grid, self.model.edge_subcells, scale_free, |g| self.model.operator(g));
+        // The fine grids keep their own operators (`FineGrids`), not among the paths' grids'.
+        let fine =
+            || self.model.fine_grids.get(grid, self.model.edge_subcells, scale_free, |g| self.model.body.operator(g));
         let coarse = refine::Coarse {
             grid,
             pressure: &self.contact.pressure,

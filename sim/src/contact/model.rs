@@ -4,6 +4,7 @@
 use std::sync::Arc;
 
 use super::body::dome::DomeBody;
+use super::body::kept::KeptOperators;
 use super::body::kernel::Elastic;
 use super::body::layered::{Layer, LayeredBody, LayeredKernels};
 use super::body::operator::{HalfSpace, Operator, Pairing};
@@ -43,6 +44,9 @@ pub struct ContactModel {
     pub edge_subcells: usize,
     /// The sub-cells' fine grids, shared by the model's simulations.
     pub(in crate::contact) fine_grids: FineGrids,
+    /// The operators built on the paths' grids, kept for the next path on a grid of the same
+    /// shape and cell side (a body with a length of its own: [`ContactModel::operator`]).
+    pub(in crate::contact) operators: KeptOperators,
 }
 
 impl ContactModel {
@@ -92,11 +96,19 @@ impl ContactModel {
             pin_subsquares: PIN_SUBSQUARES,
             edge_subcells: sensor.skin.edge_subcells,
             fine_grids: FineGrids::default(),
+            operators: KeptOperators::default(),
         })
     }
 
+    /// The body's operator on `grid`. A body with a length of its own (not
+    /// [`ElasticBody::scale_free`]) has an operator per cell side, costly to build: one kept
+    /// from a path on a grid of the same shape and cell side where there is one (the same
+    /// bits, [`KeptOperators`]); a half-space's is its unit tables scaled.
     pub(in crate::contact) fn operator(&self, grid: Grid) -> Operator {
-        self.body.operator(grid)
+        if self.body.scale_free() {
+            return self.body.operator(grid);
+        }
+        self.operators.get(grid, |g| self.body.operator(g))
     }
 
     pub(in crate::contact) fn dome_radius(&self) -> f64 {

@@ -3,6 +3,7 @@
 //! a grid (dense or by FFT), and the finite-element dome.
 pub(super) mod dome;
 pub(super) mod fft2;
+pub(super) mod kept;
 pub(super) mod kernel;
 pub(super) mod layered;
 pub(super) mod operator;

@@ -230,12 +230,25 @@ pub struct Operator {
     /// Layered bodies: the correction to the top layer's half-space, per component and offset
     /// (mm/MPa), and its spectra (built on first FFT use).
     correction: Option<Arc<Correction>>,
-    /// Per component, coefficient per offset (mm/MPa).
-    coefficients: [Vec<f64>; 8],
-    /// The same with `dx` mirrored (`A(-dx, dy)` at the place of `(dx, dy)`), so that a row of
-    /// sources is a forward, contiguous slice of the table; made on a component's first dense
-    /// product ([`Operator::mirrored`]): a path's operator is built per sample and most use
-    /// a few components densely, if any (issue 31).
+    /// Per component, coefficient per offset (mm/MPa) (shared by clones).
+    coefficients: Arc<[Vec<f64>; 8]>,
+    /// [`Operator::checkerboard`] (mm/MPa).
+    checkerboard: f64,
+    /// The tables made from the coefficients on first use, shared by clones: an operator kept
+    /// by the model for the paths on its grid's shape and cell side
+    /// ([`crate::contact::body::kept::KeptOperators`]) makes
+    /// each of them once.
+    derived: Arc<Derived>,
+}
+
+/// The tables an [`Operator`] makes from its coefficients on first use (the same values
+/// whichever product asks first, so the same bits).
+#[derive(Debug, Default)]
+struct Derived {
+    /// The coefficients with `dx` mirrored (`A(-dx, dy)` at the place of `(dx, dy)`), so that a
+    /// row of sources is a forward, contiguous slice of the table; made on a component's first
+    /// dense product ([`Operator::mirrored`]): most paths use a few components densely, if
+    /// any (issue 31).
     mirrored: [OnceLock<Vec<f64>>; 8],
     /// The same in `f32` ([`Operator::table_single`] mirrored), for [`Product::DenseSingle`],
     /// made likewise.
@@ -243,15 +256,12 @@ pub struct Operator {
     /// The coefficients rounded to `f32`, for the single-precision cell matrices
     /// ([`Operator::table_single`]), made on a component's first matrix.
     single: [OnceLock<Vec<f32>>; 8],
-    /// [`Operator::checkerboard`] (mm/MPa).
-    checkerboard: f64,
     /// Per component, its spectrum on the padded grid: the unit tables' spectra combined
     /// with [`Operator::factors`] once, on the component's first FFT product, instead of at
-    /// every product (the same values, so the same bits; shared by clones, whose factors are
-    /// the same).
-    spectra: Arc<[OnceLock<Vec<Complex64>>; 8]>,
-    /// [`Operator::normal_stencil`], found on first use (shared by clones).
-    normal_stencil: Arc<OnceLock<InverseStencil>>,
+    /// every product.
+    spectra: [OnceLock<Vec<Complex64>>; 8],
+    /// [`Operator::normal_stencil`], found on first use.
+    normal_stencil: OnceLock<InverseStencil>,
 }
 
 /// The layered correction of an operator.
@@ -273,19 +283,14 @@ impl Operator {
         let coefficients: [Vec<f64>; 8] =
             Component::ALL.map(|c| tables.values.iter().map(|t| Self::combine(factors, c, t)).collect());
         let checkerboard = Self::checkerboard_of(&grid, &coefficients);
-        let spectra = Arc::new(std::array::from_fn(|_| OnceLock::new()));
         Self {
             grid,
             tables,
             factors,
             correction: None,
-            coefficients,
-            mirrored: Default::default(),
-            mirrored_single: Default::default(),
-            single: Default::default(),
+            coefficients: Arc::new(coefficients),
             checkerboard,
-            spectra,
-            normal_stencil: Arc::new(OnceLock::new()),
+            derived: Arc::default(),
         }
     }
 
@@ -321,7 +326,7 @@ impl Operator {
                 }
             }
         }
-        for (table, c) in op.coefficients.iter_mut().zip(&corr) {
+        for (table, c) in Arc::make_mut(&mut op.coefficients).iter_mut().zip(&corr) {
             for (a, b) in table.iter_mut().zip(c) {
                 *a += b;
             }
@@ -334,13 +339,13 @@ impl Operator {
     /// Component `c`'s table with `dx` mirrored ([`Operator::mirrored`]'s field), made on
     /// first use.
     fn mirrored(&self, c: Component) -> &[f64] {
-        self.mirrored[c as usize].get_or_init(|| self.mirror(self.table(c)))
+        self.derived.mirrored[c as usize].get_or_init(|| self.mirror(self.table(c)))
     }
 
     /// [`Operator::mirrored`] in `f32`: [`Operator::table_single`] mirrored (rounding and
     /// mirroring commute), made on first use.
     fn mirrored_single(&self, c: Component) -> &[f32] {
-        self.mirrored_single[c as usize].get_or_init(|| self.mirror(self.table_single(c)))
+        self.derived.mirrored_single[c as usize].get_or_init(|| self.mirror(self.table_single(c)))
     }
 
     /// A table (row-major over the offsets, [`Operator::table`]) with each row reversed:
@@ -379,6 +384,28 @@ impl Operator {
     /// The grid.
     pub fn grid(&self) -> &Grid {
         &self.grid
+    }
+
+    /// The same operator on `grid`, a grid of the same shape and cell side elsewhere (the
+    /// coefficients depend on the offsets alone), sharing every table: the same bits as one
+    /// built on `grid`.
+    pub(crate) fn on(&self, grid: Grid) -> Operator {
+        debug_assert!(
+            (grid.nx, grid.ny, grid.cell_mm.to_bits()) == (self.grid.nx, self.grid.ny, self.grid.cell_mm.to_bits()),
+            "{grid:?} against {:?}",
+            self.grid
+        );
+        Operator { grid, ..self.clone() }
+    }
+
+    /// The most memory (bytes) an operator on an `nx x ny` grid holds once every table it can
+    /// make is made: per component the coefficients, the layered correction's, their `f64`
+    /// mirror, two `f32` copies and two spectra on the padded grid (the inverse stencil and
+    /// the unit tables, shared by every operator of the shape, left out).
+    pub(crate) fn bytes_at_most(nx: usize, ny: usize) -> usize {
+        let offsets = (2 * nx - 1) * (2 * ny - 1);
+        let spectrum = (nx + 1) * 2 * ny;
+        8 * (offsets * (3 * size_of::<f64>() + 2 * size_of::<f32>()) + 2 * spectrum * size_of::<Complex64>())
     }
 
     fn combine<T>(f: [f64; 4], c: Component, t: &[T; 6]) -> T
@@ -420,7 +447,7 @@ impl Operator {
     /// from the double table rounds it), made on first use: a single-precision cell matrix
     /// copies its coefficients instead of rounding each one it gathers (issue 31).
     pub(crate) fn table_single(&self, c: Component) -> &[f32] {
-        self.single[c as usize].get_or_init(|| self.table(c).iter().map(|v| *v as f32).collect())
+        self.derived.single[c as usize].get_or_init(|| self.table(c).iter().map(|v| *v as f32).collect())
     }
 
     /// The even kernels' unit-cell integrals ([`Kernel::ALL`]'s first four, in cell units) at
@@ -449,7 +476,7 @@ impl Operator {
     /// every operator. A layered body's is its own.
     pub(crate) fn normal_stencil(&self) -> InverseStencil {
         let (nx, ny) = (self.grid.nx, self.grid.ny);
-        *self.normal_stencil.get_or_init(|| match self.correction {
+        *self.derived.normal_stencil.get_or_init(|| match self.correction {
             None => {
                 type Cache = Mutex<HashMap<usize, InverseStencil>>;
                 static CACHE: OnceLock<Cache> = OnceLock::new();
@@ -542,7 +569,7 @@ impl Operator {
                 padded[j * m..j * m + nx].copy_from_slice(&t[j * nx..(j + 1) * nx]);
             }
             let ft = fft.forward(&padded);
-            let spectrum = self.spectra[c as usize].get_or_init(|| {
+            let spectrum = self.derived.spectra[c as usize].get_or_init(|| {
                 (0..ft.len())
                     .map(|k| {
                         let s =
