@@ -1,0 +1,40 @@
+//! The bench's dome taps (`tacsim bench --skin dome`'s samples on the built-in `disk`: contact
+//! and pins, no image) run on the calling thread, `REPEATS` times over, for a profiler
+//! (`perf record --call-graph dwarf`) or the shell's `time`: prints each pass's time a tap
+//! and a sum of the pins' tips (the same bits, the same sum).
+//!
+//! `cargo run --release -p tacsim-sim --example dome_taps -- [SAMPLES] [REPEATS]` (default
+//! 200 3). The dome is built once into the cache folder (`TACSIM_CACHE_DIR`). The pins'
+//! product runs on rayon's pool (`RAYON_NUM_THREADS=1` for one thread).
+
+#[allow(dead_code)] // `support::model_at` and `support::tractions_hash` serve the timing examples.
+mod support;
+
+use std::time::Instant;
+
+use tacsim_sim::contact::{ContactModel, Simulation};
+use tacsim_sim::{SensorParams, SkinModel};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (samples, repeats) = (support::whole(&args, 0, 200)?, support::whole(&args, 1, 3)?);
+    let mut sensor = SensorParams::default();
+    sensor.skin.model = SkinModel::Dome;
+    let t = Instant::now();
+    let model = ContactModel::new(&sensor)?;
+    println!("model in {:.2} s", t.elapsed().as_secs_f64());
+    let scene = support::disk_scene()?;
+    let taps = tacsim_sim::bench::samples(samples, tacsim_sim::bench::SAMPLES_SEED);
+    let mut sum = 0.0;
+    for pass in 0..repeats {
+        let t = Instant::now();
+        for (pose, _) in &taps {
+            let mut sim = Simulation::new(&model, &scene, &[*pose]);
+            sim.step(*pose)?;
+            sum += sim.pins().iter().map(|p| p.tip.x + p.tip.y + p.tip.z).sum::<f64>();
+        }
+        println!("pass {pass}: {:.3} ms a tap", t.elapsed().as_secs_f64() * 1e3 / taps.len().max(1) as f64);
+    }
+    println!("sum of the pins' tips: {sum:e} mm");
+    Ok(())
+}
