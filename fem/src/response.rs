@@ -39,6 +39,15 @@ const MAGIC: &[u8] = b"TACSIMPINS1\n";
 /// Bins per side of the faces' index over the hemisphere's projection `(x, y) / R`.
 const BINS: usize = 64;
 
+/// How far outside its straight triangle (in barycentric coordinates) the ray may meet a face's
+/// chord for the face to be solved on its curved surface ([`PinResponse::locate`]). The chord's
+/// coordinates and the curved face's differ by at most 0.050 on the coarsest dome's faces that
+/// hold a point or nearly do (test `the_chord_keeps_the_face_and_the_bits_of_every_candidate`,
+/// 4 cells: the mid-edge nodes sit on the sphere, off their chords' midpoints), so a face whose
+/// chord the ray meets five times that far outside holds no point that another face does not
+/// hold further inside.
+const CHORD_MARGIN: f64 = 0.25;
+
 /// The bin of a coordinate of the projection `(x, y) / R`, in [-1, 1].
 fn bin_of(v: f64) -> usize {
     (((v + 1.0) * 0.5 * BINS as f64).floor().max(0.0) as usize).min(BINS - 1)
@@ -359,8 +368,17 @@ impl PinResponse {
 
     /// The face holding the point where the ray from the centre through `x` (mm, sensor frame,
     /// `z >= 0`) meets the outer surface, and the six nodes' shape functions there; `None` off
-    /// the hemisphere.
+    /// the hemisphere. Of the faces near the ray (its bin's), the one whose barycentric
+    /// coordinates are least outside; only faces whose chord the ray meets within
+    /// [`CHORD_MARGIN`] of them are solved on their curved surface (the same face and bits as
+    /// solving every candidate: test `the_chord_keeps_the_face_and_the_bits_of_every_candidate`).
     pub fn locate(&self, x: [f64; 3]) -> Option<([u32; 6], [f64; 6])> {
+        self.locate_among(x, CHORD_MARGIN)
+    }
+
+    /// [`PinResponse::locate`] solving on the curved surface only the candidates whose chord the
+    /// ray meets with no barycentric coordinate below `-margin` (`f64::INFINITY`: every one).
+    fn locate_among(&self, x: [f64; 3], margin: f64) -> Option<([u32; 6], [f64; 6])> {
         let d = Vector3::from(x).try_normalize(1e-12)?;
         if d.z < -1e-9 {
             return None;
@@ -368,7 +386,11 @@ impl PinResponse {
         let candidates = &self.bins[bin_of(d.y) * BINS + bin_of(d.x)];
         let mut best: Option<(f64, u32, [f64; 3])> = None;
         for &f in candidates {
-            let Some(l) = self.ray_on_face(f as usize, &d) else { continue };
+            let Some(chord) = self.ray_on_chord(f as usize, &d) else { continue };
+            if (1.0 - chord[0] - chord[1]).min(chord[0]).min(chord[1]) < -margin {
+                continue;
+            }
+            let Some(l) = self.ray_on_face(f as usize, &d, chord) else { continue };
             let inside = l.iter().copied().fold(f64::INFINITY, f64::min);
             if best.is_none_or(|b| inside > b.0) {
                 best = Some((inside, f, l));
@@ -378,14 +400,19 @@ impl PinResponse {
         (inside > -1e-6).then(|| (self.faces[f as usize], face_shape(l)))
     }
 
-    /// Barycentric coordinates where the ray along `d` meets face `f` (Newton's method on the
-    /// six-node map from the straight triangle's answer).
-    fn ray_on_face(&self, f: usize, d: &Vector3<f64>) -> Option<[f64; 3]> {
-        let x = self.faces[f].map(|k| Vector3::from(self.nodes[k as usize]));
-        let (a, b, c) = (x[0], x[1], x[2]);
+    /// Where the ray along `d` meets face `f`'s straight triangle (its corner nodes): the
+    /// barycentric coordinates `l1`, `l2` and the ray's parameter `t`.
+    fn ray_on_chord(&self, f: usize, d: &Vector3<f64>) -> Option<[f64; 3]> {
+        let [a, b, c] = [0, 1, 2].map(|k| Vector3::from(self.nodes[self.faces[f][k] as usize]));
         let m = Matrix3::from_columns(&[b - a, c - a, -d]).try_inverse()?;
-        let s = m * (-a);
-        let (mut l1, mut l2, mut t) = (s.x, s.y, s.z);
+        Some((m * (-a)).into())
+    }
+
+    /// Barycentric coordinates where the ray along `d` meets face `f` (Newton's method on the
+    /// six-node map from the straight triangle's answer `chord`, [`PinResponse::ray_on_chord`]).
+    fn ray_on_face(&self, f: usize, d: &Vector3<f64>, chord: [f64; 3]) -> Option<[f64; 3]> {
+        let x = self.faces[f].map(|k| Vector3::from(self.nodes[k as usize]));
+        let [mut l1, mut l2, mut t] = chord;
         for _ in 0..12 {
             let l = [1.0 - l1 - l2, l1, l2];
             let n = face_shape(l);
@@ -572,6 +599,57 @@ impl pulp::WithSimd for AddColumn<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Rays over the whole hemisphere (and a little below it) on the coarsest dome the tests
+    /// build (4 cells: the largest faces, so the most curved against their chords): `locate`
+    /// finds the face and the bits that solving every candidate finds, and on the faces that
+    /// hold a point or nearly do the chord's coordinates are within a quarter of the margin of
+    /// the surface's.
+    #[test]
+    fn the_chord_keeps_the_face_and_the_bits_of_every_candidate() {
+        let spec = DomeSpec {
+            outer_radius_mm: 20.0,
+            skin_thickness_mm: 0.66,
+            skirt_mm: 0.0,
+            skin: crate::Material::new(1.0, 0.436).expect("skin"),
+            gel: crate::Material::new(0.1, 0.4999).expect("gel"),
+            cells: 4,
+            skin_layers: 1,
+        };
+        let dome = Dome::build(&spec).expect("dome");
+        let pin = PinSite { base: [0.0, 0.0, 19.34], tip: [0.0, 0.0, 16.5], patch_radius_mm: 0.0 };
+        let response = PinResponse::compute(&dome, &[pin], |_, _| {}).expect("response");
+        let (mut found, mut apart, mut candidates, mut solved) = (0, 0.0f64, 0, 0);
+        for i in 0..=120 {
+            let polar = (91.0 * i as f64 / 120.0).to_radians();
+            for j in 0..97 {
+                let azimuth = (360.0 * j as f64 / 97.0 + 0.37 * i as f64).to_radians();
+                let x = [polar.sin() * azimuth.cos(), polar.sin() * azimuth.sin(), polar.cos()].map(|v| 20.0 * v);
+                let every = response.locate_among(x, f64::INFINITY);
+                let chord = response.locate(x);
+                let bits = |l: &Option<([u32; 6], [f64; 6])>| l.map(|(f, n)| (f, n.map(f64::to_bits)));
+                assert_eq!(bits(&chord), bits(&every), "polar {polar} azimuth {azimuth}");
+                found += usize::from(every.is_some());
+                let d = Vector3::from(x).normalize();
+                for &f in &response.bins[bin_of(d.y) * BINS + bin_of(d.x)] {
+                    let Some(c) = response.ray_on_chord(f as usize, &d) else { continue };
+                    candidates += 1;
+                    solved += usize::from((1.0 - c[0] - c[1]).min(c[0]).min(c[1]) >= -CHORD_MARGIN);
+                    let Some(curved) = response.ray_on_face(f as usize, &d, c) else { continue };
+                    let inside = curved.iter().copied().fold(f64::INFINITY, f64::min);
+                    if inside > -0.1 {
+                        let straight = [1.0 - c[0] - c[1], c[0], c[1]];
+                        for (a, b) in straight.iter().zip(curved) {
+                            apart = apart.max((a - b).abs());
+                        }
+                    }
+                }
+            }
+        }
+        assert!(found > 11_000, "{found} rays on a face");
+        eprintln!("chord against surface: {apart:.3} at most; {solved} of {candidates} candidates solved");
+        assert!(apart < 0.25 * CHORD_MARGIN, "the chord's coordinates {apart} off the surface's");
+    }
 
     /// The column sums compiled for AVX2 are the scalar loop's bits (no fused multiply-add),
     /// rows in full runs of four and a remainder alike.
