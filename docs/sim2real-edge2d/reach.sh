@@ -39,6 +39,8 @@ dome-gel-0.02|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_m
 dome-gel-0.005|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.005/
 dome-gel-0.002|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.002/
 dome-gel-0.001|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.001/
+dome-gel-0.3|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.3/
+dome-gel-1.0|s/^model = .*/model = \"dome\"/;s/^base_depth_mm = .*/base_depth_mm = $BASE/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 1.0/
 skin-on-gel-0.005|s/^model = .*/model = \"skin-on-gel\"/;s/^gel_youngs_modulus_mpa = .*/gel_youngs_modulus_mpa = 0.005/
 "
 if [ "${GEL:-0}" = 1 ]; then
