@@ -236,8 +236,7 @@ pub struct Operator {
     checkerboard: f64,
     /// The tables made from the coefficients on first use, shared by clones: an operator kept
     /// by the model for the paths on its grid's shape and cell side
-    /// ([`crate::contact::body::kept::KeptOperators`]) makes
-    /// each of them once.
+    /// ([`crate::contact::body::kept::KeptOperators`]) makes each of them once.
     derived: Arc<Derived>,
 }
 
