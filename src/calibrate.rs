@@ -68,6 +68,14 @@ pub struct CalibrateOptions {
     /// the sensor with the best candidate's skin patch and dome slope.
     #[arg(long, conflicts_with_all = ["camera_only", "rig_only"])]
     pub edge: Option<String>,
+    /// Fit the finite-element dome (`skin.model = "dome"`, docs/guide/fem.md) to the
+    /// recordings: the gel's modulus (as a ratio to the skin's), the skin's thickness (the
+    /// pins' tips kept) and the base's depth, by a coordinate search over at most 16 domes (6
+    /// with --quick) from the sensor's own, each a finite-element build of about 20 s; on each
+    /// dome the rig is fitted (surface) or the label map (with --edge). The preset written is
+    /// the sensor with the best dome.
+    #[arg(long, conflicts_with_all = ["camera_only", "pin_offsets", "rig_only"])]
+    pub dome: bool,
     /// With --edge: the point on the shape's edge the taps' lateral offsets are measured from
     /// (x,y mm, object frame; default: the catalogue's contact point). The square's straight
     /// side: 45,0.
@@ -81,6 +89,11 @@ pub struct CalibrateOptions {
     #[arg(long, short)]
     pub quiet: bool,
 }
+
+/// Domes a `--dome` fit scores at most (each a finite-element build of its own).
+const DOME_POINTS: usize = 16;
+/// Domes a `--dome --quick` fit scores at most.
+const QUICK_DOME_POINTS: usize = 6;
 
 /// The report directory for a preset at `output`: `<stem>-report/` beside it.
 pub fn default_report_dir(output: &Path) -> PathBuf {
@@ -129,6 +142,11 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
             split: &split,
             base: &base,
             quick: o.quick,
+            dome_points: match (o.dome, o.quick) {
+                (false, _) => 0,
+                (true, false) => DOME_POINTS,
+                (true, true) => QUICK_DOME_POINTS,
+            },
             real: &real,
             command,
             progress: &progress,
@@ -187,10 +205,12 @@ fn surface_fit(
             polish_evaluations: 0,
             models: vec![SkinModel::HalfSpace],
             rig_only: o.rig_only,
+            dome_points: if o.dome { QUICK_DOME_POINTS } else { 0 },
+            dome_evaluations: 20,
             ..FitOptions::default()
         }
     } else {
-        FitOptions { rig_only: o.rig_only, ..FitOptions::default() }
+        FitOptions { rig_only: o.rig_only, dome_points: if o.dome { DOME_POINTS } else { 0 }, ..FitOptions::default() }
     };
     let problem = Problem {
         folder: job.folder,
@@ -249,7 +269,12 @@ fn write_calibrated_sensor(
     report_dir: &Path,
     command: &str,
 ) -> Result<()> {
-    let mut sensor = if o.rig_only { base.clone() } else { calib.sensor.clone() };
+    // The rig alone leaves the sensor as given; the dome fit gives it the fitted dome only.
+    let mut sensor = match (o.rig_only, o.dome) {
+        (true, _) => base.clone(),
+        (false, true) => calib.deformation.sensor(base)?,
+        (false, false) => calib.sensor.clone(),
+    };
     sensor.name =
         if base.name.ends_with("-calibrated") { base.name.clone() } else { format!("{}-calibrated", base.name) };
     let header = format!(
@@ -332,28 +357,32 @@ fn write_edge_report(
     write_atomic(&report_dir.join("report.json"), &serde_json::to_vec_pretty(report)?)?;
     write_atomic(&report_dir.join("report.md"), report.markdown().as_bytes())?;
     let b = report.winner();
+    let best = match &b.dome {
+        Some(d) => format!(
+            "the dome of gel / skin {:.4}, skin {:.2} mm, base {:.1} mm",
+            d.gel_ratio, d.skin_thickness_mm, d.base_depth_mm
+        ),
+        None => format!(
+            "edge rounding {} mm, skin patch {} mm, dome slope {}",
+            b.edge_radius_mm, b.patch_radius_mm, b.dome_slope
+        ),
+    };
+    let what = if b.dome.is_some() { "finite-element dome" } else { "skin patch and dome slope" };
     let header = format!(
-        "# {} with the skin patch and dome slope of edge taps of {} on `{}` fitted by `{}`.\n# Best: edge \
-         rounding {} mm, skin patch {} mm, dome slope {} (held-out per-pin error {:.3}); report: {}.\n\n",
+        "# {} with the {what} of edge taps of {} on `{}` fitted by `{}`.\n# Best: {best} (held-out per-pin error \
+         {:.3}); report: {}.\n\n",
         base.name,
         o.real.display(),
         report.shape,
         report.command,
-        b.edge_radius_mm,
-        b.patch_radius_mm,
-        b.dome_slope,
         b.held_out_error,
         report_dir.display()
     );
-    write_atomic(&o.output, format!("{header}{}", report.sensor(base).to_toml()).as_bytes())?;
+    write_atomic(&o.output, format!("{header}{}", report.sensor(base)?.to_toml()).as_bytes())?;
     Ok(format!(
-        "{} taps fitted, {} held out; best: edge rounding {} mm, skin patch {} mm, dome slope {}: held-out per-pin \
-         error {:.3}\nwrote {} and {}\n",
+        "{} taps fitted, {} held out; best: {best}: held-out per-pin error {:.3}\nwrote {} and {}\n",
         report.fitted,
         report.held_out,
-        b.edge_radius_mm,
-        b.patch_radius_mm,
-        b.dome_slope,
         b.held_out_error,
         o.output.display(),
         report_dir.join("report.md").display()

@@ -14,16 +14,8 @@ const HEADER: &str =
 #[test]
 fn a_tiny_lab_folder_calibrates_into_a_preset_and_a_held_out_report() {
     let Some(real) = lab_folder("real-tactip-surface3d") else { return };
-    // The reference and 30 recordings, in the lab's format.
     let dir = temp_dir("calibrate", "tiny");
-    let lab = dir.join("lab");
-    std::fs::create_dir_all(lab.join("images")).expect("lab dir");
-    let text = std::fs::read_to_string(real.join("targets.csv")).expect("real targets.csv");
-    let lines: Vec<&str> = text.lines().take(31).collect();
-    std::fs::write(lab.join("targets.csv"), lines.join("\n") + "\n").expect("csv");
-    for name in lines[1..].iter().map(|l| l.split(',').next().expect("image column")).chain(["image_0.png"]) {
-        std::fs::copy(real.join("images").join(name), lab.join("images").join(name)).expect("copy image");
-    }
+    let lab = tiny_surface_folder(&real, &dir);
     let preset = dir.join("out/preset.toml");
     let o = tacsim(&["calibrate", "--real", s(&lab), "-o", s(&preset), "--quick", "-q"]);
     assert!(o.status.success(), "calibrate failed: {}", String::from_utf8_lossy(&o.stderr));
@@ -64,6 +56,61 @@ fn a_tiny_lab_folder_calibrates_into_a_preset_and_a_held_out_report() {
     assert!(md.contains("pivot_offset_mm = ["), "the [rig] block carries the offset");
     let e = err(&["calibrate", "--real", s(&lab), "-o", s(&rig), "--rig-only", "--camera-only"]);
     assert!(e.contains("--rig-only") && e.contains("--camera-only"), "{e}");
+}
+
+/// The reference and the first 30 recordings of the surface folder `real`, in the lab's
+/// format, in `dir/lab`.
+fn tiny_surface_folder(real: &Path, dir: &Path) -> std::path::PathBuf {
+    let lab = dir.join("lab");
+    std::fs::create_dir_all(lab.join("images")).expect("lab dir");
+    let text = std::fs::read_to_string(real.join("targets.csv")).expect("real targets.csv");
+    let lines: Vec<&str> = text.lines().take(31).collect();
+    std::fs::write(lab.join("targets.csv"), lines.join("\n") + "\n").expect("csv");
+    for name in lines[1..].iter().map(|l| l.split(',').next().expect("image column")).chain(["image_0.png"]) {
+        std::fs::copy(real.join("images").join(name), lab.join("images").join(name)).expect("copy image");
+    }
+    lab
+}
+
+/// `--dome` on the surface presses (a tiny folder, a coarse 4-cell dome, `--quick`): each dome
+/// the search scores has its own rig fitted, the report lists them, and the preset written is
+/// the sensor with the best dome (its tips kept), nothing else changed.
+#[test]
+fn a_dome_fit_of_the_surface_presses_writes_the_best_dome() {
+    use tacsim_sim::SkinModel;
+    let Some(real) = lab_folder("real-tactip-surface3d") else { return };
+    let dir = temp_dir("calibrate", "tiny-dome");
+    let lab = tiny_surface_folder(&real, &dir);
+    let mut sensor = SensorParams::default();
+    sensor.skin.model = SkinModel::Dome;
+    sensor.skin.dome_cells = 4;
+    sensor.skin.gel_youngs_modulus_mpa = 0.02;
+    sensor.validate("the test's dome").expect("a valid dome sensor");
+    let start = dir.join("start.toml");
+    std::fs::write(&start, sensor.to_toml()).expect("sensor file");
+    let preset = dir.join("out/dome.toml");
+    let o =
+        tacsim(&["calibrate", "--real", s(&lab), "--sensor", s(&start), "--dome", "--quick", "-o", s(&preset), "-q"]);
+    assert!(o.status.success(), "calibrate --dome failed: {}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out/dome-report/report.json")).expect("report.json"))
+            .expect("json");
+    let candidates = report["candidates"].as_array().expect("candidates");
+    assert_eq!(candidates.len(), 6, "--quick scores six domes: {report}");
+    let f = |v: &serde_json::Value| v.as_f64().expect("number");
+    let errors: Vec<f64> = candidates.iter().map(|c| f(&c["relative_error"])).collect();
+    assert!(errors.iter().all(|e| e.is_finite() && *e > 0.0), "{errors:?}");
+    let d = &report["deformation"];
+    assert_eq!(d["model"].as_str(), Some("dome"), "{d}");
+    let written = SensorParams::load(&preset).expect("preset");
+    assert_eq!(written.skin.model, SkinModel::Dome);
+    assert!((written.skin.gel_youngs_modulus_mpa - f(&d["gel_ratio"]) * sensor.skin.youngs_modulus_mpa).abs() < 1e-12);
+    assert_eq!(written.pins.length_mm, f(&d["pin_length_mm"]));
+    let tips = |s: &SensorParams| s.pins.length_mm + s.dome.skin_thickness_mm;
+    assert!((tips(&written) - tips(&sensor)).abs() < 1e-9, "the tips are kept");
+    assert_eq!(written.camera, sensor.camera, "the camera is held");
+    let md = std::fs::read_to_string(dir.join("out/dome-report/report.md")).expect("report.md");
+    assert!(md.contains("| Dome: gel / skin 0.0200, pins"), "{md}");
 }
 
 #[test]
@@ -332,24 +379,20 @@ fn the_alike_consensus_of_the_edge_taps_is_of_taps_that_touch_nothing() {
     }
 }
 
-/// `--edge`: taps simulated on the square's rounded edge with a known label map (lateral
-/// reversed and measured from 1 mm off the edge, yaw reversed and turned, depth zero 2.9 mm
-/// above first touch, no yield; the lab's older column names, an undeformed `image_0.png`) give that
-/// map back, and the rounding they were made with fits the held-out taps best.
-#[test]
-fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with() {
+/// A lab folder of 40 taps simulated with `sensor` on the square's edge rounded to
+/// `radius_mm`, at 320 px, labelled by a known map (lateral reversed and measured from 1 mm
+/// off the edge, yaw reversed and turned, depth zero 2.9 mm above first touch, no yield; the
+/// lab's older column names, an undeformed `image_0.png`).
+fn simulated_edge_taps(sensor: &SensorParams, radius_mm: f64, dir: &Path) -> std::path::PathBuf {
     use tacsim_sim::calibrate::{edge_scene, edge_sensor_pose};
     use tacsim_sim::contact::{ContactModel, Simulation};
     use tacsim_sim::stimulus::Catalogue;
 
-    let mut sensor = SensorParams::preset("tactip-331-edge2d").expect("preset");
-    sensor.skin.cells_across = tacsim_sim::calibrate::edge::grid_cells().expect("the edge fit's grid");
     let shapes = Path::new(env!("CARGO_MANIFEST_DIR")).join("shapes");
     let square = Catalogue::load_dir(&shapes).expect("catalogue").get("square").expect("square");
-    let (scene, frame) = edge_scene(square.with_edge_radius(Some(2.0)), [45.0, 0.0]).expect("edge");
-    let model = ContactModel::new(&sensor).expect("contact model");
-    let renderer = PinRenderer::new(&sensor, 320).expect("renderable");
-    let dir = temp_dir("calibrate", "edge");
+    let (scene, frame) = edge_scene(square.with_edge_radius(Some(radius_mm)), [45.0, 0.0]).expect("edge");
+    let model = ContactModel::new(sensor).expect("contact model");
+    let renderer = PinRenderer::new(sensor, 320).expect("renderable");
     let lab = dir.join("lab");
     std::fs::create_dir_all(lab.join("images")).expect("lab dir");
     renderer.render_undeformed().save(lab.join("images/image_0.png")).expect("save");
@@ -368,6 +411,18 @@ fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with()
         csv.push_str(&format!("image_{i}.png,0,{},{},0,0,{},0,0,0,0,0,0\n", 1.0 - x, depth + 2.9, -(yaw + 178.8)));
     }
     std::fs::write(lab.join("targets.csv"), csv).expect("csv");
+    lab
+}
+
+/// `--edge`: taps simulated on the square's rounded edge with a known label map
+/// ([`simulated_edge_taps`]) give that map back, and the rounding they were made with fits the
+/// held-out taps best.
+#[test]
+fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with() {
+    let mut sensor = SensorParams::preset("tactip-331-edge2d").expect("preset");
+    sensor.skin.cells_across = tacsim_sim::calibrate::edge::grid_cells().expect("the edge fit's grid");
+    let dir = temp_dir("calibrate", "edge");
+    let lab = simulated_edge_taps(&sensor, 2.0, &dir);
     let preset = dir.join("out/edge.toml");
     let o = tacsim(&[
         "calibrate",
@@ -406,4 +461,62 @@ fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with()
     assert!(md.contains(&format!("| 0 | {} | 1 |", sensor.pins.patch_radius_mm)), "{md}");
     let e = err(&["calibrate", "--real", s(&lab), "--edge", "square", "--edge-contact", "30,0", "-o", s(&preset)]);
     assert!(e.contains("--edge-contact 30.0,0.0") && e.contains("from the edge"), "{e}");
+}
+
+/// `--edge --dome`: taps simulated on the square's sharp edge with a finite-element dome whose
+/// gel is a fiftieth of the skin's modulus (4 cells, a coarse dome for speed), fitted from the
+/// same sensor with a gel four times stiffer: the dome search walks the gel back to the one
+/// the taps were made with, gives the label map back and writes a preset with that dome.
+#[test]
+fn the_dome_fit_finds_the_gel_the_edge_taps_were_simulated_with() {
+    use tacsim_sim::SkinModel;
+    let mut sensor = SensorParams::preset("tactip-331-edge2d").expect("preset");
+    sensor.skin.cells_across = tacsim_sim::calibrate::edge::grid_cells().expect("the edge fit's grid");
+    sensor.skin.model = SkinModel::Dome;
+    sensor.skin.dome_cells = 4;
+    sensor.skin.gel_youngs_modulus_mpa = 0.02 * sensor.skin.youngs_modulus_mpa;
+    // The base at the 40 mm dome's equator.
+    sensor.skin.base_depth_mm = sensor.dome.outer_radius_mm;
+    sensor.validate("the test's dome").expect("a valid dome sensor");
+    let dir = temp_dir("calibrate", "edge-dome");
+    let lab = simulated_edge_taps(&sensor, 0.0, &dir);
+    let mut start = sensor.clone();
+    start.skin.gel_youngs_modulus_mpa *= 4.0;
+    let start_file = dir.join("start.toml");
+    std::fs::write(&start_file, start.to_toml()).expect("sensor file");
+    let preset = dir.join("out/dome.toml");
+    let args =
+        ["calibrate", "--real", s(&lab), "--sensor", s(&start_file), "--edge", "square", "--edge-contact", "45,0"];
+    let o = tacsim(&[&args[..], &["--dome", "--quick", "-o", s(&preset), "-q"]].concat());
+    assert!(o.status.success(), "calibrate --edge --dome failed: {}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out/dome-report/report.json")).expect("report.json"))
+            .expect("json");
+    let f = |v: &serde_json::Value| v.as_f64().expect("number");
+    let candidates = report["candidates"].as_array().expect("candidates");
+    assert_eq!(candidates.len(), 6, "--quick scores six domes: {report}");
+    let best = &candidates[report["best"].as_u64().expect("best") as usize];
+    let gel = f(&best["dome"]["gel_ratio"]);
+    assert!((gel / 0.02).ln().abs() < 0.5 * std::f64::consts::LN_2 + 1e-9, "gel ratio {gel}: {report}");
+    // Chosen by the fitting taps' error, the lowest of the search.
+    assert!(candidates.iter().all(|c| f(&c["fit_error"]) >= f(&best["fit_error"])), "{report}");
+    let l = &best["labels"];
+    assert_eq!((f(&l["lateral_sign"]), f(&l["yaw_sign"])), (-1.0, -1.0), "{best}");
+    assert!((f(&l["lateral_offset_mm"]) - 1.0).abs() < 0.3 && (f(&l["depth_offset_mm"]) + 2.9).abs() < 0.15, "{best}");
+    let written = SensorParams::load(&preset).expect("preset");
+    assert_eq!(written.skin.model, SkinModel::Dome);
+    assert!((written.skin.gel_youngs_modulus_mpa / written.skin.youngs_modulus_mpa - gel).abs() < 1e-12);
+    assert!(
+        (written.pins.length_mm + written.dome.skin_thickness_mm
+            - sensor.pins.length_mm
+            - sensor.dome.skin_thickness_mm)
+            .abs()
+            < 1e-9,
+        "the tips are kept"
+    );
+    let md = std::fs::read_to_string(dir.join("out/dome-report/report.md")).expect("report.md");
+    assert!(md.contains("dome: gel / skin") && md.contains("A dome search"), "{md}");
+    // The dome search fits the rig or the label map itself: not with --rig-only.
+    let e = err(&[&args[..], &["--dome", "--rig-only", "-o", s(&preset)]].concat());
+    assert!(e.contains("--dome") && e.contains("--rig-only"), "{e}");
 }

@@ -86,12 +86,15 @@ impl DomeSpec {
         check("skin_thickness_mm", t, t > 0.0 && t < 0.5 * r, "a thickness in (0, outer_radius_mm / 2) mm")?;
         let s = self.skirt_mm;
         check("skirt_mm", s, (0.0..=r).contains(&s), "a depth in [0, outer_radius_mm] mm")?;
-        check("cells", self.cells as f64, (2..=64).contains(&self.cells), "an integer in [2, 64]")?;
+        check("cells", self.cells as f64, (3..=64).contains(&self.cells), "an integer in [3, 64]")?;
+        // The gel needs two of the lattice's shells: with one, the cube at the centre maps its
+        // corners onto the skin's inner sphere and the elements there turn inside out (3 cells
+        // with 2 skin layers: element 48's Jacobian -2.2).
         check(
             "skin_layers",
             self.skin_layers as f64,
-            self.skin_layers >= 1 && self.skin_layers < self.cells,
-            "an integer in [1, cells)",
+            self.skin_layers >= 1 && self.skin_layers + 2 <= self.cells,
+            "an integer in [1, cells - 2]: the gel needs two of the lattice's shells",
         )?;
         Material::new(self.skin.youngs_modulus_mpa, self.skin.poisson)?;
         Material::new(self.gel.youngs_modulus_mpa, self.gel.poisson)?;

@@ -126,6 +126,22 @@ fn absurd_specs_are_refused_with_the_field_named() {
 }
 
 #[test]
+fn a_gel_of_one_shell_is_refused_before_its_mesh_turns_inside_out() {
+    // Regression: 3 cells with 2 skin layers (and 4 with 3, 5 with 4) passed the checks and
+    // failed in the build with a non-positive Jacobian: the gel had one shell of the lattice.
+    for (cells, layers) in [(3, 2), (4, 3), (5, 4)] {
+        let mut s = spec(cells);
+        s.skin_layers = layers;
+        let e = Dome::build(&s).err().expect("refused").to_string();
+        assert!(e.contains(&format!("skin_layers = {layers}")) && e.contains("cells - 2"), "{e}");
+    }
+    // Two gel shells build.
+    let mut s = spec(3);
+    s.skin_layers = 1;
+    assert!(Dome::build(&s).is_ok());
+}
+
+#[test]
 fn every_pin_of_the_default_layout_finds_its_skin_element() {
     // Regression: Newton's method from the straight element's guess found preimages of the
     // quadratic map outside the element, and pin 255 (ring 9) of the 331 at 6 cells lay in no

@@ -797,12 +797,15 @@ impl SensorParams {
                 format!("must be in [{MIN_DOME_CELLS}, {MAX_DOME_CELLS}], got {}", k.dome_cells),
             );
         }
-        if !(1..=MAX_DOME_SKIN_LAYERS).contains(&k.dome_skin_layers) || k.dome_skin_layers >= k.dome_cells {
+        // The gel needs two of the lattice's shells (tacsim-fem's `DomeSpec::validate`).
+        if !(1..=MAX_DOME_SKIN_LAYERS).contains(&k.dome_skin_layers) || k.dome_skin_layers + 2 > k.dome_cells {
             return check.bad(
                 "skin.dome_skin_layers",
                 format!(
-                    "must be in [1, {MAX_DOME_SKIN_LAYERS}] and below skin.dome_cells = {}, got {}",
-                    k.dome_cells, k.dome_skin_layers
+                    "must be in [1, {MAX_DOME_SKIN_LAYERS}] and at most skin.dome_cells - 2 = {} (the gel needs two \
+                     of the lattice's shells), got {}",
+                    k.dome_cells.saturating_sub(2),
+                    k.dome_skin_layers
                 ),
             );
         }
@@ -914,6 +917,9 @@ mod tests {
             ("[skin]\ndome_cells = 17\n", "skin.dome_cells"),
             ("[skin]\ndome_skin_layers = 0\n", "skin.dome_skin_layers"),
             ("[skin]\ndome_cells = 4\ndome_skin_layers = 4\n", "skin.dome_skin_layers"),
+            // Regression: one gel shell passed and its mesh turned inside out in the build.
+            ("[skin]\ndome_cells = 3\ndome_skin_layers = 2\n", "skin.dome_cells - 2 = 1"),
+            ("[skin]\ndome_cells = 5\ndome_skin_layers = 4\n", "skin.dome_cells - 2 = 3"),
             ("[skin]\nmodel = \"dome\"\nbase_depth_mm = 19\n", "skin.base_depth_mm"),
             ("[skin]\nmodel = \"dome\"\nbase_depth_mm = 41\n", "skin.base_depth_mm"),
             ("[skin]\nedge_subcells = -1\n", "edge_subcells = -1"),

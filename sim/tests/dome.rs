@@ -154,6 +154,7 @@ fn a_damaged_or_unwritable_dome_cache_is_refused_naming_the_file() {
     // A skin modulus no other test uses: its dome is not kept in this process.
     let mut s = sensor(SkinModel::Dome);
     s.skin.dome_cells = 3;
+    s.skin.dome_skin_layers = 1;
     s.skin.youngs_modulus_mpa = 1.2345;
     let dir = std::env::temp_dir().join(format!("tacsim-dome-cache-test-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

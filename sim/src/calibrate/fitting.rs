@@ -13,6 +13,7 @@
 
 use image::GrayImage;
 
+use super::dome::{DomePoint, search_dome};
 use super::evaluate::Simulator;
 use super::frame::{FrameFit, ImageMap, best_frame, shift_samples};
 use super::model::{Deformation, RigFrame, SampleError};
@@ -61,6 +62,13 @@ pub struct FitOptions {
     /// axis, depth compliance, tilt relaxation), the sensor held as given: its own elastic
     /// model, pins, camera and skin.
     pub rig_only: bool,
+    /// Fit the finite-element dome with the rig: at most this many domes of the
+    /// sensor's (gel ratio, skin thickness, base depth; [`super::dome`]), each scored by the
+    /// rig fitted on it ([`FitOptions::dome_evaluations`] on the search recordings), the best
+    /// polished as `rig_only` is; 0: no dome search.
+    pub dome_points: usize,
+    /// Rig evaluations per dome of the dome search.
+    pub dome_evaluations: usize,
 }
 
 impl Default for FitOptions {
@@ -72,6 +80,8 @@ impl Default for FitOptions {
             polish_evaluations: 80,
             models: vec![SkinModel::HalfSpace, SkinModel::Layer, SkinModel::SkinOnGel],
             rig_only: false,
+            dome_points: 0,
+            dome_evaluations: 60,
         }
     }
 }
@@ -299,6 +309,18 @@ pub fn start(base: &SensorParams, model: SkinModel) -> Deformation {
     d
 }
 
+/// `d` (its rig) on the finite-element dome `point` of `base`: the dome's gel ratio, base
+/// and pins (the tips kept).
+fn on_dome(base: &SensorParams, d: &Deformation, point: &DomePoint) -> Deformation {
+    Deformation {
+        model: SkinModel::Dome,
+        gel_ratio: point.gel_ratio,
+        base_depth_mm: point.base_depth_mm,
+        pin_length_mm: point.pin_length_mm(base),
+        ..d.clone()
+    }
+}
+
 /// Fits the deformation model to the training recordings of `split` (see the module docs);
 /// `progress` hears of every improvement.
 pub fn calibrate(
@@ -314,9 +336,16 @@ pub fn calibrate(
     // The rig alone: the sensor's own model and parameters, the robot tilting about the dome
     // centre to start with.
     let rig = Deformation { pivot_mm: problem.base.dome.outer_radius_mm, ..Deformation::of(problem.base, 0.3) };
-    let models = if opts.rig_only { vec![problem.base.skin.model] } else { opts.models.clone() };
-    let start_of = |model| if opts.rig_only { rig.clone() } else { start(problem.base, model) };
-    let first = start_of(models[0]);
+    let domes = opts.dome_points > 0;
+    let rig_only = opts.rig_only || domes;
+    // The models searched: the sensor's own with the rig alone, none besides the domes.
+    let models = match (domes, rig_only) {
+        (true, _) => Vec::new(),
+        (false, true) => vec![problem.base.skin.model],
+        (false, false) => opts.models.clone(),
+    };
+    let start_of = |model| if rig_only { rig.clone() } else { start(problem.base, model) };
+    let first = if domes { on_dome(problem.base, &rig, &DomePoint::of(problem.base)) } else { start_of(models[0]) };
     let frame = problem.frame(&first, &split.train)?;
     progress(&format!(
         "label frame: rotation {:.0} deg{}{}, shift residual {:.2} px",
@@ -326,16 +355,24 @@ pub fn calibrate(
         frame.rms_px
     ));
     let mut candidates = Vec::new();
-    for &model in &models {
-        let c = minimise(
-            problem,
-            &start_of(model),
-            &frame.frame,
-            &search,
-            opts.search_evaluations,
-            opts.rig_only,
+    if domes {
+        // The first dome's rig is fitted as `rig_only` fits it, each later dome's from the best
+        // dome's rig so far, in fewer evaluations.
+        let tried = search_dome(
+            problem.base,
+            opts.dome_points,
+            &mut |point, best: Option<&Candidate>| {
+                let from = on_dome(problem.base, best.map_or(&rig, |c| &c.deformation), point);
+                let evaluations = if best.is_some() { opts.dome_evaluations } else { opts.search_evaluations };
+                let c = minimise(problem, &from, &frame.frame, &search, evaluations, true, progress);
+                Ok((c.relative_error, c))
+            },
             progress,
-        );
+        )?;
+        candidates = tried.trials.into_iter().map(|t| t.fitted).collect();
+    }
+    for &model in &models {
+        let c = minimise(problem, &start_of(model), &frame.frame, &search, opts.search_evaluations, rig_only, progress);
         progress(&format!("{model:?}: relative error {:.3} after {} evaluations", c.relative_error, c.evaluations));
         candidates.push(c);
     }
@@ -351,15 +388,8 @@ pub fn calibrate(
         });
     }
     let frame = problem.frame(&best.deformation, &split.train)?;
-    let polished = minimise(
-        problem,
-        &best.deformation,
-        &frame.frame,
-        &split.train,
-        opts.polish_evaluations,
-        opts.rig_only,
-        progress,
-    );
+    let polished =
+        minimise(problem, &best.deformation, &frame.frame, &split.train, opts.polish_evaluations, rig_only, progress);
     let sensor = polished.deformation.sensor(&problem.camera_at(polished.deformation.camera_distance_mm)?)?;
     Ok(Calibration {
         sensor,

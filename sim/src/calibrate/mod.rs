@@ -11,6 +11,7 @@
 //! stimulus's edge.
 
 mod camera;
+mod dome;
 pub mod edge;
 mod evaluate;
 mod fitting;
@@ -22,8 +23,10 @@ mod report;
 pub(crate) mod rings;
 
 pub use camera::{CameraFit, fit_camera_only, fit_pin_offsets};
+pub use dome::{DOME_STEPS, DomePoint, DomeScore, DomeSearch, DomeTrial, GEL_RATIO_RANGE, search_dome};
 pub use edge::{
-    EdgeLabels, MAX_DEPTH_COMPLIANCE, edge_scene, edge_sensor_pose, fit_labels, pooled_error, start_labels, tap_errors,
+    EdgeLabels, MAX_DEPTH_COMPLIANCE, Signs, edge_scene, edge_sensor_pose, fit_labels, pooled_error, start_labels,
+    tap_errors,
 };
 pub use evaluate::{Field, Simulator};
 pub use fitting::{Calibration, Candidate, FitOptions, Problem, RecordingSplit, calibrate as fit};

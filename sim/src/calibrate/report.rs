@@ -9,6 +9,7 @@ use serde::Serialize;
 use super::fitting::{Calibration, Candidate, Problem, RecordingSplit};
 use super::model::{Deformation, SampleError};
 use crate::error::Result;
+use crate::sensor::SkinModel;
 
 /// Real global shifts above this (px at 420) count for the direction criterion.
 pub const DIRECTION_MIN_SHIFT_PX420: f64 = 2.0;
@@ -327,8 +328,8 @@ fn fitted_model_section(r: &Report) -> String {
          | tilt pivot off the axis (sensor x, y) | {:.3}, {:.3} mm |\n\
          | depth compliance of the rig (indentation lost: c d^1.5) | {:.4} mm^-0.5 |\n\
          | tilt relaxation under load (tilt kept: 1 - k d) | {:.4} per mm |\n| pin length | {:.3} mm |\n\
-         | camera distance behind the dome centre | {:.2} mm |\n| skin Poisson's ratio | {:.3} |\n| base depth (layered models) | {:.2} mm |\n\
-         | gel / skin modulus (skin-on-gel) | {:.4} |\n\n\
+         | camera distance behind the dome centre | {:.2} mm |\n| skin Poisson's ratio | {:.3} |\n| base depth (layered models, dome) | {:.2} mm |\n\
+         | gel / skin modulus (skin-on-gel, dome) | {:.4} |\n\n\
          Label frame: rotation {:.0} deg{}{}, shift residual {:.2} px; `sensor = m label` with m = {:?}.\n\n\
          | candidate model | search relative error | evaluations |\n|---|---|---|\n",
         d.model,
@@ -351,7 +352,16 @@ fn fitted_model_section(r: &Report) -> String {
         r.frame.m,
     );
     for c in &r.candidates {
-        s += &format!("| {:?} | {:.3} | {} |\n", c.deformation.model, c.relative_error, c.evaluations);
+        let d = &c.deformation;
+        // The dome search's candidates differ in their dome, not their model.
+        let model = match d.model {
+            SkinModel::Dome => format!(
+                "Dome: gel / skin {:.4}, pins {:.2} mm, base {:.1} mm",
+                d.gel_ratio, d.pin_length_mm, d.base_depth_mm
+            ),
+            m => format!("{m:?}"),
+        };
+        s += &format!("| {model} | {:.3} | {} |\n", c.relative_error, c.evaluations);
     }
     s
 }

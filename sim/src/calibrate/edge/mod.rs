@@ -127,19 +127,35 @@ pub fn start_labels(obs: &Observations, which: &[usize]) -> EdgeLabels {
     }
 }
 
-/// Fits the label map on the taps `which` (signs and offsets): for each of
-/// the four sign choices, the yaw offset searched every 30 deg and then a coordinate search
-/// (lateral offset from 1 mm, yaw from 10 deg, depth from 0.4 mm and the yield from 0.08
-/// mm^-0.5 steps, halved three times; the yield within [0, [`MAX_DEPTH_COMPLIANCE`]]);
-/// the best of the four. Returns the map and its pooled error.
+/// Which sign choices [`fit_labels`] tries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Signs {
+    /// All four (which side of the edge is positive, which way yaw turns), each from the yaw
+    /// offset searched every 30 deg: a first fit.
+    Every,
+    /// The start's own, the coordinate search from the start alone: where a fit on a nearby
+    /// sensor gave the start.
+    Kept,
+}
+
+/// Fits the label map on the taps `which` (signs and offsets): for each of the sign choices
+/// `signs` allows, the yaw offset searched every 30 deg (with [`Signs::Every`]) and then a
+/// coordinate search (lateral offset from 1 mm, yaw from 10 deg, depth from 0.4 mm and the
+/// yield from 0.08 mm^-0.5 steps, halved three times; the yield within [0,
+/// [`MAX_DEPTH_COMPLIANCE`]]); the best of them. Returns the map and its pooled error.
 pub fn fit_labels(
     sim: &Simulator,
     frame: &LabelFrame,
     obs: &Observations,
     which: &[usize],
     start: EdgeLabels,
+    signs: Signs,
 ) -> Result<(EdgeLabels, f64)> {
     let score = |l: &EdgeLabels| -> Result<f64> { Ok(pooled_error(&tap_errors(sim, frame, l, obs, which)?)) };
+    if signs == Signs::Kept {
+        let s = score(&start)?;
+        return refine((start, s), &score);
+    }
     let mut best = (start, f64::INFINITY);
     for lateral_sign in [1.0, -1.0] {
         for yaw_sign in [1.0, -1.0] {

@@ -12,8 +12,8 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
-use super::{EdgeLabels, edge_scene, fit_labels, pooled_error, start_labels, tap_errors};
-use crate::calibrate::{Deformation, Observations, RecordingSplit, Simulator};
+use super::{EdgeLabels, Signs, edge_scene, fit_labels, pooled_error, start_labels, tap_errors};
+use crate::calibrate::{Deformation, DomePoint, Observations, RecordingSplit, Simulator, search_dome};
 use crate::error::{Result, SimError};
 use crate::sensor::SensorParams;
 use crate::stimulus::{Catalogue, Stimulus, off_the_edge};
@@ -101,6 +101,11 @@ pub struct EdgeFit<'a> {
     pub base: &'a SensorParams,
     /// The sensor as given only (its label map and held-out error), no other candidate.
     pub quick: bool,
+    /// Instead of the candidates: the finite-element dome searched over at most this many
+    /// domes ([`crate::calibrate::search_dome`]), each scored by its label map's error on the
+    /// fitting taps (the first map fitted in full, each later one refined from the best so
+    /// far); 0: the candidates.
+    pub dome_points: usize,
     /// The lab folder, for the report and errors.
     pub real: &'a str,
     /// The command line, for the report.
@@ -126,6 +131,9 @@ pub struct EdgeCandidate {
     pub held_out_error: f64,
     /// Held-out error by depth label quarter (shallowest first).
     pub held_out_by_depth: Vec<f64>,
+    /// The finite-element dome of a dome search's candidate.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dome: Option<DomePoint>,
 }
 
 /// The report of an edge fit (`report.json`).
@@ -143,7 +151,8 @@ pub struct EdgeReport {
     pub held_out: usize,
     /// The candidates, in [`CANDIDATES`] order (those the sensor as given already is once).
     pub candidates: Vec<EdgeCandidate>,
-    /// Index of the candidate with the lowest held-out error.
+    /// Index of the candidate with the lowest held-out error (of a dome search: the lowest
+    /// error on the fitting taps, which the search went by).
     pub best: usize,
 }
 
@@ -165,6 +174,9 @@ pub fn fit_edge(job: &EdgeFit) -> Result<EdgeReport> {
     let cells = grid_cells()?;
     let mut by_depth = job.split.held_out.clone();
     by_depth.sort_by(|&a, &b| job.obs.samples[a].sample.pose[2].total_cmp(&job.obs.samples[b].sample.pose[2]));
+    if job.dome_points > 0 {
+        return fit_dome(job, &fit_taps, &by_depth, cells);
+    }
     let mut candidates: Vec<EdgeCandidate> = Vec::new();
     let tried = if job.quick { &CANDIDATES[..1] } else { &CANDIDATES[..] };
     for &c in tried {
@@ -185,37 +197,113 @@ pub fn fit_edge(job: &EdgeFit) -> Result<EdgeReport> {
         let sim = Simulator::on_scene(&sensor, &deformation, cells, job.obs, scene)?;
         let start = start_labels(job.obs, &job.split.train);
         let (labels, fit_error) =
-            fit_labels(&sim, &frame, job.obs, &fit_taps, start).map_err(|e| SimError::Analysis {
+            fit_labels(&sim, &frame, job.obs, &fit_taps, start, Signs::Every).map_err(|e| SimError::Analysis {
                 source_name: job.real.to_owned(),
                 reason: format!(
                     "fitting the label map with the edge rounded to {r} mm, skin patch {a} mm, dome slope {g}: {e}"
                 ),
             })?;
-        let held = tap_errors(&sim, &frame, &labels, job.obs, &by_depth)?;
-        let quarter = held.len().div_ceil(4);
-        let held_out_by_depth = held.chunks(quarter).map(pooled_error).collect();
+        let (held_out_error, held_out_by_depth) = held_out(&sim, &frame, &labels, job.obs, &by_depth)?;
         candidates.push(EdgeCandidate {
             edge_radius_mm: r,
             patch_radius_mm: a,
             dome_slope: g,
             labels,
             fit_error,
-            held_out_error: pooled_error(&held),
+            held_out_error,
             held_out_by_depth,
+            dome: None,
         });
     }
     let best = (0..candidates.len())
         .min_by(|&a, &b| candidates[a].held_out_error.total_cmp(&candidates[b].held_out_error))
         .unwrap_or(0);
-    Ok(EdgeReport {
+    Ok(report(job, fit_taps.len(), candidates, best))
+}
+
+/// The report of `candidates` of `job`, `best` the winner's index.
+fn report(job: &EdgeFit, fitted: usize, candidates: Vec<EdgeCandidate>, best: usize) -> EdgeReport {
+    EdgeReport {
         command: job.command.to_owned(),
         real: job.real.to_owned(),
-        shape: stimulus.name().to_owned(),
-        fitted: fit_taps.len(),
+        shape: job.stimulus.name().to_owned(),
+        fitted,
         held_out: job.split.held_out.len(),
         candidates,
         best,
-    })
+    }
+}
+
+/// The pooled per-pin error of the taps `by_depth` (sorted by depth label) and its four depth
+/// quarters' (shallowest first).
+fn held_out(
+    sim: &Simulator,
+    frame: &crate::dataset::LabelFrame,
+    labels: &EdgeLabels,
+    obs: &Observations,
+    by_depth: &[usize],
+) -> Result<(f64, Vec<f64>)> {
+    let held = tap_errors(sim, frame, labels, obs, by_depth)?;
+    let quarter = held.len().div_ceil(4);
+    Ok((pooled_error(&held), held.chunks(quarter).map(pooled_error).collect()))
+}
+
+/// The dome search of [`EdgeFit::dome_points`] on the sharp edge, the sensor's skin patch and
+/// dome slope held: each dome's label map fitted on `fit_taps`, every dome's held-out error
+/// reported, the winner by the fitting taps' error.
+fn fit_dome(job: &EdgeFit, fit_taps: &[usize], by_depth: &[usize], cells: usize) -> Result<EdgeReport> {
+    let (stimulus, contact) = (&job.stimulus, job.contact);
+    let simulator = |point: &DomePoint| -> Result<(Simulator, crate::dataset::LabelFrame)> {
+        let sensor = point.sensor(job.base)?;
+        let (scene, frame) = edge_scene(stimulus.with_edge_radius(Some(0.0)), contact)?;
+        let deformation = Deformation::of(&sensor, stimulus.entry.friction);
+        Ok((Simulator::on_scene(&sensor, &deformation, cells, job.obs, scene)?, frame))
+    };
+    let analysis = |e: SimError, point: &DomePoint| SimError::Analysis {
+        source_name: job.real.to_owned(),
+        reason: format!(
+            "fitting the label map on the dome of gel / skin {:.4}, skin {:.2} mm, base {:.1} mm: {e}",
+            point.gel_ratio, point.skin_thickness_mm, point.base_depth_mm
+        ),
+    };
+    let start = start_labels(job.obs, &job.split.train);
+    let search = search_dome(
+        job.base,
+        job.dome_points,
+        &mut |point, best: Option<&EdgeLabels>| {
+            (job.progress)(&format!(
+                "dome: gel / skin {:.4}, skin {:.2} mm, base {:.1} mm: fitting the label map on {} taps",
+                point.gel_ratio,
+                point.skin_thickness_mm,
+                point.base_depth_mm,
+                fit_taps.len()
+            ));
+            let (sim, frame) = simulator(point)?;
+            let fitted = match best {
+                None => fit_labels(&sim, &frame, job.obs, fit_taps, start, Signs::Every),
+                Some(&l) => fit_labels(&sim, &frame, job.obs, fit_taps, l, Signs::Kept),
+            };
+            let (labels, error) = fitted.map_err(|e| analysis(e, point))?;
+            Ok((error, labels))
+        },
+        job.progress,
+    )?;
+    let mut candidates = Vec::new();
+    for t in &search.trials {
+        let (sim, frame) = simulator(&t.point)?;
+        let (held_out_error, held_out_by_depth) = held_out(&sim, &frame, &t.fitted, job.obs, by_depth)?;
+        candidates.push(EdgeCandidate {
+            edge_radius_mm: 0.0,
+            patch_radius_mm: sim.sensor.pins.patch_radius_mm,
+            dome_slope: sim.sensor.skin.dome_slope,
+            labels: t.fitted,
+            fit_error: t.score,
+            held_out_error,
+            held_out_by_depth,
+            dome: Some(t.point),
+        });
+    }
+    Ok(report(job, fit_taps.len(), candidates, search.best))
 }
 
 impl EdgeReport {
@@ -224,31 +312,45 @@ impl EdgeReport {
         &self.candidates[self.best]
     }
 
-    /// `base` with the best candidate's skin patch and dome slope: the preset the fit writes.
-    pub fn sensor(&self, base: &SensorParams) -> SensorParams {
+    /// `base` with the best candidate's skin patch and dome slope (and finite-element dome,
+    /// from a dome search): the preset the fit writes.
+    pub fn sensor(&self, base: &SensorParams) -> Result<SensorParams> {
         let b = self.winner();
-        let mut sensor = base.clone();
+        let mut sensor = match &b.dome {
+            Some(point) => point.sensor(base)?,
+            None => base.clone(),
+        };
         sensor.pins.patch_radius_mm = b.patch_radius_mm;
         sensor.skin.dome_slope = b.dome_slope;
-        sensor
+        Ok(sensor)
     }
 
     /// `report.md`: the candidates' table, the edge frame, the depth map for a recipe.
     pub fn markdown(&self) -> String {
+        let domes = self.candidates.iter().any(|c| c.dome.is_some());
         let mut md = format!(
             "# Edge taps against the simulator\n\nMade by `{}` from `{}`: taps on the edge of `{}`, the label map \
              fitted on {} of the fitting taps, the error on the {} held-out taps (pooled mean per-pin displacement \
              error over mean real displacement, the surface fit's measure).\n\n\
-             | edge rounding (mm) | skin patch (mm) | dome slope | fitted on | held out | held out by depth quarter \
+             |{} edge rounding (mm) | skin patch (mm) | dome slope | fitted on | held out | held out by depth quarter \
              (shallow to deep) | lateral: sign, edge at (mm) | yaw: sign, offset (deg) | depth offset (mm) | rig yield \
-             (mm^-0.5) |\n|---|---|---|---|---|---|---|---|---|---|\n",
-            self.command, self.real, self.shape, self.fitted, self.held_out
+             (mm^-0.5) |\n|{}---|---|---|---|---|---|---|---|---|---|\n",
+            self.command,
+            self.real,
+            self.shape,
+            self.fitted,
+            self.held_out,
+            if domes { " dome: gel / skin, skin (mm), base (mm) |" } else { "" },
+            if domes { "---|" } else { "" }
         );
         for (i, c) in self.candidates.iter().enumerate() {
             let l = &c.labels;
             let quarters: Vec<String> = c.held_out_by_depth.iter().map(|e| format!("{e:.3}")).collect();
+            let dome = c.dome.map_or(String::new(), |d| {
+                format!(" {:.4}, {:.2}, {:.1} |", d.gel_ratio, d.skin_thickness_mm, d.base_depth_mm)
+            });
             md += &format!(
-                "| {} | {} | {}{} | {:.3} | {:.3} | {} | {:+}, {:.2} | {:+}, {:.1} | {:.2} | {:.3} |\n",
+                "|{dome} {} | {} | {}{} | {:.3} | {:.3} | {} | {:+}, {:.2} | {:+}, {:.1} | {:.2} | {:.3} |\n",
                 c.edge_radius_mm,
                 c.patch_radius_mm,
                 c.dome_slope,
@@ -269,6 +371,12 @@ impl EdgeReport {
                depth offset` (the rig gives way under load). A recipe takes the rounding as `[[shapes]] \
                edge_radius_mm`; the preset written is the sensor with the best candidate's skin patch \
                (`pins.patch_radius_mm`) and dome slope (`skin.dome_slope`).\n";
+        if domes {
+            md += "\nA dome search (`--dome`): each candidate is a finite-element dome (`skin.model = \"dome\"`; the \
+                   gel's modulus over the skin's, the skin's thickness with the pins' tips kept, the base's depth), its \
+                   label map fitted on the fitting taps, the best chosen by that error (the held-out taps only \
+                   score it); the preset written carries its dome.\n";
+        }
         let b = &self.winner().labels;
         md += &format!(
             "\nA recipe whose labels are the lab's depths replays the best candidate's depth map with:\n\n```toml\n\
