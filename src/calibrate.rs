@@ -260,7 +260,7 @@ fn surface_fit(
 /// Writes the calibrated sensor (`-o`) with a header naming the data, the command, the
 /// held-out error and the recordings' press (not part of the sensor). The rig alone
 /// (`--rig-only`) leaves the sensor as it was given; recalibrating a calibrated sensor keeps
-/// its name.
+/// its name; a dome fit (`--dome`) names the sensor after the file.
 fn write_calibrated_sensor(
     o: &CalibrateOptions,
     base: &SensorParams,
@@ -275,8 +275,12 @@ fn write_calibrated_sensor(
         (false, true) => calib.deformation.sensor(base)?,
         (false, false) => calib.sensor.clone(),
     };
-    sensor.name =
-        if base.name.ends_with("-calibrated") { base.name.clone() } else { format!("{}-calibrated", base.name) };
+    // A dome fit makes a sensor of another body: named after its file, as --camera-only's.
+    sensor.name = match o.output.file_stem() {
+        Some(stem) if o.dome => stem.to_string_lossy().into_owned(),
+        _ if base.name.ends_with("-calibrated") => base.name.clone(),
+        _ => format!("{}-calibrated", base.name),
+    };
     let header = format!(
         "# {} calibrated against {} by `{command}`.\n# Held-out mean relative error {:.3}; report: {}.\n\
          # The recordings' press (not part of the sensor): depth offset {:.3} mm, friction {:.3}, tilt pivot \

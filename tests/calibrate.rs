@@ -104,6 +104,7 @@ fn a_dome_fit_of_the_surface_presses_writes_the_best_dome() {
     assert_eq!(d["model"].as_str(), Some("dome"), "{d}");
     let written = SensorParams::load(&preset).expect("preset");
     assert_eq!(written.skin.model, SkinModel::Dome);
+    assert_eq!(written.name, "dome", "a dome fit names the sensor after its file");
     assert!((written.skin.gel_youngs_modulus_mpa - f(&d["gel_ratio"]) * sensor.skin.youngs_modulus_mpa).abs() < 1e-12);
     assert_eq!(written.pins.length_mm, f(&d["pin_length_mm"]));
     let tips = |s: &SensorParams| s.pins.length_mm + s.dome.skin_thickness_mm;

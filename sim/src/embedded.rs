@@ -26,6 +26,7 @@ pub const RECIPES: &[(&str, &str)] = &[
     ("study", include_str!("../../scenarios/datasets/study.toml")),
     ("study-quick", include_str!("../../scenarios/datasets/study-quick.toml")),
     ("surface-3d", include_str!("../../scenarios/datasets/surface-3d.toml")),
+    ("surface-3d-dome", include_str!("../../scenarios/datasets/surface-3d-dome.toml")),
     ("tilted-surface", include_str!("../../scenarios/datasets/tilted-surface.toml")),
     ("twist", include_str!("../../scenarios/datasets/twist.toml")),
 ];

@@ -411,12 +411,18 @@ pub const EDGE2D_PRESET: &str = include_str!("../presets/tactip-331-edge2d.toml"
 /// `tacsim calibrate` wrote it: equal to [`SensorParams::default`].
 pub const CALIBRATED_PRESET: &str = include_str!("../presets/tactip-331-calibrated.toml");
 
+/// The TacTip of the flat-surface recordings with its finite-element dome (`skin.model =
+/// "dome"`), as `tacsim calibrate --dome` wrote it: [`CALIBRATED_PRESET`] with the dome's gel,
+/// skin thickness and base fitted, the pins' tips kept (`docs/guide/calibration.md`).
+pub const DOME_PRESET: &str = include_str!("../presets/tactip-331-dome.toml");
+
 /// `(name, contents)` of the presets of `sim/presets/`, compiled in so that `--sensor` and a
 /// recipe's `sensor` can name them from any directory.
 pub const PRESETS: &[(&str, &str)] = &[
     ("tactip-331-calibrated", CALIBRATED_PRESET),
     ("tactip-331-camera", CAMERA_ONLY_PRESET),
     ("tactip-331-edge2d", EDGE2D_PRESET),
+    ("tactip-331-dome", DOME_PRESET),
 ];
 
 impl SensorParams {
@@ -963,6 +969,25 @@ mod tests {
             SensorParams::default(),
             "rerun `tacsim calibrate` (docs/guide/calibration.md) and copy the values"
         );
+    }
+
+    #[test]
+    fn the_dome_preset_is_the_calibrated_one_with_its_dome_fitted() {
+        // `tacsim calibrate --dome` changes the body, the gel, the skin's thickness (the pins'
+        // length with it, the tips kept) and the base, nothing else (docs/calibration-dome).
+        let dome = SensorParams::preset("tactip-331-dome").expect("preset parses");
+        let calibrated = SensorParams::default();
+        assert_eq!(dome.skin.model, SkinModel::Dome);
+        let tips = |s: &SensorParams| s.dome.skin_thickness_mm + s.pins.length_mm;
+        assert!((tips(&dome) - tips(&calibrated)).abs() < 1e-12, "the tips are kept");
+        let mut back = dome.clone();
+        back.name = calibrated.name.clone();
+        back.skin.model = calibrated.skin.model;
+        back.skin.gel_youngs_modulus_mpa = calibrated.skin.gel_youngs_modulus_mpa;
+        back.skin.base_depth_mm = calibrated.skin.base_depth_mm;
+        back.dome.skin_thickness_mm = calibrated.dome.skin_thickness_mm;
+        back.pins.length_mm = calibrated.pins.length_mm;
+        assert_eq!(back, calibrated, "rerun the command in sim/presets/tactip-331-dome.toml");
     }
 
     #[test]

@@ -292,3 +292,26 @@ fn the_dome_operator_adds_the_domes_far_field_to_the_layers() {
     }
     assert!(worst[0] < 0.03 && worst[1] < 0.03 && worst[2] < 0.03, "{worst:?}");
 }
+
+#[test]
+fn a_process_keeps_the_last_domes_it_read_not_every_one() {
+    // Regression: `tacsim calibrate --dome` reads a dome per candidate, and the process kept
+    // every one (2.06 GB at the surface fit's 14 domes). The last four stay; an older one is
+    // read again when asked for. Skin moduli no other test uses: these domes are this test's.
+    use std::sync::Arc;
+    use tacsim_sim::contact::DomeBody;
+    let dome = |k: usize| {
+        let mut s = sensor(SkinModel::Dome);
+        s.skin.dome_cells = 3;
+        s.skin.youngs_modulus_mpa = 1.0 + 0.0137 * (k + 1) as f64;
+        DomeBody::get(&s).expect("dome")
+    };
+    let first = dome(0);
+    assert!(Arc::ptr_eq(&first, &dome(0)), "a dome just read is kept");
+    for k in 1..=4 {
+        dome(k);
+    }
+    let again = dome(0);
+    assert!(!Arc::ptr_eq(&first, &again), "four domes later the first is read again");
+    assert_eq!(first.spec, again.spec);
+}

@@ -25,7 +25,6 @@
 //! row: about 20 s at the default 8 cells on 2 cores) and kept on disk under a key of
 //! everything that shapes it ([`cache_dir`]), then in memory for the process.
 
-use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex, OnceLock};
 
@@ -64,6 +63,12 @@ pub struct DomeBody {
     apex_radial: OnceLock<Vec<[f64; 4]>>,
 }
 
+/// How many domes a process keeps in memory, the last read (each 60-150 MB at the default 8
+/// cells): `tacsim calibrate --dome` reads one after another, and kept them all (2.06 GB at the
+/// surface fit's 14 domes; `/usr/bin/time -f %M`). A dome dropped is read from the cache folder
+/// again when asked for (about a second).
+const KEPT_DOMES: usize = 4;
+
 /// Radial step (mm) of [`DomeBody::apex_radial`]'s table.
 const APEX_STEP_MM: f64 = 0.1;
 /// Azimuths the apex's field is averaged over at each radius.
@@ -89,12 +94,16 @@ impl DomeBody {
 
     /// [`DomeBody::get`] with the cache folder `dir`.
     pub fn get_in(sensor: &SensorParams, dir: &std::path::Path) -> Result<Arc<DomeBody>> {
-        type Cache = Mutex<HashMap<u64, Arc<DomeBody>>>;
+        // The domes read last, oldest first ([`KEPT_DOMES`] at most).
+        type Cache = Mutex<Vec<(u64, Arc<DomeBody>)>>;
         static CACHE: OnceLock<Cache> = OnceLock::new();
         let (spec, sites, key) = inputs_of(sensor)?;
         static BUILDING: Mutex<()> = Mutex::new(());
-        let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
-        let kept = || cache.lock().unwrap_or_else(|p| p.into_inner()).get(&key).cloned();
+        let cache = CACHE.get_or_init(|| Mutex::new(Vec::new()));
+        let kept = || {
+            let kept = cache.lock().unwrap_or_else(|p| p.into_inner());
+            kept.iter().find(|(k, _)| *k == key).map(|(_, body)| body.clone())
+        };
         if let Some(body) = kept() {
             return Ok(body);
         }
@@ -106,7 +115,11 @@ impl DomeBody {
         }
         let response = PinResponse::cached(dir, &spec, &sites, spread_of(&spec), |_, _| {})?;
         let body = Arc::new(DomeBody { spec, response, apex_radial: OnceLock::new() });
-        cache.lock().unwrap_or_else(|p| p.into_inner()).insert(key, body.clone());
+        let mut kept = cache.lock().unwrap_or_else(|p| p.into_inner());
+        if kept.len() >= KEPT_DOMES {
+            kept.remove(0);
+        }
+        kept.push((key, body.clone()));
         Ok(body)
     }
 
