@@ -64,8 +64,15 @@ pub fn run(
         seeds,
         rule: format!(
             "both arms: the real-trained network's settings (lr {} for the first half of the epochs, then times {}), \
-             the same epochs at each K: {} or more, so that each arm takes at least {} optimiser steps",
-            curve.cfg.lr, curve.cfg.lr_step_factor, curve.cfg.epochs, curve.min_steps
+             the same epochs at each K: {} or more, so that each arm takes at least {} optimiser steps{}",
+            curve.cfg.lr,
+            curve.cfg.lr_step_factor,
+            curve.cfg.epochs,
+            curve.min_steps,
+            match curve.pretrained_lr_scale {
+                1.0 => String::new(),
+                s => format!("; the pretrained arm at {s} times that rate"),
+            }
         ),
         labels: summarise_finetune(&points, curve.labels, real_all),
         points,

@@ -43,6 +43,15 @@ pub fn finetune_min_steps(text: &str) -> Result<usize, String> {
     Ok(n)
 }
 
+/// `--finetune-lr-scale`: a factor in (0, 1].
+pub fn finetune_lr_scale(text: &str) -> Result<f64, String> {
+    let v: f64 = text.trim().parse().map_err(|_| format!("not a number: {text:?}"))?;
+    if !(v > 0.0 && v <= 1.0) {
+        return Err(format!("must be in (0, 1], got {v}"));
+    }
+    Ok(v)
+}
+
 /// The most worker threads: [`THREADS_PER_CORE`] per core of this machine.
 pub fn max_threads() -> usize {
     THREADS_PER_CORE * std::thread::available_parallelism().map_or(1, |n| n.get())

@@ -92,6 +92,10 @@ pub struct Sim2RealOptions {
     /// trains more epochs to reach it.
     #[arg(long, default_value_t = tacsim_model::FINETUNE_MIN_STEPS, value_parser = crate::flags::finetune_min_steps)]
     pub finetune_min_steps: usize,
+    /// The fine-tuned (pretrained) arm's learning rate as a factor on the real-trained
+    /// network's, in (0, 1] (the same steps; the from-scratch arm keeps the rate).
+    #[arg(long, default_value_t = 1.0, value_parser = crate::flags::finetune_lr_scale)]
+    pub finetune_lr_scale: f64,
     /// The lab folder's preprocessing.
     #[command(flatten)]
     pub lab: LabOptions,
@@ -222,6 +226,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
             sim_run: &sim_run,
             cfg: &report.posenet,
             min_steps: o.finetune_min_steps,
+            pretrained_lr_scale: o.finetune_lr_scale,
             dir: o.out.join("finetune"),
         };
         let real_all: Vec<f64> = report.labels.iter().map(|l| l.real_trained).collect();

@@ -144,6 +144,20 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
         std::fs::read_to_string(&point).expect("point"),
         "same seed, same curve"
     );
+    // A gentler fine-tuning (`--finetune-lr-scale`) is a point of its own: the same scratch
+    // arm, the pretrained arm at a tenth of the rate, the rule saying so.
+    let gentle = ["--epochs", "2", "--finetune", "8", "--finetune-seeds", "1", "--finetune-min-steps", "4"];
+    ok(&[&args[..], &gentle[..], &["--finetune-lr-scale", "0.1", "-q"]].concat());
+    let read = |p: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).expect("point")).expect("json")
+    };
+    let (fast, slow) = (read(&point), read(&out.join("finetune/k8-s0-lr0.1/point.json")));
+    assert_eq!(fast["scratch"], slow["scratch"], "the from-scratch arm keeps its rate");
+    assert_ne!(fast["pretrained"], slow["pretrained"], "{fast} {slow}");
+    let rule = std::fs::read_to_string(out.join("finetune.json")).expect("finetune.json");
+    assert!(rule.contains("the pretrained arm at 0.1 times that rate"), "{rule}");
+    let e = err(&[&args[..], &gentle[..], &["--finetune-lr-scale", "0", "-q"]].concat());
+    assert!(e.contains("--finetune-lr-scale") && e.contains("(0, 1]"), "{e}");
     // `--sim`: the set made before (here the one the recipe generated) trains the same
     // networks to the same errors; a folder that holds no dataset is a clear error.
     let (set, given_out) = (out.join("sim"), dir.join("given"));

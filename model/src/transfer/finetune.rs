@@ -14,7 +14,8 @@
 //! - Equal budget: both arms train the same epochs, so the same optimiser steps, at the same
 //!   learning rate and rule as the real-trained network (`lr`, times `lr_step_factor` after
 //!   half the epochs); a small `K` trains more epochs so that each arm takes at least
-//!   [`Curve::min_steps`] steps (default [`MIN_STEPS`]; [`epochs_for`]).
+//!   [`Curve::min_steps`] steps (default [`MIN_STEPS`]; [`epochs_for`]). The pretrained arm's
+//!   rate may be scaled down ([`Curve::pretrained_lr_scale`]), its steps kept.
 //!
 //! Each point's two runs and its scores live in `k{K}-s{seed}/` under the curve's folder: a
 //! finished point is read back, not recomputed; an interrupted one resumes its runs.
@@ -130,6 +131,10 @@ pub struct Curve<'a> {
     pub cfg: &'a PoseConfig,
     /// The fewest optimiser steps of either arm at any `K` (default [`MIN_STEPS`]).
     pub min_steps: usize,
+    /// The pretrained arm's learning rate over the real-trained network's, in (0, 1]: a
+    /// fine-tuning that starts from trained weights may step more gently than training from
+    /// scratch, in the same steps (1: the same rate).
+    pub pretrained_lr_scale: f64,
     /// The curve's folder (`k{K}-s{seed}/` per point).
     pub dir: PathBuf,
 }
@@ -139,7 +144,11 @@ impl Curve<'_> {
     /// is finished, else trained (resuming its runs) and scored.
     pub fn point(&self, k: usize, seed: u64, progress: &mut dyn Progress) -> Result<CurvePoint> {
         let k = k.min(self.fitting.len());
-        let dir = self.dir.join(format!("k{k}-s{seed}"));
+        // A gentler fine-tuning is a point of its own.
+        let dir = match self.pretrained_lr_scale {
+            1.0 => self.dir.join(format!("k{k}-s{seed}")),
+            scale => self.dir.join(format!("k{k}-s{seed}-lr{scale}")),
+        };
         let done = dir.join("point.json");
         if done.is_file() {
             return read_json(&done);
@@ -161,7 +170,8 @@ impl Curve<'_> {
         let map = LabelMap::fit(&read, &sim_scale.columns(), &truth(&rows), self.labels)?;
         let sim_labels = sim_scale.columns();
         let as_sim = self.training_set(&rows, |pose| map.sim_pose(pose), &sim_labels);
-        let cfg = PoseConfig { labels: sim_labels, epochs, seed: seed_cfg, ..self.cfg.clone() };
+        let lr = self.cfg.lr * self.pretrained_lr_scale;
+        let cfg = PoseConfig { labels: sim_labels, epochs, seed: seed_cfg, lr, ..self.cfg.clone() };
         let run = dir.join("pretrained");
         let weights = self.sim_run.join("model.safetensors");
         train_posenet(
