@@ -28,7 +28,8 @@ pub enum RenderMode {
 #[derive(Args, Clone, Debug, Default)]
 pub struct SensorArgs {
     /// Sensor TOML or built-in preset (tactip-331-calibrated, tactip-331-camera,
-    /// tactip-331-edge2d, tactip-331-dome; default: the TacTip calibrated to the lab's images).
+    /// tactip-331-edge2d, tactip-331-dome, tactip-331-edge2d-dome; default: the TacTip
+    /// calibrated to the lab's images).
     #[arg(long)]
     pub sensor: Option<PathBuf>,
     /// Pin count, centred hexagonal (331 default, 127, ...).

@@ -416,6 +416,11 @@ pub const CALIBRATED_PRESET: &str = include_str!("../presets/tactip-331-calibrat
 /// skin thickness and base fitted, the pins' tips kept (`docs/guide/calibration.md`).
 pub const DOME_PRESET: &str = include_str!("../presets/tactip-331-dome.toml");
 
+/// The edge recordings' TacTip with the finite-element dome its whole-turn edge taps choose
+/// (`tacsim calibrate --edge square --dome`): [`EDGE2D_PRESET`] with the dome's gel, skin
+/// thickness and base fitted, the pins' tips kept (`docs/guide/calibration.md`).
+pub const EDGE2D_DOME_PRESET: &str = include_str!("../presets/tactip-331-edge2d-dome.toml");
+
 /// `(name, contents)` of the presets of `sim/presets/`, compiled in so that `--sensor` and a
 /// recipe's `sensor` can name them from any directory.
 pub const PRESETS: &[(&str, &str)] = &[
@@ -423,6 +428,7 @@ pub const PRESETS: &[(&str, &str)] = &[
     ("tactip-331-camera", CAMERA_ONLY_PRESET),
     ("tactip-331-edge2d", EDGE2D_PRESET),
     ("tactip-331-dome", DOME_PRESET),
+    ("tactip-331-edge2d-dome", EDGE2D_DOME_PRESET),
 ];
 
 impl SensorParams {
@@ -972,11 +978,19 @@ mod tests {
     }
 
     #[test]
-    fn the_dome_preset_is_the_calibrated_one_with_its_dome_fitted() {
+    fn the_dome_presets_are_their_tactips_with_their_domes_fitted() {
         // `tacsim calibrate --dome` changes the body, the gel, the skin's thickness (the pins'
         // length with it, the tips kept) and the base, nothing else (docs/calibration-dome).
-        let dome = SensorParams::preset("tactip-331-dome").expect("preset parses");
-        let calibrated = SensorParams::default();
+        for (name, of) in
+            [("tactip-331-dome", "tactip-331-calibrated"), ("tactip-331-edge2d-dome", "tactip-331-edge2d")]
+        {
+            dome_preset_is_fitted_from(name, of);
+        }
+    }
+
+    fn dome_preset_is_fitted_from(name: &str, of: &str) {
+        let dome = SensorParams::preset(name).expect("preset parses");
+        let calibrated = SensorParams::preset(of).expect("preset parses");
         assert_eq!(dome.skin.model, SkinModel::Dome);
         let tips = |s: &SensorParams| s.dome.skin_thickness_mm + s.pins.length_mm;
         assert!((tips(&dome) - tips(&calibrated)).abs() < 1e-12, "the tips are kept");
@@ -987,7 +1001,7 @@ mod tests {
         back.skin.base_depth_mm = calibrated.skin.base_depth_mm;
         back.dome.skin_thickness_mm = calibrated.dome.skin_thickness_mm;
         back.pins.length_mm = calibrated.pins.length_mm;
-        assert_eq!(back, calibrated, "rerun the command in sim/presets/tactip-331-dome.toml");
+        assert_eq!(back, calibrated, "rerun the command in sim/presets/{name}.toml");
     }
 
     #[test]
