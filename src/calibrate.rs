@@ -118,6 +118,10 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     if o.camera_only || o.pin_offsets {
         return camera_only(o, &reference, &base, &report_dir, command);
     }
+    // A sensor whose dome the search cannot start from is refused before the tracking.
+    if o.dome {
+        tacsim_sim::calibrate::dome_start(&base).with_context(|| format!("--dome with the sensor `{}`", base.name))?;
+    }
     let started = std::time::Instant::now();
     let spinner = if o.quiet { ProgressBar::hidden() } else { ProgressBar::new_spinner() };
     spinner.set_style(ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_msg}")?);
@@ -372,6 +376,11 @@ fn write_edge_report(
         ),
     };
     let what = if b.dome.is_some() { "finite-element dome" } else { "skin patch and dome slope" };
+    let mut sensor = report.sensor(base)?;
+    // A dome fit makes a sensor of another body: named after its file, as the surface's.
+    if let (Some(_), Some(stem)) = (&b.dome, o.output.file_stem()) {
+        sensor.name = stem.to_string_lossy().into_owned();
+    }
     let header = format!(
         "# {} with the {what} of edge taps of {} on `{}` fitted by `{}`.\n# Best: {best} (held-out per-pin error \
          {:.3}); report: {}.\n\n",
@@ -382,7 +391,7 @@ fn write_edge_report(
         b.held_out_error,
         report_dir.display()
     );
-    write_atomic(&o.output, format!("{header}{}", report.sensor(base)?.to_toml()).as_bytes())?;
+    write_atomic(&o.output, format!("{header}{}", sensor.to_toml()).as_bytes())?;
     Ok(format!(
         "{} taps fitted, {} held out; best: {best}: held-out per-pin error {:.3}\nwrote {} and {}\n",
         report.fitted,

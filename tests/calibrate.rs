@@ -112,6 +112,15 @@ fn a_dome_fit_of_the_surface_presses_writes_the_best_dome() {
     assert_eq!(written.camera, sensor.camera, "the camera is held");
     let md = std::fs::read_to_string(dir.join("out/dome-report/report.md")).expect("report.md");
     assert!(md.contains("| Dome: gel / skin 0.0200, pins"), "{md}");
+    // A dome the search cannot start from (pins of 0.2 mm under a 3 mm skin) is refused by
+    // name and range before the recordings are tracked (the folder's bad image is never read).
+    let mut bad = sensor.clone();
+    (bad.pins.length_mm, bad.dome.skin_thickness_mm) = (0.2, 3.0);
+    let bad_file = dir.join("bad.toml");
+    std::fs::write(&bad_file, bad.to_toml()).expect("sensor file");
+    std::fs::write(lab.join("images/image_1.png"), b"not a png").expect("damage");
+    let e = err(&["calibrate", "--real", s(&lab), "--sensor", s(&bad_file), "--dome", "-o", s(&preset), "-q"]);
+    assert!(e.contains("--dome") && e.contains("pins of at least 0.5 mm") && !e.contains("image_1"), "{e}");
 }
 
 #[test]
@@ -505,7 +514,7 @@ fn the_dome_fit_finds_the_gel_the_edge_taps_were_simulated_with() {
     assert_eq!((f(&l["lateral_sign"]), f(&l["yaw_sign"])), (-1.0, -1.0), "{best}");
     assert!((f(&l["lateral_offset_mm"]) - 1.0).abs() < 0.3 && (f(&l["depth_offset_mm"]) + 2.9).abs() < 0.15, "{best}");
     let written = SensorParams::load(&preset).expect("preset");
-    assert_eq!(written.skin.model, SkinModel::Dome);
+    assert_eq!((written.skin.model, written.name.as_str()), (SkinModel::Dome, "dome"), "named after its file");
     assert!((written.skin.gel_youngs_modulus_mpa / written.skin.youngs_modulus_mpa - gel).abs() < 1e-12);
     assert!(
         (written.pins.length_mm + written.dome.skin_thickness_mm

@@ -151,32 +151,7 @@ pub fn search_dome<T: Clone>(
     if budget == 0 {
         return Err(SimError::invalid("the dome fit", "budget", "score at least one dome"));
     }
-    let r = base.dome.outer_radius_mm;
-    let own = DomePoint::of(base);
-    let start = DomePoint {
-        gel_ratio: own.gel_ratio.clamp(GEL_RATIO_RANGE[0], GEL_RATIO_RANGE[1]),
-        skin_thickness_mm: own.skin_thickness_mm.clamp(MIN_SKIN_MM, MAX_SKIN_OF_RADIUS * r),
-        base_depth_mm: own.base_depth_mm.clamp(r, 2.0 * r),
-    };
-    if !start.searchable(base) {
-        return Err(SimError::invalid(
-            "the dome fit",
-            "sensor",
-            format!(
-                "its dome (gel ratio {:.4}, skin {:.2} mm, base {:.1} mm, pins {:.2} mm) cannot start the search: \
-                 the gel ratio in [{}, {}], the skin in [{MIN_SKIN_MM}, {:.1}] mm, the base in [R, 2R] = [{r}, {}] mm \
-                 and pins of at least {MIN_PIN_MM} mm",
-                start.gel_ratio,
-                start.skin_thickness_mm,
-                start.base_depth_mm,
-                start.pin_length_mm(base),
-                GEL_RATIO_RANGE[0],
-                GEL_RATIO_RANGE[1],
-                MAX_SKIN_OF_RADIUS * r,
-                2.0 * r
-            ),
-        ));
-    }
+    let start = dome_start(base)?;
     let mut trials: Vec<DomeTrial<T>> = Vec::new();
     let mut run = |point: DomePoint, best: Option<usize>, trials: &mut Vec<DomeTrial<T>>| -> Result<usize> {
         let key = point.coordinates();
@@ -219,6 +194,39 @@ pub fn search_dome<T: Clone>(
         steps = steps.map(|s| 0.5 * s);
     }
     Ok(DomeSearch { trials, best })
+}
+
+/// Where [`search_dome`] starts on `base`: its own dome clamped into the searched ranges; an
+/// error naming the ranges where even that cannot be searched (so that a command can refuse
+/// the sensor before any work).
+pub fn dome_start(base: &SensorParams) -> Result<DomePoint> {
+    let r = base.dome.outer_radius_mm;
+    let own = DomePoint::of(base);
+    let start = DomePoint {
+        gel_ratio: own.gel_ratio.clamp(GEL_RATIO_RANGE[0], GEL_RATIO_RANGE[1]),
+        skin_thickness_mm: own.skin_thickness_mm.clamp(MIN_SKIN_MM, MAX_SKIN_OF_RADIUS * r),
+        base_depth_mm: own.base_depth_mm.clamp(r, 2.0 * r),
+    };
+    if !start.searchable(base) {
+        return Err(SimError::invalid(
+            "the dome fit",
+            "sensor",
+            format!(
+                "its dome (gel ratio {:.4}, skin {:.2} mm, base {:.1} mm, pins {:.2} mm) cannot start the search: \
+                 the gel ratio in [{}, {}], the skin in [{MIN_SKIN_MM}, {:.1}] mm, the base in [R, 2R] = [{r}, {}] mm \
+                 and pins of at least {MIN_PIN_MM} mm",
+                start.gel_ratio,
+                start.skin_thickness_mm,
+                start.base_depth_mm,
+                start.pin_length_mm(base),
+                GEL_RATIO_RANGE[0],
+                GEL_RATIO_RANGE[1],
+                MAX_SKIN_OF_RADIUS * r,
+                2.0 * r
+            ),
+        ));
+    }
+    Ok(start)
 }
 
 /// Whether two points' coordinates are the same lattice point (steps are halved at most once,

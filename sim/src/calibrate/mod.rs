@@ -23,7 +23,7 @@ mod report;
 pub(crate) mod rings;
 
 pub use camera::{CameraFit, fit_camera_only, fit_pin_offsets};
-pub use dome::{DOME_STEPS, DomePoint, DomeScore, DomeSearch, DomeTrial, GEL_RATIO_RANGE, search_dome};
+pub use dome::{DOME_STEPS, DomePoint, DomeScore, DomeSearch, DomeTrial, GEL_RATIO_RANGE, dome_start, search_dome};
 pub use edge::{
     EdgeLabels, MAX_DEPTH_COMPLIANCE, Signs, edge_scene, edge_sensor_pose, fit_labels, pooled_error, start_labels,
     tap_errors,
