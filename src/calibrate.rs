@@ -95,6 +95,23 @@ const DOME_POINTS: usize = 16;
 /// Domes a `--dome --quick` fit scores at most.
 const QUICK_DOME_POINTS: usize = 6;
 
+impl CalibrateOptions {
+    /// Domes the fit scores: none without `--dome`.
+    fn dome_points(&self) -> usize {
+        match (self.dome, self.quick) {
+            (false, _) => 0,
+            (true, false) => DOME_POINTS,
+            (true, true) => QUICK_DOME_POINTS,
+        }
+    }
+
+    /// The name a fitted dome's preset takes: its file's, as `--camera-only`'s (a sensor of
+    /// another body); `None` where the fit keeps the sensor's name.
+    fn dome_name(&self) -> Option<String> {
+        self.output.file_stem().filter(|_| self.dome).map(|stem| stem.to_string_lossy().into_owned())
+    }
+}
+
 /// The report directory for a preset at `output`: `<stem>-report/` beside it.
 pub fn default_report_dir(output: &Path) -> PathBuf {
     let stem = output.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "preset".into());
@@ -146,11 +163,7 @@ pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
             split: &split,
             base: &base,
             quick: o.quick,
-            dome_points: match (o.dome, o.quick) {
-                (false, _) => 0,
-                (true, false) => DOME_POINTS,
-                (true, true) => QUICK_DOME_POINTS,
-            },
+            dome_points: o.dome_points(),
             real: &real,
             command,
             progress: &progress,
@@ -209,12 +222,12 @@ fn surface_fit(
             polish_evaluations: 0,
             models: vec![SkinModel::HalfSpace],
             rig_only: o.rig_only,
-            dome_points: if o.dome { QUICK_DOME_POINTS } else { 0 },
+            dome_points: o.dome_points(),
             dome_evaluations: 20,
             ..FitOptions::default()
         }
     } else {
-        FitOptions { rig_only: o.rig_only, dome_points: if o.dome { DOME_POINTS } else { 0 }, ..FitOptions::default() }
+        FitOptions { rig_only: o.rig_only, dome_points: o.dome_points(), ..FitOptions::default() }
     };
     let problem = Problem {
         folder: job.folder,
@@ -279,11 +292,10 @@ fn write_calibrated_sensor(
         (false, true) => calib.deformation.sensor(base)?,
         (false, false) => calib.sensor.clone(),
     };
-    // A dome fit makes a sensor of another body: named after its file, as --camera-only's.
-    sensor.name = match o.output.file_stem() {
-        Some(stem) if o.dome => stem.to_string_lossy().into_owned(),
-        _ if base.name.ends_with("-calibrated") => base.name.clone(),
-        _ => format!("{}-calibrated", base.name),
+    sensor.name = match o.dome_name() {
+        Some(name) => name,
+        None if base.name.ends_with("-calibrated") => base.name.clone(),
+        None => format!("{}-calibrated", base.name),
     };
     let header = format!(
         "# {} calibrated against {} by `{command}`.\n# Held-out mean relative error {:.3}; report: {}.\n\
@@ -377,9 +389,8 @@ fn write_edge_report(
     };
     let what = if b.dome.is_some() { "finite-element dome" } else { "skin patch and dome slope" };
     let mut sensor = report.sensor(base)?;
-    // A dome fit makes a sensor of another body: named after its file, as the surface's.
-    if let (Some(_), Some(stem)) = (&b.dome, o.output.file_stem()) {
-        sensor.name = stem.to_string_lossy().into_owned();
+    if let Some(name) = o.dome_name() {
+        sensor.name = name;
     }
     let header = format!(
         "# {} with the {what} of edge taps of {} on `{}` fitted by `{}`.\n# Best: {best} (held-out per-pin error \

@@ -22,6 +22,7 @@ use std::f64::consts::LN_2;
 
 use serde::{Deserialize, Serialize};
 
+use super::model::Deformation;
 use crate::error::{Result, SimError};
 use crate::sensor::{SensorParams, SkinModel};
 
@@ -63,16 +64,22 @@ impl DomePoint {
         }
     }
 
-    /// `base` with the finite-element dome of this point, the pin tips kept (validated).
+    /// `base` with the finite-element dome of this point, the pin tips kept (validated):
+    /// [`Deformation::sensor`] of [`DomePoint::on`] `base`'s own parameters.
     pub fn sensor(&self, base: &SensorParams) -> Result<SensorParams> {
-        let mut s = base.clone();
-        s.skin.model = SkinModel::Dome;
-        s.skin.gel_youngs_modulus_mpa = self.gel_ratio * base.skin.youngs_modulus_mpa;
-        s.skin.base_depth_mm = self.base_depth_mm;
-        s.pins.length_mm = tip_depth_mm(base) - self.skin_thickness_mm;
-        s.dome.skin_thickness_mm = self.skin_thickness_mm;
-        s.validate("the dome fit")?;
-        Ok(s)
+        self.on(base, &Deformation::of(base, 0.0)).sensor(base)
+    }
+
+    /// `d` (its rig) on this dome of `base`: the dome's gel ratio, base and pins' length
+    /// (the tips kept, [`Deformation::sensor`] making the skin's thickness of it).
+    pub fn on(&self, base: &SensorParams, d: &Deformation) -> Deformation {
+        Deformation {
+            model: SkinModel::Dome,
+            gel_ratio: self.gel_ratio,
+            base_depth_mm: self.base_depth_mm,
+            pin_length_mm: self.pin_length_mm(base),
+            ..d.clone()
+        }
     }
 
     /// The pins' length (mm) this point leaves on `base`'s tips.
@@ -142,7 +149,7 @@ pub type DomeScore<'a, T> = dyn FnMut(&DomePoint, Option<&T>) -> Result<(f64, T)
 /// The coordinate search of the module's docs from `base`'s own dome (clamped into the
 /// searched ranges), scoring at most `budget` domes with `score` ([`DomeScore`]).
 /// Deterministic: the same scores give the same trials.
-pub fn search_dome<T: Clone>(
+pub fn search_dome<T>(
     base: &SensorParams,
     budget: usize,
     score: &mut DomeScore<'_, T>,
@@ -153,11 +160,8 @@ pub fn search_dome<T: Clone>(
     }
     let start = dome_start(base)?;
     let mut trials: Vec<DomeTrial<T>> = Vec::new();
+    // Scores a new dome from the fit of trial `best`, appended to `trials`.
     let mut run = |point: DomePoint, best: Option<usize>, trials: &mut Vec<DomeTrial<T>>| -> Result<usize> {
-        let key = point.coordinates();
-        if let Some(i) = trials.iter().position(|t| same(t.point.coordinates(), key)) {
-            return Ok(i);
-        }
         let (s, fitted) = score(&point, best.map(|b| &trials[b].fitted))?;
         progress(&format!(
             "dome: gel / skin {:.4}, skin {:.2} mm, base {:.1} mm: {s:.4}",
@@ -178,11 +182,12 @@ pub fn search_dome<T: Clone>(
                     if !point.searchable(base) {
                         break;
                     }
-                    let known = trials.iter().any(|t| same(t.point.coordinates(), c));
-                    if !known && trials.len() >= budget {
-                        break 'passes;
-                    }
-                    let i = run(point, Some(best), &mut trials)?;
+                    // A dome scored before is not scored again.
+                    let i = match trials.iter().position(|t| same(t.point.coordinates(), c)) {
+                        Some(i) => i,
+                        None if trials.len() >= budget => break 'passes,
+                        None => run(point, Some(best), &mut trials)?,
+                    };
                     if trials[i].score < trials[best].score {
                         best = i;
                     } else {

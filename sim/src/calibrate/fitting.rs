@@ -309,18 +309,6 @@ pub fn start(base: &SensorParams, model: SkinModel) -> Deformation {
     d
 }
 
-/// `d` (its rig) on the finite-element dome `point` of `base`: the dome's gel ratio, base
-/// and pins (the tips kept).
-fn on_dome(base: &SensorParams, d: &Deformation, point: &DomePoint) -> Deformation {
-    Deformation {
-        model: SkinModel::Dome,
-        gel_ratio: point.gel_ratio,
-        base_depth_mm: point.base_depth_mm,
-        pin_length_mm: point.pin_length_mm(base),
-        ..d.clone()
-    }
-}
-
 /// Fits the deformation model to the training recordings of `split` (see the module docs);
 /// `progress` hears of every improvement.
 pub fn calibrate(
@@ -345,7 +333,7 @@ pub fn calibrate(
         (false, false) => opts.models.clone(),
     };
     let start_of = |model| if rig_only { rig.clone() } else { start(problem.base, model) };
-    let first = if domes { on_dome(problem.base, &rig, &DomePoint::of(problem.base)) } else { start_of(models[0]) };
+    let first = if domes { DomePoint::of(problem.base).on(problem.base, &rig) } else { start_of(models[0]) };
     let frame = problem.frame(&first, &split.train)?;
     progress(&format!(
         "label frame: rotation {:.0} deg{}{}, shift residual {:.2} px",
@@ -362,7 +350,7 @@ pub fn calibrate(
             problem.base,
             opts.dome_points,
             &mut |point, best: Option<&Candidate>| {
-                let from = on_dome(problem.base, best.map_or(&rig, |c| &c.deformation), point);
+                let from = point.on(problem.base, best.map_or(&rig, |c| &c.deformation));
                 let evaluations = if best.is_some() { opts.dome_evaluations } else { opts.search_evaluations };
                 let c = minimise(problem, &from, &frame.frame, &search, evaluations, true, progress);
                 Ok((c.relative_error, c))

@@ -249,60 +249,53 @@ fn held_out(
 }
 
 /// The dome search of [`EdgeFit::dome_points`] on the sharp edge, the sensor's skin patch and
-/// dome slope held: each dome's label map fitted on `fit_taps`, every dome's held-out error
-/// reported, the winner by the fitting taps' error.
+/// dome slope held: each dome's label map fitted on `fit_taps` and its held-out error taken on
+/// the same simulator, the winner by the fitting taps' error.
 fn fit_dome(job: &EdgeFit, fit_taps: &[usize], by_depth: &[usize], cells: usize) -> Result<EdgeReport> {
     let (stimulus, contact) = (&job.stimulus, job.contact);
-    let simulator = |point: &DomePoint| -> Result<(Simulator, crate::dataset::LabelFrame)> {
-        let sensor = point.sensor(job.base)?;
-        let (scene, frame) = edge_scene(stimulus.with_edge_radius(Some(0.0)), contact)?;
-        let deformation = Deformation::of(&sensor, stimulus.entry.friction);
-        Ok((Simulator::on_scene(&sensor, &deformation, cells, job.obs, scene)?, frame))
-    };
-    let analysis = |e: SimError, point: &DomePoint| SimError::Analysis {
-        source_name: job.real.to_owned(),
-        reason: format!(
-            "fitting the label map on the dome of gel / skin {:.4}, skin {:.2} mm, base {:.1} mm: {e}",
-            point.gel_ratio, point.skin_thickness_mm, point.base_depth_mm
-        ),
-    };
     let start = start_labels(job.obs, &job.split.train);
     let search = search_dome(
         job.base,
         job.dome_points,
-        &mut |point, best: Option<&EdgeLabels>| {
-            (job.progress)(&format!(
-                "dome: gel / skin {:.4}, skin {:.2} mm, base {:.1} mm: fitting the label map on {} taps",
-                point.gel_ratio,
-                point.skin_thickness_mm,
-                point.base_depth_mm,
-                fit_taps.len()
-            ));
-            let (sim, frame) = simulator(point)?;
+        &mut |point, best: Option<&EdgeCandidate>| {
+            let dome = format!(
+                "gel / skin {:.4}, skin {:.2} mm, base {:.1} mm",
+                point.gel_ratio, point.skin_thickness_mm, point.base_depth_mm
+            );
+            (job.progress)(&format!("dome: {dome}: fitting the label map on {} taps", fit_taps.len()));
+            let sensor = point.sensor(job.base)?;
+            let (scene, frame) = edge_scene(stimulus.with_edge_radius(Some(0.0)), contact)?;
+            let sim = Simulator::on_scene(
+                &sensor,
+                &Deformation::of(&sensor, stimulus.entry.friction),
+                cells,
+                job.obs,
+                scene,
+            )?;
             let fitted = match best {
                 None => fit_labels(&sim, &frame, job.obs, fit_taps, start, Signs::Every),
-                Some(&l) => fit_labels(&sim, &frame, job.obs, fit_taps, l, Signs::Kept),
+                Some(b) => fit_labels(&sim, &frame, job.obs, fit_taps, b.labels, Signs::Kept),
             };
-            let (labels, error) = fitted.map_err(|e| analysis(e, point))?;
-            Ok((error, labels))
+            let (labels, fit_error) = fitted.map_err(|e| SimError::Analysis {
+                source_name: job.real.to_owned(),
+                reason: format!("fitting the label map on the dome of {dome}: {e}"),
+            })?;
+            let (held_out_error, held_out_by_depth) = held_out(&sim, &frame, &labels, job.obs, by_depth)?;
+            let candidate = EdgeCandidate {
+                edge_radius_mm: 0.0,
+                patch_radius_mm: sensor.pins.patch_radius_mm,
+                dome_slope: sensor.skin.dome_slope,
+                labels,
+                fit_error,
+                held_out_error,
+                held_out_by_depth,
+                dome: Some(*point),
+            };
+            Ok((fit_error, candidate))
         },
         job.progress,
     )?;
-    let mut candidates = Vec::new();
-    for t in &search.trials {
-        let (sim, frame) = simulator(&t.point)?;
-        let (held_out_error, held_out_by_depth) = held_out(&sim, &frame, &t.fitted, job.obs, by_depth)?;
-        candidates.push(EdgeCandidate {
-            edge_radius_mm: 0.0,
-            patch_radius_mm: sim.sensor.pins.patch_radius_mm,
-            dome_slope: sim.sensor.skin.dome_slope,
-            labels: t.fitted,
-            fit_error: t.score,
-            held_out_error,
-            held_out_by_depth,
-            dome: Some(t.point),
-        });
-    }
+    let candidates = search.trials.into_iter().map(|t| t.fitted).collect();
     Ok(report(job, fit_taps.len(), candidates, search.best))
 }
 
