@@ -3,8 +3,8 @@
 //! (`perf record --call-graph dwarf`) or the shell's `time`: prints each pass's time a tap
 //! and a sum of the pins' tips (the same bits, the same sum).
 //!
-//! `cargo run --release -p tacsim-sim --example dome_taps -- [SAMPLES] [REPEATS]` (default
-//! 200 3). The dome is built once into the cache folder (`TACSIM_CACHE_DIR`). The pins'
+//! `cargo run --release -p tacsim-sim --example dome_taps -- [SAMPLES] [REPEATS] [CELLS]` (default
+//! 200 3, the sensor's 25 cells across the footprint). The dome is built once into the cache folder (`TACSIM_CACHE_DIR`). The pins'
 //! product runs on rayon's pool (`RAYON_NUM_THREADS=1` for one thread).
 
 #[allow(dead_code)] // `support::model_at` and `support::tractions_hash` serve the timing examples.
@@ -20,6 +20,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (samples, repeats) = (support::whole(&args, 0, 200)?, support::whole(&args, 1, 3)?);
     let mut sensor = SensorParams::default();
     sensor.skin.model = SkinModel::Dome;
+    sensor.skin.cells_across = support::whole(&args, 2, sensor.skin.cells_across)?;
+    sensor.validate("CELLS")?;
     let t = Instant::now();
     let model = ContactModel::new(&sensor)?;
     println!("model in {:.2} s", t.elapsed().as_secs_f64());

@@ -175,8 +175,8 @@ impl<'a> Simulation<'a> {
         &self.contact.gap
     }
 
-    /// How many cells along a sharp edge the last step solved again at sub-cells for the
-    /// pins (`refine.rs`; 0 without a loaded cut cell).
+    /// How many cells along a sharp edge (and, on a body with a skin, along the contact's own
+    /// edge) the last step solved again at sub-cells for the pins (`refine.rs`; 0 where none).
     pub fn refined_cells(&self) -> usize {
         self.refinement().map_or(0, Refinement::len)
     }
@@ -262,10 +262,12 @@ impl<'a> Simulation<'a> {
             .as_ref()
     }
 
-    /// The sub-cells along the loaded cut cells ([`super::geometry::refine`]), their initial gaps from
-    /// rays at their centres as the cells' own.
+    /// The sub-cells along the loaded cut cells and, on a body with a skin (whose pins read the
+    /// layers' tables), along the contact's own edge ([`super::geometry::refine`]), their
+    /// initial gaps from rays at their centres as the cells' own.
     fn refine(&self, grid: &Grid, pose: &SensorPose) -> Option<Refinement> {
-        if self.cuts.is_empty() || self.model.edge_subcells < 2 {
+        let contact_edge = matches!(self.model.body.pin_kernel(), PinKernel::Layered(_));
+        if (self.cuts.is_empty() && !contact_edge) || self.model.edge_subcells < 2 {
             return None;
         }
         let scale_free = self.model.body.scale_free();
@@ -278,6 +280,7 @@ impl<'a> Simulation<'a> {
             qx: &self.contact.qx,
             qy: &self.contact.qy,
             cuts: &self.cuts,
+            contact_edge,
         };
         let gaps = |points: &[[f64; 2]]| {
             hits_at(self.model, self.scene, &self.frame, pose, points.iter().map(|c| (*c, true)))
@@ -387,7 +390,7 @@ impl<'a> Simulation<'a> {
 #[cfg(test)]
 mod tests {
     use crate::contact::geometry::footprint::contact_disk_grid;
-    use crate::sensor::SensorParams;
+    use crate::sensor::{SensorParams, SkinModel};
 
     use super::*;
     use crate::scene::ObjectPose;
@@ -692,6 +695,36 @@ mod tests {
         last.lift();
         assert_eq!(last.refinement.get(), Some(&None));
         assert_eq!(last.refined_cells(), 0);
+    }
+
+    /// Regression (issue 85): on a body with a skin the pressure stays nearly flat out to the
+    /// contact's edge and drops to zero within a cell, so the coarse grid moved the edge in
+    /// steps of a cell and the pins under it turned with the step: on the bench's worst flat
+    /// tap for the layer body (4.5 mm deep) its pins on 17 cells were 0.123 mm off 49 cells'
+    /// (both every cell on every pin). With the contact's edge solved again at sub-cells
+    /// (`refine.rs`, `Coarse::contact_edge`) 0.019 mm; a half-space has no such edge to refine.
+    #[test]
+    fn a_skin_bodys_pins_see_where_the_contacts_edge_lies_in_a_cell() {
+        let scene = scene_of("disk");
+        let pose = SensorPose::new(-7.776575308315564, 9.177743360236832, 4.482424269147743, -34.85223108884202);
+        let pins = |skin: SkinModel, cells: usize, subcells: usize| {
+            let mut sensor = SensorParams::default();
+            (sensor.skin.model, sensor.skin.cells_across) = (skin, cells);
+            let mut model = ContactModel::new(&sensor).expect("contact model");
+            model.edge_subcells = subcells;
+            let mut sim = Simulation::new(&model, &scene, &[pose]);
+            sim.step(pose).expect("solved");
+            (sim.pins_exact(), sim.refined_cells())
+        };
+        let (reference, _) = pins(SkinModel::Layer, 49, crate::DEFAULT_EDGE_SUBCELLS);
+        let (plain, none) = pins(SkinModel::Layer, 17, 0);
+        let (refined, cells) = pins(SkinModel::Layer, 17, crate::DEFAULT_EDGE_SUBCELLS);
+        assert_eq!(none, 0);
+        assert!(cells > 0, "the contact's edge must be refined");
+        let (before, after) =
+            (largest_tip_difference(&plain, &reference), largest_tip_difference(&refined, &reference));
+        assert!(before > 0.1 && after < 0.03, "17 cells against 49: {before} mm plain, {after} mm refined");
+        assert_eq!(pins(SkinModel::HalfSpace, 17, crate::DEFAULT_EDGE_SUBCELLS).1, 0, "a flat tap on a half-space");
     }
 
     /// The sensor's `skin.edge_subcells` sets the model's sub-cells: none refine with 0, and

@@ -26,6 +26,18 @@
 //! ones. On the bench's three worst taps across the disk's rim, 13 cells were 0.137 / 0.077 /
 //! 0.032 mm off 65 cells' pins; with 3 x 3 sub-cells 0.056 / 0.030 / 0.023, at 0.17 ms more
 //! solve on such a tap (`docs/experiments/contact.md`, "Sub-cells along an edge").
+//!
+//! On a body with a skin (the layers' and the dome's, whose pins read the layers' tables) the
+//! contact's own edge is refined too, where no stimulus edge cuts it: there the pressure stays
+//! nearly flat out to the edge and drops to zero within a skin thickness, so the coarse cells
+//! move the edge in steps of a cell and a pin within a skin thickness of it turns with the step.
+//! The refined cells add the loaded cells within [`CONTACT_EDGE_BAND`] of a loaded cell with an
+//! unloaded side neighbour, and those unloaded side neighbours (the edge may lie in them), so the
+//! sub-cells' solve places the edge. On the bench's flat taps with the dome the pins' largest
+//! error against 65 cells went from 0.171 / 0.094 mm at 17 / 25 cells to 0.031 / 0.020
+//! (`cargo run --release -p tacsim-sim --example grid_pins -- dome 40 flat`;
+//! `docs/guide/fem.md`, "The contact grid"). A half-space's pressure falls as a square root to
+//! the edge, and its pins are already within 0.03 mm at 17 cells: it is not refined there.
 
 use std::ops::Range;
 
@@ -47,6 +59,14 @@ use crate::contact::solve::normal::{self, Control, NormalSettings, ProductChoice
 /// 0.025 / 0.024 with 3: 17 cells keep every pin within 0.03 mm, the first grid under 25 to
 /// (issue 31, `docs/experiments/contact.md`, "A wider band of sub-cells").
 const BAND_CELLS: usize = 3;
+
+/// How far inwards from the contact's own edge the refined cells reach on a body with a skin
+/// (module docs): the loaded cells within this many cells (diagonals included) of a loaded cell
+/// with an unloaded side neighbour. 1: the dome's flat taps' largest pin error against 65 cells
+/// 0.031 / 0.020 mm at 17 / 25 cells, at 1.9x / 2.3x a plain tap's time on one thread; 0 (the
+/// edge's cells and their unloaded neighbours alone): 0.072 / 0.028 mm at 1.6x / 1.5x
+/// (`docs/experiments/fem-dome.md`).
+const CONTACT_EDGE_BAND: usize = 1;
 
 /// A sub-cell is solved for when its initial gap is below this many coarse cell sides (a ray
 /// past the edge that reaches the stimulus's side or the ground is farther).
@@ -146,8 +166,12 @@ pub(crate) struct FineGrids(std::sync::Mutex<Vec<(FineKey, std::sync::Arc<FineGr
 /// A fine grid's shape, sub-cells and cell side (its bits).
 type FineKey = (usize, usize, usize, u64);
 
-/// Fine grids kept per model.
-const KEPT: usize = 8;
+/// Fine grids kept per model. A layered body's are per cell side, and a run's taps share a few
+/// dozen sides (`crate::contact::body::kept`): with 8 the bench's 200 dome taps over 9 sides
+/// built one for nearly every refinement. A fine grid's dense products make no spectra: the
+/// edge recipe with the dome (61 sides) peaked at 178 MB with 64 kept against 175 MB without
+/// the contact's edge refined.
+const KEPT: usize = 64;
 
 impl Clone for FineGrids {
     fn clone(&self) -> Self {
@@ -188,6 +212,8 @@ pub(crate) struct Coarse<'a> {
     pub qx: &'a [f64],
     pub qy: &'a [f64],
     pub cuts: &'a [Option<Cut>],
+    /// Whether the contact's own edge is refined too (a body with a skin; module docs).
+    pub contact_edge: bool,
 }
 
 /// A step's refined cells: each one's loaded sub-cells as point forces (grid frame: positions
@@ -217,19 +243,37 @@ impl Refinement {
 /// [`BAND_CELLS`] of a loaded cut cell along both axes (once the cut cells and their side
 /// neighbours only: with the corners too, on the sub-cells' first version, the bench's worst
 /// rim taps were 0.058 / 0.032 / 0.025 mm off 65 cells against 0.056 / 0.030 / 0.023; a wider
-/// band pays where the coarse solve's error sits, past the neighbours). Empty without a
-/// loaded cut cell.
+/// band pays where the coarse solve's error sits, past the neighbours); with
+/// [`Coarse::contact_edge`], also every loaded cell within [`CONTACT_EDGE_BAND`] of a loaded
+/// cell with an unloaded side neighbour (an edge of the contact) and those unloaded side
+/// neighbours. Empty where none of these is.
 fn refined_cells(coarse: &Coarse<'_>) -> Vec<usize> {
     let grid = coarse.grid;
-    let loaded_cut = |k: usize| coarse.pressure[k] > 0.0 && coarse.cuts.get(k).is_some_and(Option::is_some);
-    if !(0..grid.len()).any(loaded_cut) {
+    let loaded = |k: usize| coarse.pressure[k] > 0.0;
+    let loaded_cut = |k: usize| loaded(k) && coarse.cuts.get(k).is_some_and(Option::is_some);
+    let sides = |k: usize| {
+        let (i, j) = grid.column_row(k);
+        [(i.wrapping_sub(1), j), (i + 1, j), (i, j.wrapping_sub(1)), (i, j + 1)]
+            .into_iter()
+            .map(|(a, b)| (a < grid.nx && b < grid.ny).then(|| b * grid.nx + a))
+    };
+    // A loaded cell on the contact's edge: a side neighbour unloaded or off the grid.
+    let on_edge = |k: usize| coarse.contact_edge && loaded(k) && sides(k).any(|n| n.is_none_or(|n| !loaded(n)));
+    let within = |k: usize, band: usize, of: &dyn Fn(usize) -> bool| {
+        let (i, j) = grid.column_row(k);
+        let near = |c: usize, n: usize| c.saturating_sub(band)..(c + band + 1).min(n);
+        near(i, grid.nx).any(|a| near(j, grid.ny).any(|b| of(b * grid.nx + a)))
+    };
+    if !(0..grid.len()).any(|k| loaded_cut(k) || on_edge(k)) {
         return Vec::new();
     }
-    let near = |c: usize, n: usize| c.saturating_sub(BAND_CELLS)..(c + BAND_CELLS + 1).min(n);
     (0..grid.len())
         .filter(|&k| {
-            let (i, j) = grid.column_row(k);
-            coarse.pressure[k] > 0.0 && near(i, grid.nx).any(|a| near(j, grid.ny).any(|b| loaded_cut(b * grid.nx + a)))
+            if loaded(k) {
+                within(k, BAND_CELLS, &loaded_cut) || within(k, CONTACT_EDGE_BAND, &on_edge)
+            } else {
+                sides(k).flatten().any(on_edge)
+            }
         })
         .collect()
 }
@@ -458,6 +502,38 @@ mod tests {
         Operator::new(&HalfSpace { material, pairing: Pairing::RigidIndenter }, grid)
     }
 
+    /// With the contact's edge refined (a body with a skin), a 5 x 5 loaded block in a 9 x 9
+    /// grid refines its rim, the cells within one of it (all but the centre) and the unloaded
+    /// cells beside the rim (not past its corners); without, and no cut, nothing.
+    #[test]
+    fn the_contacts_own_edge_is_refined_with_its_unloaded_side_neighbours() {
+        let grid = Grid { nx: 9, ny: 9, cell_mm: 1.0, centre_mm: [0.0; 2] };
+        let block = |i: usize, j: usize| (2..=6).contains(&i) && (2..=6).contains(&j);
+        let pressure: Vec<f64> =
+            (0..grid.len()).map(|k| grid.column_row(k)).map(|(i, j)| if block(i, j) { 0.1 } else { 0.0 }).collect();
+        let (zero, cuts) = (vec![0.0; grid.len()], vec![None; grid.len()]);
+        let coarse =
+            |contact_edge| Coarse { grid: &grid, pressure: &pressure, qx: &zero, qy: &zero, cuts: &cuts, contact_edge };
+        assert!(refined_cells(&coarse(false)).is_empty());
+        let cells = refined_cells(&coarse(true));
+        let at = |i: usize, j: usize| j * grid.nx + i;
+        let beside = |i: usize, j: usize| {
+            !block(i, j)
+                && [(i + 1, j), (i.wrapping_sub(1), j), (i, j + 1), (i, j.wrapping_sub(1))]
+                    .iter()
+                    .any(|&(a, b)| block(a, b))
+        };
+        let expected: Vec<usize> = (0..grid.len())
+            .filter(|&k| {
+                let (i, j) = grid.column_row(k);
+                (block(i, j) && (i, j) != (4, 4)) || beside(i, j)
+            })
+            .collect();
+        assert_eq!(cells, expected);
+        assert_eq!(cells.len(), 24 + 20);
+        assert!(!cells.contains(&at(4, 4)) && !cells.contains(&at(1, 1)) && cells.contains(&at(1, 4)));
+    }
+
     /// A coarse cell's box coefficient is the sum of the fine operator's coefficients over its
     /// sub-cells, at every sub-cell of the grid, for the three components.
     #[test]
@@ -504,7 +580,8 @@ mod tests {
         let mut cuts = vec![None; n * n];
         cuts[4] = Cut::of_half_plane(1.0, 0.1, 0.8, 0.6);
         assert!(cuts[4].is_some());
-        let coarse = Coarse { grid: &grid, pressure: &pressure, qx: &shear, qy: &shear, cuts: &cuts };
+        let coarse =
+            Coarse { grid: &grid, pressure: &pressure, qx: &shear, qy: &shear, cuts: &cuts, contact_edge: false };
         // A dome's gap: deeper towards the centre.
         let gaps = |points: &[[f64; 2]]| points.iter().map(|[x, y]| 0.02 * (x * x + y * y) - 0.05).collect();
         let converged = NormalSettings::default();

@@ -154,10 +154,13 @@ impl CellForces {
                         for j in bj..(bj + BLOCK).min(grid.ny) {
                             for i in bi..(bi + BLOCK).min(grid.nx) {
                                 let k = j * grid.nx + i;
-                                if pressure[k] == 0.0 && qx[k] == 0.0 && qy[k] == 0.0 {
+                                // A refined cell may be loaded at its sub-cells alone (the
+                                // contact's edge past the coarse one's, `refine.rs`).
+                                let sub_cells = refined.and_then(|r| r.of(k));
+                                if pressure[k] == 0.0 && qx[k] == 0.0 && qy[k] == 0.0 && sub_cells.is_none() {
                                     continue;
                                 }
-                                if let Some(range) = refined.and_then(|r| r.of(k)) {
+                                if let Some(range) = sub_cells {
                                     // Its force went to the other refined cells' sub-cells
                                     // where the second solve left none of its own loaded.
                                     if range.is_empty() {
