@@ -3,8 +3,9 @@
 //! (`perf record --call-graph dwarf`) or the shell's `time`: prints each pass's time a tap
 //! and a sum of the pins' tips (the same bits, the same sum).
 //!
-//! `cargo run --release -p tacsim-sim --example dome_taps -- [SAMPLES] [REPEATS] [CELLS]` (default
-//! 200 3, the sensor's 25 cells across the footprint). The dome is built once into the cache folder (`TACSIM_CACHE_DIR`). The pins'
+//! `cargo run --release -p tacsim-sim --example dome_taps -- [SAMPLES] [REPEATS] [CELLS]
+//! [EDGE_SUBCELLS]` (default 200 3, the sensor's 25 cells across the footprint and 3 sub-cells;
+//! 0: the contact's edge not solved again, as the taps on the disk's top cut no cell). The dome is built once into the cache folder (`TACSIM_CACHE_DIR`). The pins'
 //! product runs on rayon's pool (`RAYON_NUM_THREADS=1` for one thread).
 
 #[allow(dead_code)] // `support::model_at` and `support::tractions_hash` serve the timing examples.
@@ -21,6 +22,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut sensor = SensorParams::default();
     sensor.skin.model = SkinModel::Dome;
     sensor.skin.cells_across = support::whole(&args, 2, sensor.skin.cells_across)?;
+    sensor.skin.edge_subcells = support::whole(&args, 3, sensor.skin.edge_subcells)?;
     sensor.validate("CELLS")?;
     let t = Instant::now();
     let model = ContactModel::new(&sensor)?;
