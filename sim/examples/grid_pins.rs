@@ -21,7 +21,7 @@ use tacsim_sim::contact::{ContactModel, Simulation};
 use tacsim_sim::{PinPose, SensorParams, SkinModel};
 
 /// The grids compared, the last the reference.
-const GRIDS: [usize; 6] = [13, 17, 25, 33, 49, 65];
+const GRIDS: [usize; 7] = [13, 17, 19, 25, 33, 49, 65];
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -702,7 +702,7 @@ mod tests {
     /// steps of a cell and the pins under it turned with the step: on the bench's worst flat
     /// tap for the layer body (4.5 mm deep) its pins on 17 cells were 0.123 mm off 49 cells'
     /// (both every cell on every pin). With the contact's edge solved again at sub-cells
-    /// (`refine.rs`, `Coarse::contact_edge`) 0.019 mm; a half-space has no such edge to refine.
+    /// (`refine.rs`, `Coarse::contact_edge`) 0.024 mm; a half-space has no such edge to refine.
     #[test]
     fn a_skin_bodys_pins_see_where_the_contacts_edge_lies_in_a_cell() {
         let scene = scene_of("disk");

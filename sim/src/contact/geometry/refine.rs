@@ -31,13 +31,16 @@
 //! contact's own edge is refined too, where no stimulus edge cuts it: there the pressure stays
 //! nearly flat out to the edge and drops to zero within a skin thickness, so the coarse cells
 //! move the edge in steps of a cell and a pin within a skin thickness of it turns with the step.
-//! The refined cells add the loaded cells within [`CONTACT_EDGE_BAND`] of a loaded cell with an
-//! unloaded side neighbour, and those unloaded side neighbours (the edge may lie in them), so the
-//! sub-cells' solve places the edge. On the bench's flat taps with the dome the pins' largest
-//! error against 65 cells went from 0.171 / 0.094 mm at 17 / 25 cells to 0.031 / 0.020
+//! The refined cells add every cell on the contact's edge (loaded, with an unloaded side
+//! neighbour) and its side neighbours, loaded (inwards) and unloaded (the edge may lie in them),
+//! so the sub-cells' solve places the edge. On the bench's flat taps with the dome the pins'
+//! largest error against 65 cells went from 0.171 / 0.094 mm at 17 / 25 cells to 0.031 / 0.022
 //! (`cargo run --release -p tacsim-sim --example grid_pins -- dome 40 flat`;
-//! `docs/guide/fem.md`, "The contact grid"). A half-space's pressure falls as a square root to
-//! the edge, and its pins are already within 0.03 mm at 17 cells: it is not refined there.
+//! `docs/guide/fem.md`, "The contact grid"); with the diagonal neighbours too, within 0.002 mm
+//! of that at 17-33 cells for 10% more time; with the edge's cells and their unloaded neighbours
+//! alone, 0.072 / 0.028 mm (`docs/experiments/fem-dome.md`). A half-space's pressure falls as a
+//! square root to the edge, and its pins are already within 0.03 mm at 17 cells: it is not
+//! refined there.
 
 use std::ops::Range;
 
@@ -59,14 +62,6 @@ use crate::contact::solve::normal::{self, Control, NormalSettings, ProductChoice
 /// 0.025 / 0.024 with 3: 17 cells keep every pin within 0.03 mm, the first grid under 25 to
 /// (issue 31, `docs/experiments/contact.md`, "A wider band of sub-cells").
 const BAND_CELLS: usize = 3;
-
-/// How far inwards from the contact's own edge the refined cells reach on a body with a skin
-/// (module docs): the loaded cells within this many cells (diagonals included) of a loaded cell
-/// with an unloaded side neighbour. 1: the dome's flat taps' largest pin error against 65 cells
-/// 0.031 / 0.020 mm at 17 / 25 cells, at 1.9x / 2.3x a plain tap's time on one thread; 0 (the
-/// edge's cells and their unloaded neighbours alone): 0.072 / 0.028 mm at 1.6x / 1.5x
-/// (`docs/experiments/fem-dome.md`).
-const CONTACT_EDGE_BAND: usize = 1;
 
 /// A sub-cell is solved for when its initial gap is below this many coarse cell sides (a ray
 /// past the edge that reaches the stimulus's side or the ground is farther).
@@ -244,9 +239,8 @@ impl Refinement {
 /// neighbours only: with the corners too, on the sub-cells' first version, the bench's worst
 /// rim taps were 0.058 / 0.032 / 0.025 mm off 65 cells against 0.056 / 0.030 / 0.023; a wider
 /// band pays where the coarse solve's error sits, past the neighbours); with
-/// [`Coarse::contact_edge`], also every loaded cell within [`CONTACT_EDGE_BAND`] of a loaded
-/// cell with an unloaded side neighbour (an edge of the contact) and those unloaded side
-/// neighbours. Empty where none of these is.
+/// [`Coarse::contact_edge`], also every loaded cell with an unloaded side neighbour (an edge of
+/// the contact) and its side neighbours, loaded or not. Empty where none of these is.
 fn refined_cells(coarse: &Coarse<'_>) -> Vec<usize> {
     let grid = coarse.grid;
     let loaded = |k: usize| coarse.pressure[k] > 0.0;
@@ -259,23 +253,15 @@ fn refined_cells(coarse: &Coarse<'_>) -> Vec<usize> {
     };
     // A loaded cell on the contact's edge: a side neighbour unloaded or off the grid.
     let on_edge = |k: usize| coarse.contact_edge && loaded(k) && sides(k).any(|n| n.is_none_or(|n| !loaded(n)));
-    let within = |k: usize, band: usize, of: &dyn Fn(usize) -> bool| {
+    let near_cut = |k: usize| {
         let (i, j) = grid.column_row(k);
-        let near = |c: usize, n: usize| c.saturating_sub(band)..(c + band + 1).min(n);
-        near(i, grid.nx).any(|a| near(j, grid.ny).any(|b| of(b * grid.nx + a)))
+        let near = |c: usize, n: usize| c.saturating_sub(BAND_CELLS)..(c + BAND_CELLS + 1).min(n);
+        near(i, grid.nx).any(|a| near(j, grid.ny).any(|b| loaded_cut(b * grid.nx + a)))
     };
     if !(0..grid.len()).any(|k| loaded_cut(k) || on_edge(k)) {
         return Vec::new();
     }
-    (0..grid.len())
-        .filter(|&k| {
-            if loaded(k) {
-                within(k, BAND_CELLS, &loaded_cut) || within(k, CONTACT_EDGE_BAND, &on_edge)
-            } else {
-                sides(k).flatten().any(on_edge)
-            }
-        })
-        .collect()
+    (0..grid.len()).filter(|&k| (loaded(k) && near_cut(k)) || on_edge(k) || sides(k).flatten().any(on_edge)).collect()
 }
 
 /// A sub-cell of a refined cell.
@@ -503,8 +489,8 @@ mod tests {
     }
 
     /// With the contact's edge refined (a body with a skin), a 5 x 5 loaded block in a 9 x 9
-    /// grid refines its rim, the cells within one of it (all but the centre) and the unloaded
-    /// cells beside the rim (not past its corners); without, and no cut, nothing.
+    /// grid refines its rim, the cells beside it inside (all but the centre) and the unloaded
+    /// cells beside it outside (not past its corners); without, and no cut, nothing.
     #[test]
     fn the_contacts_own_edge_is_refined_with_its_unloaded_side_neighbours() {
         let grid = Grid { nx: 9, ny: 9, cell_mm: 1.0, centre_mm: [0.0; 2] };
