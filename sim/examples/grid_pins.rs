@@ -7,12 +7,14 @@
 //! on every grid, where the contact ends.
 //!
 //! ```text
-//! cargo run --release -p tacsim-sim --example grid_pins -- [BODY] [TAPS] [flat|rim] [SUBSQUARES] [FRICTION]
+//! cargo run --release -p tacsim-sim --example grid_pins -- [BODY] [TAPS] [flat|rim] [SUBSQUARES] [FRICTION] [EDGE_SUBCELLS]
 //! ```
 //! `BODY` `half-space`, `layer`, `skin-on-gel` or `dome` (default `dome`, built once into the
 //! cache folder); `TAPS` (default 40); `SUBSQUARES` the pins' sub-squares per side of a near
 //! cell (default the model's, 3); `FRICTION` the disk's friction coefficient (default the
-//! built-in disk's). The calibrated default sensor with that body.
+//! built-in disk's; `-` for it); `EDGE_SUBCELLS` the sub-cells a side of the compared grids'
+//! refined cells (`skin.edge_subcells`; the 65-cell reference keeps the default, 3). The
+//! calibrated default sensor with that body.
 
 #[allow(dead_code)] // `support::model_at` and `support::tractions_hash` serve the timing examples.
 mod support;
@@ -35,7 +37,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         other => return Err(format!("argument 3: `{other}` is neither `flat` nor `rim`").into()),
     };
     let subsquares = args.get(3).map(|_| support::whole(&args, 3, 3)).transpose()?;
-    let scene = match args.get(4) {
+    let edge_subcells = args.get(5).map(|_| support::whole(&args, 5, 3)).transpose()?;
+    let scene = match args.get(4).filter(|f| *f != "-") {
         Some(f) => {
             let friction: f64 = f.parse().map_err(|_| format!("argument 5: `{f}` is not a number"))?;
             let disk = tacsim_sim::builtin_catalogue()?.get("disk")?;
@@ -50,6 +53,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for cells in GRIDS {
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
+        if let Some(r) = edge_subcells.filter(|_| cells != GRIDS[GRIDS.len() - 1]) {
+            s.skin.edge_subcells = r;
+        }
         let mut model = ContactModel::new(&s)?;
         if let Some(sub) = subsquares {
             model.pin_subsquares = sub;
