@@ -262,11 +262,12 @@ impl<'a> Simulation<'a> {
             .as_ref()
     }
 
-    /// The sub-cells along the loaded cut cells and, on a body with a skin (whose pins read the
-    /// layers' tables), along the contact's own edge ([`super::geometry::refine`]), their
-    /// initial gaps from rays at their centres as the cells' own.
+    /// The sub-cells along the loaded cut cells and, on a body with a skin
+    /// ([`super::body::ElasticBody::refines_contact_edge`]), along the contact's own edge
+    /// ([`super::geometry::refine`]), their initial gaps from rays at their centres as the
+    /// cells' own.
     fn refine(&self, grid: &Grid, pose: &SensorPose) -> Option<Refinement> {
-        let contact_edge = matches!(self.model.body.pin_kernel(), PinKernel::Layered(_));
+        let contact_edge = self.model.body.refines_contact_edge();
         if (self.cuts.is_empty() && !contact_edge) || self.model.edge_subcells < 2 {
             return None;
         }

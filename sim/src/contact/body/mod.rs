@@ -40,6 +40,14 @@ pub trait ElasticBody: std::fmt::Debug + Send + Sync {
     /// far field ([`ElasticBody::far_field`]), what the far field leaves out near each force.
     fn pin_kernel(&self) -> PinKernel<'_>;
 
+    /// Whether the body has a skin whose pressure stays up to the contact's edge and drops to
+    /// zero within a cell there (the layers and the dome, not the half-space): the cells along
+    /// the contact's own edge are then solved again at sub-cells for the pins
+    /// ([`crate::contact::geometry::refine`]).
+    fn refines_contact_edge(&self) -> bool {
+        false
+    }
+
     /// The finite-element dome whose response to the forces (spread over a patch) adds to the
     /// pins' motion; `None` where the kernels are the whole response.
     fn far_field(&self) -> Option<&DomeBody> {
@@ -68,6 +76,10 @@ impl ElasticBody for LayeredKernels {
 
     fn pin_kernel(&self) -> PinKernel<'_> {
         PinKernel::Layered(self)
+    }
+
+    fn refines_contact_edge(&self) -> bool {
+        true
     }
 }
 
@@ -121,6 +133,10 @@ impl ElasticBody for DomeContact {
 
     fn pin_kernel(&self) -> PinKernel<'_> {
         PinKernel::Layered(&self.near)
+    }
+
+    fn refines_contact_edge(&self) -> bool {
+        true
     }
 
     fn far_field(&self) -> Option<&DomeBody> {

@@ -251,17 +251,19 @@ fn refined_cells(coarse: &Coarse<'_>) -> Vec<usize> {
             .into_iter()
             .map(|(a, b)| (a < grid.nx && b < grid.ny).then(|| b * grid.nx + a))
     };
-    // A loaded cell on the contact's edge: a side neighbour unloaded or off the grid.
-    let on_edge = |k: usize| coarse.contact_edge && loaded(k) && sides(k).any(|n| n.is_none_or(|n| !loaded(n)));
+    // The loaded cells on the contact's edge: a side neighbour unloaded or off the grid.
+    let edge: Vec<bool> = (0..grid.len())
+        .map(|k| coarse.contact_edge && loaded(k) && sides(k).any(|n| n.is_none_or(|n| !loaded(n))))
+        .collect();
+    let any_cut = (0..grid.len()).any(loaded_cut);
     let near_cut = |k: usize| {
         let (i, j) = grid.column_row(k);
         let near = |c: usize, n: usize| c.saturating_sub(BAND_CELLS)..(c + BAND_CELLS + 1).min(n);
         near(i, grid.nx).any(|a| near(j, grid.ny).any(|b| loaded_cut(b * grid.nx + a)))
     };
-    if !(0..grid.len()).any(|k| loaded_cut(k) || on_edge(k)) {
-        return Vec::new();
-    }
-    (0..grid.len()).filter(|&k| (loaded(k) && near_cut(k)) || on_edge(k) || sides(k).flatten().any(on_edge)).collect()
+    (0..grid.len())
+        .filter(|&k| (any_cut && loaded(k) && near_cut(k)) || edge[k] || sides(k).flatten().any(|n| edge[n]))
+        .collect()
 }
 
 /// A sub-cell of a refined cell.
