@@ -80,10 +80,31 @@ const FINE_STRIPS: usize = 2;
 const BOX_COMPONENTS: [Component; 3] = [Component::Zz, Component::Zx, Component::Zy];
 
 /// The solve's tolerance on the sub-cells' pressures (relative change, as
-/// [`NormalSettings::tolerance`]): looser than the coarse solve's 1e-5, which moved no pin by
-/// more than 1e-3 mm on the bench's worst taps across the disk's rim and took a third more
-/// iterations.
+/// [`NormalSettings::tolerance`]) where a stimulus's edge cuts a loaded cell: looser than the
+/// coarse solve's 1e-5, which moved no pin by more than 1e-3 mm on the bench's worst taps
+/// across the disk's rim and took a third more iterations. At 1e-2 the dome's rim taps moved
+/// by up to 0.04 mm (33 cells: 0.092 -> 0.131 mm off 65 cells; `cargo run --release -p
+/// tacsim-sim --example grid_pins -- dome 40 rim`).
 const TOLERANCE: f64 = 1e-3;
+
+/// The solve's tolerance where only the contact's own edge is refined (no loaded cut cell; a
+/// body with a skin): its pressure steps down smoothly and its sub-cells converge in half the
+/// iterations. On the bench's flat dome taps the pins moved by at most 0.002 mm from
+/// [`TOLERANCE`]'s (against 65 cells: 0.052 / 0.031 / 0.026 / 0.022 mm at 13 / 17 / 19 / 25
+/// cells with 1e-3, 0.054 / 0.033 / 0.026 / 0.022 with 1e-2; `cargo run --release -p
+/// tacsim-sim --example grid_pins -- dome 40 flat`), 12.3 -> 5.7 iterations and 2.08 -> 1.94 ms
+/// a tap on one thread at 19 cells (`RAYON_NUM_THREADS=1 cargo run --release -p tacsim-sim
+/// --example dome_taps -- 200 3 19`, 2026-12-05).
+const CONTACT_EDGE_TOLERANCE: f64 = 1e-2;
+
+/// Sub-cell rows kept of an unloaded refined cell (one beside the contact's edge), counted from
+/// each loaded side neighbour: the edge moves into the first at most. On the bench's 200 flat
+/// dome taps at 19 cells, 27 sub-cells of each tap's 362 in such cells ended loaded, all but 2
+/// of the 5,376 in the row next to the contact; keeping that row alone (150 sub-cells a tap
+/// instead of 362) left every pin within 2e-4 mm and took a tap on one thread from 2.37 to
+/// 2.08 ms (`RAYON_NUM_THREADS=1 cargo run --release -p tacsim-sim --example dome_taps -- 200
+/// 3 19`, 2026-12-05): the sub-cells' solve is dense, its cost the square of their number.
+const OUTER_ROWS: usize = 1;
 
 /// A coarse grid's shape `r` times finer, for every step of every path on grids of that shape:
 /// the operator on the sub-cells, and the displacements of a coarse cell's uniform traction at
@@ -240,8 +261,9 @@ impl Refinement {
 /// rim taps were 0.058 / 0.032 / 0.025 mm off 65 cells against 0.056 / 0.030 / 0.023; a wider
 /// band pays where the coarse solve's error sits, past the neighbours); with
 /// [`Coarse::contact_edge`], also every loaded cell with an unloaded side neighbour (an edge of
-/// the contact) and its side neighbours, loaded or not. Empty where none of these is.
-fn refined_cells(coarse: &Coarse<'_>) -> Vec<usize> {
+/// the contact) and its side neighbours, loaded or not. Empty where none of these is. Also
+/// whether a loaded cut cell is among them.
+fn refined_cells(coarse: &Coarse<'_>) -> (Vec<usize>, bool) {
     let grid = coarse.grid;
     let loaded = |k: usize| coarse.pressure[k] > 0.0;
     let loaded_cut = |k: usize| loaded(k) && coarse.cuts.get(k).is_some_and(Option::is_some);
@@ -261,9 +283,10 @@ fn refined_cells(coarse: &Coarse<'_>) -> Vec<usize> {
         let near = |c: usize, n: usize| c.saturating_sub(BAND_CELLS)..(c + BAND_CELLS + 1).min(n);
         near(i, grid.nx).any(|a| near(j, grid.ny).any(|b| loaded_cut(b * grid.nx + a)))
     };
-    (0..grid.len())
+    let cells = (0..grid.len())
         .filter(|&k| (any_cut && loaded(k) && near_cut(k)) || edge[k] || sides(k).flatten().any(|n| edge[n]))
-        .collect()
+        .collect();
+    (cells, any_cut)
 }
 
 /// A sub-cell of a refined cell.
@@ -321,7 +344,7 @@ pub(crate) fn refine(
     settings: &NormalSettings,
 ) -> Option<Refinement> {
     let grid = coarse.grid;
-    let cells = refined_cells(coarse);
+    let (cells, cut) = refined_cells(coarse);
     if cells.is_empty() {
         return None;
     }
@@ -380,8 +403,8 @@ pub(crate) fn refine(
     let load = cells.iter().map(|&k| coarse.pressure[k]).sum::<f64>() * grid.cell_area_mm2() / (unit_mm * unit_mm);
     // Dense products on any number of sub-cells: the fine grid's FFT would transform the
     // whole footprint for a few hundred of them.
-    let settings =
-        NormalSettings { products: ProductChoice { dense_max_cells: usize::MAX }, tolerance: TOLERANCE, ..*settings };
+    let tolerance = if cut { TOLERANCE } else { CONTACT_EDGE_TOLERANCE };
+    let settings = NormalSettings { products: ProductChoice { dense_max_cells: usize::MAX }, tolerance, ..*settings };
     let solved = normal::solve(
         &fine.op,
         &gap,
@@ -389,7 +412,7 @@ pub(crate) fn refine(
         Control::Load(load),
         Some(&warm),
         &settings,
-        &mut MatrixCache::down_to(Precision::for_tolerance(TOLERANCE)),
+        &mut MatrixCache::down_to(Precision::for_tolerance(tolerance)),
     );
     // The coarse placement stands where the sub-cells' solve does not converge, the one way
     // the normal solve fails (seen on a few sub-cells, all cut, under a small load, the edge
@@ -400,7 +423,8 @@ pub(crate) fn refine(
 }
 
 /// The sub-cells of the refined `cells` (cell after cell, row by row), each with its cut where
-/// its cell's edge ([`Cut::line`]) crosses it; a sub-cell wholly past the edge is left out.
+/// its cell's edge ([`Cut::line`]) crosses it; a sub-cell wholly past the edge is left out, and
+/// of an unloaded uncut cell all but its [`OUTER_ROWS`] next to a loaded side neighbour.
 fn subcells(fine: &FineGrid, coarse: &Coarse<'_>, cells: &[usize]) -> Vec<Sub> {
     let grid = coarse.grid;
     let r = fine.r;
@@ -411,8 +435,12 @@ fn subcells(fine: &FineGrid, coarse: &Coarse<'_>, cells: &[usize]) -> Vec<Sub> {
         let (ci, cj) = grid.column_row(cell);
         let cut = coarse.cuts.get(cell).copied().flatten();
         let line = edge_line(coarse, cell);
+        let kept = outer_rows(coarse, cell, r);
         for b in 0..r {
             for a in 0..r {
+                if !kept(a, b) {
+                    continue;
+                }
                 let offset_mm =
                     [(a as f64 + 0.5) / r as f64 - 0.5, (b as f64 + 0.5) / r as f64 - 0.5].map(|o| o * grid.cell_mm);
                 // The edge's line at the sub-cell's centre (the cell's own where it is cut).
@@ -435,6 +463,26 @@ fn subcells(fine: &FineGrid, coarse: &Coarse<'_>, cells: &[usize]) -> Vec<Sub> {
         }
     }
     subs
+}
+
+/// Whether sub-cell `(a, b)` (column and row in the cell, `r` a side) of refined cell `cell`
+/// is kept: every one of a loaded or cut cell, of an unloaded one those within [`OUTER_ROWS`]
+/// of a loaded side neighbour.
+fn outer_rows(coarse: &Coarse<'_>, cell: usize, r: usize) -> impl Fn(usize, usize) -> bool {
+    let grid = coarse.grid;
+    let (i, j) = grid.column_row(cell);
+    let loaded = |a: usize, b: usize| a < grid.nx && b < grid.ny && coarse.pressure[b * grid.nx + a] > 0.0;
+    let whole = coarse.pressure[cell] > 0.0 || coarse.cuts.get(cell).is_some_and(Option::is_some);
+    // Left, right, below, above.
+    let sides = [loaded(i.wrapping_sub(1), j), loaded(i + 1, j), loaded(i, j.wrapping_sub(1)), loaded(i, j + 1)];
+    let far = r.saturating_sub(OUTER_ROWS);
+    move |a, b| {
+        whole
+            || (sides[0] && a < OUTER_ROWS)
+            || (sides[1] && a >= far)
+            || (sides[2] && b < OUTER_ROWS)
+            || (sides[3] && b >= far)
+    }
 }
 
 /// Where a sub-cell's gap is taken and its force acts (grid frame, mm): its centre offset by
@@ -502,8 +550,9 @@ mod tests {
         let (zero, cuts) = (vec![0.0; grid.len()], vec![None; grid.len()]);
         let coarse =
             |contact_edge| Coarse { grid: &grid, pressure: &pressure, qx: &zero, qy: &zero, cuts: &cuts, contact_edge };
-        assert!(refined_cells(&coarse(false)).is_empty());
-        let cells = refined_cells(&coarse(true));
+        assert_eq!(refined_cells(&coarse(false)), (vec![], false));
+        let (cells, cut) = refined_cells(&coarse(true));
+        assert!(!cut);
         let at = |i: usize, j: usize| j * grid.nx + i;
         let beside = |i: usize, j: usize| {
             !block(i, j)
@@ -520,6 +569,37 @@ mod tests {
         assert_eq!(cells, expected);
         assert_eq!(cells.len(), 24 + 20);
         assert!(!cells.contains(&at(4, 4)) && !cells.contains(&at(1, 1)) && cells.contains(&at(1, 4)));
+    }
+
+    /// Of an unloaded cell beside the contact (a 5 x 5 loaded block in a 9 x 9 grid, its edge
+    /// refined) only the row of sub-cells next to its loaded neighbour is kept; a loaded cell
+    /// keeps all of its own. A loaded cut cell among the refined ones is reported (the
+    /// sub-cells' solve then takes the tighter tolerance).
+    #[test]
+    fn an_unloaded_cell_beside_the_contact_keeps_the_subcells_next_to_it() {
+        let (n, r) = (9, 3);
+        let grid = Grid { nx: n, ny: n, cell_mm: 1.0, centre_mm: [0.0; 2] };
+        let fine = FineGrid::new(n, n, r, half_space(Grid { nx: r * n, ny: r * n, cell_mm: 1.0, centre_mm: [0.0; 2] }));
+        let block = |i: usize, j: usize| (2..=6).contains(&i) && (2..=6).contains(&j);
+        let pressure: Vec<f64> =
+            (0..grid.len()).map(|k| grid.column_row(k)).map(|(i, j)| if block(i, j) { 0.1 } else { 0.0 }).collect();
+        let (zero, mut cuts) = (vec![0.0; grid.len()], vec![None; grid.len()]);
+        let coarse = Coarse { grid: &grid, pressure: &pressure, qx: &zero, qy: &zero, cuts: &cuts, contact_edge: true };
+        let (cells, cut) = refined_cells(&coarse);
+        assert!(!cut);
+        let subs = subcells(&fine, &coarse, &cells);
+        let count = |cell: usize| subs.iter().filter(|s| s.cell == cell).count();
+        for &cell in &cells {
+            let (i, j) = grid.column_row(cell);
+            assert_eq!(count(cell), if block(i, j) { r * r } else { r }, "cell ({i}, {j})");
+        }
+        // Left of the block: the sub-cells' column next to it, every row.
+        let left = 4 * n + 1;
+        let kept: Vec<(usize, usize)> = subs.iter().filter(|s| s.cell == left).map(|s| s.at).collect();
+        assert_eq!(kept, vec![(5, 12), (5, 13), (5, 14)]);
+        cuts[4 * n + 4] = Cut::of_half_plane(1.0, 0.1, 0.8, 0.6);
+        let coarse = Coarse { grid: &grid, pressure: &pressure, qx: &zero, qy: &zero, cuts: &cuts, contact_edge: true };
+        assert!(refined_cells(&coarse).1, "a loaded cut cell");
     }
 
     /// A coarse cell's box coefficient is the sum of the fine operator's coefficients over its
