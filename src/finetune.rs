@@ -64,7 +64,7 @@ pub fn run(
         seeds,
         rule: format!(
             "both arms: the real-trained network's settings (lr {} for the first half of the epochs, then times {}), \
-             the same epochs at each K: {} or more, so that each arm takes at least {} optimiser steps{}",
+             the same epochs at each K: {} or more, so that each arm takes at least {} optimiser steps{}{}",
             curve.cfg.lr,
             curve.cfg.lr_step_factor,
             curve.cfg.epochs,
@@ -72,6 +72,13 @@ pub fn run(
             match curve.pretrained_lr_scale {
                 1.0 => String::new(),
                 s => format!("; the pretrained arm at {s} times that rate"),
+            },
+            match curve.sim_share {
+                0.0 => String::new(),
+                s => format!(
+                    "; the pretrained arm trains on K s / (1 - s) simulated images beside the K (s = {s}), \
+                     in the epochs that give it the same steps"
+                ),
             }
         ),
         labels: summarise_finetune(&points, curve.labels, real_all),

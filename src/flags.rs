@@ -52,6 +52,16 @@ pub fn finetune_lr_scale(text: &str) -> Result<f64, String> {
     Ok(v)
 }
 
+/// `--finetune-sim-share`: a share in [0, `tacsim_model::FINETUNE_MAX_SIM_SHARE`].
+pub fn finetune_sim_share(text: &str) -> Result<f64, String> {
+    let max = tacsim_model::FINETUNE_MAX_SIM_SHARE;
+    let v: f64 = text.trim().parse().map_err(|_| format!("not a number: {text:?} (a share in [0, {max}])"))?;
+    if !(0.0..=max).contains(&v) {
+        return Err(format!("must be in [0, {max}], got {v}"));
+    }
+    Ok(v)
+}
+
 /// The most worker threads: [`THREADS_PER_CORE`] per core of this machine.
 pub fn max_threads() -> usize {
     THREADS_PER_CORE * std::thread::available_parallelism().map_or(1, |n| n.get())

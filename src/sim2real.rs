@@ -96,6 +96,11 @@ pub struct Sim2RealOptions {
     /// network's, in (0, 1] (the same steps; the from-scratch arm keeps the rate).
     #[arg(long, default_value_t = 1.0, value_parser = crate::flags::finetune_lr_scale)]
     pub finetune_lr_scale: f64,
+    /// The share of the fine-tuned (pretrained) arm's training samples drawn from the
+    /// simulated set, in [0, 0.9]: K s / (1 - s) simulated images join the K real ones, in the
+    /// same optimiser steps (0: the K alone).
+    #[arg(long, default_value_t = 0.0, value_parser = crate::flags::finetune_sim_share)]
+    pub finetune_sim_share: f64,
     /// The lab folder's preprocessing.
     #[command(flatten)]
     pub lab: LabOptions,
@@ -227,6 +232,9 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
             cfg: &report.posenet,
             min_steps: o.finetune_min_steps,
             pretrained_lr_scale: o.finetune_lr_scale,
+            sim: &sim,
+            sim_rows: &sim_rows,
+            sim_share: o.finetune_sim_share,
             dir: o.out.join("finetune"),
         };
         let real_all: Vec<f64> = report.labels.iter().map(|l| l.real_trained).collect();

@@ -158,6 +158,31 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     assert!(rule.contains("the pretrained arm at 0.1 times that rate"), "{rule}");
     let e = err(&[&args[..], &gentle[..], &["--finetune-lr-scale", "0", "-q"]].concat());
     assert!(e.contains("--finetune-lr-scale") && e.contains("(0, 1]"), "{e}");
+    // Simulated images beside the K (`--finetune-sim-share 0.5`): a point of its own, 8 of
+    // the simulated training images join the 8 real ones, the pretrained arm trains the epochs
+    // that keep its steps (the 16 still one batch: the same 4 epochs), the from-scratch arm as
+    // before; the same bytes again from the other work folder.
+    let mixed = ["--finetune-sim-share", "0.5", "-q"];
+    ok(&[&args[..], &gentle[..], &mixed[..]].concat());
+    let mix_point = out.join("finetune/k8-s0-sim0.5/point.json");
+    let with_sim = read(&mix_point);
+    assert_eq!((with_sim["sim_samples"].as_u64(), with_sim["pretrained_epochs"].as_u64()), (Some(8), Some(4)));
+    assert_eq!(fast["scratch"], with_sim["scratch"], "the from-scratch arm is unchanged");
+    assert_ne!(fast["pretrained"], with_sim["pretrained"], "{fast} {with_sim}");
+    assert!(fast.get("pretrained_epochs").is_none() && fast["sim_samples"] == 0, "{fast}");
+    let rule = std::fs::read_to_string(out.join("finetune.json")).expect("finetune.json");
+    assert!(rule.contains("simulated images beside the K (s = 0.5)"), "{rule}");
+    ok(&[&args2[..], &gentle[..], &mixed[..]].concat());
+    assert_eq!(
+        std::fs::read_to_string(other.join("finetune/k8-s0-sim0.5/point.json")).expect("point"),
+        std::fs::read_to_string(&mix_point).expect("point"),
+        "same seed, same mixed point"
+    );
+    for bad in ["0.95", "-0.1", "x"] {
+        let flag = format!("--finetune-sim-share={bad}");
+        let e = err(&[&args[..], &gentle[..], &[flag.as_str(), "-q"]].concat());
+        assert!(e.contains("--finetune-sim-share") && e.contains("[0, 0.9]"), "{bad}: {e}");
+    }
     // `--sim`: the set made before (here the one the recipe generated) trains the same
     // networks to the same errors; a folder that holds no dataset is a clear error.
     let (set, given_out) = (out.join("sim"), dir.join("given"));

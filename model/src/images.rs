@@ -104,6 +104,21 @@ impl ImageSet {
         Ok(Self { side, pixels })
     }
 
+    /// Appends the images of `other` at `slots`, in that order; both sets must have one side.
+    pub fn append(&mut self, other: &ImageSet, slots: &[usize]) -> Result<()> {
+        if other.side != self.side {
+            return Err(ModelError::config(
+                "images",
+                format!("images of {} px cannot join a set of {} px", other.side, self.side),
+            ));
+        }
+        self.pixels.reserve(slots.len() * self.side * self.side);
+        for &slot in slots {
+            self.pixels.extend_from_slice(other.image(slot));
+        }
+        Ok(())
+    }
+
     /// Image side (px).
     pub fn side(&self) -> usize {
         self.side

@@ -20,7 +20,7 @@ from pathlib import Path
 
 def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs=None, seed=None,
              finetune=None, finetune_seeds=None, finetune_min_steps=None, finetune_lr_scale=None,
-             report=None, extra=(), tacsim_bin=None):
+             finetune_sim_share=None, report=None, extra=(), tacsim_bin=None):
     """Runs ``tacsim sim2real --real REAL --out OUT`` with the options given (the flags of the
     same names; ``finetune`` a list of sample counts and ``"all"``) and returns
     ``{"report": ..., "finetune": ...}``: ``report.json`` and, with ``finetune``,
@@ -36,7 +36,8 @@ def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs
     flags = {
         "--recipe": recipe, "--sensor": sensor, "--sim": sim, "--size": size, "--epochs": epochs,
         "--seed": seed, "--finetune-seeds": finetune_seeds, "--finetune-min-steps": finetune_min_steps,
-        "--finetune-lr-scale": finetune_lr_scale, "--report": report,
+        "--finetune-lr-scale": finetune_lr_scale, "--finetune-sim-share": finetune_sim_share,
+        "--report": report,
     }
     for flag, value in flags.items():
         if value is not None:

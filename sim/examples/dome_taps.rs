@@ -4,9 +4,11 @@
 //! and a sum of the pins' tips (the same bits, the same sum).
 //!
 //! `cargo run --release -p tacsim-sim --example dome_taps -- [SAMPLES] [REPEATS] [CELLS]
-//! [EDGE_SUBCELLS]` (default 200 3, the sensor's 25 cells across the footprint and 3 sub-cells;
-//! 0: the contact's edge not solved again, as the taps on the disk's top cut no cell). The dome is built once into the cache folder (`TACSIM_CACHE_DIR`). The pins'
-//! product runs on rayon's pool (`RAYON_NUM_THREADS=1` for one thread).
+//! [EDGE_SUBCELLS] [flat|rim]` (default 200 3, the sensor's 25 cells across the footprint and 3
+//! sub-cells; 0: the contact's edge not solved again, as the taps on the disk's top cut no
+//! cell; `rim`: the bench's taps across the disk's rim, whose sharp edge cuts cells). The dome
+//! is built once into the cache folder (`TACSIM_CACHE_DIR`). The pins' product runs on rayon's
+//! pool (`RAYON_NUM_THREADS=1` for one thread).
 
 #[allow(dead_code)] // `support::model_at` and `support::tractions_hash` serve the timing examples.
 mod support;
@@ -28,7 +30,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let model = ContactModel::new(&sensor)?;
     println!("model in {:.2} s", t.elapsed().as_secs_f64());
     let scene = support::disk_scene()?;
-    let taps = tacsim_sim::bench::samples(samples, tacsim_sim::bench::SAMPLES_SEED);
+    let taps = match args.get(4).map_or("flat", String::as_str) {
+        "flat" => tacsim_sim::bench::samples(samples, tacsim_sim::bench::SAMPLES_SEED),
+        "rim" => tacsim_sim::bench::rim_samples(samples, tacsim_sim::bench::RIM_SEED),
+        other => return Err(format!("argument 5: `{other}` is neither `flat` nor `rim`").into()),
+    };
     let mut sum = 0.0;
     for pass in 0..repeats {
         let t = Instant::now();

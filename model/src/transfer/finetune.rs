@@ -16,12 +16,17 @@
 //!   half the epochs); a small `K` trains more epochs so that each arm takes at least
 //!   [`Curve::min_steps`] steps (default [`MIN_STEPS`]; [`epochs_for`]). The pretrained arm's
 //!   rate may be scaled down ([`Curve::pretrained_lr_scale`]), its steps kept.
+//! - The pretrained arm may keep training on simulated images beside the `K`
+//!   ([`Curve::sim_share`]): `m = K s / (1 - s)` of the simulated training images (a seeded
+//!   choice per point) join the `K`, and the arm trains the epochs that give it the
+//!   from-scratch arm's steps ([`mixed_epochs`]).
 //!
 //! Each point's two runs and its scores live in `k{K}-s{seed}/` under the curve's folder: a
 //! finished point is read back, not recomputed; an interrupted one resumes its runs.
 
 use std::path::{Path, PathBuf};
 
+use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -45,11 +50,29 @@ pub const MIN_STEPS: usize = 300;
 /// samples (issue 87's bound).
 pub const MATCH_FACTOR: f64 = 1.2;
 
+/// The largest [`Curve::sim_share`].
+pub const MAX_SIM_SHARE: f64 = 0.9;
+
 /// The epochs both arms train at `k` samples: `epochs` (the real-trained network's), raised
 /// where `k` gives too few batches for `min_steps` steps.
 pub fn epochs_for(k: usize, batch: usize, epochs: usize, min_steps: usize) -> usize {
     let per_epoch = k.div_ceil(batch.max(1)).max(1);
     epochs.max(min_steps.div_ceil(per_epoch))
+}
+
+/// The epochs of the pretrained arm on `k` real and `m` simulated samples that give it the
+/// steps of `epochs` over the `k` alone (rounded; at least 2, so that the rate's step after half
+/// the epochs falls inside the run).
+pub fn mixed_epochs(k: usize, m: usize, batch: usize, epochs: usize) -> usize {
+    let batch = batch.max(1);
+    let steps = epochs * k.div_ceil(batch).max(1);
+    let per_epoch = (k + m).div_ceil(batch).max(1);
+    ((steps as f64 / per_epoch as f64).round() as usize).max(2)
+}
+
+/// The `m` simulated samples that join `k` real ones at the simulated share `share` (0: none).
+pub fn sim_samples(k: usize, share: f64) -> usize {
+    (k as f64 * share / (1.0 - share)).round() as usize
 }
 
 /// Parses `25,50,100,all` into sample counts (`None`: every fitting sample), each at least
@@ -111,6 +134,12 @@ pub struct CurvePoint {
     pub scratch: Vec<f64>,
     /// The label map fitted on the `k` samples, as `LabelMap::describe` writes it.
     pub map: Vec<String>,
+    /// Simulated samples the pretrained arm trained on beside the `k` ([`Curve::sim_share`]).
+    #[serde(default)]
+    pub sim_samples: usize,
+    /// The pretrained arm's epochs where they differ from `epochs` ([`mixed_epochs`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pretrained_epochs: Option<usize>,
 }
 
 /// Everything a curve's points share.
@@ -135,6 +164,14 @@ pub struct Curve<'a> {
     /// fine-tuning that starts from trained weights may step more gently than training from
     /// scratch, in the same steps (1: the same rate).
     pub pretrained_lr_scale: f64,
+    /// The simulator-trained network's training set (its images and labels, in its frame).
+    pub sim: &'a Corpus,
+    /// The simulated training rows the pretrained arm may draw from.
+    pub sim_rows: &'a [usize],
+    /// The share of the pretrained arm's training samples drawn from the simulated set, in
+    /// [0, [`MAX_SIM_SHARE`]] (0: the `K` alone): training on with the simulator's images keeps
+    /// what they taught while the `K` teach the lab's.
+    pub sim_share: f64,
     /// The curve's folder (`k{K}-s{seed}/` per point).
     pub dir: PathBuf,
 }
@@ -144,11 +181,15 @@ impl Curve<'_> {
     /// is finished, else trained (resuming its runs) and scored.
     pub fn point(&self, k: usize, seed: u64, progress: &mut dyn Progress) -> Result<CurvePoint> {
         let k = k.min(self.fitting.len());
-        // A gentler fine-tuning is a point of its own.
-        let dir = match self.pretrained_lr_scale {
-            1.0 => self.dir.join(format!("k{k}-s{seed}")),
-            scale => self.dir.join(format!("k{k}-s{seed}-lr{scale}")),
-        };
+        // A gentler fine-tuning, or one with simulated images, is a point of its own.
+        let mut name = format!("k{k}-s{seed}");
+        if self.pretrained_lr_scale != 1.0 {
+            name.push_str(&format!("-lr{}", self.pretrained_lr_scale));
+        }
+        if self.sim_share > 0.0 {
+            name.push_str(&format!("-sim{}", self.sim_share));
+        }
+        let dir = self.dir.join(name);
         let done = dir.join("point.json");
         if done.is_file() {
             return read_json(&done);
@@ -169,9 +210,20 @@ impl Curve<'_> {
         let read = predict_poses(&sim_net, &sim_scale, &corpus_images(self.real, &rows), self.how.size, &device);
         let map = LabelMap::fit(&read, &sim_scale.columns(), &truth(&rows), self.labels)?;
         let sim_labels = sim_scale.columns();
-        let as_sim = self.training_set(&rows, |pose| map.sim_pose(pose), &sim_labels);
+        let mut as_sim = self.training_set(&rows, |pose| map.sim_pose(pose), &sim_labels);
+        let sim_samples = sim_samples(k, self.sim_share).min(self.sim_rows.len());
+        let pretrained_epochs = (sim_samples > 0).then(|| mixed_epochs(k, sim_samples, self.cfg.batch, epochs));
+        if sim_samples > 0 {
+            self.add_sim(&mut as_sim, &sim_labels, sim_samples, seed ^ (k as u64).rotate_left(32))?;
+        }
         let lr = self.cfg.lr * self.pretrained_lr_scale;
-        let cfg = PoseConfig { labels: sim_labels, epochs, seed: seed_cfg, lr, ..self.cfg.clone() };
+        let cfg = PoseConfig {
+            labels: sim_labels,
+            epochs: pretrained_epochs.unwrap_or(epochs),
+            seed: seed_cfg,
+            lr,
+            ..self.cfg.clone()
+        };
         let run = dir.join("pretrained");
         let weights = self.sim_run.join("model.safetensors");
         train_posenet(
@@ -195,9 +247,40 @@ impl Curve<'_> {
         let scratch = LabelMap::identity(self.labels)
             .errors(&predict_poses(&net, &scale, &held_images, self.how.size, &device), &held_truth);
 
-        let point = CurvePoint { k, seed, epochs, pretrained, scratch, map: map.describe() };
+        let point =
+            CurvePoint { k, seed, epochs, pretrained, scratch, map: map.describe(), sim_samples, pretrained_epochs };
         write_json(&done, &point)?;
         Ok(point)
+    }
+
+    /// Appends `m` of the simulated training rows (a seeded choice), with their images, to
+    /// `set` as training rows.
+    fn add_sim(&self, set: &mut Corpus, labels: &[Column], m: usize, seed: u64) -> Result<()> {
+        let mut rng = ChaCha8Rng::seed_from_u64(tacsim_data::splitmix64(seed ^ 0x5349_4d53));
+        let mut chosen = self.sim_rows.to_vec();
+        chosen.shuffle(&mut rng);
+        chosen.truncate(m);
+        chosen.sort_unstable();
+        // The simulated rows join as the kind of the lab's (taps or slides), so that the
+        // network's choice of rows (`Corpus::pose_rows`) takes both.
+        let kind = set.dataset.rows.iter().find(|r| r.split == Split::Train).map(|r| r.kind);
+        let before = set.pose_rows(Split::Train, labels).len();
+        set.images.append(&self.sim.images, &chosen)?;
+        set.dataset.rows.extend(chosen.iter().map(|&r| {
+            let mut row = self.sim.dataset.rows[r].clone();
+            row.split = Split::Train;
+            row.kind = kind.unwrap_or(row.kind);
+            row
+        }));
+        let after = set.pose_rows(Split::Train, labels).len();
+        if after != before + m {
+            return Err(ModelError::Insufficient(format!(
+                "{} of {m} simulated samples joined the {before} real ones: the labels {} select other rows",
+                after.saturating_sub(before),
+                labels.iter().map(|c| c.name()).collect::<Vec<_>>().join(", ")
+            )));
+        }
+        Ok(())
     }
 
     /// The lab's corpus with `rows` its only training rows, each labelled `relabel(pose)` in
@@ -329,6 +412,18 @@ mod tests {
         assert_eq!(epochs_for(2000, 32, 30, MIN_STEPS), 30);
         assert!(epochs_for(400, 32, 30, MIN_STEPS) * 400usize.div_ceil(32) >= MIN_STEPS);
         assert_eq!(epochs_for(10, 32, 2, 1), 2);
+    }
+
+    /// With simulated samples beside the K the pretrained arm keeps the from-scratch arm's
+    /// steps: 75 epochs of 4 batches over 100 real samples are 43 of 7 over 200, 19 of 16 over
+    /// 500; never fewer than 2 epochs.
+    #[test]
+    fn simulated_samples_keep_the_steps() {
+        assert_eq!((sim_samples(100, 0.5), sim_samples(100, 0.8), sim_samples(8, 0.0)), (100, 400, 0));
+        assert_eq!(mixed_epochs(100, 100, 32, 75), 43);
+        assert_eq!(mixed_epochs(100, 400, 32, 75), 19);
+        assert_eq!(mixed_epochs(8, 8, 32, 4), 4);
+        assert_eq!(mixed_epochs(2, 2000, 32, 1), 2);
     }
 
     /// Labels saved: the K from scratch needs for the pretrained error, log-linear between

@@ -15,7 +15,9 @@
 mod finetune;
 mod score;
 
-pub use finetune::{Curve, CurvePoint, LabelCurve, MATCH_FACTOR, MIN_STEPS, Spread, epochs_for, parse_ks, summarise};
+pub use finetune::{
+    Curve, CurvePoint, LabelCurve, MATCH_FACTOR, MAX_SIM_SHARE, MIN_STEPS, Spread, epochs_for, parse_ks, summarise,
+};
 pub use score::{Coverage, LabelScore, Scores, Scoring, coverage, score};
 
 use serde::{Deserialize, Serialize};
