@@ -15,6 +15,11 @@ fn whole(text: &str) -> Result<usize, String> {
     text.trim().parse::<usize>().map_err(|_| format!("expected a whole number, got `{text}`"))
 }
 
+/// A number of the range `accepted` (named in the error where `text` is none).
+fn number(text: &str, accepted: &str) -> Result<f64, String> {
+    text.trim().parse::<f64>().map_err(|_| format!("not a number: {text:?} (accepted: {accepted})"))
+}
+
 /// `validate --grid`: odd, in [5, [`MAX_VALIDATE_GRID`]].
 pub fn validate_grid(text: &str) -> Result<usize, String> {
     let n = whole(text)?;
@@ -45,7 +50,7 @@ pub fn finetune_min_steps(text: &str) -> Result<usize, String> {
 
 /// `--finetune-lr-scale`: a factor in (0, 1].
 pub fn finetune_lr_scale(text: &str) -> Result<f64, String> {
-    let v: f64 = text.trim().parse().map_err(|_| format!("not a number: {text:?}"))?;
+    let v = number(text, "(0, 1]")?;
     if !(v > 0.0 && v <= 1.0) {
         return Err(format!("must be in (0, 1], got {v}"));
     }
@@ -55,7 +60,7 @@ pub fn finetune_lr_scale(text: &str) -> Result<f64, String> {
 /// `--finetune-sim-share`: a share in [0, `tacsim_model::FINETUNE_MAX_SIM_SHARE`].
 pub fn finetune_sim_share(text: &str) -> Result<f64, String> {
     let max = tacsim_model::FINETUNE_MAX_SIM_SHARE;
-    let v: f64 = text.trim().parse().map_err(|_| format!("not a number: {text:?} (a share in [0, {max}])"))?;
+    let v = number(text, &format!("[0, {max}]"))?;
     if !(0.0..=max).contains(&v) {
         return Err(format!("must be in [0, {max}], got {v}"));
     }

@@ -53,7 +53,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for cells in GRIDS {
         let mut s = sensor.clone();
         s.skin.cells_across = cells;
-        if let Some(r) = edge_subcells.filter(|_| cells != GRIDS[GRIDS.len() - 1]) {
+        if let Some(r) = edge_subcells.filter(|_| Some(&cells) != GRIDS.last()) {
             s.skin.edge_subcells = r;
         }
         let mut model = ContactModel::new(&s)?;

@@ -213,9 +213,10 @@ impl Curve<'_> {
         let sim_labels = sim_scale.columns();
         let mut as_sim = self.training_set(&rows, |pose| map.sim_pose(pose), &sim_labels);
         let sim_samples = sim_samples(k, self.sim_share).min(self.sim_rows.len());
-        let pretrained_epochs = (sim_samples > 0).then(|| mixed_epochs(k, sim_samples, self.cfg.batch, epochs));
+        let mut pretrained_epochs = None;
         if sim_samples > 0 {
             self.add_sim(&mut as_sim, &sim_labels, sim_samples, seed ^ (k as u64).rotate_left(32))?;
+            pretrained_epochs = Some(mixed_epochs(k, sim_samples, self.cfg.batch, epochs));
         }
         let lr = self.cfg.lr * self.pretrained_lr_scale;
         let cfg = PoseConfig {

@@ -45,6 +45,14 @@ impl Grid {
         (k % self.nx, k / self.nx)
     }
 
+    /// The side neighbours of cell `k`: left (`-x`), right, below (`-y`) and above; `None` off
+    /// the grid.
+    pub fn sides(&self, k: usize) -> [Option<usize>; 4] {
+        let (i, j) = self.column_row(k);
+        [(i.wrapping_sub(1), j), (i + 1, j), (i, j.wrapping_sub(1)), (i, j + 1)]
+            .map(|(a, b)| (a < self.nx && b < self.ny).then(|| b * self.nx + a))
+    }
+
     /// Centre of cell `k` (mm).
     pub fn centre(&self, k: usize) -> [f64; 2] {
         let (i, j) = self.column_row(k);

@@ -267,15 +267,9 @@ fn refined_cells(coarse: &Coarse<'_>) -> (Vec<usize>, bool) {
     let grid = coarse.grid;
     let loaded = |k: usize| coarse.pressure[k] > 0.0;
     let loaded_cut = |k: usize| loaded(k) && coarse.cuts.get(k).is_some_and(Option::is_some);
-    let sides = |k: usize| {
-        let (i, j) = grid.column_row(k);
-        [(i.wrapping_sub(1), j), (i + 1, j), (i, j.wrapping_sub(1)), (i, j + 1)]
-            .into_iter()
-            .map(|(a, b)| (a < grid.nx && b < grid.ny).then(|| b * grid.nx + a))
-    };
     // The loaded cells on the contact's edge: a side neighbour unloaded or off the grid.
     let edge: Vec<bool> = (0..grid.len())
-        .map(|k| coarse.contact_edge && loaded(k) && sides(k).any(|n| n.is_none_or(|n| !loaded(n))))
+        .map(|k| coarse.contact_edge && loaded(k) && grid.sides(k).iter().any(|n| n.is_none_or(|n| !loaded(n))))
         .collect();
     let any_cut = (0..grid.len()).any(loaded_cut);
     let near_cut = |k: usize| {
@@ -284,7 +278,9 @@ fn refined_cells(coarse: &Coarse<'_>) -> (Vec<usize>, bool) {
         near(i, grid.nx).any(|a| near(j, grid.ny).any(|b| loaded_cut(b * grid.nx + a)))
     };
     let cells = (0..grid.len())
-        .filter(|&k| (any_cut && loaded(k) && near_cut(k)) || edge[k] || sides(k).flatten().any(|n| edge[n]))
+        .filter(|&k| {
+            (any_cut && loaded(k) && near_cut(k)) || edge[k] || grid.sides(k).into_iter().flatten().any(|n| edge[n])
+        })
         .collect();
     (cells, any_cut)
 }
@@ -469,12 +465,9 @@ fn subcells(fine: &FineGrid, coarse: &Coarse<'_>, cells: &[usize]) -> Vec<Sub> {
 /// is kept: every one of a loaded or cut cell, of an unloaded one those within [`OUTER_ROWS`]
 /// of a loaded side neighbour.
 fn outer_rows(coarse: &Coarse<'_>, cell: usize, r: usize) -> impl Fn(usize, usize) -> bool {
-    let grid = coarse.grid;
-    let (i, j) = grid.column_row(cell);
-    let loaded = |a: usize, b: usize| a < grid.nx && b < grid.ny && coarse.pressure[b * grid.nx + a] > 0.0;
     let whole = coarse.pressure[cell] > 0.0 || coarse.cuts.get(cell).is_some_and(Option::is_some);
     // Left, right, below, above.
-    let sides = [loaded(i.wrapping_sub(1), j), loaded(i + 1, j), loaded(i, j.wrapping_sub(1)), loaded(i, j + 1)];
+    let sides = coarse.grid.sides(cell).map(|n| n.is_some_and(|n| coarse.pressure[n] > 0.0));
     let far = r.saturating_sub(OUTER_ROWS);
     move |a, b| {
         whole
