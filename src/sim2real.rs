@@ -195,9 +195,10 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let sim_cfg = PoseConfig { labels: sim_labels.clone(), ..cfg.clone() };
     let (sim_run, real_run) = train_both(o, [&sim_cfg, &real_cfg], &sim, &real)?;
     let how = Scoring { backend: o.backend, size: o.size, adapt_norms: o.adapt_norms };
-    let Scores { labels, map, nearest, predictions } =
+    let Scores { labels, map, nearest, predictions, fitting: fitting_csv } =
         score_transfer(&how, [&sim, &real], &real_labels, [&fitting, &held_out, &sim_rows], [&sim_run, &real_run])?;
     tacsim_data::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
+    tacsim_data::write_atomic(&report_dir.join("fitting.csv"), fitting_csv.as_bytes())?;
     write_grid(&report_dir.join("grid.png"), &sim, &real, &held_out, &nearest)?;
     let coverage = transfer_coverage(&map, [&sim, &real], [&sim_rows, &fitting]);
 

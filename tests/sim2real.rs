@@ -97,6 +97,13 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
         "{csv}"
     );
     assert_eq!(csv.lines().count() as u64, held_out + 1);
+    // fitting.csv: one line per fitting image, its labels and the simulator-trained reading.
+    let fit = std::fs::read_to_string(out.join("fitting.csv")).expect("fitting.csv");
+    assert!(
+        fit.starts_with("image,pose_y,pose_y_sim_trained,pose_z,pose_z_sim_trained,pose_Rz,pose_Rz_sim_trained\n"),
+        "{fit}"
+    );
+    assert_eq!(fit.lines().count() as u64, fitting + 1);
     let grid = image::open(out.join("grid.png")).expect("grid.png");
     assert_eq!((grid.width(), grid.height()), (8 * 64, 2 * 64));
     // A rerun finds both runs finished and the set generated: the same errors.

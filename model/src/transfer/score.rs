@@ -76,6 +76,11 @@ pub struct Scores {
     /// `predictions.csv`: each held-out image's labels and both networks' readings, in the
     /// lab's frame.
     pub predictions: String,
+    /// `fitting.csv`: each fitting image's labels and the simulator-trained network's reading
+    /// through the map, in the lab's frame (where a lab diagnoses its gap, by depth or by
+    /// side, without looking at the held-out part; the real-trained network is left out: it
+    /// was trained on these images).
+    pub fitting: String,
 }
 
 /// The label map on the lab's fitting part, both networks on its held-out part; with, for
@@ -106,23 +111,21 @@ pub fn score(
     let identity = LabelMap::identity(real_labels);
     let real_read = predict_poses(&real_net, &real_scale, &test_images, how.size, &device);
     let real_err = identity.errors(&real_read, &truth);
-    let mut csv = String::from("image");
-    for c in real_labels {
-        csv.push_str(&format!(",{c},{c}_sim_trained,{c}_real_trained"));
-    }
-    csv.push('\n');
-    for (k, &r) in held_out.iter().enumerate() {
-        csv.push_str(&real.dataset.rows[r].sensor_image);
-        for (m, l) in map.links.iter().zip(&identity.links) {
-            csv.push_str(&format!(
-                ",{:.4},{:.4},{:.4}",
-                truth[k].get(l.real),
-                m.apply(&sim_read[k]),
-                l.apply(&real_read[k])
-            ));
-        }
-        csv.push('\n');
-    }
+    let sim_through_map = |read: &[Pose]| -> Vec<Vec<f64>> {
+        read.iter().map(|p| map.links.iter().map(|m| m.apply(p)).collect()).collect()
+    };
+    let real_through = |read: &[Pose]| -> Vec<Vec<f64>> {
+        read.iter().map(|p| identity.links.iter().map(|l| l.apply(p)).collect()).collect()
+    };
+    let predictions = readings_csv(
+        real,
+        real_labels,
+        held_out,
+        &truth,
+        &[("sim_trained", sim_through_map(&sim_read)), ("real_trained", real_through(&real_read))],
+    );
+    let fitting_csv =
+        readings_csv(real, real_labels, fitting, &fit_truth, &[("sim_trained", sim_through_map(&fit_read))]);
     // Chance: one constant for every image, the best on the fitting part.
     let chance = LabelMap::constant(real_labels, &fit_truth).errors(&vec![Pose::default(); truth.len()], &truth);
     let labels = map
@@ -163,7 +166,37 @@ pub fn score(
             sim_rows.iter().copied().min_by(|a, b| d(*a).total_cmp(&d(*b))).unwrap_or(0)
         })
         .collect();
-    Ok(Scores { labels, map, nearest, predictions: csv })
+    Ok(Scores { labels, map, nearest, predictions, fitting: fitting_csv })
+}
+
+/// One line per image of `rows` (`truth` its labels): the image, then per label its value and
+/// each reader's value (`readers`: a column suffix and, per image, one value per label).
+fn readings_csv(
+    real: &Corpus,
+    labels: &[Column],
+    rows: &[usize],
+    truth: &[Pose],
+    readers: &[(&str, Vec<Vec<f64>>)],
+) -> String {
+    let mut csv = String::from("image");
+    for c in labels {
+        csv.push_str(&format!(",{c}"));
+        for (name, _) in readers {
+            csv.push_str(&format!(",{c}_{name}"));
+        }
+    }
+    csv.push('\n');
+    for (k, &r) in rows.iter().enumerate() {
+        csv.push_str(&real.dataset.rows[r].sensor_image);
+        for (j, &c) in labels.iter().enumerate() {
+            csv.push_str(&format!(",{:.4}", truth[k].get(c)));
+            for (_, values) in readers {
+                csv.push_str(&format!(",{:.4}", values[k][j]));
+            }
+        }
+        csv.push('\n');
+    }
+    csv
 }
 
 /// Per link of `map`: the lab's fitting poses (`real` at `rows[1]`) in the recipe's frame
