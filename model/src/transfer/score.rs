@@ -111,21 +111,15 @@ pub fn score(
     let identity = LabelMap::identity(real_labels);
     let real_read = predict_poses(&real_net, &real_scale, &test_images, how.size, &device);
     let real_err = identity.errors(&real_read, &truth);
-    let sim_through_map = |read: &[Pose]| -> Vec<Vec<f64>> {
-        read.iter().map(|p| map.links.iter().map(|m| m.apply(p)).collect()).collect()
-    };
-    let real_through = |read: &[Pose]| -> Vec<Vec<f64>> {
-        read.iter().map(|p| identity.links.iter().map(|l| l.apply(p)).collect()).collect()
-    };
     let predictions = readings_csv(
         real,
         real_labels,
         held_out,
         &truth,
-        &[("sim_trained", sim_through_map(&sim_read)), ("real_trained", real_through(&real_read))],
+        &[("sim_trained", through(&map, &sim_read)), ("real_trained", through(&identity, &real_read))],
     );
     let fitting_csv =
-        readings_csv(real, real_labels, fitting, &fit_truth, &[("sim_trained", sim_through_map(&fit_read))]);
+        readings_csv(real, real_labels, fitting, &fit_truth, &[("sim_trained", through(&map, &fit_read))]);
     // Chance: one constant for every image, the best on the fitting part.
     let chance = LabelMap::constant(real_labels, &fit_truth).errors(&vec![Pose::default(); truth.len()], &truth);
     let labels = map
@@ -167,6 +161,11 @@ pub fn score(
         })
         .collect();
     Ok(Scores { labels, map, nearest, predictions, fitting: fitting_csv })
+}
+
+/// Each reading in the lab's frame through `map`, one value per link.
+fn through(map: &LabelMap, read: &[Pose]) -> Vec<Vec<f64>> {
+    read.iter().map(|p| map.links.iter().map(|l| l.apply(p)).collect()).collect()
 }
 
 /// One line per image of `rows` (`truth` its labels): the image, then per label its value and
