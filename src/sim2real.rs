@@ -10,7 +10,8 @@
 //!    simulator-trained network's readings of the fitting part, then both networks on the
 //!    held-out part (the 20% `tacsim calibrate` never fits either);
 //! 4. `report.md`, `report.json`, `predictions.csv` (each held-out image's labels and both
-//!    networks' readings, in the lab's frame) and `grid.png` (held-out real images beside the
+//!    networks' readings, in the lab's frame), `fitting.csv` (each fitting image's labels and
+//!    the simulator-trained reading) and `grid.png` (held-out real images beside the
 //!    simulated image nearest them in label), in `--report` (default `--out`).
 //!
 //! Every label that varies over the lab's fitting part is scored (the edge recordings'
@@ -55,7 +56,7 @@ pub struct Sim2RealOptions {
     /// Work directory: the simulated set (sim/) and the two runs; rerun to resume.
     #[arg(long)]
     pub out: PathBuf,
-    /// Where report.md, report.json and grid.png go (default: --out).
+    /// Where report.md, report.json, predictions.csv, fitting.csv and grid.png go (default: --out).
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Pose network config (TOML, the fields of `tacsim train posenet --config`) for both
