@@ -15,7 +15,7 @@ fn whole(text: &str) -> Result<usize, String> {
     text.trim().parse::<usize>().map_err(|_| format!("expected a whole number, got `{text}`"))
 }
 
-/// A number of the range `accepted` (named in the error where `text` is none).
+/// `text` as a number; where it is not one, the error names `accepted`, the flag's range.
 fn number(text: &str, accepted: &str) -> Result<f64, String> {
     text.trim().parse::<f64>().map_err(|_| format!("not a number: {text:?} (accepted: {accepted})"))
 }
