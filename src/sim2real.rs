@@ -3,6 +3,9 @@
 //! One pipeline, each stage a named step whose output lands under `--out`, so an interrupted
 //! run resumes where it stopped:
 //! 1. `generate_sim`: the recipe's dataset with the sensor (`sim/`), or `--sim`, one made before;
+//!    With `--input motion`, `motion_inputs` then puts each image's pin motion from its own
+//!    domain's undeformed reference in place of the pin image, in both sets
+//!    (`tacsim_sim::PinMotion`; computed again on a resumed run, in about a minute);
 //! 2. `train_both`: the pose network on the simulated images (`sim-posenet/`) and the same
 //!    network, same settings, on the lab folder's fitting part (`real-posenet/`);
 //! 3. `score_transfer` (tacsim-model's `transfer::score`): the label map (component, sign and
@@ -75,6 +78,12 @@ pub struct Sim2RealOptions {
     /// Backend: flex (default); wgpu, cuda and ndarray with the crate features of those names.
     #[arg(long, default_value = "flex")]
     pub backend: Backend,
+    /// What both networks read: `pins`, the pin images; `motion`, each image's pin motion
+    /// from its own domain's undeformed reference (the simulated set's `reference_image`, the
+    /// lab folder's reference as `tacsim calibrate` takes it), which does not carry where the
+    /// sensor's pins sit off the simulated lattice.
+    #[arg(long, value_enum, default_value_t = Input::Pins)]
+    pub input: Input,
     /// Re-estimate the simulator-trained network's batch-norm statistics on the lab's fitting
     /// images (their labels unused) before the map is fitted and the held-out part scored:
     /// unsupervised adaptation (AdaBN); the weights stay trained on simulated images only.
@@ -110,6 +119,18 @@ pub struct Sim2RealOptions {
     pub quiet: bool,
 }
 
+/// What the networks read (`--input`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Input {
+    /// The pin images, as rendered and as recorded.
+    #[default]
+    Pins,
+    /// Each image's pin motion from its domain's undeformed reference, drawn as an image
+    /// (`tacsim_sim::PinMotion`).
+    Motion,
+}
+
 /// `report.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct Sim2RealReport {
@@ -129,6 +150,10 @@ pub struct Sim2RealReport {
     pub real_held_out: usize,
     /// The pose networks' settings (both; `labels` are the lab's, the real-trained network's).
     pub posenet: PoseConfig,
+    /// What both networks read.
+    pub input: Input,
+    /// With `--input motion`, the references the motion is tracked from (simulated, lab).
+    pub motion_references: Option<[String; 2]>,
     /// Whether the simulator-trained network's batch-norm statistics were re-estimated on the
     /// lab's fitting images (`--adapt-norms`).
     pub adapt_norms: bool,
@@ -160,9 +185,18 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         let (recipe, _) = crate::dataset::load_recipe(Some(&o.recipe))?;
         crate::dataset::recipe_base_sensor(&recipe, &generate_options(o))?;
     }
+    if o.input == Input::Motion && (o.lab.crop.is_some() || o.lab.threshold.is_some()) {
+        bail!(
+            "--input motion tracks the lab's images at their own size, cut about their pin field as `tacsim calibrate` \
+             cuts them: drop --crop and --threshold"
+        );
+    }
+    if o.input == Input::Motion && o.size % 2 == 1 {
+        bail!("--input motion draws the motion along x above the motion along y: --size must be even, got {}", o.size);
+    }
     let report_dir = o.report.clone().unwrap_or_else(|| o.out.clone());
     let _made = crate::commands::ensure_writable(&o.out)?.and(crate::commands::ensure_writable(&report_dir)?);
-    let real = Corpus::open_lab(&o.real, &o.lab.preprocess(o.size))
+    let mut real = Corpus::open_lab(&o.real, &o.lab.preprocess(o.size))
         .with_context(|| format!("{} is not a lab folder (targets.csv + images/)", o.real.display()))?;
     let lab_train: Vec<usize> =
         (0..real.dataset.rows.len()).filter(|&r| real.dataset.rows[r].split == Split::Train).collect();
@@ -186,9 +220,13 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         Some(dir) => dir.clone(),
         None => generate_sim(o)?,
     };
-    let sim = Corpus::open(&sim_dir, o.size).with_context(|| {
+    let mut sim = Corpus::open(&sim_dir, o.size).with_context(|| {
         format!("{} is not a simulated dataset (meta.json, targets.csv, images/)", sim_dir.display())
     })?;
+    let motion_references = match o.input {
+        Input::Pins => None,
+        Input::Motion => Some(motion_inputs(&mut sim, &mut real, o.size)?),
+    };
     let sim_rows = sim.pose_rows(Split::Train, &real_labels);
     let sim_labels = sim.varying(&Column::ALL, &sim_rows);
     if sim_labels.is_empty() {
@@ -213,6 +251,8 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         real_fitting: fitting.len(),
         real_held_out: held_out.len(),
         posenet: real_cfg,
+        input: o.input,
+        motion_references,
         adapt_norms: o.adapt_norms,
         map: map.describe(),
         labels,
@@ -270,6 +310,48 @@ fn generate_options(o: &Sim2RealOptions) -> GenerateOptions {
     }
 }
 
+/// Step 1b (`--input motion`): every image of both sets replaced by its pin motion
+/// (`tacsim_sim::PinMotion`, at the network side `side`) from its own domain's undeformed
+/// reference: the simulated set's `reference_image`; the lab folder's `image_0.png` where it
+/// has one, else the consensus of its taps that touch nothing (`tacsim calibrate`'s
+/// reference; each recording cut about the reference's pin field as calibrate cuts it).
+/// Returns the two references, described.
+fn motion_inputs(sim: &mut Corpus, real: &mut Corpus, side: usize) -> Result<[String; 2]> {
+    use rayon::prelude::*;
+    use tacsim_sim::PinMotion;
+    use tacsim_sim::calibrate::{ConsensusRule, Reference};
+    let side_px = side as u32;
+    let data = &sim.dataset;
+    let sim_reference = data.reference().with_context(|| format!("the undeformed image of {}", data.dir.display()))?;
+    let sim_source =
+        format!("{} (the set's undeformed image)", data.dir.join("images").join(&data.meta.reference_image).display());
+    let motion = PinMotion::new(&sim_reference, &sim_source)?.within(tacsim_sim::MOTION_FIELD);
+    let images = data
+        .rows
+        .par_iter()
+        .map(|row| -> Result<Vec<u8>> {
+            let name = data.image_path(row).display().to_string();
+            Ok(motion.image(&data.image(row)?, side_px, &name)?.into_raw())
+        })
+        .collect::<Result<Vec<_>>>()?;
+    sim.images = tacsim_model::ImageSet::from_raw(side, &images)?;
+
+    let folder = tacsim_data::LabFolder::open(&real.dataset.dir)?;
+    let reference = Reference::of(&folder, None, ConsensusRule::Alike)?;
+    let real_source = reference.describe();
+    let motion = PinMotion::new(&reference.image, &real_source)?.within(tacsim_sim::MOTION_FIELD);
+    let images = folder
+        .samples
+        .par_iter()
+        .map(|s| -> Result<Vec<u8>> {
+            let path = folder.image_path(s);
+            Ok(motion.image(&reference.read(&path)?, side_px, &path.display().to_string())?.into_raw())
+        })
+        .collect::<Result<Vec<_>>>()?;
+    real.images = tacsim_model::ImageSet::from_raw(side, &images)?;
+    Ok([sim_source, real_source])
+}
+
 /// Step 2: the pose network on each domain (each resumed when a previous run started it).
 fn train_both(o: &Sim2RealOptions, cfg: [&PoseConfig; 2], sim: &Corpus, real: &Corpus) -> Result<(PathBuf, PathBuf)> {
     let runs =
@@ -306,7 +388,7 @@ fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], near
 
 fn markdown(r: &Sim2RealReport) -> String {
     let mut s = format!(
-        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s in this run (stages found finished in the work folder not counted).{}\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
+        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s in this run (stages found finished in the work folder not counted).{}{}\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
         r.recipe,
         r.real,
         r.command,
@@ -322,6 +404,12 @@ fn markdown(r: &Sim2RealReport) -> String {
             " The simulator-trained network's batch-norm statistics were re-estimated on the fitting part's images (`--adapt-norms`, labels unused); its weights are trained on simulated images only."
         } else {
             ""
+        },
+        match &r.motion_references {
+            Some([sim, real]) => format!(
+                " Both networks read pin motion (`--input motion`): each image's pins tracked from its domain's undeformed reference, {sim} and {real}, and drawn as the motion along x above the motion along y."
+            ),
+            None => String::new(),
         },
         r.map.join("; "),
     );

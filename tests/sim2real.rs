@@ -198,6 +198,38 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     assert_eq!(table(&from_set), table(&text));
     let e = err(&["sim2real", "--real", s(&lab), "--sim", s(&lab), "--out", s(&dir.join("bad-set")), "-q"]);
     assert!(e.contains("is not a simulated dataset") && e.contains("meta.json"), "{e}");
+
+    // `--input motion`: both networks read pin motion from their own domain's reference (the
+    // lab folder has no undeformed image: the consensus of its taps); the report says so, and
+    // a resumed run reads the same motion to the same errors.
+    let motion_out = dir.join("motion");
+    let motion = ["sim2real", "--real", s(&lab), "--sim", s(&set), "--out", s(&motion_out), "--input", "motion"];
+    let first = ok(&[&motion[..], &["--epochs", "2", "-q"]].concat());
+    assert!(first.contains("Both networks read pin motion") && first.contains("consensus"), "{first}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(motion_out.join("report.json")).expect("report.json"))
+            .expect("json");
+    assert_eq!(report["input"], "motion");
+    assert!(report["motion_references"][0].as_str().expect("sim reference").contains("image_0.png"), "{report}");
+    assert_eq!(table(&ok(&[&motion[..], &["--epochs", "2", "-q"]].concat())), table(&first));
+    // The lab's crop or threshold does not apply to tracked motion: refused before any work.
+    let refused = dir.join("motion-threshold");
+    let e = err(&[
+        "sim2real",
+        "--real",
+        s(&lab),
+        "--sim",
+        s(&set),
+        "--out",
+        s(&refused),
+        "--input",
+        "motion",
+        "--threshold",
+        "128",
+        "-q",
+    ]);
+    assert!(e.contains("--input motion") && e.contains("--threshold"), "{e}");
+    assert!(!refused.exists(), "nothing written before the check");
 }
 
 #[test]

@@ -10,7 +10,9 @@ projected displacement taken per bin over the taps of a band: the profile runs n
 near side and positive on the far side of where the pins spread from, the dent's centre. The
 table gives that zero crossing (px from the image centre along the normal) per lateral band
 (lab `pose_2`, simulated through lab = OFFSET - simulated x) and depth band (`pose_3`, simulated
-through lab = simulated depth + SHIFT). Needs numpy, pillow, scipy.
+through lab = simulated depth + SHIFT), and the crossing's mean move from the shallow band to
+the deep one over the lateral bands both hold (negative: towards the image centre). Needs
+numpy, pillow, scipy.
 
     python3 docs/sim2real-edge2d/edge_profile.py ../shared/data/real-tactip-edge2d [SIMSET OFFSET SHIFT]...
 """
@@ -52,12 +54,17 @@ def crossing(rest, moves, angles):
 
 def table(name, rest, moves, lateral, depth, angles):
     print(f"{name}: crossing (px) by lateral band " + " ".join(f"[{a:+d},{b:+d})" for a, b in LATERAL))
+    rows = []
     for dlo, dhi in DEPTH:
         cells = []
         for lo, hi in LATERAL:
             m = np.where((lateral >= lo) & (lateral < hi) & (depth >= dlo) & (depth < dhi))[0]
-            cells.append(f"{crossing(rest, [moves[i] for i in m], angles[m]):+7.1f}" if len(m) else "     - ")
-        print(f"   pose_3 {dlo:.1f}-{dhi:.1f} mm  " + " ".join(cells))
+            cells.append(crossing(rest, [moves[i] for i in m], angles[m]) if len(m) else np.nan)
+        rows.append(cells)
+        print(f"   pose_3 {dlo:.1f}-{dhi:.1f} mm  " + " ".join(f"{c:+7.1f}" if np.isfinite(c) else "     - " for c in cells))
+    moved = np.array(rows[-1]) - np.array(rows[0])
+    ok = np.isfinite(moved)
+    print(f"   deep minus shallow, mean over {ok.sum()} lateral bands: {moved[ok].mean():+.2f} px (- inward)")
 
 
 def main(real_dir, sims):

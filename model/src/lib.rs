@@ -48,7 +48,7 @@ pub use config::{Mode, PoseConfig, UnshearConfig};
 pub use data::Corpus;
 pub use error::{ModelError, Result};
 pub use eval::{Report as EvalReport, corpus_images, evaluate, markdown as eval_markdown, predict_poses, run_size};
-pub use images::{Preprocess, to_images};
+pub use images::{ImageSet, Preprocess, to_images};
 pub use infer::{PoseReader, load_posenet, load_unshear};
 pub use metrics::{MetricError, ms_ssim, mse, ssim};
 pub use network::Size;

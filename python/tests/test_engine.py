@@ -218,3 +218,9 @@ def test_sim2real_runs_the_command_line_tool_and_says_what_is_missing(tmp_path, 
         tacsim.sim2real(tmp_path / "no-lab", tmp_path / "out", finetune=[25, "all"], tacsim_bin=tacsim_binary())
     assert "lab folder" in str(e.value)
     assert not (tmp_path / "out").exists()
+    # `input` reaches the tool's flag: motion with a threshold is refused, before any work.
+    with pytest.raises(RuntimeError) as e:
+        tacsim.sim2real(tmp_path / "no-lab", tmp_path / "out", input="motion", extra=["--threshold", "128"],
+                        tacsim_bin=tacsim_binary())
+    assert "--input motion" in str(e.value)
+    assert not (tmp_path / "out").exists()
