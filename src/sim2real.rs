@@ -2,7 +2,7 @@
 //!
 //! One pipeline, each stage a named step whose output lands under `--out`, so an interrupted
 //! run resumes where it stopped:
-//! 1. `generate_sim`: the recipe's dataset with the sensor (`sim/`), or `--sim`, one made before;
+//! 1. `generate_sim`: the recipe's dataset with the sensor (`sim/`), or `--sim`, one made before.
 //!    With `--input motion`, `motion_inputs` then puts each image's pin motion from its own
 //!    domain's undeformed reference in place of the pin image, in both sets
 //!    (`tacsim_sim::PinMotion`; computed again on a resumed run, in about a minute);
@@ -190,9 +190,6 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
             "--input motion tracks the lab's images at their own size, cut about their pin field as `tacsim calibrate` \
              cuts them: drop --crop and --threshold"
         );
-    }
-    if o.input == Input::Motion && o.size % 2 == 1 {
-        bail!("--input motion draws the motion along x above the motion along y: --size must be even, got {}", o.size);
     }
     let report_dir = o.report.clone().unwrap_or_else(|| o.out.clone());
     let _made = crate::commands::ensure_writable(&o.out)?.and(crate::commands::ensure_writable(&report_dir)?);
