@@ -67,6 +67,17 @@ pub fn finetune_sim_share(text: &str) -> Result<f64, String> {
     Ok(v)
 }
 
+/// `sim2real --motion-field`: a fraction of the image's half-side in
+/// [[`tacsim_sim::MIN_MOTION_FIELD`], 1].
+pub fn motion_field(text: &str) -> Result<f64, String> {
+    let min = tacsim_sim::MIN_MOTION_FIELD;
+    let v = number(text, &format!("[{min}, 1]"))?;
+    if !(min..=1.0).contains(&v) {
+        return Err(format!("must be in [{min}, 1] (a fraction of the image's half-side), got {v}"));
+    }
+    Ok(v)
+}
+
 /// The most worker threads: [`THREADS_PER_CORE`] per core of this machine.
 pub fn max_threads() -> usize {
     THREADS_PER_CORE * std::thread::available_parallelism().map_or(1, |n| n.get())

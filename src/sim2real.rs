@@ -84,6 +84,12 @@ pub struct Sim2RealOptions {
     /// sensor's pins sit off the simulated lattice.
     #[arg(long, value_enum, default_value_t = Input::Pins)]
     pub input: Input,
+    /// With `--input motion`: the pins tracked, those within this fraction of the image's
+    /// half-side from its centre, in [0.2, 1] (default 0.6875, 44 px of 64: the edge taps'
+    /// outer ring spreads into the rim's clutter; 1, every pin, reads the surface presses
+    /// better).
+    #[arg(long, value_parser = crate::flags::motion_field)]
+    pub motion_field: Option<f64>,
     /// Re-estimate the simulator-trained network's batch-norm statistics on the lab's fitting
     /// images (their labels unused) before the map is fitted and the held-out part scored:
     /// unsupervised adaptation (AdaBN); the weights stay trained on simulated images only.
@@ -154,6 +160,8 @@ pub struct Sim2RealReport {
     pub input: Input,
     /// With `--input motion`, the references the motion is tracked from (simulated, lab).
     pub motion_references: Option<[String; 2]>,
+    /// With `--input motion`, the part of the pin field tracked (`--motion-field`).
+    pub motion_field: Option<f64>,
     /// Whether the simulator-trained network's batch-norm statistics were re-estimated on the
     /// lab's fitting images (`--adapt-norms`).
     pub adapt_norms: bool,
@@ -185,6 +193,12 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         let (recipe, _) = crate::dataset::load_recipe(Some(&o.recipe))?;
         crate::dataset::recipe_base_sensor(&recipe, &generate_options(o))?;
     }
+    if o.input == Input::Pins && o.motion_field.is_some() {
+        bail!(
+            "--motion-field sets the part of the pin field tracked with --input motion: add --input motion or drop it"
+        );
+    }
+    let motion_field = (o.input == Input::Motion).then(|| o.motion_field.unwrap_or(tacsim_sim::MOTION_FIELD));
     if o.input == Input::Motion && (o.lab.crop.is_some() || o.lab.threshold.is_some()) {
         bail!(
             "--input motion tracks the lab's images at their own size, cut about their pin field as `tacsim calibrate` \
@@ -220,9 +234,9 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let mut sim = Corpus::open(&sim_dir, o.size).with_context(|| {
         format!("{} is not a simulated dataset (meta.json, targets.csv, images/)", sim_dir.display())
     })?;
-    let motion_references = match o.input {
-        Input::Pins => None,
-        Input::Motion => Some(motion_inputs(&mut sim, &mut real, o.size)?),
+    let motion_references = match motion_field {
+        None => None,
+        Some(field) => Some(motion_inputs(&mut sim, &mut real, o.size, field)?),
     };
     let sim_rows = sim.pose_rows(Split::Train, &real_labels);
     let sim_labels = sim.varying(&Column::ALL, &sim_rows);
@@ -250,6 +264,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         posenet: real_cfg,
         input: o.input,
         motion_references,
+        motion_field,
         adapt_norms: o.adapt_norms,
         map: map.describe(),
         labels,
@@ -308,12 +323,13 @@ fn generate_options(o: &Sim2RealOptions) -> GenerateOptions {
 }
 
 /// Step 1b (`--input motion`): every image of both sets replaced by its pin motion
-/// (`tacsim_sim::PinMotion`, at the network side `side`) from its own domain's undeformed
+/// (`tacsim_sim::PinMotion`, at the network side `side`, the pins within `field` of the
+/// half-side from the image's centre) from its own domain's undeformed
 /// reference: the simulated set's `reference_image`; the lab folder's `image_0.png` where it
 /// has one, else the consensus of its taps that touch nothing (`tacsim calibrate`'s
 /// reference; each recording cut about the reference's pin field as calibrate cuts it).
 /// Returns the two references, described.
-fn motion_inputs(sim: &mut Corpus, real: &mut Corpus, side: usize) -> Result<[String; 2]> {
+fn motion_inputs(sim: &mut Corpus, real: &mut Corpus, side: usize, field: f64) -> Result<[String; 2]> {
     use rayon::prelude::*;
     use tacsim_sim::PinMotion;
     use tacsim_sim::calibrate::{ConsensusRule, Reference};
@@ -322,7 +338,7 @@ fn motion_inputs(sim: &mut Corpus, real: &mut Corpus, side: usize) -> Result<[St
     let sim_reference = data.reference().with_context(|| format!("the undeformed image of {}", data.dir.display()))?;
     let sim_source =
         format!("{} (the set's undeformed image)", data.dir.join("images").join(&data.meta.reference_image).display());
-    let motion = PinMotion::new(&sim_reference, &sim_source)?.within(tacsim_sim::MOTION_FIELD);
+    let motion = PinMotion::new(&sim_reference, &sim_source)?.within(field);
     let images = data
         .rows
         .par_iter()
@@ -336,7 +352,7 @@ fn motion_inputs(sim: &mut Corpus, real: &mut Corpus, side: usize) -> Result<[St
     let folder = tacsim_data::LabFolder::open(&real.dataset.dir)?;
     let reference = Reference::of(&folder, None, ConsensusRule::Alike)?;
     let real_source = reference.describe();
-    let motion = PinMotion::new(&reference.image, &real_source)?.within(tacsim_sim::MOTION_FIELD);
+    let motion = PinMotion::new(&reference.image, &real_source)?.within(field);
     let images = folder
         .samples
         .par_iter()
@@ -402,11 +418,11 @@ fn markdown(r: &Sim2RealReport) -> String {
         } else {
             ""
         },
-        match &r.motion_references {
-            Some([sim, real]) => format!(
-                " Both networks read pin motion (`--input motion`): each image's pins tracked from its domain's undeformed reference, {sim} and {real}, and drawn as the motion along x above the motion along y."
+        match (&r.motion_references, r.motion_field) {
+            (Some([sim, real]), Some(field)) => format!(
+                " Both networks read pin motion (`--input motion`): each image's pins within {field} of the half-side from its centre tracked from its domain's undeformed reference, {sim} and {real}, and drawn as the motion along x above the motion along y."
             ),
-            None => String::new(),
+            _ => String::new(),
         },
         r.map.join("; "),
     );

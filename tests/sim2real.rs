@@ -211,25 +211,36 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
             .expect("json");
     assert_eq!(report["input"], "motion");
     assert!(report["motion_references"][0].as_str().expect("sim reference").contains("image_0.png"), "{report}");
+    assert_eq!(report["motion_field"], 0.6875, "the default part of the pin field");
+    assert!(first.contains("within 0.6875 of the half-side"), "{first}");
     assert_eq!(table(&ok(&[&motion[..], &["--epochs", "2", "-q"]].concat())), table(&first));
-    // The lab's crop or threshold does not apply to tracked motion: refused before any work.
-    let refused = dir.join("motion-threshold");
-    let e = err(&[
-        "sim2real",
-        "--real",
-        s(&lab),
-        "--sim",
-        s(&set),
-        "--out",
-        s(&refused),
-        "--input",
-        "motion",
-        "--threshold",
-        "128",
-        "-q",
-    ]);
+    // `--motion-field 1`: every pin tracked, said in both reports; a fraction outside [0.2, 1]
+    // and the flag without motion are refused before any work.
+    let every_out = dir.join("motion-every-pin");
+    let every = ["sim2real", "--real", s(&lab), "--sim", s(&set), "--out", s(&every_out), "--input", "motion"];
+    let text = ok(&[&every[..], &["--motion-field", "1", "--epochs", "2", "-q"]].concat());
+    assert!(text.contains("within 1 of the half-side"), "{text}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(every_out.join("report.json")).expect("report.json"))
+            .expect("json");
+    assert_eq!(report["motion_field"], 1.0);
+    // A refused run's error, nothing written before the check.
+    let refuse = |name: &str, flags: &[&str]| {
+        let out = dir.join(name);
+        let e =
+            err(&[&["sim2real", "--real", s(&lab), "--sim", s(&set), "--out", s(&out)][..], flags, &["-q"]].concat());
+        assert!(!out.exists(), "nothing written before the check: {e}");
+        e
+    };
+    for bad in ["0.1", "1.5", "nan", "x"] {
+        let e = refuse("motion-field-bad", &["--input", "motion", &format!("--motion-field={bad}")]);
+        assert!(e.contains("--motion-field") && e.contains("[0.2, 1]"), "{bad}: {e}");
+    }
+    let e = refuse("motion-field-pins", &["--motion-field", "1"]);
+    assert!(e.contains("--motion-field") && e.contains("--input motion"), "{e}");
+    // The lab's crop or threshold does not apply to tracked motion.
+    let e = refuse("motion-threshold", &["--input", "motion", "--threshold", "128"]);
     assert!(e.contains("--input motion") && e.contains("--threshold"), "{e}");
-    assert!(!refused.exists(), "nothing written before the check");
 }
 
 #[test]

@@ -20,10 +20,12 @@ from pathlib import Path
 
 def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs=None, seed=None,
              finetune=None, finetune_seeds=None, finetune_min_steps=None, finetune_lr_scale=None,
-             finetune_sim_share=None, input=None, report=None, extra=(), tacsim_bin=None):  # noqa: A002
+             finetune_sim_share=None, input=None, motion_field=None, report=None, extra=(),  # noqa: A002
+             tacsim_bin=None):
     """Runs ``tacsim sim2real --real REAL --out OUT`` with the options given (the flags of the
     same names; ``finetune`` a list of sample counts and ``"all"``; ``input`` ``"pins"`` or
-    ``"motion"``, what the networks read) and returns
+    ``"motion"``, what the networks read; ``motion_field`` with ``"motion"``, the part of the
+    pin field tracked, a fraction of the image's half-side in [0.2, 1]) and returns
     ``{"report": ..., "finetune": ...}``: ``report.json`` and, with ``finetune``,
     ``finetune.json`` (``None`` without). Raises ``FileNotFoundError`` where no tool is found
     and ``RuntimeError`` with the tool's message where it fails."""
@@ -38,7 +40,7 @@ def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs
         "--recipe": recipe, "--sensor": sensor, "--sim": sim, "--size": size, "--epochs": epochs,
         "--seed": seed, "--finetune-seeds": finetune_seeds, "--finetune-min-steps": finetune_min_steps,
         "--finetune-lr-scale": finetune_lr_scale, "--finetune-sim-share": finetune_sim_share,
-        "--input": input, "--report": report,
+        "--input": input, "--motion-field": motion_field, "--report": report,
     }
     for flag, value in flags.items():
         if value is not None:

@@ -38,11 +38,16 @@ pub const FADE: f64 = 0.1;
 /// Motion (px of a 128 px image) from mid-grey to white.
 pub const GREY_PX128: f64 = 8.0;
 
-/// The part of the pin field a motion image is drawn from (`PinMotion::within`): the pins
-/// within this fraction of the half-side of the image's centre (44 px of 64 at 128 px; the
-/// 331-pin TacTips' outer ring sits at 48 px, next to the rim, where a deep press spreads it
-/// into the rim's clutter in the real images).
+/// The part of the pin field a motion image is drawn from by default (`PinMotion::within`;
+/// `tacsim sim2real --motion-field` sets another): the pins within this fraction of the
+/// half-side of the image's centre (44 px of 64 at 128 px; the 331-pin TacTips' outer ring
+/// sits at 48 px, next to the rim, where a deep press spreads it into the rim's clutter in the
+/// real edge images; the surface presses read better with it, at 1).
 pub const MOTION_FIELD: f64 = 44.0 / 64.0;
+
+/// The smallest part of the pin field a motion image is drawn from (a fraction of the
+/// half-side, as [`MOTION_FIELD`]): about 20 pins of a 331-pin TacTip.
+pub const MIN_MOTION_FIELD: f64 = 0.2;
 
 /// The reference pins of a sensor's undeformed image, to track its other images from.
 #[derive(Clone, Debug)]
