@@ -74,16 +74,22 @@ def report(name, lateral, depth, read_lateral, read_depth):
     print(f"   lateral bias against depth: {slope:+.2f} mm per mm; " + "; ".join(cells))
 
 
-def main(real_dir, args):
-    rows = [r for r in csv.DictReader(open(f"{real_dir}/targets.csv")) if not is_held_out(r["sensor_image"])]
+def lab_fields(real_dir, keep=lambda name: True):
+    """The lab's taps whose image name `keep` accepts: their motion fields (tracked from the
+    consensus of these taps), lateral labels and depths."""
+    rows = [r for r in csv.DictReader(open(f"{real_dir}/targets.csv")) if keep(r["sensor_image"])]
     names = [r["sensor_image"] for r in rows]
     depth = np.array([float(r["pose_3"]) for r in rows])
     lateral = np.array([float(r["pose_2"]) for r in rows])
     yaw = np.array([float(r["pose_6"]) for r in rows])
     images = np.array([load(f"{real_dir}/images/{n}") for n in names])
     reference = images[alike_group(images, depth)].mean(0) > 0.5
-    real = fields(real_dir, names, np.radians(90.0 - yaw), reference)
-    print(f"{real_dir}: {len(rows)} fitting taps, K = {K}")
+    return fields(real_dir, names, np.radians(90.0 - yaw), reference), lateral, depth
+
+
+def main(real_dir, args):
+    real, lateral, depth = lab_fields(real_dir, lambda name: not is_held_out(name))
+    print(f"{real_dir}: {len(real)} fitting taps, K = {K}")
     while args:
         if args[0] == "real":
             args = args[1:]
