@@ -57,25 +57,24 @@ pub fn finetune_lr_scale(text: &str) -> Result<f64, String> {
     Ok(v)
 }
 
-/// `--finetune-sim-share`: a share in [0, `tacsim_model::FINETUNE_MAX_SIM_SHARE`].
-pub fn finetune_sim_share(text: &str) -> Result<f64, String> {
-    let max = tacsim_model::FINETUNE_MAX_SIM_SHARE;
-    let v = number(text, &format!("[0, {max}]"))?;
-    if !(0.0..=max).contains(&v) {
-        return Err(format!("must be in [0, {max}], got {v}"));
+/// `text` as a number in the closed range `[lo, hi]`; the error names the range.
+fn closed(text: &str, lo: f64, hi: f64) -> Result<f64, String> {
+    let v = number(text, &format!("[{lo}, {hi}]"))?;
+    if !(lo..=hi).contains(&v) {
+        return Err(format!("must be in [{lo}, {hi}], got {v}"));
     }
     Ok(v)
+}
+
+/// `--finetune-sim-share`: a share in [0, `tacsim_model::FINETUNE_MAX_SIM_SHARE`].
+pub fn finetune_sim_share(text: &str) -> Result<f64, String> {
+    closed(text, 0.0, tacsim_model::FINETUNE_MAX_SIM_SHARE)
 }
 
 /// `sim2real --motion-field`: a fraction of the image's half-side in
 /// [[`tacsim_sim::MIN_MOTION_FIELD`], 1].
 pub fn motion_field(text: &str) -> Result<f64, String> {
-    let min = tacsim_sim::MIN_MOTION_FIELD;
-    let v = number(text, &format!("[{min}, 1]"))?;
-    if !(min..=1.0).contains(&v) {
-        return Err(format!("must be in [{min}, 1] (a fraction of the image's half-side), got {v}"));
-    }
-    Ok(v)
+    closed(text, tacsim_sim::MIN_MOTION_FIELD, 1.0)
 }
 
 /// The most worker threads: [`THREADS_PER_CORE`] per core of this machine.

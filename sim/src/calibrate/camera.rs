@@ -6,7 +6,6 @@
 
 use image::GrayImage;
 
-use super::observe::SPACING_PX420;
 use super::reference::Reference;
 use crate::calibrate::rings::{
     Comparison, RingProfile, compare_sensor, fit_camera_at, fit_framing, fit_ring_angles, ring_profile,
@@ -14,6 +13,7 @@ use crate::calibrate::rings::{
 use crate::camera::Disc;
 use crate::detect::{match_reference, pin_centres, tip_pixels};
 use crate::error::Result;
+use crate::motion::SPACING_PX420;
 use crate::render::{MIN_OFFSET_GAP_PX, PinRenderer, closest_pair};
 use crate::sensor::{MAX_IMAGE_OFFSET, SensorParams};
 

@@ -22,6 +22,7 @@ mod reference;
 mod report;
 pub(crate) mod rings;
 
+pub use crate::motion::SPACING_PX420;
 pub use camera::{CameraFit, fit_camera_only, fit_pin_offsets};
 pub use dome::{DOME_STEPS, DomePoint, DomeScore, DomeSearch, DomeTrial, GEL_RATIO_RANGE, dome_start, search_dome};
 pub use edge::{
@@ -32,7 +33,7 @@ pub use evaluate::{Field, Simulator};
 pub use fitting::{Calibration, Candidate, FitOptions, Problem, RecordingSplit, calibrate as fit};
 pub use frame::{FrameFit, ImageMap, ShiftSample, best_frame, label_frame, shift_samples};
 pub use model::{Deformation, SampleError};
-pub use observe::{Observation, Observations, SPACING_PX420};
+pub use observe::{Observation, Observations};
 pub use reference::{
     CONSENSUS_MIN, CONSENSUS_POOL, ConsensusRule, DEFAULT_REFERENCE, PinField, Reference, ReferenceSource, SquareCrop,
 };

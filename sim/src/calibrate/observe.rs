@@ -7,7 +7,6 @@ use tacsim_data::{LabFolder, LabSample};
 use super::reference::Reference;
 use crate::error::Result;
 use crate::motion::PinMotion;
-pub use crate::motion::SPACING_PX420;
 use crate::tracking::Tracking;
 
 /// One tracked real sample.
