@@ -77,6 +77,16 @@ pub fn motion_field(text: &str) -> Result<f64, String> {
     closed(text, tacsim_sim::MIN_MOTION_FIELD, 1.0)
 }
 
+/// `--turns`: a whole number in [1, `tacsim_model::MAX_TURNS`].
+pub fn turns(text: &str) -> Result<usize, String> {
+    let range = format!("[1, {}]", tacsim_model::MAX_TURNS);
+    match whole(text) {
+        Ok(n) if (1..=tacsim_model::MAX_TURNS).contains(&n) => Ok(n),
+        Ok(n) => Err(format!("must be in {range}, got {n}")),
+        Err(e) => Err(format!("{e} (accepted: {range})")),
+    }
+}
+
 /// The most worker threads: [`THREADS_PER_CORE`] per core of this machine.
 pub fn max_threads() -> usize {
     THREADS_PER_CORE * std::thread::available_parallelism().map_or(1, |n| n.get())

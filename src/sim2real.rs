@@ -95,6 +95,12 @@ pub struct Sim2RealOptions {
     /// unsupervised adaptation (AdaBN); the weights stay trained on simulated images only.
     #[arg(long)]
     pub adapt_norms: bool,
+    /// With `--input motion` on a set in an edge's frame: the simulator-trained network reads
+    /// each lab image this many times, turned about its centre by 360/N deg steps, its readings
+    /// averaged with the yaw turned back (1 to 64; 1: the images as they are). The
+    /// real-trained network and the fine-tuning curve read the images as they are.
+    #[arg(long, default_value_t = 1, value_parser = crate::flags::turns)]
+    pub turns: usize,
     /// After the zero-shot run, the fine-tuning curve: for each of these counts K of the lab's
     /// labelled fitting samples (`all`: every one), the simulator-trained network fine-tuned
     /// on K and the same network trained from scratch on them, both on the held-out part
@@ -165,6 +171,9 @@ pub struct Sim2RealReport {
     /// Whether the simulator-trained network's batch-norm statistics were re-estimated on the
     /// lab's fitting images (`--adapt-norms`).
     pub adapt_norms: bool,
+    /// How many turns of each lab image the simulator-trained network's readings average
+    /// (`--turns`; 1: none).
+    pub turns: usize,
     /// The fitted label map.
     pub map: Vec<String>,
     /// Errors per label on the held-out part.
@@ -196,6 +205,12 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     if o.input == Input::Pins && o.motion_field.is_some() {
         bail!(
             "--motion-field sets the part of the pin field tracked with --input motion: add --input motion or drop it"
+        );
+    }
+    if o.input == Input::Pins && o.turns > 1 {
+        bail!(
+            "--turns turns the pin motion's grids: add --input motion or drop it (a turned pin image puts the pins off \
+             the lattice the network learnt)"
         );
     }
     let motion_field = (o.input == Input::Motion).then(|| o.motion_field.unwrap_or(tacsim_sim::MOTION_FIELD));
@@ -244,8 +259,12 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         bail!("no label varies over the simulated training images of {}: check the recipe's ranges", sim_dir.display());
     }
     let sim_cfg = PoseConfig { labels: sim_labels.clone(), ..cfg.clone() };
+    let turns = (o.turns > 1).then_some(tacsim_model::Turns { count: o.turns, turn: tacsim_sim::turn_motion });
+    if let Some(t) = &turns {
+        t.check(&sim_labels).with_context(|| format!("the simulated set {}", sim_dir.display()))?;
+    }
     let (sim_run, real_run) = train_both(o, [&sim_cfg, &real_cfg], &sim, &real)?;
-    let how = Scoring { backend: o.backend, size: o.size, adapt_norms: o.adapt_norms };
+    let how = Scoring { backend: o.backend, size: o.size, adapt_norms: o.adapt_norms, turns };
     let Scores { labels, map, nearest, predictions, fitting: fitting_csv } =
         score_transfer(&how, [&sim, &real], &real_labels, [&fitting, &held_out, &sim_rows], [&sim_run, &real_run])?;
     tacsim_data::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
@@ -266,6 +285,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         motion_references,
         motion_field,
         adapt_norms: o.adapt_norms,
+        turns: o.turns,
         map: map.describe(),
         labels,
         coverage,
@@ -401,7 +421,7 @@ fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], near
 
 fn markdown(r: &Sim2RealReport) -> String {
     let mut s = format!(
-        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s in this run (stages found finished in the work folder not counted).{}{}\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
+        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s in this run (stages found finished in the work folder not counted).{}{}{}\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
         r.recipe,
         r.real,
         r.command,
@@ -423,6 +443,15 @@ fn markdown(r: &Sim2RealReport) -> String {
                 " Both networks read pin motion (`--input motion`): each image's pins within {field} of the half-side from its centre tracked from its domain's undeformed reference, {sim} and {real}, and drawn as the motion along x above the motion along y."
             ),
             _ => String::new(),
+        },
+        if r.turns > 1 {
+            format!(
+                " The simulator-trained network read each lab image at {} turns about its centre, {} deg apart, its readings averaged with the yaw turned back (`--turns`); the real-trained network read them as they are.",
+                r.turns,
+                360.0 / r.turns as f64
+            )
+        } else {
+            String::new()
         },
         r.map.join("; "),
     );

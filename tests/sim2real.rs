@@ -8,26 +8,28 @@ use std::path::Path;
 
 /// A small edge-tap recipe (128 px, as the edge preset needs) with the edge preset, `taps` poses.
 fn recipe(dir: &Path, name: &str, seed: u64, taps: usize) -> std::path::PathBuf {
+    recipe_at(dir, name, seed, taps, [0.3, 1.0])
+}
+
+/// [`recipe`] with the taps' depths drawn from `depth_mm`.
+fn recipe_at(dir: &Path, name: &str, seed: u64, taps: usize, depth_mm: [f64; 2]) -> std::path::PathBuf {
     let path = dir.join(format!("{name}.toml"));
     let text = format!(
         "name = \"{name}\"\nseed = {seed}\nimage_size = 128\ncells_across = 9\nsensor = \"tactip-331-edge2d\"\n\
          [[shapes]]\nname = \"square\"\ncontact_mm = [45.0, 0.0]\n\
-         [poses]\nper_shape = {taps}\nframe = \"edge\"\nx_mm = [-6.0, 6.0]\ny_mm = [0.0, 0.0]\ndepth_mm = [0.3, 1.0]\nyaw_deg = [-180.0, 180.0]\nallow_no_contact = true\n\
+         [poses]\nper_shape = {taps}\nframe = \"edge\"\nx_mm = [-6.0, 6.0]\ny_mm = [0.0, 0.0]\ndepth_mm = [{}, {}]\nyaw_deg = [-180.0, 180.0]\nallow_no_contact = true\n\
          [taps]\nper_pose = 1\ndepth_jitter_mm = 0.0\n[slides]\nper_pose = 0\n\
-         [split]\ntrain = 0.8\nval = 0.2\ntest = 0.0\npaired_fraction = 0.0\n"
+         [split]\ntrain = 0.8\nval = 0.2\ntest = 0.0\npaired_fraction = 0.0\n",
+        depth_mm[0], depth_mm[1]
     );
     std::fs::write(&path, text).expect("recipe");
     path
 }
 
-#[test]
-fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
-    let dir = temp_dir("sim2real", "e2e");
-    // The "lab": other simulated taps, relabelled as the edge recordings are: lateral in
-    // pose_2 with the opposite sign and 0.5 mm off, yaw in pose_6 turned by 90 deg.
-    let sim = dir.join("lab-sim");
-    ok(&["generate", s(&recipe(&dir, "lab", 11, 60)), "--out", s(&sim), "-q"]);
-    let lab = dir.join("lab");
+/// A "lab" folder of the simulated taps in `sim`, relabelled as the edge recordings are:
+/// lateral in pose_2 with the opposite sign and 0.5 mm off, depth 3 mm deeper, yaw in pose_6
+/// turned by 90 deg.
+fn lab_folder(sim: &Path, lab: &Path) {
     std::fs::create_dir_all(lab.join("images")).expect("lab dir");
     std::fs::write(lab.join("meta.json"), "{\"tap_depth\": -5.0}").expect("the lab's own meta.json");
     let text = std::fs::read_to_string(sim.join("targets.csv")).expect("targets");
@@ -48,6 +50,16 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
         std::fs::copy(sim.join("images").join(f[0]), lab.join("images").join(f[0])).expect("image");
     }
     std::fs::write(lab.join("targets.csv"), rows.join("\n") + "\n").expect("csv");
+}
+
+#[test]
+fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
+    let dir = temp_dir("sim2real", "e2e");
+    // The "lab": other simulated taps, relabelled as the edge recordings are.
+    let sim = dir.join("lab-sim");
+    ok(&["generate", s(&recipe(&dir, "lab", 11, 60)), "--out", s(&sim), "-q"]);
+    let lab = dir.join("lab");
+    lab_folder(&sim, &lab);
 
     let out = dir.join("out");
     let train = recipe(&dir, "train", 5, 60);
@@ -214,6 +226,11 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     assert_eq!(report["motion_field"], 0.6875, "the default part of the pin field");
     assert!(first.contains("within 0.6875 of the half-side"), "{first}");
     assert_eq!(table(&ok(&[&motion[..], &["--epochs", "2", "-q"]].concat())), table(&first));
+    // `--turns` on these networks (resumed, two epochs on 48 shallow taps): the
+    // simulator-trained network does not read the yaw, so no turn can be turned back: a clear
+    // error saying so.
+    let e = err(&[&motion[..], &["--turns", "4", "--epochs", "2", "-q"]].concat());
+    assert!(e.contains("--turns") && e.contains("does not read the yaw"), "{e}");
     // `--motion-field 1`: every pin tracked, said in both reports; a fraction outside [0.2, 1]
     // and the flag without motion are refused before any work.
     let every_out = dir.join("motion-every-pin");
@@ -238,9 +255,49 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     }
     let e = refuse("motion-field-pins", &["--motion-field", "1"]);
     assert!(e.contains("--motion-field") && e.contains("--input motion"), "{e}");
+    // `--turns` turns the motion's grids: refused on pin images and outside [1, 64].
+    let e = refuse("turns-pins", &["--turns", "4"]);
+    assert!(e.contains("--turns") && e.contains("--input motion"), "{e}");
+    for bad in ["0", "65", "x"] {
+        let e = refuse("turns-bad", &["--input", "motion", &format!("--turns={bad}")]);
+        assert!(e.contains("--turns") && e.contains("[1, 64]"), "{bad}: {e}");
+    }
     // The lab's crop or threshold does not apply to tracked motion.
     let e = refuse("motion-threshold", &["--input", "motion", "--threshold", "128"]);
     assert!(e.contains("--input motion") && e.contains("--threshold"), "{e}");
+}
+
+/// `--turns`: a simulator-trained network that reads the yaw (200 deeper taps, 30 epochs) reads
+/// each lab image at four turns, its yaw turned back; both reports say so, the real-trained
+/// network reads the images as they are, and a rerun gives the same readings.
+#[test]
+fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
+    let dir = temp_dir("sim2real", "turns");
+    let set = dir.join("set");
+    ok(&["generate", s(&recipe_at(&dir, "deep", 5, 200, [1.5, 2.5])), "--out", s(&set), "-q"]);
+    let lab_sim = dir.join("lab-sim");
+    ok(&["generate", s(&recipe_at(&dir, "lab", 11, 60, [1.5, 2.5])), "--out", s(&lab_sim), "-q"]);
+    let lab = dir.join("lab");
+    lab_folder(&lab_sim, &lab);
+    let out = dir.join("out");
+    let args = ["sim2real", "--real", s(&lab), "--sim", s(&set), "--out", s(&out), "--input", "motion"];
+    let plain = ok(&[&args[..], &["--epochs", "30", "-q"]].concat());
+    let turned = ok(&[&args[..], &["--turns", "4", "--epochs", "30", "-q"]].concat());
+    assert!(turned.contains("at 4 turns about its centre, 90 deg apart") && !plain.contains("turns about"), "{turned}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
+    assert_eq!(report["turns"], 4);
+    // The table's columns: label, trained on tacsim, trained on real.
+    let column = |t: &str, k: usize| -> Vec<String> {
+        t.lines()
+            .filter(|l| l.starts_with("| pose_") && l.contains("x |"))
+            .map(|l| l.split('|').nth(k).unwrap_or("").to_owned())
+            .collect()
+    };
+    assert_eq!(column(&turned, 3), column(&plain, 3), "the real-trained network reads the images as they are");
+    assert_ne!(column(&turned, 2), column(&plain, 2), "the simulator-trained network reads them turned");
+    let again = ok(&[&args[..], &["--turns", "4", "--epochs", "30", "-q"]].concat());
+    assert_eq!(column(&again, 2), column(&turned, 2), "same networks, same turned readings");
 }
 
 #[test]

@@ -57,8 +57,8 @@ pub use posenet::{Pose, PoseNet, PoseScale, decode_batch};
 pub use train::{EpochLog, Progress, Silent, TrainState, train_posenet, train_unshear};
 pub use transfer::{
     Coverage, Curve as FinetuneCurve, CurvePoint, LabelCurve, LabelMap, LabelScore, MATCH_FACTOR,
-    MAX_SIM_SHARE as FINETUNE_MAX_SIM_SHARE, MIN_STEPS as FINETUNE_MIN_STEPS, Scores, Scoring, Span, Spread,
-    coverage as transfer_coverage, difference as label_difference, epochs_for as finetune_epochs, label as label_name,
-    parse_ks as parse_finetune_ks, score as score_transfer, summarise as summarise_finetune,
+    MAX_SIM_SHARE as FINETUNE_MAX_SIM_SHARE, MAX_TURNS, MIN_STEPS as FINETUNE_MIN_STEPS, Scores, Scoring, Span, Spread,
+    Turns, coverage as transfer_coverage, difference as label_difference, epochs_for as finetune_epochs,
+    label as label_name, parse_ks as parse_finetune_ks, score as score_transfer, summarise as summarise_finetune,
 };
 pub use unshear::Unshear;

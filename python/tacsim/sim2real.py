@@ -20,12 +20,14 @@ from pathlib import Path
 
 def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs=None, seed=None,
              finetune=None, finetune_seeds=None, finetune_min_steps=None, finetune_lr_scale=None,
-             finetune_sim_share=None, input=None, motion_field=None, report=None, extra=(),  # noqa: A002
-             tacsim_bin=None):
+             finetune_sim_share=None, input=None, motion_field=None, turns=None, report=None,  # noqa: A002
+             extra=(), tacsim_bin=None):
     """Runs ``tacsim sim2real --real REAL --out OUT`` with the options given (the flags of the
     same names; ``finetune`` a list of sample counts and ``"all"``; ``input`` ``"pins"`` or
     ``"motion"``, what the networks read; ``motion_field`` with ``"motion"``, the part of the
-    pin field tracked, a fraction of the image's half-side in [0.2, 1]) and returns
+    pin field tracked, a fraction of the image's half-side in [0.2, 1]; ``turns`` with
+    ``"motion"``, how many turns of each lab image the simulator-trained network's readings
+    average, 1 to 64) and returns
     ``{"report": ..., "finetune": ...}``: ``report.json`` and, with ``finetune``,
     ``finetune.json`` (``None`` without). Raises ``FileNotFoundError`` where no tool is found
     and ``RuntimeError`` with the tool's message where it fails."""
@@ -40,7 +42,7 @@ def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs
         "--recipe": recipe, "--sensor": sensor, "--sim": sim, "--size": size, "--epochs": epochs,
         "--seed": seed, "--finetune-seeds": finetune_seeds, "--finetune-min-steps": finetune_min_steps,
         "--finetune-lr-scale": finetune_lr_scale, "--finetune-sim-share": finetune_sim_share,
-        "--input": input, "--motion-field": motion_field, "--report": report,
+        "--input": input, "--motion-field": motion_field, "--turns": turns, "--report": report,
     }
     for flag, value in flags.items():
         if value is not None:

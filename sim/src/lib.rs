@@ -53,7 +53,7 @@ pub use gpu::Gpu;
 #[cfg(feature = "wgpu")]
 #[doc(hidden)]
 pub use gpu::for_tests as gpu_for_tests;
-pub use motion::{MIN_MOTION_FIELD, MOTION_FIELD, PinMotion};
+pub use motion::{MIN_MOTION_FIELD, MOTION_FIELD, PinMotion, turn_motion};
 pub use pins::{Pin, PinLayout, PinPose};
 pub use png_io::{PngDepth, decode_png, read_png, write_png};
 pub use processing::LabProcessing;

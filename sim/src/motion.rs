@@ -151,6 +151,60 @@ impl PinMotion {
     }
 }
 
+/// A motion image as a network reads it (values `0..1`, `side` x `side`, the layout of
+/// [`PinMotion::draw`]) turned about the image's centre by `angle_rad` (image axes: `+x`
+/// turns towards `+y`): each grid point takes the motion at the point turned back (bilinear
+/// between grid points, none beyond the grid) and turns it by the same angle,
+///
+/// ```text
+/// d'(q) = R(a) d(R(-a) q),   R(a) = [cos a, -sin a; sin a, cos a],
+/// ```
+///
+/// `q` about the grid's centre. A quarter turn moves every grid point onto another, so four of
+/// them give the image back. Values that are not a `side` x `side` image come back unchanged.
+pub fn turn_motion(values: &[f32], side: usize, angle_rad: f64) -> Vec<f32> {
+    let half = side / 2;
+    if half == 0 || values.len() != side * side {
+        return values.to_vec();
+    }
+    let (c, s) = (angle_rad.cos(), angle_rad.sin());
+    let mid = (half as f64 - 1.0) / 2.0;
+    // The motion along `axis` at grid point (gx, gy); mid-grey (none) beyond the grid.
+    let at = |axis: usize, gx: i64, gy: i64| -> f64 {
+        if gx < 0 || gy < 0 || gx >= half as i64 || gy >= half as i64 {
+            return 0.0;
+        }
+        f64::from(values[(axis * half + gy as usize) * side + 2 * gx as usize]) - 0.5
+    };
+    let sample = |axis: usize, x: f64, y: f64| -> f64 {
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (i, j) = (x0 as i64, y0 as i64);
+        at(axis, i, j) * (1.0 - fx) * (1.0 - fy)
+            + at(axis, i + 1, j) * fx * (1.0 - fy)
+            + at(axis, i, j + 1) * (1.0 - fx) * fy
+            + at(axis, i + 1, j + 1) * fx * fy
+    };
+    let mut out = vec![0.5f32; side * side];
+    for gy in 0..half {
+        for gx in 0..half {
+            let (qx, qy) = (gx as f64 - mid, gy as f64 - mid);
+            let (px, py) = (c * qx + s * qy + mid, -s * qx + c * qy + mid);
+            let (dx, dy) = (sample(0, px, py), sample(1, px, py));
+            let turned = [c * dx - s * dy, s * dx + c * dy];
+            for (axis, d) in turned.into_iter().enumerate() {
+                let row = (axis * half + gy) * side;
+                let v = (0.5 + d).clamp(0.0, 1.0) as f32;
+                out[row + 2 * gx] = v;
+                if 2 * gx + 1 < side {
+                    out[row + 2 * gx + 1] = v;
+                }
+            }
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -226,6 +280,53 @@ mod tests {
         let small = GrayImage::new(64, 64);
         let e = motion.image(&small, 64, "small.png").expect_err("refused").to_string();
         assert!(e.contains("small.png") && e.contains("64x64") && e.contains("128x128"), "{e}");
+    }
+
+    /// A motion image's values (0..1) as a network reads them.
+    fn values(img: &GrayImage) -> Vec<f32> {
+        img.pixels().map(|p| f32::from(p.0[0]) / 255.0).collect()
+    }
+
+    #[test]
+    fn four_quarter_turns_give_the_motion_image_back() {
+        let reference = lattice(|_, _| [0.0, 0.0]);
+        let motion = PinMotion::new(&reference, "test").expect("a lattice of pins");
+        // A press: every pin pushed out from a point left of the centre, more near it.
+        let moved = lattice(|x, y| {
+            let (u, v) = (x - 50.0, y - 64.0);
+            let r = u.hypot(v).max(1.0);
+            [2.0 * u / r * (-r / 30.0).exp(), 2.0 * v / r * (-r / 30.0).exp()]
+        });
+        let img = values(&motion.image(&moved, 64, "test").expect("a motion image"));
+        let mut turned = img.clone();
+        for _ in 0..4 {
+            turned = turn_motion(&turned, 64, std::f64::consts::FRAC_PI_2);
+        }
+        let worst = img.iter().zip(&turned).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        assert!(worst < 1e-6, "four quarter turns: largest change {worst}");
+        assert_ne!(turn_motion(&img, 64, std::f64::consts::FRAC_PI_2), img, "a quarter turn moves the press");
+    }
+
+    #[test]
+    fn a_quarter_turn_turns_a_shift_along_x_into_one_along_y() {
+        let reference = lattice(|_, _| [0.0, 0.0]);
+        let motion = PinMotion::new(&reference, "test").expect("a lattice of pins");
+        let img = values(&motion.image(&lattice(|_, _| [1.0, 0.0]), 64, "test").expect("a motion image"));
+        let turned = turn_motion(&img, 64, std::f64::consts::FRAC_PI_2);
+        // The grid point at the centre, as in the shift test above: +x turns towards +y.
+        let d = |v: &[f32], x: usize, y: usize| (f64::from(v[y * 64 + x]) - 0.5) * GREY_PX128;
+        assert!((d(&turned, 32, 48) - d(&img, 32, 16)).abs() < 0.01, "dy {}", d(&turned, 32, 48));
+        assert!(d(&turned, 32, 16).abs() < 0.02, "dx {}", d(&turned, 32, 16));
+        // Half a turn: the shift reversed.
+        let back = turn_motion(&img, 64, std::f64::consts::PI);
+        assert!((d(&back, 32, 16) + d(&img, 32, 16)).abs() < 0.01, "dx {}", d(&back, 32, 16));
+    }
+
+    #[test]
+    fn values_of_another_size_come_back_unchanged() {
+        let v = vec![0.25f32; 10];
+        assert_eq!(turn_motion(&v, 64, 1.0), v);
+        assert_eq!(turn_motion(&v, 0, 1.0), v);
     }
 
     #[test]

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::{LabelMap, Span};
+use super::{LabelMap, Span, Turns};
 use crate::backend::Backend;
 use crate::data::Corpus;
 use crate::error::Result;
@@ -51,9 +51,9 @@ pub struct Coverage {
     pub lab_outside: f64,
 }
 
-/// How [`score`] reads the images: the backend, the networks' side (px), and whether the
+/// How [`score`] reads the images: the backend, the networks' side (px), whether the
 /// simulator-trained network's batch-norm statistics are re-estimated on the lab's fitting
-/// images first.
+/// images first, and whether it reads each image at several turns.
 #[derive(Clone, Copy, Debug)]
 pub struct Scoring {
     /// The backend the networks run on.
@@ -62,6 +62,10 @@ pub struct Scoring {
     pub size: usize,
     /// Re-estimate the simulator-trained network's batch norms on the lab's fitting images.
     pub adapt_norms: bool,
+    /// The simulator-trained network's readings (of the fitting part, for the map, and of the
+    /// held-out part) averaged over turns of each image ([`Turns`]); the real-trained network
+    /// reads the images as they are.
+    pub turns: Option<Turns>,
 }
 
 /// What [`score`] finds.
@@ -101,12 +105,25 @@ pub fn score(
     let (sim_net, _, sim_scale) = load_posenet(sim_run, &device)?;
     let sim_net = if how.adapt_norms { sim_net.adapt_norms(&fit_images, how.size, &device) } else { sim_net };
     let (real_net, _, real_scale) = load_posenet(real_run, &device)?;
+    let read_sim = match how.turns.filter(|t| t.count > 1) {
+        None => None,
+        Some(turns) => {
+            turns.check(&sim_scale.columns())?;
+            let probe = &sim_rows[..sim_rows.len().min(super::turns::SENSE_SAMPLES)];
+            let truth: Vec<Pose> = probe.iter().map(|&r| sim.pose(r)).collect();
+            Some((turns, turns.sense(&sim_net, &sim_scale, &corpus_images(sim, probe), &truth, how.size, &device)?))
+        }
+    };
+    let read = |images: &[Vec<f32>]| match read_sim {
+        None => predict_poses(&sim_net, &sim_scale, images, how.size, &device),
+        Some((turns, sense)) => turns.read(&sim_net, &sim_scale, images, how.size, &device, sense),
+    };
     let fit_truth = poses(fitting);
-    let fit_read = predict_poses(&sim_net, &sim_scale, &fit_images, how.size, &device);
+    let fit_read = read(&fit_images);
     let map = LabelMap::fit(&fit_read, &sim_scale.columns(), &fit_truth, real_labels)?;
     let truth = poses(held_out);
     let test_images = images(held_out);
-    let sim_read = predict_poses(&sim_net, &sim_scale, &test_images, how.size, &device);
+    let sim_read = read(&test_images);
     let sim_err = map.errors(&sim_read, &truth);
     let identity = LabelMap::identity(real_labels);
     let real_read = predict_poses(&real_net, &real_scale, &test_images, how.size, &device);
