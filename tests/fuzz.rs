@@ -118,7 +118,7 @@ const RECIPES: [&str; 3] = [
 /// Every numeric flag of the commands, `{}` standing for the value. Each command's output is
 /// one it cannot write (a path under /proc) or its input an empty folder, so that an accepted
 /// value ends at that check instead of running the command's whole work.
-const FLAGS: [&str; 27] = [
+const FLAGS: [&str; 28] = [
     "render -o OUT --size {}",
     "render -o OUT --pins {}",
     "render -o OUT --seed {} --grey",
@@ -144,6 +144,7 @@ const FLAGS: [&str; 27] = [
     "sim2real --real EMPTY --out OUT --epochs {}",
     "sim2real --real EMPTY --out OUT --size {}",
     "sim2real --real EMPTY --out OUT --threshold {}",
+    "sim2real --real EMPTY --out OUT --input motion --turns {}",
     "eval --data EMPTY --out OUT --max-pairs {} EMPTY",
     "calibrate --real EMPTY -o /proc/tacsim-fuzz.toml --edge square --edge-contact {},0",
 ];

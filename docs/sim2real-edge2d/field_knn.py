@@ -74,9 +74,10 @@ def report(name, lateral, depth, read_lateral, read_depth):
     print(f"   lateral bias against depth: {slope:+.2f} mm per mm; " + "; ".join(cells))
 
 
-def lab_fields(real_dir, keep=lambda name: True):
+def lab_fields(real_dir, keep=lambda name: True, yaws=None):
     """The lab's taps whose image name `keep` accepts: their motion fields (tracked from the
-    consensus of these taps), lateral labels and depths."""
+    consensus of these taps), lateral labels and depths. Each field is turned into the edge's
+    frame by its yaw label, or by `yaws[name]` (deg) where `yaws` names the image."""
     rows = [r for r in csv.DictReader(open(f"{real_dir}/targets.csv")) if keep(r["sensor_image"])]
     names = [r["sensor_image"] for r in rows]
     depth = np.array([float(r["pose_3"]) for r in rows])
@@ -84,6 +85,8 @@ def lab_fields(real_dir, keep=lambda name: True):
     yaw = np.array([float(r["pose_6"]) for r in rows])
     images = np.array([load(f"{real_dir}/images/{n}") for n in names])
     reference = images[alike_group(images, depth)].mean(0) > 0.5
+    if yaws is not None:
+        yaw = np.array([yaws.get(n, y) for n, y in zip(names, yaw)])
     return fields(real_dir, names, np.radians(90.0 - yaw), reference), lateral, depth
 
 

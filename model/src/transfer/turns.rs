@@ -109,11 +109,10 @@ impl Turns {
         let readings: Vec<Vec<Pose>> = angles
             .iter()
             .map(|&a| {
-                let turned: Vec<Vec<f32>> = if a == 0.0 {
-                    images.to_vec()
-                } else {
-                    images.iter().map(|img| (self.turn)(img, side, a.to_radians())).collect()
-                };
+                if a == 0.0 {
+                    return predict_poses(net, scale, images, side, device);
+                }
+                let turned: Vec<Vec<f32>> = images.iter().map(|img| (self.turn)(img, side, a.to_radians())).collect();
                 predict_poses(net, scale, &turned, side, device)
             })
             .collect();
