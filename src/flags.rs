@@ -15,6 +15,15 @@ fn whole(text: &str) -> Result<usize, String> {
     text.trim().parse::<usize>().map_err(|_| format!("expected a whole number, got `{text}`"))
 }
 
+/// `text` as a whole number in `[lo, hi]`; either error names the range.
+fn whole_in(text: &str, lo: usize, hi: usize) -> Result<usize, String> {
+    match whole(text) {
+        Ok(n) if (lo..=hi).contains(&n) => Ok(n),
+        Ok(n) => Err(format!("must be in [{lo}, {hi}], got {n}")),
+        Err(e) => Err(format!("{e} (accepted: [{lo}, {hi}])")),
+    }
+}
+
 /// `text` as a number; where it is not one, the error names `accepted`, the flag's range.
 fn number(text: &str, accepted: &str) -> Result<f64, String> {
     text.trim().parse::<f64>().map_err(|_| format!("not a number: {text:?} (accepted: {accepted})"))
@@ -31,21 +40,12 @@ pub fn validate_grid(text: &str) -> Result<usize, String> {
 
 /// `bench --samples`: in [[`tacsim_sim::bench::MIN_SAMPLES`], [`MAX_BENCH_SAMPLES`]].
 pub fn bench_samples(text: &str) -> Result<usize, String> {
-    let n = whole(text)?;
-    let min = tacsim_sim::bench::MIN_SAMPLES;
-    if !(min..=MAX_BENCH_SAMPLES).contains(&n) {
-        return Err(format!("must be in [{min}, {MAX_BENCH_SAMPLES}], got {n}"));
-    }
-    Ok(n)
+    whole_in(text, tacsim_sim::bench::MIN_SAMPLES, MAX_BENCH_SAMPLES)
 }
 
 /// `sim2real --finetune-min-steps`: in [1, 100,000].
 pub fn finetune_min_steps(text: &str) -> Result<usize, String> {
-    let n = whole(text)?;
-    if !(1..=100_000).contains(&n) {
-        return Err(format!("must be in [1, 100000], got {n}"));
-    }
-    Ok(n)
+    whole_in(text, 1, 100_000)
 }
 
 /// `--finetune-lr-scale`: a factor in (0, 1].
@@ -79,12 +79,7 @@ pub fn motion_field(text: &str) -> Result<f64, String> {
 
 /// `--turns`: a whole number in [1, `tacsim_model::MAX_TURNS`].
 pub fn turns(text: &str) -> Result<usize, String> {
-    let range = format!("[1, {}]", tacsim_model::MAX_TURNS);
-    match whole(text) {
-        Ok(n) if (1..=tacsim_model::MAX_TURNS).contains(&n) => Ok(n),
-        Ok(n) => Err(format!("must be in {range}, got {n}")),
-        Err(e) => Err(format!("{e} (accepted: {range})")),
-    }
+    whole_in(text, 1, tacsim_model::MAX_TURNS)
 }
 
 /// The most worker threads: [`THREADS_PER_CORE`] per core of this machine.

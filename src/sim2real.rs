@@ -95,8 +95,9 @@ pub struct Sim2RealOptions {
     /// unsupervised adaptation (AdaBN); the weights stay trained on simulated images only.
     #[arg(long)]
     pub adapt_norms: bool,
-    /// With `--input motion` on a set in an edge's frame: the simulator-trained network reads
-    /// each lab image this many times, turned about its centre by 360/N deg steps, its readings
+    /// With `--input motion`, on a set whose labels a turn leaves alone but the yaw (pose_x,
+    /// pose_y, pose_z, pose_Rz: the edge recipes): the simulator-trained network reads each
+    /// lab image this many times, turned about its centre by 360/N deg steps, its readings
     /// averaged with the yaw turned back (1 to 64; 1: the images as they are). The
     /// real-trained network and the fine-tuning curve read the images as they are.
     #[arg(long, default_value_t = 1, value_parser = crate::flags::turns)]
