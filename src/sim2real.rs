@@ -7,7 +7,9 @@
 //!    domain's undeformed reference in place of the pin image, in both sets
 //!    (`tacsim_sim::PinMotion`; computed again on a resumed run, in about a minute);
 //! 2. `train_both`: the pose network on the simulated images (`sim-posenet/`) and the same
-//!    network, same settings, on the lab folder's fitting part (`real-posenet/`);
+//!    network, same settings, on the lab folder's fitting part (`real-posenet/`); with
+//!    `--edge-frame`, `train_edge_frame`: a second network on the simulated images turned
+//!    into the edge's frame (`sim-edge-posenet/`);
 //! 3. `score_transfer` (tacsim-model's `transfer::score`): the label map (component, sign and
 //!    offset, `LabelMap::fit`) from the
 //!    simulator-trained network's readings of the fitting part, then both networks on the
@@ -32,7 +34,7 @@ use serde::Serialize;
 use tacsim_data::Column;
 use tacsim_data::Split;
 use tacsim_model::{
-    Backend, Corpus, Coverage, LabelScore, PoseConfig, Scores, Scoring, Span, label_name, score_transfer,
+    Backend, Corpus, Coverage, EdgeStage, LabelScore, PoseConfig, Scores, Scoring, Span, label_name, score_transfer,
     transfer_coverage,
 };
 
@@ -102,6 +104,20 @@ pub struct Sim2RealOptions {
     /// real-trained network and the fine-tuning curve read the images as they are.
     #[arg(long, default_value_t = 1, value_parser = crate::flags::turns)]
     pub turns: usize,
+    /// With `--input motion`, on the same sets as `--turns`: read in the edge's frame. A second
+    /// network, trained on the simulated images each turned by minus its own yaw, reads the
+    /// lateral offset and the depth from each lab image turned by minus the yaw the
+    /// simulator-trained network reads of it (with `--turns`, averaged over the turns); the
+    /// yaw stays the first network's. The real-trained network and the fine-tuning curve
+    /// read the images as they are.
+    #[arg(long)]
+    pub edge_frame: bool,
+    /// With `--edge-frame`: each lab image, once turned into the edge's frame, matched pixel by
+    /// pixel to the simulated images in that frame, every value's mean and spread over the
+    /// lab's fitting images taken to the simulated training images' (labels unused:
+    /// unsupervised adaptation of the second network's input).
+    #[arg(long, requires = "edge_frame")]
+    pub match_motion: bool,
     /// After the zero-shot run, the fine-tuning curve: for each of these counts K of the lab's
     /// labelled fitting samples (`all`: every one), the simulator-trained network fine-tuned
     /// on K and the same network trained from scratch on them, both on the held-out part
@@ -175,6 +191,12 @@ pub struct Sim2RealReport {
     /// How many turns of each lab image the simulator-trained network's readings average
     /// (`--turns`; 1: none).
     pub turns: usize,
+    /// Whether a second simulator-trained network read the labels a turn leaves alone from
+    /// each image turned into the edge's frame (`--edge-frame`).
+    pub edge_frame: bool,
+    /// Whether the second network's input was matched to the simulated images' mean and
+    /// spread, pixel by pixel (`--match-motion`).
+    pub match_motion: bool,
     /// The fitted label map.
     pub map: Vec<String>,
     /// Errors per label on the held-out part.
@@ -206,6 +228,12 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     if o.input == Input::Pins && o.motion_field.is_some() {
         bail!(
             "--motion-field sets the part of the pin field tracked with --input motion: add --input motion or drop it"
+        );
+    }
+    if o.input == Input::Pins && o.edge_frame {
+        bail!(
+            "--edge-frame turns the pin motion's grids into the edge's frame: add --input motion or drop it (a turned \
+             pin image puts the pins off the lattice the network learnt)"
         );
     }
     if o.input == Input::Pins && o.turns > 1 {
@@ -264,10 +292,36 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     if let Some(t) = &turns {
         t.check(&sim_labels).with_context(|| format!("the simulated set {}", sim_dir.display()))?;
     }
+    let edge_labels = match o.edge_frame {
+        false => None,
+        true => Some(
+            tacsim_model::edge_frame_labels(&sim_labels, tacsim_sim::turn_motion)
+                .with_context(|| format!("the simulated set {}", sim_dir.display()))?,
+        ),
+    };
     let (sim_run, real_run) = train_both(o, [&sim_cfg, &real_cfg], &sim, &real)?;
+    let edge = match edge_labels {
+        None => None,
+        Some(labels) => {
+            let edge_cfg = PoseConfig { labels, ..cfg.clone() };
+            Some(train_edge_frame(o, &edge_cfg, &sim, &sim_rows, &sim_run)?)
+        }
+    };
+    let edge_stage = edge.as_ref().map(|(run, sense)| EdgeStage {
+        run,
+        sense: *sense,
+        turn: tacsim_sim::turn_motion,
+        match_motion: o.match_motion,
+    });
     let how = Scoring { backend: o.backend, size: o.size, adapt_norms: o.adapt_norms, turns };
-    let Scores { labels, map, nearest, predictions, fitting: fitting_csv } =
-        score_transfer(&how, [&sim, &real], &real_labels, [&fitting, &held_out, &sim_rows], [&sim_run, &real_run])?;
+    let Scores { labels, map, nearest, predictions, fitting: fitting_csv } = score_transfer(
+        &how,
+        [&sim, &real],
+        &real_labels,
+        [&fitting, &held_out, &sim_rows],
+        [&sim_run, &real_run],
+        edge_stage,
+    )?;
     tacsim_data::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
     tacsim_data::write_atomic(&report_dir.join("fitting.csv"), fitting_csv.as_bytes())?;
     write_grid(&report_dir.join("grid.png"), &sim, &real, &held_out, &nearest)?;
@@ -287,6 +341,8 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         motion_field,
         adapt_norms: o.adapt_norms,
         turns: o.turns,
+        edge_frame: o.edge_frame,
+        match_motion: o.match_motion,
         map: map.describe(),
         labels,
         coverage,
@@ -400,6 +456,33 @@ fn train_both(o: &Sim2RealOptions, cfg: [&PoseConfig; 2], sim: &Corpus, real: &C
     Ok((s, r))
 }
 
+/// Step 2b (`--edge-frame`): the yaw's sense under a turn of the image (from the
+/// simulator-trained network on its own images), then the second network on the simulated
+/// images each turned by minus its own yaw (`sim-edge-posenet/`, resumed when a previous run
+/// started it). Returns its run and the sense.
+fn train_edge_frame(
+    o: &Sim2RealOptions,
+    cfg: &PoseConfig,
+    sim: &Corpus,
+    sim_rows: &[usize],
+    sim_run: &Path,
+) -> Result<(PathBuf, f64)> {
+    let turn = tacsim_sim::turn_motion;
+    let sense = tacsim_model::yaw_sense(o.backend, o.size, sim_run, sim, sim_rows, turn)?;
+    let turned = tacsim_model::in_edge_frame(sim, sense, turn)?;
+    let dir = o.out.join("sim-edge-posenet");
+    let resume = dir.join("config.json").is_file();
+    tacsim_model::train_posenet(&turned, cfg, o.backend, &dir, resume, None, &mut Bar::new(o.quiet)).with_context(
+        || {
+            format!(
+                "training the pose network on the simulated images turned into the edge's frame into {} (rerun to resume)",
+                dir.display()
+            )
+        },
+    )?;
+    Ok((dir, sense))
+}
+
 /// `grid.png`: up to 8 held-out real images (top) over the simulated taps nearest their labels
 /// (bottom), at the network side.
 fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], nearest: &[usize]) -> Result<()> {
@@ -422,7 +505,7 @@ fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], near
 
 fn markdown(r: &Sim2RealReport) -> String {
     let mut s = format!(
-        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s in this run (stages found finished in the work folder not counted).{}{}{}\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
+        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s in this run (stages found finished in the work folder not counted).{}{}{}{}{}\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
         r.recipe,
         r.real,
         r.command,
@@ -453,6 +536,16 @@ fn markdown(r: &Sim2RealReport) -> String {
             )
         } else {
             String::new()
+        },
+        if r.edge_frame {
+            " The lateral offset and the depth were read in the edge's frame (`--edge-frame`): a second network, trained on the simulated images each turned by minus its own yaw, read each lab image turned by minus the yaw the simulator-trained network read of it; the yaw is that network's."
+        } else {
+            ""
+        },
+        if r.match_motion {
+            " Before the second network read them, the turned lab images were matched pixel by pixel to the simulated images turned into the same frame (`--match-motion`): each value's mean and spread over the fitting part's images taken to the simulated training images' (labels unused)."
+        } else {
+            ""
         },
         r.map.join("; "),
     );

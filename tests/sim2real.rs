@@ -231,6 +231,9 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     // error saying so.
     let e = err(&[&motion[..], &["--turns", "4", "--epochs", "2", "-q"]].concat());
     assert!(e.contains("--turns") && e.contains("does not read the yaw"), "{e}");
+    // `--edge-frame` needs that yaw too: the same error, naming its own flag.
+    let e = err(&[&motion[..], &["--edge-frame", "--epochs", "2", "-q"]].concat());
+    assert!(e.contains("--edge-frame") && e.contains("does not read the yaw"), "{e}");
     // `--motion-field 1`: every pin tracked, said in both reports; a fraction outside [0.2, 1]
     // and the flag without motion are refused before any work.
     let every_out = dir.join("motion-every-pin");
@@ -258,6 +261,10 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     // `--turns` turns the motion's grids: refused on pin images and outside [1, 64].
     let e = refuse("turns-pins", &["--turns", "4"]);
     assert!(e.contains("--turns") && e.contains("--input motion"), "{e}");
+    let e = refuse("edge-frame-pins", &["--edge-frame"]);
+    assert!(e.contains("--edge-frame") && e.contains("--input motion"), "{e}");
+    let e = refuse("match-alone", &["--input", "motion", "--match-motion"]);
+    assert!(e.contains("--edge-frame"), "{e}");
     for bad in ["0", "65", "x"] {
         let e = refuse("turns-bad", &["--input", "motion", &format!("--turns={bad}")]);
         assert!(e.contains("--turns") && e.contains("[1, 64]"), "{bad}: {e}");
@@ -269,7 +276,8 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
 
 /// `--turns`: a simulator-trained network that reads the yaw (200 deeper taps, 30 epochs) reads
 /// each lab image at four turns, its yaw turned back; both reports say so, the real-trained
-/// network reads the images as they are, and a rerun gives the same readings.
+/// network reads the images as they are, and a rerun gives the same readings. Then
+/// `--edge-frame` on the same networks: a second one reads the lateral and the depth.
 #[test]
 fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     let dir = temp_dir("sim2real", "turns");
@@ -304,6 +312,44 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     assert_ne!(turned_sim, plain_sim, "the simulator-trained network reads them turned");
     ok(&[&args[..], &["--turns", "4", "--epochs", "30", "-q"]].concat());
     assert_eq!(readings("_sim_trained"), turned_sim, "same networks, same turned readings to the last digit");
+
+    // `--edge-frame`: a second network, trained on the simulated images turned into the edge's
+    // frame, reads the lateral and the depth of each lab image turned by the yaw read; the yaw
+    // stays the first network's to the last digit, the real-trained readings are unchanged,
+    // both reports say so and a rerun reads the same.
+    let yaw = || readings("Rz_sim_trained");
+    let turned_yaw = yaw();
+    let framed_args = [&args[..], &["--turns", "4", "--edge-frame", "--epochs", "30", "-q"]].concat();
+    let framed = ok(&framed_args);
+    assert!(
+        framed.contains("read in the edge's frame (`--edge-frame`)") && !turned.contains("edge's frame"),
+        "{framed}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
+    assert_eq!((report["edge_frame"].as_bool(), report["turns"].as_u64()), (Some(true), Some(4)));
+    assert!(out.join("sim-edge-posenet").join("config.json").is_file(), "the second network's run");
+    let framed_sim = readings("_sim_trained");
+    assert_eq!(yaw(), turned_yaw, "the yaw is the first network's");
+    assert_ne!(framed_sim, turned_sim, "the lateral and the depth are the second network's");
+    assert_eq!(readings("_real_trained"), plain_real, "the real-trained network reads the images as they are");
+    ok(&framed_args);
+    assert_eq!(readings("_sim_trained"), framed_sim, "same networks, same readings to the last digit");
+
+    // `--match-motion`: the second network's input matched to the simulated images' moments;
+    // the same networks, other lateral and depth readings, the yaw still the first's; said in
+    // both reports and reproduced by a rerun.
+    let matched_args = [&framed_args[..], &["--match-motion"]].concat();
+    let matched = ok(&matched_args);
+    assert!(matched.contains("matched pixel by pixel") && !framed.contains("matched pixel"), "{matched}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
+    assert_eq!(report["match_motion"].as_bool(), Some(true));
+    let matched_sim = readings("_sim_trained");
+    assert_eq!(yaw(), turned_yaw, "the yaw is the first network's");
+    assert_ne!(matched_sim, framed_sim, "the second network reads matched images");
+    ok(&matched_args);
+    assert_eq!(readings("_sim_trained"), matched_sim, "same statistics, same readings to the last digit");
 }
 
 #[test]

@@ -19,7 +19,8 @@
 //!   [`load_posenet`]);
 //! - `eval.rs`: the held-out scores of trained runs ([`evaluate`], [`EvalReport`]);
 //! - `transfer/`: label maps from a simulated dataset's labels to a lab's ([`LabelMap`]) and
-//!   sim2real's scoring on a lab's held-out part ([`score_transfer`]);
+//!   sim2real's scoring on a lab's held-out part ([`score_transfer`]), the yaw averaged over turns
+//!   ([`Turns`]) and the lateral and depth read in the edge's frame ([`EdgeStage`]);
 //! - `metrics.rs`: SSIM, MS-SSIM and MSE, checked against reference values ([`ssim`]);
 //! - `bench.rs`: network throughput ([`measure_networks`]); `backend.rs`: which burn device
 //!   runs the networks ([`Backend`]).
@@ -56,9 +57,10 @@ pub use objective::StepLosses;
 pub use posenet::{Pose, PoseNet, PoseScale, decode_batch};
 pub use train::{EpochLog, Progress, Silent, TrainState, train_posenet, train_unshear};
 pub use transfer::{
-    Coverage, Curve as FinetuneCurve, CurvePoint, LabelCurve, LabelMap, LabelScore, MATCH_FACTOR,
-    MAX_SIM_SHARE as FINETUNE_MAX_SIM_SHARE, MAX_TURNS, MIN_STEPS as FINETUNE_MIN_STEPS, Scores, Scoring, Span, Spread,
-    Turns, coverage as transfer_coverage, difference as label_difference, epochs_for as finetune_epochs,
-    label as label_name, parse_ks as parse_finetune_ks, score as score_transfer, summarise as summarise_finetune,
+    Coverage, Curve as FinetuneCurve, CurvePoint, EdgeStage, LabelCurve, LabelMap, LabelScore, MATCH_FACTOR,
+    MAX_SIM_SHARE as FINETUNE_MAX_SIM_SHARE, MAX_TURNS, MIN_STEPS as FINETUNE_MIN_STEPS, Matching, Moments, Scores,
+    Scoring, Span, Spread, Turns, coverage as transfer_coverage, difference as label_difference, edge_frame_labels,
+    epochs_for as finetune_epochs, in_edge_frame, label as label_name, parse_ks as parse_finetune_ks,
+    score as score_transfer, summarise as summarise_finetune, yaw_sense,
 };
 pub use unshear::Unshear;

@@ -20,14 +20,16 @@ from pathlib import Path
 
 def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs=None, seed=None,
              finetune=None, finetune_seeds=None, finetune_min_steps=None, finetune_lr_scale=None,
-             finetune_sim_share=None, input=None, motion_field=None, turns=None, report=None,  # noqa: A002
-             extra=(), tacsim_bin=None):
+             finetune_sim_share=None, input=None, motion_field=None, turns=None, edge_frame=False,  # noqa: A002
+             match_motion=False, report=None, extra=(), tacsim_bin=None):
     """Runs ``tacsim sim2real --real REAL --out OUT`` with the options given (the flags of the
     same names; ``finetune`` a list of sample counts and ``"all"``; ``input`` ``"pins"`` or
     ``"motion"``, what the networks read; ``motion_field`` with ``"motion"``, the part of the
     pin field tracked, a fraction of the image's half-side in [0.2, 1]; ``turns`` with
     ``"motion"``, how many turns of each lab image the simulator-trained network's readings
-    average, 1 to 64) and returns
+    average, 1 to 64; ``edge_frame=True`` with ``"motion"``, the lateral and depth read by a second
+    network from each image turned into the edge's frame; ``match_motion=True`` with it, those
+    images matched pixel by pixel to the simulated ones' mean and spread) and returns
     ``{"report": ..., "finetune": ...}``: ``report.json`` and, with ``finetune``,
     ``finetune.json`` (``None`` without). Raises ``FileNotFoundError`` where no tool is found
     and ``RuntimeError`` with the tool's message where it fails."""
@@ -47,6 +49,10 @@ def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs
     for flag, value in flags.items():
         if value is not None:
             args += [flag, str(value)]
+    if edge_frame:
+        args += ["--edge-frame"]
+    if match_motion:
+        args += ["--match-motion"]
     if finetune is not None:
         args += ["--finetune", ",".join(str(k) for k in finetune)]
     args += [str(a) for a in extra]

@@ -234,3 +234,8 @@ def test_sim2real_runs_the_command_line_tool_and_says_what_is_missing(tmp_path, 
         tacsim.sim2real(tmp_path / "no-lab", tmp_path / "out", turns=8, tacsim_bin=tacsim_binary())
     assert "--turns" in str(e.value)
     assert not (tmp_path / "out").exists()
+    # `edge_frame` reaches its flag: without `input="motion"` it is refused, before any work.
+    with pytest.raises(RuntimeError) as e:
+        tacsim.sim2real(tmp_path / "no-lab", tmp_path / "out", edge_frame=True, tacsim_bin=tacsim_binary())
+    assert "--edge-frame" in str(e.value)
+    assert not (tmp_path / "out").exists()

@@ -12,10 +12,12 @@
 //!
 //! `real = sign * sim + offset` (mm, or deg modulo 360 for a rotation).
 
+mod edge_frame;
 mod finetune;
 mod score;
 mod turns;
 
+pub use edge_frame::{EdgeStage, Matching, Moments, edge_frame_labels, in_edge_frame, yaw_sense};
 pub use finetune::{
     Curve, CurvePoint, LabelCurve, MATCH_FACTOR, MAX_SIM_SHARE, MIN_STEPS, Spread, epochs_for, parse_ks, summarise,
 };

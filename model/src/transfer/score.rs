@@ -8,6 +8,7 @@ use std::path::Path;
 
 use serde::Serialize;
 
+use super::edge_frame::{EdgeReader, EdgeStage, Fitting};
 use super::{LabelMap, Span, Turns};
 use crate::backend::Backend;
 use crate::data::Corpus;
@@ -90,13 +91,16 @@ pub struct Scores {
 /// The label map on the lab's fitting part, both networks on its held-out part; with, for
 /// each held-out image, the simulated training image nearest its label (for a grid).
 /// `rows`: the lab's fitting and held-out rows and the simulated training rows; `runs`: the
-/// simulator-trained and the real-trained networks' run folders.
+/// simulator-trained and the real-trained networks' run folders; `edge`, a second
+/// simulator-trained network that reads the labels a turn leaves alone in the edge's frame,
+/// the first network's yaw turned out of each image ([`EdgeStage`]).
 pub fn score(
     how: &Scoring,
     [sim, real]: [&Corpus; 2],
     real_labels: &[Column],
     [fitting, held_out, sim_rows]: [&[usize]; 3],
     [sim_run, real_run]: [&Path; 2],
+    edge: Option<EdgeStage<'_>>,
 ) -> Result<Scores> {
     let device = how.backend.device();
     let images = |rows: &[usize]| corpus_images(real, rows);
@@ -114,16 +118,28 @@ pub fn score(
             Some((turns, turns.sense(&sim_net, &sim_scale, &corpus_images(sim, probe), &truth, how.size, &device)?))
         }
     };
-    let read = |images: &[Vec<f32>]| match read_sim {
+    let read_first = |images: &[Vec<f32>]| match read_sim {
         None => predict_poses(&sim_net, &sim_scale, images, how.size, &device),
         Some((turns, sense)) => turns.read(&sim_net, &sim_scale, images, how.size, &device, sense),
     };
     let fit_truth = poses(fitting);
-    let fit_read = read(&fit_images);
+    let fit_read = read_first(&fit_images);
+    let edge = match &edge {
+        None => None,
+        Some(stage) => {
+            let fit = Fitting { images: &fit_images, first: &fit_read, adapt_norms: how.adapt_norms };
+            Some(EdgeReader::load(stage, (sim, sim_rows), &fit, how.size, &device)?)
+        }
+    };
+    let read = |images: &[Vec<f32>], first: Vec<Pose>| match &edge {
+        None => first,
+        Some(e) => e.read(images, &first, how.size, &device),
+    };
+    let fit_read = read(&fit_images, fit_read);
     let map = LabelMap::fit(&fit_read, &sim_scale.columns(), &fit_truth, real_labels)?;
     let truth = poses(held_out);
     let test_images = images(held_out);
-    let sim_read = read(&test_images);
+    let sim_read = read(&test_images, read_first(&test_images));
     let sim_err = map.errors(&sim_read, &truth);
     let identity = LabelMap::identity(real_labels);
     let real_read = predict_poses(&real_net, &real_scale, &test_images, how.size, &device);

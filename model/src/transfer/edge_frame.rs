@@ -1,0 +1,307 @@
+//! Reading in the edge's frame (`tacsim sim2real --edge-frame`): two networks in turn. The
+//! first (the simulator-trained network, trained on every yaw) reads the yaw; each image is
+//! then turned about its centre by minus that yaw, so that its edge lies as at yaw 0, and a
+//! second network, trained on the simulated images each turned by minus its own yaw, reads the
+//! labels a turn leaves alone (the lateral offset, the position along the edge, the depth):
+//!
+//! ```text
+//! yaw = first(image),   v = second(turn(image, -s yaw))   (v: pose_x, pose_y, pose_z),
+//! ```
+//!
+//! `s` the yaw's sense under a turn of the image ([`Turns::sense`]). The second network sees
+//! one direction of the edge only, so it need not learn how the lateral and the depth look at
+//! every yaw; where the first network's yaw is off by `e`, the second reads an edge turned by
+//! `e`. How to turn an image is the caller's, as for [`Turns`].
+//!
+//! With [`EdgeStage::match_motion`] each lab image, once turned, is matched pixel by pixel to
+//! the simulated images in the same frame ([`Matching`]): every value's mean and spread over the
+//! lab's fitting images taken to the simulated training images' (labels unused),
+//!
+//! ```text
+//! v' = m_sim + (v - m_lab) s_sim / s_lab   (each pixel; left as it is where s_lab < 1e-3),
+//! ```
+//!
+//! unsupervised adaptation of the input, as `--adapt-norms` is of the batch norms. In the
+//! edge's frame the two sets' poses spread alike (the lateral and the depth over the same
+//! spans), so a pixel's mean and spread differ where the motion does, not where the poses do.
+
+use std::path::Path;
+
+use burn::tensor::Device;
+
+use super::Turns;
+use super::turns::{KEPT, SENSE_SAMPLES};
+use crate::backend::Backend;
+use crate::data::Corpus;
+use crate::error::{ModelError, Result};
+use crate::eval::{corpus_images, predict_poses};
+use crate::images::ImageSet;
+use crate::infer::load_posenet;
+use crate::posenet::{Column, Pose, PoseNet, PoseScale};
+
+/// The second network of [`score`](super::score)'s reading in the edge's frame: its run and
+/// the yaw's sense under a turn of the image ([`yaw_sense`]).
+#[derive(Clone, Copy, Debug)]
+pub struct EdgeStage<'a> {
+    /// The run of the network trained on the simulated images turned into the edge's frame
+    /// ([`in_edge_frame`]).
+    pub run: &'a Path,
+    /// +1 or -1: turning an image by `+a` reads its yaw `s a` larger.
+    pub sense: f64,
+    /// Turns an image (the network's values, side px) by an angle (rad) about its centre.
+    pub turn: fn(&[f32], usize, f64) -> Vec<f32>,
+    /// Match each turned lab image's pixels to the simulated images' mean and spread
+    /// ([`Matching`]).
+    pub match_motion: bool,
+}
+
+/// The labels the second network reads: those of `sim_labels` a turn leaves alone. Refuses
+/// a set whose labels a turn would move other than the yaw, or without the yaw, as
+/// [`Turns::check`] does, and one with nothing left to read.
+pub fn edge_frame_labels(sim_labels: &[Column], turn: fn(&[f32], usize, f64) -> Vec<f32>) -> Result<Vec<Column>> {
+    Turns { count: 1, turn }.check(sim_labels).map_err(|e| match e {
+        ModelError::Config { reason, .. } => ModelError::Config { field: "--edge-frame".into(), reason },
+        e => e,
+    })?;
+    let kept: Vec<Column> = sim_labels.iter().copied().filter(|c| KEPT.contains(c)).collect();
+    if kept.is_empty() {
+        return Err(ModelError::Config {
+            field: "--edge-frame".into(),
+            reason: "the simulated set varies the yaw only: nothing is left to read in the edge's frame".into(),
+        });
+    }
+    Ok(kept)
+}
+
+/// The yaw's sense under a turn of the image, found with the network of `run` on up to 256 of
+/// `rows` of `sim` ([`Turns::sense`]; an error where that network does not read the yaw).
+pub fn yaw_sense(
+    backend: Backend,
+    side: usize,
+    run: &Path,
+    sim: &Corpus,
+    rows: &[usize],
+    turn: fn(&[f32], usize, f64) -> Vec<f32>,
+) -> Result<f64> {
+    let device = backend.device();
+    let (net, _, scale) = load_posenet(run, &device)?;
+    let probe = &rows[..rows.len().min(SENSE_SAMPLES)];
+    let truth: Vec<Pose> = probe.iter().map(|&r| sim.pose(r)).collect();
+    Turns { count: 1, turn }.sense(&net, &scale, &corpus_images(sim, probe), &truth, side, &device).map_err(|e| match e
+    {
+        ModelError::Insufficient(m) => ModelError::Insufficient(
+            m.replace("to average turns", "to turn images into the edge's frame").replace("--turns", "--edge-frame"),
+        ),
+        e => e,
+    })
+}
+
+/// `corpus` with every image turned about its centre by minus `sense` times its own yaw
+/// label, so that every edge lies as at yaw 0 (the labels unchanged: the second network does
+/// not read the yaw). Values are rounded to the image's 8 bits as stored.
+pub fn in_edge_frame(corpus: &Corpus, sense: f64, turn: fn(&[f32], usize, f64) -> Vec<f32>) -> Result<Corpus> {
+    use rayon::prelude::*;
+    let side = corpus.side();
+    let images: Vec<Vec<u8>> =
+        (0..corpus.dataset.rows.len()).into_par_iter().map(|r| stored_turn(corpus, r, sense, turn)).collect();
+    Ok(Corpus { dataset: corpus.dataset.clone(), images: ImageSet::from_raw(side, &images)? })
+}
+
+/// Row `r`'s image of `corpus` turned by minus `sense` times its yaw label, in 8 bits.
+fn stored_turn(corpus: &Corpus, r: usize, sense: f64, turn: fn(&[f32], usize, f64) -> Vec<f32>) -> Vec<u8> {
+    let values: Vec<f32> = corpus.images.image(r).iter().map(|&v| f32::from(v) / 255.0).collect();
+    let turned = turn(&values, corpus.side(), (-sense * corpus.pose(r).yaw_deg()).to_radians());
+    turned.into_iter().map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8).collect()
+}
+
+/// Each pixel's mean and spread over a set of images (population spread).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Moments {
+    /// Mean of each pixel.
+    pub mean: Vec<f32>,
+    /// Standard deviation of each pixel.
+    pub spread: Vec<f32>,
+}
+
+impl Moments {
+    /// The moments of `images` (all of one length; none: empty).
+    pub fn of<'a>(images: impl IntoIterator<Item = &'a [f32]>) -> Self {
+        let (mut sum, mut sq, mut n) = (Vec::<f64>::new(), Vec::<f64>::new(), 0.0);
+        for img in images {
+            if sum.is_empty() {
+                (sum, sq) = (vec![0.0; img.len()], vec![0.0; img.len()]);
+            }
+            for (i, &v) in img.iter().enumerate().take(sum.len()) {
+                sum[i] += f64::from(v);
+                sq[i] += f64::from(v) * f64::from(v);
+            }
+            n += 1.0;
+        }
+        let mean: Vec<f64> = sum.iter().map(|s| s / n).collect();
+        Self {
+            spread: sq.iter().zip(&mean).map(|(q, m)| (q / n - m * m).max(0.0).sqrt() as f32).collect(),
+            mean: mean.into_iter().map(|m| m as f32).collect(),
+        }
+    }
+}
+
+/// A pixel whose spread over the lab's images is below this is left as it is.
+const MATCH_MIN_SPREAD: f32 = 1e-3;
+
+/// The lab's images matched pixel by pixel to the simulated ones (see the module
+/// documentation): `v' = sim.mean + (v - lab.mean) sim.spread / lab.spread`, clamped to 0..1.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Matching {
+    /// The lab's fitting images' moments.
+    pub lab: Moments,
+    /// The simulated training images' moments.
+    pub sim: Moments,
+}
+
+impl Matching {
+    /// `image` matched.
+    pub fn apply(&self, image: &[f32]) -> Vec<f32> {
+        image
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                match (self.lab.mean.get(i), self.lab.spread.get(i), self.sim.mean.get(i), self.sim.spread.get(i)) {
+                    (Some(&ml), Some(&sl), Some(&ms), Some(&ss)) if sl >= MATCH_MIN_SPREAD => {
+                        (ms + (v - ml) * ss / sl).clamp(0.0, 1.0)
+                    }
+                    _ => v,
+                }
+            })
+            .collect()
+    }
+}
+
+/// The second network loaded, ready to read images whose yaw the first has read.
+pub(super) struct EdgeReader {
+    net: PoseNet,
+    scale: PoseScale,
+    sense: f64,
+    turn: fn(&[f32], usize, f64) -> Vec<f32>,
+    matching: Option<Matching>,
+}
+
+/// The lab's fitting images and the first network's readings of them: what the second
+/// network's input is matched to ([`EdgeStage::match_motion`]) and its batch norms adapted on.
+pub(super) struct Fitting<'a> {
+    pub(super) images: &'a [Vec<f32>],
+    pub(super) first: &'a [Pose],
+    /// Re-estimate the second network's batch norms on them (`--adapt-norms`).
+    pub(super) adapt_norms: bool,
+}
+
+impl EdgeReader {
+    /// Loads `stage`'s network; with [`EdgeStage::match_motion`], the matching of the lab's
+    /// fitting images turned by their yaws read to `sim`'s training rows turned by their own
+    /// yaws; with `fit.adapt_norms`, its batch norms re-estimated on the fitting images as it
+    /// will read them.
+    pub(super) fn load(
+        stage: &EdgeStage<'_>,
+        (sim, sim_rows): (&Corpus, &[usize]),
+        fit: &Fitting<'_>,
+        side: usize,
+        device: &Device,
+    ) -> Result<Self> {
+        let (net, _, scale) = load_posenet(stage.run, device)?;
+        let mut reader = Self { net, scale, sense: stage.sense, turn: stage.turn, matching: None };
+        if stage.match_motion {
+            let lab = reader.turned(fit.images, fit.first, side);
+            let sim_images: Vec<Vec<f32>> = sim_rows
+                .iter()
+                .map(|&r| {
+                    stored_turn(sim, r, stage.sense, stage.turn).into_iter().map(|v| f32::from(v) / 255.0).collect()
+                })
+                .collect();
+            reader.matching = Some(Matching {
+                lab: Moments::of(lab.iter().map(Vec::as_slice)),
+                sim: Moments::of(sim_images.iter().map(Vec::as_slice)),
+            });
+        }
+        if fit.adapt_norms {
+            let turned = reader.turned(fit.images, fit.first, side);
+            reader.net = reader.net.adapt_norms(&turned, side, device);
+        }
+        Ok(reader)
+    }
+
+    /// `images` turned by minus the yaws read, matched where the reader matches.
+    fn turned(&self, images: &[Vec<f32>], first: &[Pose], side: usize) -> Vec<Vec<f32>> {
+        images
+            .iter()
+            .zip(first)
+            .map(|(img, p)| {
+                let turned = (self.turn)(img, side, (-self.sense * p.yaw_deg()).to_radians());
+                match &self.matching {
+                    None => turned,
+                    Some(m) => m.apply(&turned),
+                }
+            })
+            .collect()
+    }
+
+    /// `first` (the first network's readings of `images`) with the labels the second network
+    /// reads taken from it, each image turned by minus its yaw read.
+    pub(super) fn read(&self, images: &[Vec<f32>], first: &[Pose], side: usize, device: &Device) -> Vec<Pose> {
+        let second = predict_poses(&self.net, &self.scale, &self.turned(images, first, side), side, device);
+        let columns = self.scale.columns();
+        first
+            .iter()
+            .zip(second)
+            .map(|(p, q)| {
+                let mut out = *p;
+                for &c in &columns {
+                    out.set(c, q.get(c));
+                }
+                out
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn turn_nothing(values: &[f32], _: usize, _: f64) -> Vec<f32> {
+        values.to_vec()
+    }
+
+    #[test]
+    fn matched_images_take_the_simulated_moments_and_still_pixels_stay() {
+        // Three lab images of four pixels: the last never moves. The simulated set: other
+        // means and spreads.
+        let lab = [vec![0.2f32, 0.5, 0.4, 0.5], vec![0.4, 0.7, 0.4, 0.5], vec![0.6, 0.6, 0.4, 0.5]];
+        let sim = [vec![0.5f32, 0.1, 0.9, 0.5], vec![0.3, 0.3, 0.1, 0.5]];
+        let m = Matching {
+            lab: Moments::of(lab.iter().map(Vec::as_slice)),
+            sim: Moments::of(sim.iter().map(Vec::as_slice)),
+        };
+        assert!((m.lab.mean[0] - 0.4).abs() < 1e-6 && (m.sim.spread[1] - 0.1).abs() < 1e-6, "{m:?}");
+        let matched: Vec<Vec<f32>> = lab.iter().map(|v| m.apply(v)).collect();
+        let after = Moments::of(matched.iter().map(Vec::as_slice));
+        for i in 0..2 {
+            assert!((after.mean[i] - m.sim.mean[i]).abs() < 1e-6, "pixel {i}: {after:?}");
+            assert!((after.spread[i] - m.sim.spread[i]).abs() < 1e-6, "pixel {i}: {after:?}");
+        }
+        // A pixel with no spread over the lab's images is left as it is, whatever the set's.
+        assert!(matched.iter().zip(&lab).all(|(a, b)| a[2] == b[2] && a[3] == b[3]), "{matched:?}");
+        // Values are kept within 0..1.
+        assert_eq!(m.apply(&[5.0, -5.0, 0.4, 0.5])[..2], [1.0, 0.0]);
+    }
+
+    #[test]
+    fn the_second_network_reads_what_a_turn_leaves_alone() {
+        let all = [Column::PoseX, Column::PoseZ, Column::PoseRz];
+        assert_eq!(edge_frame_labels(&all, turn_nothing).expect("labels"), vec![Column::PoseX, Column::PoseZ]);
+        let e = edge_frame_labels(&[Column::PoseRz], turn_nothing).expect_err("yaw only");
+        assert!(e.to_string().contains("--edge-frame") && e.to_string().contains("yaw only"), "{e}");
+        let e = edge_frame_labels(&[Column::PoseX, Column::PoseZ], turn_nothing).expect_err("no yaw");
+        assert!(e.to_string().contains("--edge-frame") && e.to_string().contains("pose_Rz"), "{e}");
+        let e = edge_frame_labels(&[Column::PoseX, Column::PoseRx, Column::PoseRz], turn_nothing).expect_err("tilt");
+        assert!(e.to_string().contains("--edge-frame") && e.to_string().contains("pose_Rx"), "{e}");
+    }
+}
