@@ -1,8 +1,11 @@
 """The depth's bias on the held-out real edge taps by lateral band and depth band, for both
 networks of a `tacsim sim2real` run (its predictions.csv: the first two labels are the lateral
-offset and the depth). Printed per network: the mean absolute errors, then a table of the mean
-depth error (reading - label, mm) with a row per lateral band -6..-4 ... 4..6 mm and a column
-per depth band 3.0-3.5 ... 4.5-5.0 mm (a cell of 3 taps or fewer left blank). Needs numpy.
+offset and the depth, a third, where there is one, the yaw). Printed per network: the mean
+absolute errors, then a table of the mean depth error (reading - label, mm) with a row per
+lateral band -6..-4 ... 4..6 mm and a column per depth band 3.0-3.5 ... 4.5-5.0 mm (a cell of 3
+taps or fewer left blank); last, per lateral band, both networks' mean absolute errors of the
+shallowest taps (3.0-3.5 mm, the taps beside the edge that barely touch) and of the rest.
+Needs numpy.
 
     python3 docs/sim2real-edge2d/depth_bands.py WORK/predictions.csv
 """
@@ -28,6 +31,22 @@ def main(path):
                 k = (y >= lo) & (y < lo + 2) & (z >= a) & (z < a + 0.5)
                 cells.append(f"{ez[k].mean():+7.2f}" if k.sum() > 3 else "       ")
             print(f"  {lo:+d}..{lo + 2:+d} mm      " + " ".join(cells))
+    angle = labels[2] if len(labels) > 2 else None
+    print("mean absolute errors by lateral band, lateral / depth (mm)" + (" / yaw (deg)" if angle else "")
+          + ", simulator-trained against real-trained:")
+    for lo in range(-6, 6, 2):
+        for name, part in (("3.0-3.5 mm", z < 3.5), ("3.5-5.0 mm", z >= 3.5)):
+            k = (y >= lo) & (y < lo + 2) & part
+            if k.sum() == 0:
+                continue
+            text = []
+            for who in ("sim_trained", "real_trained"):
+                e = [np.abs(col(f"{lateral}_{who}") - y)[k].mean(), np.abs(col(f"{depth}_{who}") - z)[k].mean()]
+                if angle:
+                    d = col(f"{angle}_{who}") - col(angle)
+                    e.append(np.abs((d + 180) % 360 - 180)[k].mean())
+                text.append(" / ".join(f"{v:.2f}" for v in e))
+            print(f"  {lo:+d}..{lo + 2:+d} mm, {name} ({k.sum()} taps): {text[0]} against {text[1]}")
 
 
 if __name__ == "__main__":
