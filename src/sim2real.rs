@@ -295,7 +295,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     let edge_labels = match o.edge_frame {
         false => None,
         true => Some(
-            tacsim_model::edge_frame_labels(&sim_labels, tacsim_sim::turn_motion)
+            tacsim_model::edge_frame_labels(&sim_labels)
                 .with_context(|| format!("the simulated set {}", sim_dir.display()))?,
         ),
     };

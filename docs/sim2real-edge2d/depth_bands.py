@@ -9,32 +9,29 @@ Needs numpy.
 
     python3 docs/sim2real-edge2d/depth_bands.py WORK/predictions.csv
 """
-import csv
 import sys
 
 import numpy as np
 
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from predictions import LATERAL_BANDS, band_table, depth_header, read  # noqa: E402
+
 
 def main(path):
-    rows = list(csv.DictReader(open(path)))
-    labels = [c[: -len("_sim_trained")] for c in rows[0] if c.endswith("_sim_trained")]
+    labels, col = read(path)
     lateral, depth = labels[0], labels[1]
-    col = lambda name: np.array([float(r[name]) for r in rows])  # noqa: E731
     y, z = col(lateral), col(depth)
     for who in ("sim_trained", "real_trained"):
         ey, ez = col(f"{lateral}_{who}") - y, col(f"{depth}_{who}") - z
         print(f"{who}: lateral {np.abs(ey).mean():.3f} mm, depth {np.abs(ez).mean():.3f} mm; depth bias (mm):")
-        print("  lateral \\ depth  " + " ".join(f"{a:.1f}-{a + 0.5:.1f}" for a in (3.0, 3.5, 4.0, 4.5)))
-        for lo in range(-6, 6, 2):
-            cells = []
-            for a in (3.0, 3.5, 4.0, 4.5):
-                k = (y >= lo) & (y < lo + 2) & (z >= a) & (z < a + 0.5)
-                cells.append(f"{ez[k].mean():+7.2f}" if k.sum() > 3 else "       ")
-            print(f"  {lo:+d}..{lo + 2:+d} mm      " + " ".join(cells))
+        print("  lateral \\ depth  " + " ".join(depth_header()))
+        cell = lambda k: f"{ez[k].mean():+7.2f}" if k.sum() > 3 else "       "  # noqa: E731
+        for name, cells in band_table(y, z, cell):
+            print(f"  {name}      " + " ".join(cells))
     angle = labels[2] if len(labels) > 2 else None
     print("mean absolute errors by lateral band, lateral / depth (mm)" + (" / yaw (deg)" if angle else "")
           + ", simulator-trained against real-trained:")
-    for lo in range(-6, 6, 2):
+    for lo in LATERAL_BANDS:
         for name, part in (("3.0-3.5 mm", z < 3.5), ("3.5-5.0 mm", z >= 3.5)):
             k = (y >= lo) & (y < lo + 2) & part
             if k.sum() == 0:

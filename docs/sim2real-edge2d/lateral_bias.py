@@ -8,23 +8,22 @@ Needs numpy.
 
     python3 docs/sim2real-edge2d/lateral_bias.py WORK/predictions.csv
 """
-import csv
 import sys
 
 import numpy as np
 
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from predictions import DEPTH_BANDS, LATERAL_BANDS, read  # noqa: E402
+
 
 def main(path):
-    rows = list(csv.DictReader(open(path)))
-    labels = [c[: -len("_sim_trained")] for c in rows[0] if c.endswith("_sim_trained")]
+    labels, col = read(path)
     lateral, depth = labels[0], labels[1]
-    y = np.array([float(r[lateral]) for r in rows])
-    read = np.array([float(r[lateral + "_sim_trained"]) for r in rows])
-    z = np.array([float(r[depth]) for r in rows])
-    error = read - y
-    print(f"{path}: {len(rows)} taps, lateral ({lateral}) error {np.abs(error).mean():.2f} mm, gain {np.polyfit(y, read, 1)[0]:.2f}")
-    print("bias by depth band (mm):   " + " ".join(f"{error[(z >= a) & (z < a + 0.5)].mean():+.2f}" for a in (3.0, 3.5, 4.0, 4.5)))
-    print("bias by lateral band (mm): " + " ".join(f"{error[(y >= a) & (y < a + 2)].mean():+.2f}" for a in range(-6, 6, 2)))
+    y, z, reading = col(lateral), col(depth), col(lateral + "_sim_trained")
+    error = reading - y
+    print(f"{path}: {len(y)} taps, lateral ({lateral}) error {np.abs(error).mean():.2f} mm, gain {np.polyfit(y, reading, 1)[0]:.2f}")
+    print("bias by depth band (mm):   " + " ".join(f"{error[(z >= a) & (z < a + 0.5)].mean():+.2f}" for a in DEPTH_BANDS))
+    print("bias by lateral band (mm): " + " ".join(f"{error[(y >= a) & (y < a + 2)].mean():+.2f}" for a in LATERAL_BANDS))
     design = np.c_[y, z, np.ones_like(y)]
     coef, *_ = np.linalg.lstsq(design, error, rcond=None)
     print(f"after the best line in lateral and depth: {np.abs(error - design @ coef).mean():.2f} mm")

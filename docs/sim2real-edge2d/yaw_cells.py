@@ -6,27 +6,24 @@ sim-trained / real-trained (taps). Needs numpy.
 
     python3 docs/sim2real-edge2d/yaw_cells.py WORK/predictions.csv
 """
-import csv
 import sys
 
 import numpy as np
 
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from predictions import band_table, depth_header, read  # noqa: E402
+
 
 def main(path):
-    rows = list(csv.DictReader(open(path)))
-    labels = [c[: -len("_sim_trained")] for c in rows[0] if c.endswith("_sim_trained")]
+    labels, col = read(path)
     lateral, depth, yaw = labels[0], labels[1], labels[-1]
-    col = lambda name: np.array([float(r[name]) for r in rows])  # noqa: E731
     y, z, truth = col(lateral), col(depth), col(yaw)
     err = {k: np.abs((col(f"{yaw}_{k}_trained") - truth + 180) % 360 - 180) for k in ("sim", "real")}
     print(f"{path}: yaw ({yaw}) error sim-trained {err['sim'].mean():.2f}, real-trained {err['real'].mean():.2f} deg")
-    print("lateral band \\ depth band | " + " | ".join(f"{a:.1f}-{a + 0.5:.1f}" for a in (3.0, 3.5, 4.0, 4.5)))
-    for lo in range(-6, 6, 2):
-        cells = []
-        for a in (3.0, 3.5, 4.0, 4.5):
-            m = (y >= lo) & (y < lo + 2) & (z >= a) & (z < a + 0.5)
-            cells.append(f"{err['sim'][m].mean():5.1f} / {err['real'][m].mean():4.1f} ({m.sum()})" if m.any() else "-")
-        print(f"{lo:+d}..{lo + 2:+d} mm | " + " | ".join(cells))
+    print("lateral band \\ depth band | " + " | ".join(depth_header()))
+    cell = lambda m: f"{err['sim'][m].mean():5.1f} / {err['real'][m].mean():4.1f} ({m.sum()})" if m.any() else "-"  # noqa: E731
+    for name, cells in band_table(y, z, cell):
+        print(f"{name} | " + " | ".join(cells))
     total = err["sim"].sum()
     share = lambda m: err["sim"][m].sum() / total  # noqa: E731
     print(f"share of the sim-trained yaw error from lateral < -4 mm: {share(y < -4):.0%}; from lateral < -4 mm and pose_3 < 3.5 mm: {share((y < -4) & (z < 3.5)):.0%}")

@@ -8,10 +8,10 @@
 //! yaw = first(image),   v = second(turn(image, -s yaw))   (v: pose_x, pose_y, pose_z),
 //! ```
 //!
-//! `s` the yaw's sense under a turn of the image ([`Turns::sense`]). The second network sees
+//! `s` the yaw's sense under a turn of the image (found as for [`Turns`](super::Turns)). The second network sees
 //! one direction of the edge only, so it need not learn how the lateral and the depth look at
 //! every yaw; where the first network's yaw is off by `e`, the second reads an edge turned by
-//! `e`. How to turn an image is the caller's, as for [`Turns`].
+//! `e`. How to turn an image is the caller's, as for [`Turns`](super::Turns).
 //!
 //! With [`EdgeStage::match_motion`] each lab image, once turned, is matched pixel by pixel to
 //! the simulated images in the same frame ([`Matching`]): every value's mean and spread over the
@@ -29,12 +29,11 @@ use std::path::Path;
 
 use burn::tensor::Device;
 
-use super::Turns;
-use super::turns::{KEPT, SENSE_SAMPLES};
+use super::turns::{KEPT, check_labels, sense_on};
 use crate::backend::Backend;
 use crate::data::Corpus;
 use crate::error::{ModelError, Result};
-use crate::eval::{corpus_images, predict_poses};
+use crate::eval::predict_poses;
 use crate::images::ImageSet;
 use crate::infer::load_posenet;
 use crate::posenet::{Column, Pose, PoseNet, PoseScale};
@@ -57,12 +56,9 @@ pub struct EdgeStage<'a> {
 
 /// The labels the second network reads: those of `sim_labels` a turn leaves alone. Refuses
 /// a set whose labels a turn would move other than the yaw, or without the yaw, as
-/// [`Turns::check`] does, and one with nothing left to read.
-pub fn edge_frame_labels(sim_labels: &[Column], turn: fn(&[f32], usize, f64) -> Vec<f32>) -> Result<Vec<Column>> {
-    Turns { count: 1, turn }.check(sim_labels).map_err(|e| match e {
-        ModelError::Config { reason, .. } => ModelError::Config { field: "--edge-frame".into(), reason },
-        e => e,
-    })?;
+/// [`Turns::check`](super::Turns::check) does, and one with nothing left to read.
+pub fn edge_frame_labels(sim_labels: &[Column]) -> Result<Vec<Column>> {
+    check_labels(sim_labels, "--edge-frame")?;
     let kept: Vec<Column> = sim_labels.iter().copied().filter(|c| KEPT.contains(c)).collect();
     if kept.is_empty() {
         return Err(ModelError::Config {
@@ -74,7 +70,7 @@ pub fn edge_frame_labels(sim_labels: &[Column], turn: fn(&[f32], usize, f64) -> 
 }
 
 /// The yaw's sense under a turn of the image, found with the network of `run` on up to 256 of
-/// `rows` of `sim` ([`Turns::sense`]; an error where that network does not read the yaw).
+/// `rows` of `sim`, as for [`Turns`](super::Turns) (an error where that network does not read the yaw).
 pub fn yaw_sense(
     backend: Backend,
     side: usize,
@@ -85,15 +81,7 @@ pub fn yaw_sense(
 ) -> Result<f64> {
     let device = backend.device();
     let (net, _, scale) = load_posenet(run, &device)?;
-    let probe = &rows[..rows.len().min(SENSE_SAMPLES)];
-    let truth: Vec<Pose> = probe.iter().map(|&r| sim.pose(r)).collect();
-    Turns { count: 1, turn }.sense(&net, &scale, &corpus_images(sim, probe), &truth, side, &device).map_err(|e| match e
-    {
-        ModelError::Insufficient(m) => ModelError::Insufficient(
-            m.replace("to average turns", "to turn images into the edge's frame").replace("--turns", "--edge-frame"),
-        ),
-        e => e,
-    })
+    sense_on(&net, &scale, sim, rows, side, &device, turn, "--edge-frame")
 }
 
 /// `corpus` with every image turned about its centre by minus `sense` times its own yaw
@@ -208,8 +196,13 @@ impl EdgeReader {
     ) -> Result<Self> {
         let (net, _, scale) = load_posenet(stage.run, device)?;
         let mut reader = Self { net, scale, sense: stage.sense, turn: stage.turn, matching: None };
+        if !(stage.match_motion || fit.adapt_norms) {
+            return Ok(reader);
+        }
+        // The fitting images turned once (not yet matched): the lab's moments, then what the
+        // batch norms adapt on.
+        let turned = reader.turned(fit.images, fit.first, side);
         if stage.match_motion {
-            let lab = reader.turned(fit.images, fit.first, side);
             let sim_images: Vec<Vec<f32>> = sim_rows
                 .iter()
                 .map(|&r| {
@@ -217,13 +210,16 @@ impl EdgeReader {
                 })
                 .collect();
             reader.matching = Some(Matching {
-                lab: Moments::of(lab.iter().map(Vec::as_slice)),
+                lab: Moments::of(turned.iter().map(Vec::as_slice)),
                 sim: Moments::of(sim_images.iter().map(Vec::as_slice)),
             });
         }
         if fit.adapt_norms {
-            let turned = reader.turned(fit.images, fit.first, side);
-            reader.net = reader.net.adapt_norms(&turned, side, device);
+            let input: Vec<Vec<f32>> = match &reader.matching {
+                Some(m) => turned.iter().map(|v| m.apply(v)).collect(),
+                None => turned,
+            };
+            reader.net = reader.net.adapt_norms(&input, side, device);
         }
         Ok(reader)
     }
@@ -266,10 +262,6 @@ impl EdgeReader {
 mod tests {
     use super::*;
 
-    fn turn_nothing(values: &[f32], _: usize, _: f64) -> Vec<f32> {
-        values.to_vec()
-    }
-
     #[test]
     fn matched_images_take_the_simulated_moments_and_still_pixels_stay() {
         // Three lab images of four pixels: the last never moves. The simulated set: other
@@ -296,12 +288,12 @@ mod tests {
     #[test]
     fn the_second_network_reads_what_a_turn_leaves_alone() {
         let all = [Column::PoseX, Column::PoseZ, Column::PoseRz];
-        assert_eq!(edge_frame_labels(&all, turn_nothing).expect("labels"), vec![Column::PoseX, Column::PoseZ]);
-        let e = edge_frame_labels(&[Column::PoseRz], turn_nothing).expect_err("yaw only");
+        assert_eq!(edge_frame_labels(&all).expect("labels"), vec![Column::PoseX, Column::PoseZ]);
+        let e = edge_frame_labels(&[Column::PoseRz]).expect_err("yaw only");
         assert!(e.to_string().contains("--edge-frame") && e.to_string().contains("yaw only"), "{e}");
-        let e = edge_frame_labels(&[Column::PoseX, Column::PoseZ], turn_nothing).expect_err("no yaw");
+        let e = edge_frame_labels(&[Column::PoseX, Column::PoseZ]).expect_err("no yaw");
         assert!(e.to_string().contains("--edge-frame") && e.to_string().contains("pose_Rz"), "{e}");
-        let e = edge_frame_labels(&[Column::PoseX, Column::PoseRx, Column::PoseRz], turn_nothing).expect_err("tilt");
+        let e = edge_frame_labels(&[Column::PoseX, Column::PoseRx, Column::PoseRz]).expect_err("tilt");
         assert!(e.to_string().contains("--edge-frame") && e.to_string().contains("pose_Rx"), "{e}");
     }
 }

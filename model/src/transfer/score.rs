@@ -9,6 +9,7 @@ use std::path::Path;
 use serde::Serialize;
 
 use super::edge_frame::{EdgeReader, EdgeStage, Fitting};
+use super::turns::sense_on;
 use super::{LabelMap, Span, Turns};
 use crate::backend::Backend;
 use crate::data::Corpus;
@@ -113,9 +114,8 @@ pub fn score(
         None => None,
         Some(turns) => {
             turns.check(&sim_scale.columns())?;
-            let probe = &sim_rows[..sim_rows.len().min(super::turns::SENSE_SAMPLES)];
-            let truth: Vec<Pose> = probe.iter().map(|&r| sim.pose(r)).collect();
-            Some((turns, turns.sense(&sim_net, &sim_scale, &corpus_images(sim, probe), &truth, how.size, &device)?))
+            let sense = sense_on(&sim_net, &sim_scale, sim, sim_rows, how.size, &device, turns.turn, "--turns")?;
+            Some((turns, sense))
         }
     };
     let read_first = |images: &[Vec<f32>]| match read_sim {

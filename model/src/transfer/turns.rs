@@ -6,7 +6,7 @@
 //! yaw = arg sum_k exp(i (yaw_k - s a_k)),   v = (1/N) sum_k v_k   (every other label),
 //! ```
 //!
-//! `s` the yaw's sense under a turn of the image ([`Turns::sense`]: +1 where turning the image
+//! `s` the yaw's sense under a turn of the image ([`sense_on`]: +1 where turning the image
 //! by `+a` reads the yaw `a` larger). The simulated sensor turns with its yaw about its axis,
 //! so a network trained on it should read a turned image as the same tap at another yaw;
 //! where it reads a lab's images with an error that depends on the direction (a bias towards
@@ -17,8 +17,9 @@
 //! grids, `tacsim_sim::turn_motion`).
 
 use super::difference;
+use crate::data::Corpus;
 use crate::error::{ModelError, Result};
-use crate::eval::predict_poses;
+use crate::eval::{corpus_images, predict_poses};
 use crate::posenet::{Column, Pose, PoseNet, PoseScale};
 use burn::tensor::Device;
 
@@ -29,12 +30,12 @@ pub const KEPT: [Column; 3] = [Column::PoseX, Column::PoseY, Column::PoseZ];
 /// The most turns [`Turns::count`] takes.
 pub const MAX_TURNS: usize = 64;
 
-/// The turn that finds the yaw's sense ([`Turns::sense`]), a quarter turn: a reading near the
+/// The turn that finds the yaw's sense ([`sense_on`]), a quarter turn: a reading near the
 /// truth turned one way lies 180 deg from the truth turned the other.
 const SENSE_TURN_DEG: f64 = 90.0;
 
-/// The simulated images [`Turns::sense`] reads at most.
-pub(super) const SENSE_SAMPLES: usize = 256;
+/// The simulated images [`sense_on`] reads at most.
+const SENSE_SAMPLES: usize = 256;
 
 /// How a network's readings are averaged over turns of its input.
 #[derive(Clone, Copy, Debug)]
@@ -52,7 +53,8 @@ impl Turns {
     }
 
     /// Refuses a count outside `1..=MAX_TURNS` and a network whose labels a turn would move
-    /// other than its yaw (tilts, slide offsets), or that does not read the yaw.
+    /// other than its yaw (tilts, slide offsets), or that does not read the yaw
+    /// (`check_labels`).
     pub fn check(&self, columns: &[Column]) -> Result<()> {
         if !(1..=MAX_TURNS).contains(&self.count) {
             return Err(ModelError::Config {
@@ -60,42 +62,11 @@ impl Turns {
                 reason: format!("{} turns: give 1 to {MAX_TURNS}", self.count),
             });
         }
-        let moved: Vec<&str> =
-            columns.iter().filter(|c| **c != Column::PoseRz && !KEPT.contains(c)).map(|c| c.name()).collect();
-        if !columns.contains(&Column::PoseRz) || !moved.is_empty() {
-            return Err(ModelError::Config {
-                field: "--turns".into(),
-                reason: format!(
-                    "the network reads {}: turned readings need the yaw (pose_Rz) and otherwise only labels a turn \
-                     leaves alone (an edge's frame: pose_x, pose_y, pose_z), not {}",
-                    columns.iter().map(|c| c.name()).collect::<Vec<_>>().join(", "),
-                    if moved.is_empty() { "a network without the yaw".to_owned() } else { moved.join(", ") }
-                ),
-            });
-        }
-        Ok(())
+        check_labels(columns, "--turns")
     }
 
-    /// The yaw's sense under a turn of the image, from simulated images whose yaw is known:
-    /// each turned by a quarter turn and read; +1 where the readings lie nearer `truth + 90`
-    /// than `truth - 90` deg (mean difference on the circle), else -1. An error where neither
-    /// lies within 45 deg on average: the network does not read the yaw well enough to turn.
-    pub fn sense(
-        &self,
-        net: &PoseNet,
-        scale: &PoseScale,
-        images: &[Vec<f32>],
-        truth: &[Pose],
-        side: usize,
-        device: &Device,
-    ) -> Result<f64> {
-        let n = images.len().min(truth.len()).min(SENSE_SAMPLES);
-        let turned: Vec<Vec<f32>> =
-            images[..n].iter().map(|img| (self.turn)(img, side, SENSE_TURN_DEG.to_radians())).collect();
-        sense_of(&predict_poses(net, scale, &turned, side, device), &truth[..n], SENSE_TURN_DEG)
-    }
-
-    /// `images` read at every turn and averaged ([`combine`]); `sense` from [`Self::sense`].
+    /// `images` read at every turn and averaged (`combine`); `sense` the yaw's sense under a turn
+    /// of the image, as `sim2real` finds it on the simulated images.
     pub fn read(
         &self,
         net: &PoseNet,
@@ -120,10 +91,53 @@ impl Turns {
     }
 }
 
+/// Refuses a network whose labels a turn of its images would move other than its yaw (tilts,
+/// slide offsets), or that does not read the yaw; `flag` is the option that turns them
+/// (`--turns`, `--edge-frame`), named in the error.
+pub(super) fn check_labels(columns: &[Column], flag: &str) -> Result<()> {
+    let moved: Vec<&str> =
+        columns.iter().filter(|c| **c != Column::PoseRz && !KEPT.contains(c)).map(|c| c.name()).collect();
+    if !columns.contains(&Column::PoseRz) || !moved.is_empty() {
+        return Err(ModelError::Config {
+            field: flag.into(),
+            reason: format!(
+                "the network reads {}: turned images need the yaw (pose_Rz) and otherwise only labels a turn \
+                 leaves alone (an edge's frame: pose_x, pose_y, pose_z), not {}",
+                columns.iter().map(|c| c.name()).collect::<Vec<_>>().join(", "),
+                if moved.is_empty() { "a network without the yaw".to_owned() } else { moved.join(", ") }
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The yaw's sense under a turn of the image (`turn`), from up to 256 of the simulated set's
+/// `rows`, whose yaw is known: each image turned by a quarter turn and read by `net`; +1 where
+/// the readings lie nearer `truth + 90` than `truth - 90` deg (mean difference on the circle),
+/// else -1 ([`sense_of`]). An error naming `flag` where neither lies within 45 deg on average:
+/// the network does not read the yaw well enough to turn its images by it.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn sense_on(
+    net: &PoseNet,
+    scale: &PoseScale,
+    sim: &Corpus,
+    rows: &[usize],
+    side: usize,
+    device: &Device,
+    turn: fn(&[f32], usize, f64) -> Vec<f32>,
+    flag: &str,
+) -> Result<f64> {
+    let probe = &rows[..rows.len().min(SENSE_SAMPLES)];
+    let truth: Vec<Pose> = probe.iter().map(|&r| sim.pose(r)).collect();
+    let turned: Vec<Vec<f32>> =
+        corpus_images(sim, probe).iter().map(|img| turn(img, side, SENSE_TURN_DEG.to_radians())).collect();
+    sense_of(&predict_poses(net, scale, &turned, side, device), &truth, SENSE_TURN_DEG, flag)
+}
+
 /// The sense of the yaw under a turn of `turn_deg`: +1 where `read` lies nearer `truth +
-/// turn_deg` on average, -1 where nearer `truth - turn_deg`; an error where the nearer is
-/// more than 45 deg off on average.
-pub fn sense_of(read: &[Pose], truth: &[Pose], turn_deg: f64) -> Result<f64> {
+/// turn_deg` on average, -1 where nearer `truth - turn_deg`; an error naming `flag` where the
+/// nearer is more than 45 deg off on average.
+fn sense_of(read: &[Pose], truth: &[Pose], turn_deg: f64, flag: &str) -> Result<f64> {
     let off = |s: f64| {
         let n = read.len().min(truth.len()).max(1) as f64;
         read.iter()
@@ -135,9 +149,9 @@ pub fn sense_of(read: &[Pose], truth: &[Pose], turn_deg: f64) -> Result<f64> {
     let (plus, minus) = (off(1.0), off(-1.0));
     if plus.min(minus) > 45.0 || read.is_empty() {
         return Err(ModelError::Insufficient(format!(
-            "--turns: the simulator-trained network reads its own images turned by {turn_deg} deg {plus:.1} / \
-             {minus:.1} deg off the yaw turned either way: it does not read the yaw well enough to average turns \
-             (train it longer, or drop --turns)"
+            "{flag}: the simulator-trained network reads its own images turned by {turn_deg} deg {plus:.1} / \
+             {minus:.1} deg off the yaw turned either way: it does not read the yaw well enough to turn its images \
+             by it (train it longer, or drop {flag})"
         )));
     }
     Ok(if plus <= minus { 1.0 } else { -1.0 })
@@ -201,11 +215,11 @@ mod tests {
         let truth: Vec<Pose> = (0..8).map(|k| tap(0.0, 4.0, -170.0 + 45.0 * k as f64)).collect();
         let plus: Vec<Pose> = truth.iter().map(|t| tap(0.0, 4.0, t.yaw_deg() + 95.0)).collect();
         let minus: Vec<Pose> = truth.iter().map(|t| tap(0.0, 4.0, t.yaw_deg() - 80.0)).collect();
-        assert_eq!(sense_of(&plus, &truth, 90.0).expect("sense"), 1.0);
-        assert_eq!(sense_of(&minus, &truth, 90.0).expect("sense"), -1.0);
+        assert_eq!(sense_of(&plus, &truth, 90.0, "--turns").expect("sense"), 1.0);
+        assert_eq!(sense_of(&minus, &truth, 90.0, "--turns").expect("sense"), -1.0);
         // Readings at chance: refused, saying why.
         let lost: Vec<Pose> = truth.iter().map(|t| tap(0.0, 4.0, t.yaw_deg() + 180.0)).collect();
-        let e = sense_of(&lost, &truth, 90.0).expect_err("refused").to_string();
+        let e = sense_of(&lost, &truth, 90.0, "--turns").expect_err("refused").to_string();
         assert!(e.contains("--turns") && e.contains("does not read the yaw"), "{e}");
     }
 
