@@ -64,7 +64,7 @@ pub fn run(
         seeds,
         rule: format!(
             "both arms: the real-trained network's settings (lr {} for the first half of the epochs, then times {}), \
-             the same epochs at each K: {} or more, so that each arm takes at least {} optimiser steps{}{}",
+             the same epochs at each K: {} or more, so that each arm takes at least {} optimiser steps{}{}{}",
             curve.cfg.lr,
             curve.cfg.lr_step_factor,
             curve.cfg.epochs,
@@ -78,6 +78,16 @@ pub fn run(
                 s => format!(
                     "; the pretrained arm trains on K s / (1 - s) simulated images beside the K (s = {s}), \
                      in the epochs that give it the same steps"
+                ),
+            },
+            match &curve.edge {
+                None => String::new(),
+                Some(e) => format!(
+                    "; in the edge's frame (--edge-frame): each arm also trains a second network, in the same epochs on \
+                     the K alone, on the K images each turned by minus its labelled yaw (the pretrained arm's from the \
+                     simulator's second network{}, the from-scratch arm's from fresh weights), and reads the labels a \
+                     turn leaves alone from each held-out image turned by minus the yaw its first network reads",
+                    if e.match_motion { ", its input matched to the simulated images' moments" } else { "" }
                 ),
             }
         ),
@@ -102,17 +112,26 @@ fn markdown(r: &FinetuneReport) -> String {
         r.command, r.seeds, r.rule
     );
     for l in &r.labels {
+        let (first_head, first_rule) = match l.first {
+            Some(_) => (" first alone (a / b) |", "---|"),
+            None => ("", ""),
+        };
         s.push_str(&format!(
-            "\n## {}\n\nReal-trained on every fitting sample: {:.3}. Pretrained within {MATCH_FACTOR}x of it from K = {}.\n\n\
-             | K | pretrained (a) | from scratch (b) | (a)/(b) | labels saved |\n|---|---|---|---|---|\n",
+            "\n## {}\n\nReal-trained on every fitting sample: {:.3}. Pretrained within {MATCH_FACTOR}x of it from K = {}.{}\n\n\
+             | K | pretrained (a) | from scratch (b) | (a)/(b) | labels saved |{first_head}\n|---|---|---|---|---|{first_rule}\n",
             l.label,
             l.real_all,
-            l.pretrained_matches_at.map_or("never (within the Ks run)".to_owned(), |k| k.to_string())
+            l.pretrained_matches_at.map_or("never (within the Ks run)".to_owned(), |k| k.to_string()),
+            if l.first.is_some() {
+                " Read in the edge's frame; the last column: each arm's first network alone, the images as they are."
+            } else {
+                ""
+            }
         ));
         for (i, k) in l.k.iter().enumerate() {
             let (a, b) = (l.pretrained[i], l.scratch[i]);
             s.push_str(&format!(
-                "| {k} | {:.3} ({:.3}..{:.3}) | {:.3} ({:.3}..{:.3}) | {:.2} | {} |\n",
+                "| {k} | {:.3} ({:.3}..{:.3}) | {:.3} ({:.3}..{:.3}) | {:.2} | {} |",
                 a.mean,
                 a.min,
                 a.max,
@@ -122,6 +141,10 @@ fn markdown(r: &FinetuneReport) -> String {
                 a.mean / b.mean,
                 l.labels_saved[i].map_or("-".to_owned(), |x| format!("{x:.1}x"))
             ));
+            if let Some([fa, fb]) = &l.first {
+                s.push_str(&format!(" {:.3} / {:.3} |", fa[i].mean, fb[i].mean));
+            }
+            s.push('\n');
         }
     }
     s

@@ -108,14 +108,17 @@ pub struct Sim2RealOptions {
     /// network, trained on the simulated images each turned by minus its own yaw, reads the
     /// lateral offset and the depth from each lab image turned by minus the yaw the
     /// simulator-trained network reads of it (with `--turns`, averaged over the turns); the
-    /// yaw stays the first network's. The real-trained network and the fine-tuning curve
-    /// read the images as they are.
+    /// yaw stays the first network's. The real-trained network reads the images as they are.
+    /// With `--finetune`, each arm of the curve reads in the edge's frame too: a second
+    /// network trained on the K turned by their labelled yaws (the pretrained arm's from the
+    /// simulator's second network) reads what the arm's first network's yaw turns.
     #[arg(long)]
     pub edge_frame: bool,
     /// With `--edge-frame`: each lab image, once turned into the edge's frame, matched pixel by
     /// pixel to the simulated images in that frame, every value's mean and spread over the
     /// lab's fitting images taken to the simulated training images' (labels unused:
-    /// unsupervised adaptation of the second network's input).
+    /// unsupervised adaptation of the second network's input; with `--finetune`, the
+    /// pretrained arm's too).
     #[arg(long, requires = "edge_frame")]
     pub match_motion: bool,
     /// After the zero-shot run, the fine-tuning curve: for each of these counts K of the lab's
@@ -299,6 +302,11 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
                 .with_context(|| format!("the simulated set {}", sim_dir.display()))?,
         ),
     };
+    if o.edge_frame && o.finetune.is_some() {
+        // The curve's from-scratch arm reads the lab's own labels in the edge's frame.
+        tacsim_model::edge_frame_labels(&real_labels)
+            .with_context(|| format!("the lab's labels in {} (--finetune)", o.real.display()))?;
+    }
     let (sim_run, real_run) = train_both(o, [&sim_cfg, &real_cfg], &sim, &real)?;
     let edge = match edge_labels {
         None => None,
@@ -367,6 +375,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
             sim: &sim,
             sim_rows: &sim_rows,
             sim_share: o.finetune_sim_share,
+            edge: edge_stage,
             dir: o.out.join("finetune"),
         };
         let real_all: Vec<f64> = report.labels.iter().map(|l| l.real_trained).collect();

@@ -350,6 +350,37 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     assert_ne!(matched_sim, framed_sim, "the second network reads matched images");
     ok(&matched_args);
     assert_eq!(readings("_sim_trained"), matched_sim, "same statistics, same readings to the last digit");
+
+    // The fine-tuning curve in the edge's frame: each arm trains a second network on the K
+    // turned by their labelled yaws and reads the lateral and the depth from the held-out
+    // images turned by its first network's yaw; the point has its own folder, keeps the first
+    // networks' own figures (the yaw the same, the rest read otherwise), the reports say it,
+    // and a rerun reads the point back.
+    let curve = ["--finetune", "8", "--finetune-seeds", "1", "--finetune-min-steps", "4"];
+    let curve_args = [&matched_args[..], &curve[..]].concat();
+    ok(&curve_args);
+    let point_dir = out.join("finetune/k8-s0-edge-matched");
+    for run in ["pretrained", "pretrained-edge", "scratch", "scratch-edge"] {
+        assert!(point_dir.join(run).join("config.json").is_file(), "{run}");
+    }
+    let point: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(point_dir.join("point.json")).expect("point")).expect("json");
+    let values = |key: &str| -> Vec<f64> {
+        point[key].as_array().unwrap_or_else(|| panic!("{key}: {point}")).iter().filter_map(|v| v.as_f64()).collect()
+    };
+    // The lab's labels: pose_y (lateral), pose_z (depth), pose_Rz (yaw), in that order.
+    for (arm, first) in [("pretrained", "pretrained_first"), ("scratch", "scratch_first")] {
+        let (framed, alone) = (values(arm), values(first));
+        assert_eq!((framed.len(), alone.len()), (3, 3), "{point}");
+        assert_eq!(framed[2], alone[2], "{arm}: the yaw is the first network's");
+        assert!(framed[..2] != alone[..2], "{arm}: the lateral and the depth are the second network's: {point}");
+    }
+    let md = std::fs::read_to_string(out.join("finetune.md")).expect("finetune.md");
+    assert!(md.contains("Read in the edge's frame") && md.contains("first alone (a / b)"), "{md}");
+    let rule = std::fs::read_to_string(out.join("finetune.json")).expect("finetune.json");
+    assert!(rule.contains("in the edge's frame (--edge-frame)") && rule.contains("matched"), "{rule}");
+    ok(&curve_args);
+    assert_eq!(std::fs::read_to_string(out.join("finetune.md")).expect("md"), md, "a rerun reads the point back");
 }
 
 #[test]

@@ -29,7 +29,7 @@ use std::path::Path;
 
 use burn::tensor::Device;
 
-use super::turns::{KEPT, check_labels, sense_on};
+use super::turns::{KEPT, TurnImage, check_labels, sense_on};
 use crate::backend::Backend;
 use crate::data::Corpus;
 use crate::error::{ModelError, Result};
@@ -48,7 +48,7 @@ pub struct EdgeStage<'a> {
     /// +1 or -1: turning an image by `+a` reads its yaw `s a` larger.
     pub sense: f64,
     /// Turns an image (the network's values, side px) by an angle (rad) about its centre.
-    pub turn: fn(&[f32], usize, f64) -> Vec<f32>,
+    pub turn: TurnImage,
     /// Match each turned lab image's pixels to the simulated images' mean and spread
     /// ([`Matching`]).
     pub match_motion: bool,
@@ -77,7 +77,7 @@ pub fn yaw_sense(
     run: &Path,
     sim: &Corpus,
     rows: &[usize],
-    turn: fn(&[f32], usize, f64) -> Vec<f32>,
+    turn: TurnImage,
 ) -> Result<f64> {
     let device = backend.device();
     let (net, _, scale) = load_posenet(run, &device)?;
@@ -87,7 +87,7 @@ pub fn yaw_sense(
 /// `corpus` with every image turned about its centre by minus `sense` times its own yaw
 /// label, so that every edge lies as at yaw 0 (the labels unchanged: the second network does
 /// not read the yaw). Values are rounded to the image's 8 bits as stored.
-pub fn in_edge_frame(corpus: &Corpus, sense: f64, turn: fn(&[f32], usize, f64) -> Vec<f32>) -> Result<Corpus> {
+pub fn in_edge_frame(corpus: &Corpus, sense: f64, turn: TurnImage) -> Result<Corpus> {
     use rayon::prelude::*;
     let side = corpus.side();
     let images: Vec<Vec<u8>> =
@@ -96,7 +96,7 @@ pub fn in_edge_frame(corpus: &Corpus, sense: f64, turn: fn(&[f32], usize, f64) -
 }
 
 /// Row `r`'s image of `corpus` turned by minus `sense` times its yaw label, in 8 bits.
-fn stored_turn(corpus: &Corpus, r: usize, sense: f64, turn: fn(&[f32], usize, f64) -> Vec<f32>) -> Vec<u8> {
+fn stored_turn(corpus: &Corpus, r: usize, sense: f64, turn: TurnImage) -> Vec<u8> {
     let values: Vec<f32> = corpus.images.image(r).iter().map(|&v| f32::from(v) / 255.0).collect();
     let turned = turn(&values, corpus.side(), (-sense * corpus.pose(r).yaw_deg()).to_radians());
     turned.into_iter().map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8).collect()
@@ -164,12 +164,23 @@ impl Matching {
     }
 }
 
+/// Each of `images` turned about its centre by minus `sense` times the yaw of its pose in
+/// `poses` (deg; a reading or a label).
+pub(super) fn turned_by(
+    images: &[Vec<f32>],
+    poses: &[Pose],
+    (sense, turn): (f64, TurnImage),
+    side: usize,
+) -> Vec<Vec<f32>> {
+    images.iter().zip(poses).map(|(img, p)| turn(img, side, (-sense * p.yaw_deg()).to_radians())).collect()
+}
+
 /// The second network loaded, ready to read images whose yaw the first has read.
 pub(super) struct EdgeReader {
     net: PoseNet,
     scale: PoseScale,
     sense: f64,
-    turn: fn(&[f32], usize, f64) -> Vec<f32>,
+    turn: TurnImage,
     matching: Option<Matching>,
 }
 
@@ -182,20 +193,49 @@ pub(super) struct Fitting<'a> {
     pub(super) adapt_norms: bool,
 }
 
+/// The matching of the lab's fitting images, each already turned by minus `sense` times the
+/// yaw the first network read of it ([`turned_by`]), to `sim`'s training rows turned by their
+/// own yaws ([`EdgeStage::match_motion`]).
+pub(super) fn lab_matching(
+    (sense, turn): (f64, TurnImage),
+    (sim, sim_rows): (&Corpus, &[usize]),
+    turned_fitting: &[Vec<f32>],
+) -> Matching {
+    let sim_images: Vec<Vec<f32>> = sim_rows
+        .iter()
+        .map(|&r| stored_turn(sim, r, sense, turn).into_iter().map(|v| f32::from(v) / 255.0).collect())
+        .collect();
+    Matching {
+        lab: Moments::of(turned_fitting.iter().map(Vec::as_slice)),
+        sim: Moments::of(sim_images.iter().map(Vec::as_slice)),
+    }
+}
+
 impl EdgeReader {
+    /// The network of `run`, reading images turned by minus `sense` times the yaw read and
+    /// matched by `matching` where given.
+    pub(super) fn new(
+        run: &Path,
+        (sense, turn): (f64, TurnImage),
+        matching: Option<Matching>,
+        device: &Device,
+    ) -> Result<Self> {
+        let (net, _, scale) = load_posenet(run, device)?;
+        Ok(Self { net, scale, sense, turn, matching })
+    }
+
     /// Loads `stage`'s network; with [`EdgeStage::match_motion`], the matching of the lab's
     /// fitting images turned by their yaws read to `sim`'s training rows turned by their own
     /// yaws; with `fit.adapt_norms`, its batch norms re-estimated on the fitting images as it
     /// will read them.
     pub(super) fn load(
         stage: &EdgeStage<'_>,
-        (sim, sim_rows): (&Corpus, &[usize]),
+        sim: (&Corpus, &[usize]),
         fit: &Fitting<'_>,
         side: usize,
         device: &Device,
     ) -> Result<Self> {
-        let (net, _, scale) = load_posenet(stage.run, device)?;
-        let mut reader = Self { net, scale, sense: stage.sense, turn: stage.turn, matching: None };
+        let mut reader = Self::new(stage.run, (stage.sense, stage.turn), None, device)?;
         if !(stage.match_motion || fit.adapt_norms) {
             return Ok(reader);
         }
@@ -203,16 +243,7 @@ impl EdgeReader {
         // batch norms adapt on.
         let turned = reader.turned(fit.images, fit.first, side);
         if stage.match_motion {
-            let sim_images: Vec<Vec<f32>> = sim_rows
-                .iter()
-                .map(|&r| {
-                    stored_turn(sim, r, stage.sense, stage.turn).into_iter().map(|v| f32::from(v) / 255.0).collect()
-                })
-                .collect();
-            reader.matching = Some(Matching {
-                lab: Moments::of(turned.iter().map(Vec::as_slice)),
-                sim: Moments::of(sim_images.iter().map(Vec::as_slice)),
-            });
+            reader.matching = Some(lab_matching((stage.sense, stage.turn), sim, &turned));
         }
         if fit.adapt_norms {
             let input: Vec<Vec<f32>> = match &reader.matching {
@@ -226,17 +257,11 @@ impl EdgeReader {
 
     /// `images` turned by minus the yaws read, matched where the reader matches.
     fn turned(&self, images: &[Vec<f32>], first: &[Pose], side: usize) -> Vec<Vec<f32>> {
-        images
-            .iter()
-            .zip(first)
-            .map(|(img, p)| {
-                let turned = (self.turn)(img, side, (-self.sense * p.yaw_deg()).to_radians());
-                match &self.matching {
-                    None => turned,
-                    Some(m) => m.apply(&turned),
-                }
-            })
-            .collect()
+        let turned = turned_by(images, first, (self.sense, self.turn), side);
+        match &self.matching {
+            None => turned,
+            Some(m) => turned.iter().map(|v| m.apply(v)).collect(),
+        }
     }
 
     /// `first` (the first network's readings of `images`) with the labels the second network

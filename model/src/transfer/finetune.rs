@@ -21,7 +21,18 @@
 //!   choice per point) join the `K`, and the arm trains the epochs that give it the
 //!   from-scratch arm's steps ([`mixed_epochs`]).
 //!
-//! Each point's two runs and its scores live in `k{K}-s{seed}/` under the curve's folder: a
+//! - In the edge's frame ([`Curve::edge`], `--edge-frame`): each arm also trains a second
+//!   network, in the same steps as its first, on the `K` images each turned by minus its
+//!   labelled yaw (the pretrained arm's from the simulator's second network, its labels and yaw
+//!   taken through the map; the from-scratch arm's from fresh weights on the lab's labels,
+//!   turned with the lab's yaw sense, the simulator's sense times the map's sign), and reads the
+//!   held-out images as the zero-shot run does ([`EdgeStage`]): the yaw the arm's first network
+//!   reads, each image turned by minus it, the labels a turn leaves alone read by the second.
+//!   With [`EdgeStage::match_motion`] the pretrained arm's turned images, the `K` and the
+//!   held-out ones, are matched to the simulated images' moments over the lab's fitting images
+//!   turned by the fine-tuned network's yaws (labels unused).
+//!
+//! Each point's runs and its scores live in `k{K}-s{seed}/` under the curve's folder: a
 //! finished point is read back, not recomputed; an interrupted one resumes its runs.
 
 use std::path::{Path, PathBuf};
@@ -32,12 +43,15 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use tacsim_data::Split;
 
+use super::edge_frame::{EdgeReader, EdgeStage, Matching, edge_frame_labels, lab_matching, turned_by};
+use super::turns::TurnImage;
 use super::{LabelMap, Scoring};
 use crate::checkpoint::{read_json, write_json};
 use crate::config::PoseConfig;
 use crate::data::Corpus;
 use crate::error::{ModelError, Result};
 use crate::eval::{corpus_images, predict_poses};
+use crate::images::ImageSet;
 use crate::infer::load_posenet;
 use crate::posenet::{Column, Pose};
 use crate::train::{Progress, train_posenet};
@@ -141,6 +155,13 @@ pub struct CurvePoint {
     /// without them it trains `epochs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pretrained_epochs: Option<usize>,
+    /// In the edge's frame ([`Curve::edge`]): the pretrained arm's first network alone, every
+    /// label read from the image as it is (the figures `pretrained` has without the frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pretrained_first: Option<Vec<f64>>,
+    /// In the edge's frame: the from-scratch arm's first network alone.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scratch_first: Option<Vec<f64>>,
 }
 
 /// Everything a curve's points share.
@@ -173,6 +194,10 @@ pub struct Curve<'a> {
     /// [0, [`MAX_SIM_SHARE`]] (0: the `K` alone): training on with the simulator's images keeps
     /// what they taught while the `K` teach the lab's.
     pub sim_share: f64,
+    /// Read in the edge's frame (`--edge-frame`): the simulator's second network, the yaw's
+    /// sense, the turn and whether the pretrained arm's input is matched (see the module
+    /// documentation). None: each arm's one network reads the images as they are.
+    pub edge: Option<EdgeStage<'a>>,
     /// The curve's folder (`k{K}-s{seed}/` per point).
     pub dir: PathBuf,
 }
@@ -189,6 +214,9 @@ impl Curve<'_> {
         }
         if self.sim_share > 0.0 {
             name.push_str(&format!("-sim{}", self.sim_share));
+        }
+        if let Some(edge) = &self.edge {
+            name.push_str(if edge.match_motion { "-edge-matched" } else { "-edge" });
         }
         let dir = self.dir.join(name);
         let done = dir.join("point.json");
@@ -220,7 +248,7 @@ impl Curve<'_> {
         }
         let lr = self.cfg.lr * self.pretrained_lr_scale;
         let cfg = PoseConfig {
-            labels: sim_labels,
+            labels: sim_labels.clone(),
             epochs: pretrained_epochs.unwrap_or(epochs),
             seed: seed_cfg,
             lr,
@@ -238,21 +266,94 @@ impl Curve<'_> {
             progress,
         )?;
         let (net, _, scale) = load_posenet(&run, &device)?;
-        let pretrained = map.errors(&predict_poses(&net, &scale, &held_images, self.how.size, &device), &held_truth);
+        let pretrained_read = predict_poses(&net, &scale, &held_images, self.how.size, &device);
+        let fitting_read = self
+            .edge
+            .filter(|e| e.match_motion)
+            .map(|_| predict_poses(&net, &scale, &corpus_images(self.real, self.fitting), self.how.size, &device));
+        let pretrained_first = map.errors(&pretrained_read, &held_truth);
 
         // (b) From scratch, on the lab's own labels.
         let own = self.training_set(&rows, |pose| *pose, self.labels);
-        let cfg = PoseConfig { labels: self.labels.to_vec(), epochs, seed: seed_cfg, ..self.cfg.clone() };
+        let scratch_cfg = PoseConfig { labels: self.labels.to_vec(), epochs, seed: seed_cfg, ..self.cfg.clone() };
         let run = dir.join("scratch");
-        train_posenet(&own, &cfg, self.how.backend, &run, run.join("config.json").is_file(), None, progress)?;
+        train_posenet(&own, &scratch_cfg, self.how.backend, &run, run.join("config.json").is_file(), None, progress)?;
         let (net, _, scale) = load_posenet(&run, &device)?;
-        let scratch = LabelMap::identity(self.labels)
-            .errors(&predict_poses(&net, &scale, &held_images, self.how.size, &device), &held_truth);
+        let scratch_read = predict_poses(&net, &scale, &held_images, self.how.size, &device);
+        let identity = LabelMap::identity(self.labels);
+        let scratch_first = identity.errors(&scratch_read, &held_truth);
 
-        let point =
-            CurvePoint { k, seed, epochs, pretrained, scratch, map: map.describe(), sim_samples, pretrained_epochs };
+        let (pretrained, scratch, pretrained_first, scratch_first) = match &self.edge {
+            None => (pretrained_first, scratch_first, None, None),
+            Some(stage) => {
+                // (a) in the edge's frame: the simulator's second network fine-tuned on the K
+                // turned by their labelled yaws (in its frame), matched where asked.
+                let turn = (stage.sense, stage.turn);
+                let matching = fitting_read.map(|read| {
+                    let fitting = turned_by(&corpus_images(self.real, self.fitting), &read, turn, self.how.size);
+                    lab_matching(turn, (self.sim, self.sim_rows), &fitting)
+                });
+                let second = EdgeArm {
+                    set: self.training_set(&rows, |pose| map.sim_pose(pose), &sim_labels),
+                    labels: edge_frame_labels(&sim_labels)?,
+                    cfg: PoseConfig { epochs, lr, seed: seed_cfg, ..self.cfg.clone() },
+                    run: dir.join("pretrained-edge"),
+                    weights: Some(stage.run.join("model.safetensors")),
+                    turn,
+                    matching,
+                };
+                let read = self.edge_arm(second, &rows, (&held_images, &pretrained_read), progress)?;
+                let pretrained = map.errors(&read, &held_truth);
+                // (b) in the edge's frame: a second network from scratch on the K turned by
+                // their labelled yaws in the lab's frame.
+                let second = EdgeArm {
+                    set: own,
+                    labels: edge_frame_labels(self.labels)?,
+                    cfg: scratch_cfg,
+                    run: dir.join("scratch-edge"),
+                    weights: None,
+                    turn: (lab_sense(&map, stage.sense)?, stage.turn),
+                    matching: None,
+                };
+                let read = self.edge_arm(second, &rows, (&held_images, &scratch_read), progress)?;
+                (pretrained, identity.errors(&read, &held_truth), Some(pretrained_first), Some(scratch_first))
+            }
+        };
+
+        let point = CurvePoint {
+            k,
+            seed,
+            epochs,
+            pretrained,
+            scratch,
+            map: map.describe(),
+            sim_samples,
+            pretrained_epochs,
+            pretrained_first,
+            scratch_first,
+        };
         write_json(&done, &point)?;
         Ok(point)
+    }
+
+    /// An arm's second network in the edge's frame: trained on `rows` of `arm.set`, each image
+    /// turned by minus the sense times its yaw label (matched where `arm.matching` is given),
+    /// resumed where its run was started; then the held-out images read with the yaw of the
+    /// arm's first network (`first`, its readings of `images`) and the rest the second's.
+    fn edge_arm(
+        &self,
+        arm: EdgeArm,
+        rows: &[usize],
+        (images, first): (&[Vec<f32>], &[Pose]),
+        progress: &mut dyn Progress,
+    ) -> Result<Vec<Pose>> {
+        let set = in_edge_frame_at(arm.set, rows, arm.turn, arm.matching.as_ref())?;
+        let cfg = PoseConfig { labels: arm.labels, ..arm.cfg };
+        let resume = arm.run.join("config.json").is_file();
+        train_posenet(&set, &cfg, self.how.backend, &arm.run, resume, arm.weights.as_deref(), progress)?;
+        let device = self.how.backend.device();
+        let reader = EdgeReader::new(&arm.run, arm.turn, arm.matching, &device)?;
+        Ok(reader.read(images, first, self.how.size, &device))
     }
 
     /// Appends `m` of the simulated training rows (a seeded choice), with their images, to
@@ -304,6 +405,59 @@ impl Curve<'_> {
     }
 }
 
+/// What an arm's second network trains on in the edge's frame ([`Curve::edge_arm`]).
+struct EdgeArm {
+    /// The lab's corpus with the `K` as its training rows, labelled in the arm's frame.
+    set: Corpus,
+    /// The labels the second network reads (those a turn leaves alone).
+    labels: Vec<Column>,
+    /// Its settings (epochs, rate, seed; the labels are `labels`).
+    cfg: PoseConfig,
+    /// Its run folder.
+    run: PathBuf,
+    /// The weights it starts from (None: fresh).
+    weights: Option<PathBuf>,
+    /// The yaw's sense in the arm's frame and the turn.
+    turn: (f64, TurnImage),
+    /// The pretrained arm's matching of its turned input.
+    matching: Option<Matching>,
+}
+
+/// `set` with the images of `rows` turned by minus `sense` times their yaw labels (matched
+/// where `matching` is given), in 8 bits as stored; every other image as it is.
+fn in_edge_frame_at(
+    set: Corpus,
+    rows: &[usize],
+    turn: (f64, TurnImage),
+    matching: Option<&Matching>,
+) -> Result<Corpus> {
+    let side = set.side();
+    let values = corpus_images(&set, rows);
+    let poses: Vec<Pose> = rows.iter().map(|&r| set.pose(r)).collect();
+    let turned = turned_by(&values, &poses, turn, side);
+    let mut images: Vec<Vec<u8>> = (0..set.dataset.rows.len()).map(|r| set.images.image(r).to_vec()).collect();
+    for (&r, v) in rows.iter().zip(turned) {
+        let v = match matching {
+            Some(m) => m.apply(&v),
+            None => v,
+        };
+        images[r] = v.into_iter().map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8).collect();
+    }
+    Ok(Corpus { dataset: set.dataset, images: ImageSet::from_raw(side, &images)? })
+}
+
+/// The lab's yaw sense under a turn of its images: the simulator's `sim_sense` times the sign
+/// of `map`'s link from the simulated yaw to the lab's (`real = sign sim + offset`).
+fn lab_sense(map: &LabelMap, sim_sense: f64) -> Result<f64> {
+    map.links.iter().find(|l| l.real.is_angle() && l.sim == Column::PoseRz).map(|l| sim_sense * l.sign).ok_or_else(
+        || ModelError::Config {
+            field: "--edge-frame".into(),
+            reason: "the label map links no lab label to the simulated yaw (pose_Rz): nothing to turn the images by"
+                .into(),
+        },
+    )
+}
+
 /// Mean, least and greatest of a label's error over the seeds.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Spread {
@@ -345,6 +499,10 @@ pub struct LabelCurve {
     /// this `K` (linear in log K between measured points) over this `K`; `None` where no
     /// measured `K` of (b) reaches it.
     pub labels_saved: Vec<Option<f64>>,
+    /// In the edge's frame: each arm's first network alone (the images as they are), (a) and
+    /// (b) over the seeds per `K` ([`CurvePoint::pretrained_first`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first: Option<[Vec<Spread>; 2]>,
 }
 
 /// The curves per label from the points of every `K` and seed (`labels` in the points'
@@ -357,11 +515,16 @@ pub fn summarise(points: &[CurvePoint], labels: &[Column], real_all: &[f64]) -> 
         .iter()
         .enumerate()
         .map(|(j, &c)| {
-            let at = |k: usize, arm: fn(&CurvePoint) -> &Vec<f64>| {
-                Spread::of(&points.iter().filter(|p| p.k == k).map(|p| arm(p)[j]).collect::<Vec<_>>())
+            let at = |k: usize, arm: fn(&CurvePoint) -> Option<&Vec<f64>>| {
+                Spread::of(&points.iter().filter(|p| p.k == k).filter_map(|p| arm(p).map(|v| v[j])).collect::<Vec<_>>())
             };
-            let pretrained: Vec<Spread> = ks.iter().map(|&k| at(k, |p| &p.pretrained)).collect();
-            let scratch: Vec<Spread> = ks.iter().map(|&k| at(k, |p| &p.scratch)).collect();
+            let curve = |arm: fn(&CurvePoint) -> Option<&Vec<f64>>| ks.iter().map(|&k| at(k, arm)).collect();
+            let pretrained: Vec<Spread> = curve(|p| Some(&p.pretrained));
+            let scratch: Vec<Spread> = curve(|p| Some(&p.scratch));
+            let first = points
+                .iter()
+                .all(|p| p.pretrained_first.is_some() && p.scratch_first.is_some())
+                .then(|| [curve(|p| p.pretrained_first.as_ref()), curve(|p| p.scratch_first.as_ref())]);
             let matches =
                 ks.iter().zip(&pretrained).find(|(_, s)| s.mean <= MATCH_FACTOR * real_all[j]).map(|(&k, _)| k);
             let saved = ks
@@ -377,6 +540,7 @@ pub fn summarise(points: &[CurvePoint], labels: &[Column], real_all: &[f64]) -> 
                 scratch,
                 pretrained_matches_at: matches,
                 labels_saved: saved,
+                first,
             }
         })
         .collect()
@@ -426,6 +590,22 @@ mod tests {
         assert_eq!(mixed_epochs(100, 400, 32, 75), 19);
         assert_eq!(mixed_epochs(8, 8, 32, 4), 4);
         assert_eq!(mixed_epochs(2, 2000, 32, 1), 2);
+    }
+
+    /// The lab's yaw turns with its images as the simulator's does where the map keeps the
+    /// yaw's sign, the other way where it flips it; a map without a yaw link is refused.
+    #[test]
+    fn the_labs_yaw_sense_is_the_simulators_times_the_maps_sign() {
+        let link = |sign| LabelMap {
+            links: vec![
+                super::super::Link { real: Column::PoseY, sim: Column::PoseX, sign: -1.0, offset: 0.5 },
+                super::super::Link { real: Column::PoseRz, sim: Column::PoseRz, sign, offset: 90.0 },
+            ],
+        };
+        assert_eq!(lab_sense(&link(1.0), -1.0).expect("kept"), -1.0);
+        assert_eq!(lab_sense(&link(-1.0), -1.0).expect("flipped"), 1.0);
+        let e = lab_sense(&LabelMap::identity(&[Column::PoseY, Column::PoseZ]), 1.0).expect_err("no yaw");
+        assert!(e.to_string().contains("--edge-frame") && e.to_string().contains("pose_Rz"), "{e}");
     }
 
     /// Labels saved: the K from scratch needs for the pretrained error, log-linear between

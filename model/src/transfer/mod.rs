@@ -22,7 +22,7 @@ pub use finetune::{
     Curve, CurvePoint, LabelCurve, MATCH_FACTOR, MAX_SIM_SHARE, MIN_STEPS, Spread, epochs_for, parse_ks, summarise,
 };
 pub use score::{Coverage, LabelScore, Scores, Scoring, coverage, score};
-pub use turns::{MAX_TURNS, Turns};
+pub use turns::{MAX_TURNS, TurnImage, Turns};
 
 use serde::{Deserialize, Serialize};
 use tacsim_data::wrap_deg;

@@ -23,6 +23,9 @@ use crate::eval::{corpus_images, predict_poses};
 use crate::posenet::{Column, Pose, PoseNet, PoseScale};
 use burn::tensor::Device;
 
+/// Turns an image (a network's values, side px) by an angle (rad) about its centre.
+pub type TurnImage = fn(&[f32], usize, f64) -> Vec<f32>;
+
 /// The labels a turn of the image about the sensor's axis leaves alone, in an edge's frame:
 /// the lateral offset from the edge, the position along it and the depth (mm).
 pub const KEPT: [Column; 3] = [Column::PoseX, Column::PoseY, Column::PoseZ];
@@ -43,7 +46,7 @@ pub struct Turns {
     /// How many readings, at `360 / count` deg steps (1: the image as it is).
     pub count: usize,
     /// Turns an image (the network's values, side px) by an angle (rad) about its centre.
-    pub turn: fn(&[f32], usize, f64) -> Vec<f32>,
+    pub turn: TurnImage,
 }
 
 impl Turns {
@@ -124,7 +127,7 @@ pub(super) fn sense_on(
     rows: &[usize],
     side: usize,
     device: &Device,
-    turn: fn(&[f32], usize, f64) -> Vec<f32>,
+    turn: TurnImage,
     flag: &str,
 ) -> Result<f64> {
     let probe = &rows[..rows.len().min(SENSE_SAMPLES)];
@@ -225,7 +228,7 @@ mod tests {
 
     #[test]
     fn turns_refuse_labels_a_turn_moves_and_counts_out_of_range() {
-        let turn: fn(&[f32], usize, f64) -> Vec<f32> = |v, _, _| v.to_vec();
+        let turn: TurnImage = |v, _, _| v.to_vec();
         let ok = Turns { count: 8, turn };
         assert!(ok.check(&[Column::PoseX, Column::PoseZ, Column::PoseRz]).is_ok());
         let e = ok.check(&[Column::PoseZ, Column::PoseRx, Column::PoseRz]).expect_err("tilt").to_string();
