@@ -98,8 +98,12 @@ pub fn in_edge_frame(corpus: &Corpus, sense: f64, turn: TurnImage) -> Result<Cor
 /// Row `r`'s image of `corpus` turned by minus `sense` times its yaw label, in 8 bits.
 fn stored_turn(corpus: &Corpus, r: usize, sense: f64, turn: TurnImage) -> Vec<u8> {
     let values: Vec<f32> = corpus.images.image(r).iter().map(|&v| f32::from(v) / 255.0).collect();
-    let turned = turn(&values, corpus.side(), (-sense * corpus.pose(r).yaw_deg()).to_radians());
-    turned.into_iter().map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8).collect()
+    stored(turn(&values, corpus.side(), (-sense * corpus.pose(r).yaw_deg()).to_radians()))
+}
+
+/// An image's values (0..1, clamped) in the 8 bits a corpus stores.
+pub(super) fn stored(values: Vec<f32>) -> Vec<u8> {
+    values.into_iter().map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8).collect()
 }
 
 /// Each pixel's mean and spread over a set of images (population spread).

@@ -43,7 +43,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use tacsim_data::Split;
 
-use super::edge_frame::{EdgeReader, EdgeStage, Matching, edge_frame_labels, lab_matching, turned_by};
+use super::edge_frame::{EdgeReader, EdgeStage, Matching, edge_frame_labels, lab_matching, stored, turned_by};
 use super::turns::TurnImage;
 use super::{LabelMap, Scoring};
 use crate::checkpoint::{read_json, write_json};
@@ -239,6 +239,14 @@ impl Curve<'_> {
         let read = predict_poses(&sim_net, &sim_scale, &corpus_images(self.real, &rows), self.how.size, &device);
         let map = LabelMap::fit(&read, &sim_scale.columns(), &truth(&rows), self.labels)?;
         let sim_labels = sim_scale.columns();
+        // In the edge's frame, what each arm's second network reads and the lab's yaw sense,
+        // checked before any training.
+        let edge_plan = match &self.edge {
+            None => None,
+            Some(stage) => {
+                Some((edge_frame_labels(&sim_labels)?, edge_frame_labels(self.labels)?, lab_sense(&map, stage.sense)?))
+            }
+        };
         let mut as_sim = self.training_set(&rows, |pose| map.sim_pose(pose), &sim_labels);
         let sim_samples = sim_samples(k, self.sim_share).min(self.sim_rows.len());
         let mut pretrained_epochs = None;
@@ -283,9 +291,8 @@ impl Curve<'_> {
         let identity = LabelMap::identity(self.labels);
         let scratch_first = identity.errors(&scratch_read, &held_truth);
 
-        let (pretrained, scratch, pretrained_first, scratch_first) = match &self.edge {
-            None => (pretrained_first, scratch_first, None, None),
-            Some(stage) => {
+        let (pretrained, scratch, pretrained_first, scratch_first) = match (&self.edge, edge_plan) {
+            (Some(stage), Some((sim_edge_labels, lab_edge_labels, lab_sense))) => {
                 // (a) in the edge's frame: the simulator's second network fine-tuned on the K
                 // turned by their labelled yaws (in its frame), matched where asked.
                 let turn = (stage.sense, stage.turn);
@@ -295,7 +302,7 @@ impl Curve<'_> {
                 });
                 let second = EdgeArm {
                     set: self.training_set(&rows, |pose| map.sim_pose(pose), &sim_labels),
-                    labels: edge_frame_labels(&sim_labels)?,
+                    labels: sim_edge_labels,
                     cfg: PoseConfig { epochs, lr, seed: seed_cfg, ..self.cfg.clone() },
                     run: dir.join("pretrained-edge"),
                     weights: Some(stage.run.join("model.safetensors")),
@@ -308,16 +315,17 @@ impl Curve<'_> {
                 // their labelled yaws in the lab's frame.
                 let second = EdgeArm {
                     set: own,
-                    labels: edge_frame_labels(self.labels)?,
+                    labels: lab_edge_labels,
                     cfg: scratch_cfg,
                     run: dir.join("scratch-edge"),
                     weights: None,
-                    turn: (lab_sense(&map, stage.sense)?, stage.turn),
+                    turn: (lab_sense, stage.turn),
                     matching: None,
                 };
                 let read = self.edge_arm(second, &rows, (&held_images, &scratch_read), progress)?;
                 (pretrained, identity.errors(&read, &held_truth), Some(pretrained_first), Some(scratch_first))
             }
+            _ => (pretrained_first, scratch_first, None, None),
         };
 
         let point = CurvePoint {
@@ -441,7 +449,7 @@ fn in_edge_frame_at(
             Some(m) => m.apply(&v),
             None => v,
         };
-        images[r] = v.into_iter().map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8).collect();
+        images[r] = stored(v);
     }
     Ok(Corpus { dataset: set.dataset, images: ImageSet::from_raw(side, &images)? })
 }
