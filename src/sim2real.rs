@@ -478,7 +478,7 @@ fn train_edge_frame(
 ) -> Result<(PathBuf, f64)> {
     let turn = tacsim_sim::turn_motion;
     let sense = tacsim_model::yaw_sense(o.backend, o.size, sim_run, sim, sim_rows, turn)?;
-    let turned = tacsim_model::in_edge_frame(sim, sense, turn)?;
+    let turned = tacsim_model::in_edge_frame(sim, None, (sense, turn), None)?;
     let dir = o.out.join("sim-edge-posenet");
     let resume = dir.join("config.json").is_file();
     tacsim_model::train_posenet(&turned, cfg, o.backend, &dir, resume, None, &mut Bar::new(o.quiet)).with_context(

@@ -84,25 +84,45 @@ pub fn yaw_sense(
     sense_on(&net, &scale, sim, rows, side, &device, turn, "--edge-frame")
 }
 
-/// `corpus` with every image turned about its centre by minus `sense` times its own yaw
-/// label, so that every edge lies as at yaw 0 (the labels unchanged: the second network does
-/// not read the yaw). Values are rounded to the image's 8 bits as stored.
-pub fn in_edge_frame(corpus: &Corpus, sense: f64, turn: TurnImage) -> Result<Corpus> {
+/// `corpus` with the images of `rows` (None: every row) turned about their centres by minus
+/// `sense` times their own yaw labels, so that their edges lie as at yaw 0, and matched where
+/// `matching` is given; every other image as it is and the labels unchanged (the second
+/// network does not read the yaw). Values are rounded to the image's 8 bits as stored.
+pub fn in_edge_frame(
+    corpus: &Corpus,
+    rows: Option<&[usize]>,
+    (sense, turn): (f64, TurnImage),
+    matching: Option<&Matching>,
+) -> Result<Corpus> {
     use rayon::prelude::*;
-    let side = corpus.side();
-    let images: Vec<Vec<u8>> =
-        (0..corpus.dataset.rows.len()).into_par_iter().map(|r| stored_turn(corpus, r, sense, turn)).collect();
-    Ok(Corpus { dataset: corpus.dataset.clone(), images: ImageSet::from_raw(side, &images)? })
+    let n = corpus.dataset.rows.len();
+    let mut chosen = vec![rows.is_none(); n];
+    for &r in rows.unwrap_or(&[]) {
+        chosen[r] = true;
+    }
+    let images: Vec<Vec<u8>> = (0..n)
+        .into_par_iter()
+        .map(|r| match chosen[r] {
+            true => stored_turn(corpus, r, (sense, turn), matching),
+            false => corpus.images.image(r).to_vec(),
+        })
+        .collect();
+    Ok(Corpus { dataset: corpus.dataset.clone(), images: ImageSet::from_raw(corpus.side(), &images)? })
 }
 
-/// Row `r`'s image of `corpus` turned by minus `sense` times its yaw label, in 8 bits.
-fn stored_turn(corpus: &Corpus, r: usize, sense: f64, turn: TurnImage) -> Vec<u8> {
+/// Row `r`'s image of `corpus` turned by minus `sense` times its yaw label (matched where
+/// `matching` is given), in 8 bits.
+fn stored_turn(corpus: &Corpus, r: usize, (sense, turn): (f64, TurnImage), matching: Option<&Matching>) -> Vec<u8> {
     let values: Vec<f32> = corpus.images.image(r).iter().map(|&v| f32::from(v) / 255.0).collect();
-    stored(turn(&values, corpus.side(), (-sense * corpus.pose(r).yaw_deg()).to_radians()))
+    let turned = turn(&values, corpus.side(), (-sense * corpus.pose(r).yaw_deg()).to_radians());
+    stored(match matching {
+        Some(m) => m.apply(&turned),
+        None => turned,
+    })
 }
 
 /// An image's values (0..1, clamped) in the 8 bits a corpus stores.
-pub(super) fn stored(values: Vec<f32>) -> Vec<u8> {
+fn stored(values: Vec<f32>) -> Vec<u8> {
     values.into_iter().map(|v| (v.clamp(0.0, 1.0) * 255.0).round() as u8).collect()
 }
 
@@ -207,7 +227,7 @@ pub(super) fn lab_matching(
 ) -> Matching {
     let sim_images: Vec<Vec<f32>> = sim_rows
         .iter()
-        .map(|&r| stored_turn(sim, r, sense, turn).into_iter().map(|v| f32::from(v) / 255.0).collect())
+        .map(|&r| stored_turn(sim, r, (sense, turn), None).into_iter().map(|v| f32::from(v) / 255.0).collect())
         .collect();
     Matching {
         lab: Moments::of(turned_fitting.iter().map(Vec::as_slice)),

@@ -43,7 +43,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use tacsim_data::Split;
 
-use super::edge_frame::{EdgeReader, EdgeStage, Matching, edge_frame_labels, lab_matching, stored, turned_by};
+use super::edge_frame::{EdgeReader, EdgeStage, Matching, edge_frame_labels, in_edge_frame, lab_matching, turned_by};
 use super::turns::TurnImage;
 use super::{LabelMap, Scoring};
 use crate::checkpoint::{read_json, write_json};
@@ -51,7 +51,6 @@ use crate::config::PoseConfig;
 use crate::data::Corpus;
 use crate::error::{ModelError, Result};
 use crate::eval::{corpus_images, predict_poses};
-use crate::images::ImageSet;
 use crate::infer::load_posenet;
 use crate::posenet::{Column, Pose};
 use crate::train::{Progress, train_posenet};
@@ -355,7 +354,7 @@ impl Curve<'_> {
         (images, first): (&[Vec<f32>], &[Pose]),
         progress: &mut dyn Progress,
     ) -> Result<Vec<Pose>> {
-        let set = in_edge_frame_at(arm.set, rows, arm.turn, arm.matching.as_ref())?;
+        let set = in_edge_frame(&arm.set, Some(rows), arm.turn, arm.matching.as_ref())?;
         let cfg = PoseConfig { labels: arm.labels, ..arm.cfg };
         let resume = arm.run.join("config.json").is_file();
         train_posenet(&set, &cfg, self.how.backend, &arm.run, resume, arm.weights.as_deref(), progress)?;
@@ -429,29 +428,6 @@ struct EdgeArm {
     turn: (f64, TurnImage),
     /// The pretrained arm's matching of its turned input.
     matching: Option<Matching>,
-}
-
-/// `set` with the images of `rows` turned by minus `sense` times their yaw labels (matched
-/// where `matching` is given), in 8 bits as stored; every other image as it is.
-fn in_edge_frame_at(
-    set: Corpus,
-    rows: &[usize],
-    turn: (f64, TurnImage),
-    matching: Option<&Matching>,
-) -> Result<Corpus> {
-    let side = set.side();
-    let values = corpus_images(&set, rows);
-    let poses: Vec<Pose> = rows.iter().map(|&r| set.pose(r)).collect();
-    let turned = turned_by(&values, &poses, turn, side);
-    let mut images: Vec<Vec<u8>> = (0..set.dataset.rows.len()).map(|r| set.images.image(r).to_vec()).collect();
-    for (&r, v) in rows.iter().zip(turned) {
-        let v = match matching {
-            Some(m) => m.apply(&v),
-            None => v,
-        };
-        images[r] = stored(v);
-    }
-    Ok(Corpus { dataset: set.dataset, images: ImageSet::from_raw(side, &images)? })
 }
 
 /// The lab's yaw sense under a turn of its images: the simulator's `sim_sense` times the sign
