@@ -63,9 +63,11 @@ pub struct CalibrateOptions {
     /// The recordings are taps on this stimulus's edge (a catalogue shape, e.g. square) at
     /// labelled lateral offset, depth and yaw: fits the label map (signs, offsets, the rig's
     /// yield under load) and compares the edge's rounding (0, 1, 2, 4 mm), the pins' skin
-    /// patch (0, 0.75, 1.5, 2.5 mm) and the dome's slope (0, 1, 2) on the held-out per-pin
-    /// error, the rest of the sensor held as given ([`tacsim_sim::calibrate::edge::fit_edge`]). The preset written is
-    /// the sensor with the best candidate's skin patch and dome slope.
+    /// patch (0, 0.75, 1.5, 2.5 mm), the dome's slope (0, 1, 2) and the gap profile (the
+    /// dome's own, 0.75 and 0.5 of its radius: `skin.gap_radius_mm`) on the held-out per-pin
+    /// error, the rest of the sensor held as given ([`tacsim_sim::calibrate::edge::fit_edge`]).
+    /// The preset written is the sensor with the best candidate's skin patch, dome slope and
+    /// gap profile.
     #[arg(long, conflicts_with_all = ["camera_only", "rig_only"])]
     pub edge: Option<String>,
     /// Fit the finite-element dome (`skin.model = "dome"`, docs/guide/fem.md) to the
@@ -367,7 +369,7 @@ fn camera_only(
 }
 
 /// Writes an edge fit's report (`report.json`, `report.md`) and its preset (the sensor with the
-/// winner's skin patch and dome slope); returns the summary to print.
+/// winner's skin patch, dome slope and gap profile); returns the summary to print.
 fn write_edge_report(
     o: &CalibrateOptions,
     report: &edge::EdgeReport,
@@ -383,11 +385,11 @@ fn write_edge_report(
             d.gel_ratio, d.skin_thickness_mm, d.base_depth_mm
         ),
         None => format!(
-            "edge rounding {} mm, skin patch {} mm, dome slope {}",
-            b.edge_radius_mm, b.patch_radius_mm, b.dome_slope
+            "edge rounding {} mm, skin patch {} mm, dome slope {}, gap profile {} mm (0: the dome's own)",
+            b.edge_radius_mm, b.patch_radius_mm, b.dome_slope, b.gap_radius_mm
         ),
     };
-    let what = if b.dome.is_some() { "finite-element dome" } else { "skin patch and dome slope" };
+    let what = if b.dome.is_some() { "finite-element dome" } else { "skin patch, dome slope and gap profile" };
     let mut sensor = report.sensor(base)?;
     if let Some(name) = o.dome_name() {
         sensor.name = name;

@@ -424,6 +424,33 @@ fn simulated_edge_taps(sensor: &SensorParams, radius_mm: f64, dir: &Path) -> std
     lab
 }
 
+/// `--edge`: taps simulated with the contact's gap on a 20 mm profile (half the 40 mm dome's
+/// radius, `skin.gap_radius_mm`) on the sharp edge give that profile back, before the edge's
+/// roundings (which also delay the contact off the material) and the dome's own, and the
+/// preset written carries it.
+#[test]
+fn edge_taps_give_back_the_gap_profile_they_were_simulated_with() {
+    let mut sensor = SensorParams::preset("tactip-331-edge2d").expect("preset");
+    sensor.skin.cells_across = tacsim_sim::calibrate::edge::grid_cells().expect("the edge fit's grid");
+    let mut profiled = sensor.clone();
+    profiled.skin.gap_radius_mm = 0.5 * sensor.dome.outer_radius_mm;
+    profiled.validate("the test's sensor").expect("valid");
+    let dir = temp_dir("calibrate", "edge-gap");
+    let lab = simulated_edge_taps(&profiled, 0.0, &dir);
+    let preset = dir.join("out/edge.toml");
+    let args = ["calibrate", "--real", s(&lab), "--sensor", "tactip-331-edge2d", "--edge", "square"];
+    let o = tacsim(&[&args[..], &["--edge-contact", "45,0", "-o", s(&preset), "-q"]].concat());
+    assert!(o.status.success(), "calibrate --edge failed: {}", String::from_utf8_lossy(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("out/edge-report/report.json")).expect("report.json"))
+            .expect("json");
+    let f = |v: &serde_json::Value| v.as_f64().expect("number");
+    let best = &report["candidates"][report["best"].as_u64().expect("best") as usize];
+    assert_eq!((f(&best["edge_radius_mm"]), f(&best["gap_radius_mm"])), (0.0, 20.0), "{report}");
+    assert!((f(&best["labels"]["depth_offset_mm"]) + 2.9).abs() < 0.15, "{best}");
+    assert_eq!(SensorParams::load(&preset).expect("preset").skin.gap_radius_mm, 20.0, "{report}");
+}
+
 /// `--edge`: taps simulated on the square's rounded edge with a known label map
 /// ([`simulated_edge_taps`]) give that map back, and the rounding they were made with fits the
 /// held-out taps best.
@@ -466,7 +493,17 @@ fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with()
     assert!(f(&best["held_out_error"]) < 0.12, "{best}");
     assert_eq!(SensorParams::load(&preset).expect("preset").name, "tactip-331-edge2d", "the sensor is held");
     let md = std::fs::read_to_string(dir.join("out/edge-report/report.md")).expect("report.md");
-    assert!(md.contains(&format!("| 2 | {} | 0 (best) |", sensor.pins.patch_radius_mm)), "{md}");
+    assert!(md.contains(&format!("| 2 | {} | 0 | 0 (dome's) (best) |", sensor.pins.patch_radius_mm)), "{md}");
+    // The gap profiles ran (0.75 and 0.5 of the 40 mm dome), and lost to the dome's own that
+    // the taps were simulated with.
+    let profiles: Vec<f64> = report["candidates"]
+        .as_array()
+        .expect("candidates")
+        .iter()
+        .map(|c| f(&c["gap_radius_mm"]))
+        .filter(|&p| p > 0.0)
+        .collect();
+    assert_eq!(profiles, [30.0, 20.0], "{report}");
     // The dome-slope candidates ran, and lost to the rounding the taps were simulated with.
     assert!(md.contains(&format!("| 0 | {} | 1 |", sensor.pins.patch_radius_mm)), "{md}");
     let e = err(&["calibrate", "--real", s(&lab), "--edge", "square", "--edge-contact", "30,0", "-o", s(&preset)]);

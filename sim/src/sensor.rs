@@ -176,6 +176,19 @@ pub struct SkinParams {
     /// (`tacsim calibrate --edge`).
     #[serde(skip_serializing_if = "is_zero")]
     pub dome_slope: f64,
+    /// Radius (mm) of the outer profile the contact's initial gap is measured on: a sphere of
+    /// this radius touching the dome at the contact frame's apex (its axis the frame's `+z`),
+    /// so the undeformed surface `r` mm off that axis lies `rho - sqrt(rho^2 - r^2)` below the
+    /// apex instead of the dome's own `R - sqrt(R^2 - r^2)`; gap cells are taken within
+    /// 0.95 of the smaller of the two radii. 0 (the default): the dome's own,
+    /// `dome.outer_radius_mm`. Otherwise in [`outer_radius_mm` / 4, 4 `outer_radius_mm`].
+    /// A real dome is not a sphere: where an edge meets its side 5-6 mm off the apex, the lab's
+    /// TacTip meets the material later than a sphere of the dome's radius does
+    /// (`docs/guide/sim2real.md`). Only the gap, the cells it counts and the skin's rigid slip
+    /// over the stimulus follow it; the elastic body, the pins and `dome_slope` keep the dome's
+    /// own radius.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub gap_radius_mm: f64,
     /// Whether a contact cell that a stimulus's sharp edge crosses carries its load on the
     /// part over the stimulus (its gap at that part's centroid, its stiffness that of the
     /// part, the pins feeling it there) instead of being wholly in or out by its centre. On
@@ -218,6 +231,7 @@ impl Default for SkinParams {
             gel_youngs_modulus_mpa: 0.1,
             gel_poisson: 0.5,
             dome_slope: 0.0,
+            gap_radius_mm: 0.0,
             cut_edges: true,
             edge_subcells: DEFAULT_EDGE_SUBCELLS,
             dome_cells: DEFAULT_DOME_CELLS,
@@ -257,6 +271,10 @@ pub const MAX_EDGE_SUBCELLS: usize = 6;
 fn is_default_subcells(v: &usize) -> bool {
     *v == DEFAULT_EDGE_SUBCELLS
 }
+
+/// Smallest and largest [`SkinParams::gap_radius_mm`] other than 0, as multiples of the dome's
+/// outer radius.
+pub const GAP_RADIUS_RANGE: (f64, f64) = (0.25, 4.0);
 
 /// Largest factor on the dome's slope ([`SkinParams::dome_slope`]).
 pub const MAX_DOME_SLOPE: f64 = 3.0;
@@ -806,6 +824,17 @@ impl SensorParams {
         if !(0.0..=MAX_DOME_SLOPE).contains(&k.dome_slope) {
             return check.bad("skin.dome_slope", format!("must be in [0, {MAX_DOME_SLOPE}], got {}", k.dome_slope));
         }
+        check.finite("skin.gap_radius_mm", k.gap_radius_mm)?;
+        let (lo, hi) = (GAP_RADIUS_RANGE.0 * self.dome.outer_radius_mm, GAP_RADIUS_RANGE.1 * self.dome.outer_radius_mm);
+        if k.gap_radius_mm != 0.0 && !(lo..=hi).contains(&k.gap_radius_mm) {
+            return check.bad(
+                "skin.gap_radius_mm",
+                format!(
+                    "must be 0 (the dome's own radius) or in [outer_radius / 4 = {lo}, 4 outer_radius = {hi}] mm, got {}",
+                    k.gap_radius_mm
+                ),
+            );
+        }
         if !(MIN_DOME_CELLS..=MAX_DOME_CELLS).contains(&k.dome_cells) {
             return check.bad(
                 "skin.dome_cells",
@@ -928,6 +957,14 @@ mod tests {
             ("[skin]\ndome_slope = -0.5\n", "skin.dome_slope"),
             ("[skin]\ndome_slope = nan\n", "skin.dome_slope"),
             ("[skin]\nedge_subcells = 7\n", "skin.edge_subcells"),
+            ("[skin]\ngap_radius_mm = 4.0\n", "skin.gap_radius_mm"),
+            ("[skin]\ngap_radius_mm = 81.0\n", "skin.gap_radius_mm"),
+            ("[skin]\ngap_radius_mm = -20.0\n", "skin.gap_radius_mm"),
+            ("[skin]\ngap_radius_mm = inf\n", "skin.gap_radius_mm"),
+            (
+                "[dome]\nouter_radius_mm = 40.0\n[skin]\ngap_radius_mm = 9.0\n",
+                "outer_radius / 4 = 10, 4 outer_radius = 160",
+            ),
             ("[skin]\ndome_cells = 2\n", "skin.dome_cells"),
             ("[skin]\ndome_cells = 17\n", "skin.dome_cells"),
             ("[skin]\ndome_skin_layers = 0\n", "skin.dome_skin_layers"),

@@ -277,6 +277,51 @@ fn a_rounded_edge_lowers_the_top_face_by_the_quarter_circle() {
     assert!(checked > 100, "{checked} cells over the material");
 }
 
+/// The gap profile (`skin.gap_radius_mm`): a flat face pressed `d` deep under the apex leaves
+/// each cell `r` mm off the axis the gap `rho - sqrt(rho^2 - r^2) - d`, with `rho` the profile's
+/// radius (the dome's own at 0, and a profile of that same radius gives the same gaps), and no
+/// gap past 0.95 of the tighter radius; a tighter profile meets the face later off the axis.
+#[test]
+fn the_gap_is_measured_on_the_gap_profile() {
+    use tacsim_sim::contact::ContactFrame;
+    use tacsim_sim::contact::Grid;
+    use tacsim_sim::contact::initial_gap;
+
+    let cat = Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue");
+    let mut scene = Scene::new();
+    scene.add(cat.get("square").expect("square").clone(), ObjectPose::default()).expect("add");
+    let depth = 1.0;
+    let pose = SensorPose::new(0.0, 0.0, depth, 0.0);
+    // Cell centres -9.75..9.75 mm on either axis: past 0.95 of an 8 mm profile (7.6 mm).
+    let grid = Grid { nx: 40, ny: 40, cell_mm: 0.5, centre_mm: [0.0, 0.0] };
+    let gaps = |gap_radius_mm: f64| -> Vec<f64> {
+        let mut sensor = SensorParams::default();
+        sensor.skin.gap_radius_mm = gap_radius_mm;
+        sensor.validate("test").expect("valid");
+        let model = ContactModel::new(&sensor).expect("contact model");
+        initial_gap(&model, &scene, &pose, &ContactFrame::SENSOR, &grid).into_iter().map(|g| g.0).collect()
+    };
+    let dome = SensorParams::default().dome.outer_radius_mm;
+    let (own, same, tight) = (gaps(0.0), gaps(dome), gaps(8.0));
+    let mut later = 0;
+    for (k, c) in grid.centres().iter().enumerate() {
+        let r = c[0].hypot(c[1]);
+        let sag = |rho: f64| rho - (rho * rho - r * r).sqrt();
+        assert!((own[k] - (sag(dome) - depth)).abs() < 1e-4, "dome's own at {c:?}: {}", own[k]);
+        assert!((same[k] - own[k]).abs() < 1e-9, "a profile of the dome's radius at {c:?}: {} vs {}", same[k], own[k]);
+        if r >= 0.95 * 8.0 {
+            assert!(tight[k].is_infinite(), "past the 8 mm profile's cells at {c:?}: {}", tight[k]);
+            continue;
+        }
+        assert!((tight[k] - (sag(8.0) - depth)).abs() < 1e-4, "8 mm profile at {c:?}: {}", tight[k]);
+        if own[k] < 0.0 && tight[k] > 0.0 {
+            later += 1;
+        }
+    }
+    // A flat face 1 mm deep covers r < 6.2 mm of the dome but r < 3.9 mm of the 8 mm profile.
+    assert!(later > 100, "cells in contact on the dome but not on the tighter profile: {later}");
+}
+
 /// The largest growth (mm) of the lateral distance between neighbouring pin tips (within 1.3
 /// times the nearest spacing) from `rest` to `moved`.
 fn largest_split(rest: &[tacsim_sim::PinPose], moved: &[tacsim_sim::PinPose]) -> f64 {

@@ -114,4 +114,10 @@ impl ContactModel {
     pub(in crate::contact) fn dome_radius(&self) -> f64 {
         self.sensor.dome.outer_radius_mm
     }
+
+    /// The radius (mm) of the outer profile the contact's gap is measured on
+    /// ([`crate::sensor::SkinParams::gap_radius_mm`]); `None` where it is the dome's own.
+    pub(in crate::contact) fn gap_radius(&self) -> Option<f64> {
+        Some(self.sensor.skin.gap_radius_mm).filter(|&r| r > 0.0)
+    }
 }

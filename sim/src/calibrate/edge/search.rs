@@ -2,8 +2,8 @@
 //! (labelled lateral offset, depth and yaw) against the same taps simulated on a catalogue
 //! stimulus's edge. The label map (which side of the edge is positive, where yaw 0 points,
 //! where depth 0 is) is fitted on the fitting 80% ([`super::fit_labels`]), and candidate
-//! roundings of the edge, skin patches of the pins and dome slopes are compared on the
-//! held-out 20%'s per-pin error ([`super::tap_errors`]). The rest of the sensor is held as
+//! roundings of the edge, skin patches of the pins, dome slopes and gap profiles are compared
+//! on the held-out 20%'s per-pin error ([`super::tap_errors`]). The rest of the sensor is held as
 //! given: its camera and framing come from `--camera-only`, its deformation from the surface
 //! fit. The command line writes the report ([`EdgeReport`], [`EdgeReport::markdown`]) and the
 //! preset ([`EdgeReport::sensor`]).
@@ -27,26 +27,37 @@ pub struct Candidate {
     pub patch_radius_mm: Option<f64>,
     /// Factor on the dome's slope (`skin.dome_slope`).
     pub dome_slope: Option<f64>,
+    /// The gap profile's radius as a fraction of the dome's outer radius
+    /// (`skin.gap_radius_mm`; 1: the dome's own).
+    pub gap_profile: Option<f64>,
 }
 
-const fn candidate(edge_radius_mm: f64, patch_radius_mm: Option<f64>, dome_slope: Option<f64>) -> Candidate {
-    Candidate { edge_radius_mm, patch_radius_mm, dome_slope }
+const fn candidate(
+    edge_radius_mm: f64,
+    patch_radius_mm: Option<f64>,
+    dome_slope: Option<f64>,
+    gap_profile: Option<f64>,
+) -> Candidate {
+    Candidate { edge_radius_mm, patch_radius_mm, dome_slope, gap_profile }
 }
 
 /// The candidates, one change at a time from the sensor as given: rounding of the edge (the
-/// stimulus), the pins' skin patch and the dome's slope (the sensor).
-pub const CANDIDATES: [Candidate; 11] = [
-    candidate(0.0, None, None),
-    candidate(1.0, None, None),
-    candidate(2.0, None, None),
-    candidate(4.0, None, None),
-    candidate(0.0, Some(0.0), None),
-    candidate(0.0, Some(0.75), None),
-    candidate(0.0, Some(1.5), None),
-    candidate(0.0, Some(2.5), None),
-    candidate(0.0, None, Some(0.0)),
-    candidate(0.0, None, Some(1.0)),
-    candidate(0.0, None, Some(2.0)),
+/// stimulus), the pins' skin patch, the dome's slope and the gap profile (the sensor).
+pub const CANDIDATES: [Candidate; 14] = [
+    candidate(0.0, None, None, None),
+    candidate(1.0, None, None, None),
+    candidate(2.0, None, None, None),
+    candidate(4.0, None, None, None),
+    candidate(0.0, Some(0.0), None, None),
+    candidate(0.0, Some(0.75), None, None),
+    candidate(0.0, Some(1.5), None, None),
+    candidate(0.0, Some(2.5), None, None),
+    candidate(0.0, None, Some(0.0), None),
+    candidate(0.0, None, Some(1.0), None),
+    candidate(0.0, None, Some(2.0), None),
+    candidate(0.0, None, None, Some(1.0)),
+    candidate(0.0, None, None, Some(0.75)),
+    candidate(0.0, None, None, Some(0.5)),
 ];
 
 /// Contact grid cells across the edge fit's taps: the built-in `edge-2d` recipe's, whose
@@ -123,6 +134,8 @@ pub struct EdgeCandidate {
     pub patch_radius_mm: f64,
     /// Factor on the dome's slope.
     pub dome_slope: f64,
+    /// The gap profile's radius (mm; 0: the dome's own, `skin.gap_radius_mm`).
+    pub gap_radius_mm: f64,
     /// The label map fitted on the fitting taps.
     pub labels: EdgeLabels,
     /// Pooled relative per-pin error on the taps the map was fitted on.
@@ -183,13 +196,23 @@ pub fn fit_edge(job: &EdgeFit) -> Result<EdgeReport> {
         let mut sensor = job.base.clone();
         sensor.pins.patch_radius_mm = c.patch_radius_mm.unwrap_or(sensor.pins.patch_radius_mm);
         sensor.skin.dome_slope = c.dome_slope.unwrap_or(sensor.skin.dome_slope);
-        let (r, a, g) = (c.edge_radius_mm, sensor.pins.patch_radius_mm, sensor.skin.dome_slope);
-        // A candidate the sensor as given already is (its own patch and slope) runs once.
-        if candidates.iter().any(|c| c.edge_radius_mm == r && c.patch_radius_mm == a && c.dome_slope == g) {
+        sensor.skin.gap_radius_mm = c.gap_profile.map_or(sensor.skin.gap_radius_mm, |f| {
+            // The dome's own profile is written as 0 (the default), not as its radius.
+            if f == 1.0 { 0.0 } else { f * sensor.dome.outer_radius_mm }
+        });
+        let (r, a, g, p) =
+            (c.edge_radius_mm, sensor.pins.patch_radius_mm, sensor.skin.dome_slope, sensor.skin.gap_radius_mm);
+        // A candidate the sensor as given already is (its own patch, slope and profile) runs once.
+        if candidates
+            .iter()
+            .any(|c| c.edge_radius_mm == r && c.patch_radius_mm == a && c.dome_slope == g && c.gap_radius_mm == p)
+        {
             continue;
         }
+        let profile = if p > 0.0 { format!("{p} mm") } else { "the dome's".to_owned() };
         (job.progress)(&format!(
-            "edge rounding {r} mm, skin patch {a} mm, dome slope {g}: fitting the label map on {} taps",
+            "edge rounding {r} mm, skin patch {a} mm, dome slope {g}, gap profile {profile}: fitting the label map on \
+             {} taps",
             fit_taps.len()
         ));
         let (scene, frame) = edge_scene(stimulus.with_edge_radius(Some(r)), contact)?;
@@ -200,7 +223,8 @@ pub fn fit_edge(job: &EdgeFit) -> Result<EdgeReport> {
             fit_labels(&sim, &frame, job.obs, &fit_taps, start, Signs::Every).map_err(|e| SimError::Analysis {
                 source_name: job.real.to_owned(),
                 reason: format!(
-                    "fitting the label map with the edge rounded to {r} mm, skin patch {a} mm, dome slope {g}: {e}"
+                    "fitting the label map with the edge rounded to {r} mm, skin patch {a} mm, dome slope {g}, gap \
+                     profile {profile}: {e}"
                 ),
             })?;
         let (held_out_error, held_out_by_depth) = held_out(&sim, &frame, &labels, job.obs, &by_depth)?;
@@ -208,6 +232,7 @@ pub fn fit_edge(job: &EdgeFit) -> Result<EdgeReport> {
             edge_radius_mm: r,
             patch_radius_mm: a,
             dome_slope: g,
+            gap_radius_mm: p,
             labels,
             fit_error,
             held_out_error,
@@ -285,6 +310,7 @@ fn fit_dome(job: &EdgeFit, fit_taps: &[usize], by_depth: &[usize], cells: usize)
                 edge_radius_mm: 0.0,
                 patch_radius_mm: sensor.pins.patch_radius_mm,
                 dome_slope: sensor.skin.dome_slope,
+                gap_radius_mm: sensor.skin.gap_radius_mm,
                 labels,
                 fit_error,
                 held_out_error,
@@ -305,8 +331,8 @@ impl EdgeReport {
         &self.candidates[self.best]
     }
 
-    /// `base` with the best candidate's skin patch and dome slope (and finite-element dome,
-    /// from a dome search): the preset the fit writes.
+    /// `base` with the best candidate's skin patch, dome slope and gap profile (and
+    /// finite-element dome, from a dome search): the preset the fit writes.
     pub fn sensor(&self, base: &SensorParams) -> Result<SensorParams> {
         let b = self.winner();
         let mut sensor = match &b.dome {
@@ -315,6 +341,7 @@ impl EdgeReport {
         };
         sensor.pins.patch_radius_mm = b.patch_radius_mm;
         sensor.skin.dome_slope = b.dome_slope;
+        sensor.skin.gap_radius_mm = b.gap_radius_mm;
         Ok(sensor)
     }
 
@@ -325,9 +352,9 @@ impl EdgeReport {
             "# Edge taps against the simulator\n\nMade by `{}` from `{}`: taps on the edge of `{}`, the label map \
              fitted on {} of the fitting taps, the error on the {} held-out taps (pooled mean per-pin displacement \
              error over mean real displacement, the surface fit's measure).\n\n\
-             |{} edge rounding (mm) | skin patch (mm) | dome slope | fitted on | held out | held out by depth quarter \
+             |{} edge rounding (mm) | skin patch (mm) | dome slope | gap profile (mm) | fitted on | held out | held out by depth quarter \
              (shallow to deep) | lateral: sign, edge at (mm) | yaw: sign, offset (deg) | depth offset (mm) | rig yield \
-             (mm^-0.5) |\n|{}---|---|---|---|---|---|---|---|---|---|\n",
+             (mm^-0.5) |\n|{}---|---|---|---|---|---|---|---|---|---|---|\n",
             self.command,
             self.real,
             self.shape,
@@ -343,10 +370,11 @@ impl EdgeReport {
                 format!(" {:.4}, {:.2}, {:.1} |", d.gel_ratio, d.skin_thickness_mm, d.base_depth_mm)
             });
             md += &format!(
-                "|{dome} {} | {} | {}{} | {:.3} | {:.3} | {} | {:+}, {:.2} | {:+}, {:.1} | {:.2} | {:.3} |\n",
+                "|{dome} {} | {} | {} | {}{} | {:.3} | {:.3} | {} | {:+}, {:.2} | {:+}, {:.1} | {:.2} | {:.3} |\n",
                 c.edge_radius_mm,
                 c.patch_radius_mm,
                 c.dome_slope,
+                if c.gap_radius_mm > 0.0 { c.gap_radius_mm.to_string() } else { "0 (dome's)".to_owned() },
                 if i == self.best { " (best)" } else { "" },
                 c.fit_error,
                 c.held_out_error,
@@ -363,7 +391,8 @@ impl EdgeReport {
                edge's tangent, `yaw = sign yaw_label + offset`; indentation `= c - yield c^1.5`, `c = depth label + \
                depth offset` (the rig gives way under load). A recipe takes the rounding as `[[shapes]] \
                edge_radius_mm`; the preset written is the sensor with the best candidate's skin patch \
-               (`pins.patch_radius_mm`) and dome slope (`skin.dome_slope`).\n";
+               (`pins.patch_radius_mm`), dome slope (`skin.dome_slope`) and gap profile (`skin.gap_radius_mm`, 0: \
+               the dome's own).\n";
         if domes {
             md += "\nA dome search (`--dome`): each candidate is a finite-element dome (`skin.model = \"dome\"`; the \
                    gel's modulus over the skin's, the skin's thickness with the pins' tips kept, the base's depth), its \

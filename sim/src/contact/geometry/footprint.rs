@@ -2,7 +2,7 @@
 //! contact, found by probing the scene with rays.
 
 use crate::contact::geometry::frame::ContactFrame;
-use crate::contact::geometry::gap::{DOME_FRACTION, DomeCells, gaps_below};
+use crate::contact::geometry::gap::{DomeCells, cell_limit, gaps_below, profile_radius, tightest_radius};
 use crate::contact::geometry::grid::Grid;
 use crate::contact::model::ContactModel;
 use crate::contact::pose::SensorPose;
@@ -47,16 +47,17 @@ impl Footprint {
 /// probe), plus one fine probe cell of margin, with `cells_across` cells per side. `None`
 /// when no pose touches anything.
 pub fn footprint_grid(model: &ContactModel, scene: &Scene, poses: &[SensorPose], frame: &ContactFrame) -> Option<Grid> {
-    let r = model.dome_radius() * DOME_FRACTION;
+    let r = cell_limit(model);
     let mut bounds: Option<[f64; 4]> = None;
     // Coarse probe: keep cells close enough to touching that a footprint could hide between
-    // probe points (a sphere's gap rises by at most s^2 / (4 R) over half a cell diagonal),
+    // probe points (a sphere's gap rises by at most s^2 / (4 R) over half a cell diagonal, R
+    // the tighter of the dome and the gap profile),
     // then probe their box finely and keep the cells that overlap. The coarse grid is the
     // same for every pose.
     let s = 2.0 * r / PROBE_CELLS as f64;
     let coarse = Grid::square(PROBE_CELLS, s);
     let coarse_dome = DomeCells::new(model, frame, &coarse);
-    let threshold = s * s / (4.0 * model.dome_radius()) * 1.01;
+    let threshold = s * s / (4.0 * tightest_radius(model)) * 1.01;
     for pose in poses {
         let Some(b) = probe_box(model, scene, pose, frame, (&coarse, &coarse_dome), threshold, s) else { continue };
         let side = (b[2] - b[0]).max(b[3] - b[1]);
@@ -81,11 +82,12 @@ pub fn footprint_grid(model: &ContactModel, scene: &Scene, poses: &[SensorPose],
 }
 
 /// A square grid centred on the apex covering the footprint of a flat surface pressed
-/// `depth_mm` deep (the circle of radius `sqrt(2 R depth)`) plus a tenth, within the dome;
-/// `cells_across` from the sensor. Every untilted contact up to that depth lies inside.
+/// `depth_mm` deep (the circle of radius `sqrt(2 R depth)`, `R` the profile the gap is
+/// measured on) plus a tenth, within the gap cells' limit; `cells_across` from the sensor.
+/// Every untilted contact up to that depth lies inside.
 pub fn contact_disk_grid(model: &ContactModel, depth_mm: f64) -> Grid {
-    let r = model.dome_radius();
-    let half = ((2.0 * r * depth_mm.max(0.01)).sqrt() * 1.1).min(DOME_FRACTION * r);
+    let r = profile_radius(model);
+    let half = ((2.0 * r * depth_mm.max(0.01)).sqrt() * 1.1).min(cell_limit(model));
     let n = model.sensor.skin.cells_across;
     Grid { nx: n, ny: n, cell_mm: 2.0 * half / n as f64, centre_mm: [0.0, 0.0] }
 }
@@ -112,7 +114,7 @@ fn probe_box(
             });
         }
     }
-    let r = model.dome_radius() * DOME_FRACTION;
+    let r = cell_limit(model);
     b.map(|a| [(a[0] - margin).max(-r), (a[1] - margin).max(-r), (a[2] + margin).min(r), (a[3] + margin).min(r)])
 }
 
@@ -137,9 +139,9 @@ mod tests {
     fn short_probe_rays_sort_the_cells_as_full_rays_do() {
         let catalogue = crate::builtin_catalogue().expect("shapes");
         let model = ContactModel::new(&SensorParams::default()).expect("contact model");
-        let r = model.dome_radius() * DOME_FRACTION;
+        let r = cell_limit(&model);
         let s = 2.0 * r / PROBE_CELLS as f64;
-        let coarse = (Grid::square(PROBE_CELLS, s), s * s / (4.0 * model.dome_radius()) * 1.01);
+        let coarse = (Grid::square(PROBE_CELLS, s), s * s / (4.0 * tightest_radius(&model)) * 1.01);
         let fine = (Grid { nx: PROBE_CELLS, ny: PROBE_CELLS, cell_mm: 0.4, centre_mm: [0.7, -0.3] }, 0.0);
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         let mut uniform = |lo: f64, hi: f64| rng.random_range(lo..hi);

@@ -35,9 +35,42 @@ pub(in crate::contact) fn dome_point(dome_radius: f64, c: [f64; 2]) -> Vector3<f
     Vector3::new(c[0], c[1], (dome_radius * dome_radius - r2).max(0.0).sqrt())
 }
 
+/// Point of the undeformed outer surface the gap is measured on above grid point `c` (grid
+/// frame, mm): the dome's own ([`dome_point`]) or, on a sensor with a gap profile of its own
+/// (radius `rho` mm, [`crate::sensor::SkinParams::gap_radius_mm`]), the apex height `R` less
+/// that sphere's sag `rho - sqrt(rho^2 - |c|^2)`.
+pub(in crate::contact) fn surface_point(model: &ContactModel, c: [f64; 2]) -> Vector3<f64> {
+    let radius = model.dome_radius();
+    match model.gap_radius() {
+        None => dome_point(radius, c),
+        Some(rho) => {
+            let r2 = c[0] * c[0] + c[1] * c[1];
+            Vector3::new(c[0], c[1], radius - (rho - (rho * rho - r2).max(0.0).sqrt()))
+        }
+    }
+}
+
+/// The radius (mm) of the profile the gap is measured on: the gap profile's where the sensor
+/// has one, else the dome's own.
+pub(in crate::contact) fn profile_radius(model: &ContactModel) -> f64 {
+    model.gap_radius().unwrap_or(model.dome_radius())
+}
+
+/// The smaller of the dome's radius and the gap profile's (mm): where the gap cells end and
+/// how fast the gap can rise over a cell.
+pub(in crate::contact) fn tightest_radius(model: &ContactModel) -> f64 {
+    profile_radius(model).min(model.dome_radius())
+}
+
+/// How far (mm) from the frame's apex a gap cell counts: [`DOME_FRACTION`] of
+/// [`tightest_radius`].
+pub(in crate::contact) fn cell_limit(model: &ContactModel) -> f64 {
+    DOME_FRACTION * tightest_radius(model)
+}
+
 /// The undeformed dome under each cell of a grid: the point of its outer surface above the
-/// cell's centre (sensor frame, mm) and whether the cell counts (within [`DOME_FRACTION`] of
-/// the radius around the frame's apex, and on the hemisphere). Fixed for a path's grid, so a
+/// cell's centre ([`surface_point`], sensor frame, mm) and whether the cell counts (within
+/// [`cell_limit`] of the frame's apex, and on the hemisphere). Fixed for a path's grid, so a
 /// [`Simulation`] finds it once instead of at every step.
 #[derive(Clone, Debug, Default)]
 pub(in crate::contact) struct DomeCells {
@@ -47,13 +80,12 @@ pub(in crate::contact) struct DomeCells {
 
 impl DomeCells {
     pub(in crate::contact) fn new(model: &ContactModel, frame: &ContactFrame, grid: &Grid) -> Self {
-        let radius = model.dome_radius();
-        let limit = DOME_FRACTION * radius;
+        let limit = cell_limit(model);
         let (points, inside) = grid
             .centres()
             .into_iter()
             .map(|c| {
-                let x = frame.to_sensor(dome_point(radius, c));
+                let x = frame.to_sensor(surface_point(model, c));
                 (x, c[0].hypot(c[1]) < limit && x.z > 0.0)
             })
             .unzip();
@@ -191,8 +223,7 @@ pub(in crate::contact) fn hits_at(
     pose: &SensorPose,
     at: impl Iterator<Item = ([f64; 2], bool)>,
 ) -> Vec<CellHit> {
-    let radius = model.dome_radius();
-    let (points, inside) = at.map(|(c, inside)| (frame.to_sensor(dome_point(radius, c)), inside)).unzip();
+    let (points, inside) = at.map(|(c, inside)| (frame.to_sensor(surface_point(model, c)), inside)).unzip();
     gaps_below(model, scene, pose, frame, &DomeCells { points, inside }, f64::INFINITY)
 }
 
