@@ -17,7 +17,7 @@ from predictions import DEPTH_BANDS, LATERAL_BANDS, read  # noqa: E402
 
 
 def main(path):
-    labels, col = read(path)
+    labels, col, _ = read(path)
     lateral, depth = labels[0], labels[1]
     y, z, reading = col(lateral), col(depth), col(lateral + "_sim_trained")
     error = reading - y

@@ -13,11 +13,11 @@ DEPTH_BANDS = (3.0, 3.5, 4.0, 4.5)  # mm, each 0.5 mm wide
 
 
 def read(path):
-    """The labels read by the simulator-trained network, in the file's order, and `col(name)`,
-    that column as an array."""
+    """The labels read by the simulator-trained network, in the file's order, `col(name)`, that
+    column as an array, and `has(name)`, whether the file has that column."""
     rows = list(csv.DictReader(open(path)))
     labels = [c[: -len("_sim_trained")] for c in rows[0] if c.endswith("_sim_trained")]
-    return labels, lambda name: np.array([float(r[name]) for r in rows])
+    return labels, lambda name: np.array([float(r[name]) for r in rows]), lambda name: name in rows[0]
 
 
 def band_table(y, z, cell):

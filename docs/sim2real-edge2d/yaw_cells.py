@@ -15,7 +15,7 @@ from predictions import band_table, depth_header, read  # noqa: E402
 
 
 def main(path):
-    labels, col = read(path)
+    labels, col, _ = read(path)
     lateral, depth, yaw = labels[0], labels[1], labels[-1]
     y, z, truth = col(lateral), col(depth), col(yaw)
     err = {k: np.abs((col(f"{yaw}_{k}_trained") - truth + 180) % 360 - 180) for k in ("sim", "real")}
