@@ -20,19 +20,25 @@ sys.path.insert(0, __file__.rsplit("/", 1)[0])
 from predictions import LATERAL_BANDS, band_table, depth_header, read  # noqa: E402
 
 
+def yaw_error(col, angle, who):
+    """The yaw reading's error (deg), wrapped into [-180, 180)."""
+    return (col(f"{angle}_{who}") - col(angle) + 180) % 360 - 180
+
+
 def main(path):
     labels, col, has = read(path)
     lateral, depth = labels[0], labels[1]
     y, z = col(lateral), col(depth)
     networks = [who for who in ("sim_trained", "real_trained") if has(f"{lateral}_{who}")]
+    angle = labels[2] if len(labels) > 2 else None
     for who in networks:
         ey, ez = col(f"{lateral}_{who}") - y, col(f"{depth}_{who}") - z
-        print(f"{who}: lateral {np.abs(ey).mean():.3f} mm, depth {np.abs(ez).mean():.3f} mm; depth bias (mm):")
+        yaw = f", yaw {np.abs(yaw_error(col, angle, who)).mean():.2f} deg" if angle else ""
+        print(f"{who}: lateral {np.abs(ey).mean():.3f} mm, depth {np.abs(ez).mean():.3f} mm{yaw}; depth bias (mm):")
         print("  lateral \\ depth  " + " ".join(depth_header()))
         cell = lambda k: f"{ez[k].mean():+7.2f}" if k.sum() > 3 else "       "  # noqa: E731
         for name, cells in band_table(y, z, cell):
             print(f"  {name}      " + " ".join(cells))
-    angle = labels[2] if len(labels) > 2 else None
     print("mean absolute errors by lateral band, lateral / depth (mm)" + (" / yaw (deg)" if angle else "")
           + (", simulator-trained against real-trained:" if len(networks) > 1 else ", simulator-trained:"))
     for lo in LATERAL_BANDS:
@@ -44,8 +50,7 @@ def main(path):
             for who in networks:
                 e = [np.abs(col(f"{lateral}_{who}") - y)[k].mean(), np.abs(col(f"{depth}_{who}") - z)[k].mean()]
                 if angle:
-                    d = col(f"{angle}_{who}") - col(angle)
-                    e.append(np.abs((d + 180) % 360 - 180)[k].mean())
+                    e.append(np.abs(yaw_error(col, angle, who))[k].mean())
                 text.append(" / ".join(f"{v:.2f}" for v in e))
             print(f"  {lo:+d}..{lo + 2:+d} mm, {name} ({k.sum()} taps): " + " against ".join(text))
 
