@@ -273,9 +273,9 @@ fn held_out(
     Ok((pooled_error(&held), held.chunks(quarter).map(pooled_error).collect()))
 }
 
-/// The dome search of [`EdgeFit::dome_points`] on the sharp edge, the sensor's skin patch and
-/// dome slope held: each dome's label map fitted on `fit_taps` and its held-out error taken on
-/// the same simulator, the winner by the fitting taps' error.
+/// The dome search of [`EdgeFit::dome_points`] on the sharp edge, the sensor's skin patch,
+/// dome slope and gap profile held: each dome's label map fitted on `fit_taps` and its
+/// held-out error taken on the same simulator, the winner by the fitting taps' error.
 fn fit_dome(job: &EdgeFit, fit_taps: &[usize], by_depth: &[usize], cells: usize) -> Result<EdgeReport> {
     let (stimulus, contact) = (&job.stimulus, job.contact);
     let start = start_labels(job.obs, &job.split.train);
