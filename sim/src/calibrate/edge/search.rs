@@ -28,7 +28,7 @@ pub struct Candidate {
     /// Factor on the dome's slope (`skin.dome_slope`).
     pub dome_slope: Option<f64>,
     /// The gap profile's radius as a fraction of the dome's outer radius
-    /// (`skin.gap_radius_mm`; 1: the dome's own).
+    /// (`skin.gap_radius_mm`; 0: the dome's own).
     pub gap_profile: Option<f64>,
 }
 
@@ -55,7 +55,7 @@ pub const CANDIDATES: [Candidate; 14] = [
     candidate(0.0, None, Some(0.0), None),
     candidate(0.0, None, Some(1.0), None),
     candidate(0.0, None, Some(2.0), None),
-    candidate(0.0, None, None, Some(1.0)),
+    candidate(0.0, None, None, Some(0.0)),
     candidate(0.0, None, None, Some(0.75)),
     candidate(0.0, None, None, Some(0.5)),
 ];
@@ -196,10 +196,8 @@ pub fn fit_edge(job: &EdgeFit) -> Result<EdgeReport> {
         let mut sensor = job.base.clone();
         sensor.pins.patch_radius_mm = c.patch_radius_mm.unwrap_or(sensor.pins.patch_radius_mm);
         sensor.skin.dome_slope = c.dome_slope.unwrap_or(sensor.skin.dome_slope);
-        sensor.skin.gap_radius_mm = c.gap_profile.map_or(sensor.skin.gap_radius_mm, |f| {
-            // The dome's own profile is written as 0 (the default), not as its radius.
-            if f == 1.0 { 0.0 } else { f * sensor.dome.outer_radius_mm }
-        });
+        sensor.skin.gap_radius_mm =
+            c.gap_profile.map_or(sensor.skin.gap_radius_mm, |f| f * sensor.dome.outer_radius_mm);
         let (r, a, g, p) =
             (c.edge_radius_mm, sensor.pins.patch_radius_mm, sensor.skin.dome_slope, sensor.skin.gap_radius_mm);
         // A candidate the sensor as given already is (its own patch, slope and profile) runs once.
