@@ -11,6 +11,9 @@
 # candidates named; REAL=../shared/data/real-tactip-edge2d-full compares with the lab's whole
 # turn. PRESET=FILE starts every candidate from another sensor file, DOME_BASE_MM=D puts the
 # dome candidates' base D mm below the apex (default 40, the 40 mm dome's equator).
+# RECIPE=FILE generates from another recipe than the built-in edge-2d (its sensor replaced by
+# the candidate's, its depth map kept), OFFSET=MM compares at another lateral offset than 2.74
+# mm (the label map of that recipe's sim2real run).
 #
 #   cargo build --release && sh docs/sim2real-edge2d/reach.sh target/reach
 set -eu
@@ -19,6 +22,8 @@ REAL=${REAL:-../shared/data/real-tactip-edge2d}
 TACSIM=${TACSIM:-target/release/tacsim}
 PRESET=${PRESET:-sim/presets/tactip-331-edge2d.toml}
 BASE=${DOME_BASE_MM:-40.0}
+RECIPE=${RECIPE:-scenarios/datasets/edge-2d.toml}
+OFFSET=${OFFSET:-2.74}
 mkdir -p "$W"
 W=$(cd "$W" && pwd)
 
@@ -57,10 +62,10 @@ for line in $(printf "%s\n" "$CANDIDATES" | sed 's/ /@/g'); do
     expr=$(printf "%s" "${line#*|}" | sed 's/@/ /g')
     sed "$expr" "$PRESET" > "$W/$name.toml"
     sed -e "s/^per_shape = .*/per_shape = 1500/" -e "s|^sensor = .*|sensor = \"$W/$name.toml\"|" \
-        scenarios/datasets/edge-2d.toml > "$W/$name-recipe.toml"
+        "$RECIPE" > "$W/$name-recipe.toml"
     rm -rf "$W/$name"
     "$TACSIM" generate "$W/$name-recipe.toml" --out "$W/$name" -q > /dev/null
     SETS="$SETS $W/$name"
 done
-python3 docs/sim2real-edge2d/ring_response.py "$REAL" 2.74 $SETS
+python3 docs/sim2real-edge2d/ring_response.py "$REAL" "$OFFSET" $SETS
 python3 docs/sim2real-edge2d/ring_response.py "$REAL" free "$W/preset"
