@@ -6,7 +6,7 @@ use std::path::Path;
 use tacsim_sim::{FramingParams, PinRenderer, SensorParams};
 
 mod common;
-use common::{err, lab_folder, s, tacsim, temp_dir};
+use common::{err, json_file, lab_folder, s, tacsim, temp_dir};
 
 const HEADER: &str =
     "sensor_image,pose_x,pose_y,pose_z,pose_Rx,pose_Ry,pose_Rz,shear_x,shear_y,shear_z,shear_Rx,shear_Ry,shear_Rz";
@@ -22,7 +22,7 @@ fn a_tiny_lab_folder_calibrates_into_a_preset_and_a_held_out_report() {
     let sensor = SensorParams::load(&preset).expect("the preset loads as a sensor");
     assert_eq!(sensor.name, "tactip-331-calibrated");
     let report_dir = dir.join("out/preset-report");
-    let report = report_json(&report_dir.join("report.json"));
+    let report = json_file(&report_dir.join("report.json"));
     let rows = report["rows"].as_array().expect("rows");
     assert_eq!(rows.len() as u64, report["held_out"].as_u64().expect("held_out"));
     assert_eq!(report["train"].as_u64().expect("train") + rows.len() as u64, 30);
@@ -45,7 +45,7 @@ fn a_tiny_lab_folder_calibrates_into_a_preset_and_a_held_out_report() {
         tacsim(&["calibrate", "--real", s(&lab), "--sensor", s(&preset), "--rig-only", "-o", s(&rig), "--quick", "-q"]);
     assert!(o.status.success(), "calibrate --rig-only failed: {}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(SensorParams::load(&rig).expect("the rig run's preset"), sensor, "--rig-only keeps the sensor");
-    let report = report_json(&dir.join("rig/preset-report/report.json"));
+    let report = json_file(&dir.join("rig/preset-report/report.json"));
     let d = &report["deformation"];
     assert_eq!(d["pin_length_mm"].as_f64(), Some(sensor.pins.length_mm), "{d}");
     assert!(d["pivot_offset_mm"].as_array().is_some_and(|a| a.len() == 2), "{d}");
@@ -89,7 +89,7 @@ fn a_dome_fit_of_the_surface_presses_writes_the_best_dome() {
     let o =
         tacsim(&["calibrate", "--real", s(&lab), "--sensor", s(&start), "--dome", "--quick", "-o", s(&preset), "-q"]);
     assert!(o.status.success(), "calibrate --dome failed: {}", String::from_utf8_lossy(&o.stderr));
-    let report = report_json(&dir.join("out/dome-report/report.json"));
+    let report = json_file(&dir.join("out/dome-report/report.json"));
     let candidates = report["candidates"].as_array().expect("candidates");
     assert_eq!(candidates.len(), 6, "--quick scores six domes: {report}");
     let f = |v: &serde_json::Value| v.as_f64().expect("number");
@@ -199,7 +199,7 @@ fn a_lab_folder_with_non_square_images_calibrates() {
     let o = tacsim(&["calibrate", "--real", s(&lab), "-o", s(&preset), "--quick", "-q"]);
     assert!(o.status.success(), "calibrate failed: {}", String::from_utf8_lossy(&o.stderr));
     SensorParams::load(&preset).expect("the preset loads as a sensor");
-    let report = report_json(&dir.join("out/preset-report/report.json"));
+    let report = json_file(&dir.join("out/preset-report/report.json"));
     let reference = report["reference"].as_str().expect("reference");
     assert!(reference.contains("image_0.png") && reference.contains("452x430"), "{reference}");
     assert!(report["undeformed_rms_px420"].as_f64().expect("rms") < 1.0, "{report}");
@@ -434,7 +434,7 @@ fn edge_taps_give_back_the_gap_profile_they_were_simulated_with() {
     let args = ["calibrate", "--real", s(&lab), "--sensor", "tactip-331-edge2d", "--edge", "square"];
     let o = tacsim(&[&args[..], &["--edge-contact", "45,0", "-o", s(&preset), "-q"]].concat());
     assert!(o.status.success(), "calibrate --edge failed: {}", String::from_utf8_lossy(&o.stderr));
-    let report = report_json(&dir.join("out/edge-report/report.json"));
+    let report = json_file(&dir.join("out/edge-report/report.json"));
     let f = |v: &serde_json::Value| v.as_f64().expect("number");
     let best = &report["candidates"][report["best"].as_u64().expect("best") as usize];
     assert_eq!((f(&best["edge_radius_mm"]), f(&best["gap_radius_mm"])), (0.0, 20.0), "{report}");
@@ -467,7 +467,7 @@ fn edge_taps_give_back_the_label_map_and_the_rounding_they_were_simulated_with()
         "-q",
     ]);
     assert!(o.status.success(), "calibrate --edge failed: {}", String::from_utf8_lossy(&o.stderr));
-    let report = report_json(&dir.join("out/edge-report/report.json"));
+    let report = json_file(&dir.join("out/edge-report/report.json"));
     let best = &report["candidates"][report["best"].as_u64().expect("best") as usize];
     let l = &best["labels"];
     let f = |v: &serde_json::Value| v.as_f64().expect("number");
@@ -525,7 +525,7 @@ fn the_dome_fit_finds_the_gel_the_edge_taps_were_simulated_with() {
         ["calibrate", "--real", s(&lab), "--sensor", s(&start_file), "--edge", "square", "--edge-contact", "45,0"];
     let o = tacsim(&[&args[..], &["--dome", "--quick", "-o", s(&preset), "-q"]].concat());
     assert!(o.status.success(), "calibrate --edge --dome failed: {}", String::from_utf8_lossy(&o.stderr));
-    let report = report_json(&dir.join("out/dome-report/report.json"));
+    let report = json_file(&dir.join("out/dome-report/report.json"));
     let f = |v: &serde_json::Value| v.as_f64().expect("number");
     let candidates = report["candidates"].as_array().expect("candidates");
     assert_eq!(candidates.len(), 6, "--quick scores six domes: {report}");
@@ -553,9 +553,4 @@ fn the_dome_fit_finds_the_gel_the_edge_taps_were_simulated_with() {
     // The dome search fits the rig or the label map itself: not with --rig-only.
     let e = err(&[&args[..], &["--dome", "--rig-only", "-o", s(&preset)]].concat());
     assert!(e.contains("--dome") && e.contains("--rig-only"), "{e}");
-}
-
-/// A calibration's `report.json`, parsed.
-fn report_json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))).expect("json")
 }

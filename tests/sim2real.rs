@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{err, ok, s, temp_dir};
+use common::{err, json_file, ok, s, temp_dir};
 use std::path::Path;
 
 /// A small edge-tap recipe (128 px, as the edge preset needs) with the edge preset, `taps` poses.
@@ -66,8 +66,7 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     let args = ["sim2real", "--real", s(&lab), "--recipe", s(&train), "--out", s(&out)];
     let text = ok(&[&args[..], &["--epochs", "2", "-q"]].concat());
     assert!(text.contains("trained on tacsim") && text.contains("pose_Rz (deg)"), "{text}");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
+    let report: serde_json::Value = json_file(&out.join("report.json"));
     // x (pose_1) is constant in the lab's labels: the lateral y, the depth and the yaw are
     // scored; the simulator-trained network reads what varies in the simulated taps.
     let labels: Vec<&str> =
@@ -128,9 +127,7 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     let curve = ["--epochs", "2", "--finetune", "8,all", "--finetune-seeds", "1", "--finetune-min-steps", "4", "-q"];
     let with_curve = ok(&[&args[..], &curve[..]].concat());
     assert!(with_curve.contains("# Fine-tuning curve") && with_curve.contains("labels saved"), "{with_curve}");
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("finetune.json")).expect("finetune.json"))
-            .expect("json");
+    let json: serde_json::Value = json_file(&out.join("finetune.json"));
     let points = json["points"].as_array().expect("points");
     assert_eq!(points.iter().map(|p| p["k"].as_u64().expect("k")).collect::<Vec<_>>(), [8, fitting]);
     for p in points {
@@ -167,10 +164,7 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     // arm, the pretrained arm at a tenth of the rate, the rule saying so.
     let gentle = ["--epochs", "2", "--finetune", "8", "--finetune-seeds", "1", "--finetune-min-steps", "4"];
     ok(&[&args[..], &gentle[..], &["--finetune-lr-scale", "0.1", "-q"]].concat());
-    let read = |p: &std::path::Path| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(p).expect("point")).expect("json")
-    };
-    let (fast, slow) = (read(&point), read(&out.join("finetune/k8-s0-lr0.1/point.json")));
+    let (fast, slow) = (json_file(&point), json_file(&out.join("finetune/k8-s0-lr0.1/point.json")));
     assert_eq!(fast["scratch"], slow["scratch"], "the from-scratch arm keeps its rate");
     assert_ne!(fast["pretrained"], slow["pretrained"], "{fast} {slow}");
     let rule = std::fs::read_to_string(out.join("finetune.json")).expect("finetune.json");
@@ -184,7 +178,7 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     let mixed = ["--finetune-sim-share", "0.5", "-q"];
     ok(&[&args[..], &gentle[..], &mixed[..]].concat());
     let mix_point = out.join("finetune/k8-s0-sim0.5/point.json");
-    let with_sim = read(&mix_point);
+    let with_sim = json_file(&mix_point);
     assert_eq!((with_sim["sim_samples"].as_u64(), with_sim["pretrained_epochs"].as_u64()), (Some(8), Some(4)));
     assert_eq!(fast["scratch"], with_sim["scratch"], "the from-scratch arm is unchanged");
     assert_ne!(fast["pretrained"], with_sim["pretrained"], "{fast} {with_sim}");
@@ -218,9 +212,7 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     let motion = ["sim2real", "--real", s(&lab), "--sim", s(&set), "--out", s(&motion_out), "--input", "motion"];
     let first = ok(&[&motion[..], &["--epochs", "2", "-q"]].concat());
     assert!(first.contains("Both networks read pin motion") && first.contains("consensus"), "{first}");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(motion_out.join("report.json")).expect("report.json"))
-            .expect("json");
+    let report: serde_json::Value = json_file(&motion_out.join("report.json"));
     assert_eq!(report["input"], "motion");
     assert!(report["motion_references"][0].as_str().expect("sim reference").contains("image_0.png"), "{report}");
     assert_eq!(report["motion_field"], 0.6875, "the default part of the pin field");
@@ -240,9 +232,7 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     let every = ["sim2real", "--real", s(&lab), "--sim", s(&set), "--out", s(&every_out), "--input", "motion"];
     let text = ok(&[&every[..], &["--motion-field", "1", "--epochs", "2", "-q"]].concat());
     assert!(text.contains("within 1 of the half-side"), "{text}");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(every_out.join("report.json")).expect("report.json"))
-            .expect("json");
+    let report: serde_json::Value = json_file(&every_out.join("report.json"));
     assert_eq!(report["motion_field"], 1.0);
     // A refused run's error, nothing written before the check.
     let refuse = |name: &str, flags: &[&str]| {
@@ -304,8 +294,7 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     let (plain_sim, plain_real) = (readings("_sim_trained"), readings("_real_trained"));
     let turned = ok(&[&args[..], &["--turns", "4", "--epochs", "30", "-q"]].concat());
     assert!(turned.contains("at 4 turns about its centre, 90 deg apart") && !plain.contains("turns about"), "{turned}");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
+    let report: serde_json::Value = json_file(&out.join("report.json"));
     assert_eq!(report["turns"], 4);
     let turned_sim = readings("_sim_trained");
     assert_eq!(readings("_real_trained"), plain_real, "the real-trained network reads the images as they are");
@@ -325,8 +314,7 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
         framed.contains("read in the edge's frame (`--edge-frame`)") && !turned.contains("edge's frame"),
         "{framed}"
     );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
+    let report: serde_json::Value = json_file(&out.join("report.json"));
     assert_eq!((report["edge_frame"].as_bool(), report["turns"].as_u64()), (Some(true), Some(4)));
     assert!(out.join("sim-edge-posenet").join("config.json").is_file(), "the second network's run");
     let framed_sim = readings("_sim_trained");
@@ -342,8 +330,7 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     let matched_args = [&framed_args[..], &["--match-motion"]].concat();
     let matched = ok(&matched_args);
     assert!(matched.contains("matched pixel by pixel") && !framed.contains("matched pixel"), "{matched}");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
+    let report: serde_json::Value = json_file(&out.join("report.json"));
     assert_eq!(report["match_motion"].as_bool(), Some(true));
     let matched_sim = readings("_sim_trained");
     assert_eq!(yaw(), turned_yaw, "the yaw is the first network's");
@@ -363,8 +350,7 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     for run in ["pretrained", "pretrained-edge", "scratch", "scratch-edge"] {
         assert!(point_dir.join(run).join("config.json").is_file(), "{run}");
     }
-    let point: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(point_dir.join("point.json")).expect("point")).expect("json");
+    let point: serde_json::Value = json_file(&point_dir.join("point.json"));
     let values = |key: &str| -> Vec<f64> {
         point[key].as_array().unwrap_or_else(|| panic!("{key}: {point}")).iter().filter_map(|v| v.as_f64()).collect()
     };
@@ -489,8 +475,7 @@ fn sim2real_scores_slide_offsets_on_slid_recordings() {
         "2",
         "-q",
     ]);
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).expect("report.json")).expect("json");
+    let report: serde_json::Value = json_file(&out.join("report.json"));
     let labels: Vec<&str> =
         report["labels"].as_array().expect("labels").iter().map(|l| l["label"].as_str().expect("label")).collect();
     assert_eq!(labels, ["pose_z (mm)", "shear_x (mm)", "shear_y (mm)"], "{text}");
@@ -519,10 +504,7 @@ fn the_surface_3d_recipe_carries_the_calibrated_rig() {
         "surface-3d.toml",
     )
     .expect("valid recipe");
-    let report: serde_json::Value = serde_json::from_str(
-        &std::fs::read_to_string(root.join("docs/calibration-rig/report.json")).expect("report.json"),
-    )
-    .expect("json");
+    let report: serde_json::Value = json_file(&root.join("docs/calibration-rig/report.json"));
     let (d, f) = (&report["deformation"], &report["frame"]);
     let num = |v: &serde_json::Value| v.as_f64().expect("number");
     let r = &recipe.rig;

@@ -1,5 +1,5 @@
-//! Helpers shared by the command-line integration tests: running the `tacsim` binary and
-//! fresh temporary folders. Each test binary uses a subset, hence the `dead_code` allowance.
+//! Helpers shared by the command-line integration tests: running the `tacsim` binary,
+//! fresh temporary folders and reading the JSON reports it writes. Each test binary uses a subset, hence the `dead_code` allowance.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
@@ -48,4 +48,10 @@ pub fn s(p: &Path) -> &str {
 /// `CI=true` a missing folder fails the test.
 pub fn lab_folder(name: &str) -> Option<PathBuf> {
     tacsim_sim::shared_for_test(&format!("data/{name}/targets.csv")).and_then(|csv| csv.parent().map(Path::to_path_buf))
+}
+
+/// A JSON file the binary wrote (a report, a curve's point), parsed; panics naming the file.
+pub fn json_file(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
