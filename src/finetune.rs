@@ -123,7 +123,7 @@ fn markdown(r: &FinetuneReport) -> String {
             l.real_all,
             l.pretrained_matches_at.map_or("never (within the Ks run)".to_owned(), |k| k.to_string()),
             if l.first.is_some() {
-                " Read in the edge's frame; the last column: each arm's first network alone, the images as they are."
+                " Read in the edge's frame, the real-trained network on every fitting sample too; the last column: each arm's first network alone, the images as they are."
             } else {
                 ""
             }

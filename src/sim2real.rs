@@ -9,7 +9,9 @@
 //! 2. `train_both`: the pose network on the simulated images (`sim-posenet/`) and the same
 //!    network, same settings, on the lab folder's fitting part (`real-posenet/`); with
 //!    `--edge-frame`, `train_edge_frame`: a second network on the simulated images turned
-//!    into the edge's frame (`sim-edge-posenet/`);
+//!    into the edge's frame (`sim-edge-posenet/`), and `train_real_edge_frame`: one on the
+//!    lab's fitting images turned by their labelled yaws (`real-edge-posenet/`), so that the
+//!    real-trained network is read as the simulator-trained one is;
 //! 3. `score_transfer` (tacsim-model's `transfer::score`): the label map (component, sign and
 //!    offset, `LabelMap::fit`) from the
 //!    simulator-trained network's readings of the fitting part, then both networks on the
@@ -302,11 +304,15 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
                 .with_context(|| format!("the simulated set {}", sim_dir.display()))?,
         ),
     };
-    if o.edge_frame && o.finetune.is_some() {
-        // The curve's from-scratch arm reads the lab's own labels in the edge's frame.
-        tacsim_model::edge_frame_labels(&real_labels)
-            .with_context(|| format!("the lab's labels in {} (--finetune)", o.real.display()))?;
-    }
+    // The real-trained network (and the curve's from-scratch arm) reads the lab's own labels
+    // in the edge's frame.
+    let real_edge_labels = match o.edge_frame {
+        false => None,
+        true => Some(
+            tacsim_model::edge_frame_labels(&real_labels)
+                .with_context(|| format!("the lab's labels in {} (--edge-frame)", o.real.display()))?,
+        ),
+    };
     let (sim_run, real_run) = train_both(o, [&sim_cfg, &real_cfg], &sim, &real)?;
     let edge = match edge_labels {
         None => None,
@@ -315,11 +321,24 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
             Some(train_edge_frame(o, &edge_cfg, &sim, &sim_rows, &sim_run)?)
         }
     };
+    let real_edge = match (&edge, real_edge_labels) {
+        (Some((_, sense)), Some(labels)) => {
+            let edge_cfg = PoseConfig { labels, ..real_cfg.clone() };
+            Some(train_real_edge_frame(o, &edge_cfg, (&real, &fitting, &real_labels), &sim_run, *sense)?)
+        }
+        _ => None,
+    };
     let edge_stage = edge.as_ref().map(|(run, sense)| EdgeStage {
         run,
         sense: *sense,
         turn: tacsim_sim::turn_motion,
         match_motion: o.match_motion,
+    });
+    let real_edge_stage = real_edge.as_ref().map(|(run, sense)| EdgeStage {
+        run,
+        sense: *sense,
+        turn: tacsim_sim::turn_motion,
+        match_motion: false,
     });
     let how = Scoring { backend: o.backend, size: o.size, adapt_norms: o.adapt_norms, turns };
     let Scores { labels, map, nearest, predictions, fitting: fitting_csv } = score_transfer(
@@ -328,7 +347,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         &real_labels,
         [&fitting, &held_out, &sim_rows],
         [&sim_run, &real_run],
-        edge_stage,
+        [edge_stage, real_edge_stage],
     )?;
     tacsim_data::write_atomic(&report_dir.join("predictions.csv"), predictions.as_bytes())?;
     tacsim_data::write_atomic(&report_dir.join("fitting.csv"), fitting_csv.as_bytes())?;
@@ -479,17 +498,41 @@ fn train_edge_frame(
     let turn = tacsim_sim::turn_motion;
     let sense = tacsim_model::yaw_sense(o.backend, o.size, sim_run, sim, sim_rows, turn)?;
     let turned = tacsim_model::in_edge_frame(sim, None, (sense, turn), None)?;
-    let dir = o.out.join("sim-edge-posenet");
+    Ok((train_turned(o, cfg, &turned, "sim-edge-posenet", "the simulated images")?, sense))
+}
+
+/// Step 2c (`--edge-frame`): the lab's yaw sense under a turn (the simulator's `sense` through
+/// the label map fitted on the simulator-trained network's readings of the fitting part), then a
+/// second network on the lab's labels (`cfg`), trained on the fitting images each turned by
+/// minus its labelled yaw (`real-edge-posenet/`, resumed when a previous run started it): the
+/// fine-tuning curve's from-scratch arm at every fitting sample, seed 0. `lab`: the lab's
+/// corpus, its fitting rows and its labels. Returns its run and the lab's sense.
+fn train_real_edge_frame(
+    o: &Sim2RealOptions,
+    cfg: &PoseConfig,
+    (real, fitting, labels): (&Corpus, &[usize], &[Column]),
+    sim_run: &Path,
+    sense: f64,
+) -> Result<(PathBuf, f64)> {
+    let lab_sense = tacsim_model::lab_yaw_sense((o.backend, o.size), sim_run, real, fitting, labels, sense)?;
+    let turned = tacsim_model::lab_in_edge_frame(real, fitting, labels, (lab_sense, tacsim_sim::turn_motion))?;
+    Ok((train_turned(o, cfg, &turned, "real-edge-posenet", "the lab's fitting images")?, lab_sense))
+}
+
+/// A second network (`cfg`) on `turned` (`whose` images, turned into the edge's frame) into
+/// `--out`'s `name/`, resumed when a previous run started it. Returns its run.
+fn train_turned(o: &Sim2RealOptions, cfg: &PoseConfig, turned: &Corpus, name: &str, whose: &str) -> Result<PathBuf> {
+    let dir = o.out.join(name);
     let resume = dir.join("config.json").is_file();
-    tacsim_model::train_posenet(&turned, cfg, o.backend, &dir, resume, None, &mut Bar::new(o.quiet)).with_context(
+    tacsim_model::train_posenet(turned, cfg, o.backend, &dir, resume, None, &mut Bar::new(o.quiet)).with_context(
         || {
             format!(
-                "training the pose network on the simulated images turned into the edge's frame into {} (rerun to resume)",
+                "training the pose network on {whose} turned into the edge's frame into {} (rerun to resume)",
                 dir.display()
             )
         },
     )?;
-    Ok((dir, sense))
+    Ok(dir)
 }
 
 /// `grid.png`: up to 8 held-out real images (top) over the simulated taps nearest their labels
@@ -514,7 +557,7 @@ fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], near
 
 fn markdown(r: &Sim2RealReport) -> String {
     let mut s = format!(
-        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s in this run (stages found finished in the work folder not counted).{}{}{}{}{}\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |\n|---|---|---|---|---|---|\n",
+        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s in this run (stages found finished in the work folder not counted).{}{}{}{}{}\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |{}\n|---|---|---|---|---|---|{}\n",
         r.recipe,
         r.real,
         r.command,
@@ -539,7 +582,7 @@ fn markdown(r: &Sim2RealReport) -> String {
         },
         if r.turns > 1 {
             format!(
-                " The simulator-trained network read each lab image at {} turns about its centre, {} deg apart, its readings averaged with the yaw turned back (`--turns`); the real-trained network read them as they are.",
+                " The simulator-trained network read each lab image at {} turns about its centre, {} deg apart, its readings averaged with the yaw turned back (`--turns`); the real-trained network read each image once, unturned.",
                 r.turns,
                 360.0 / r.turns as f64
             )
@@ -547,7 +590,7 @@ fn markdown(r: &Sim2RealReport) -> String {
             String::new()
         },
         if r.edge_frame {
-            " The lateral offset and the depth were read in the edge's frame (`--edge-frame`): a second network, trained on the simulated images each turned by minus its own yaw, read each lab image turned by minus the yaw the simulator-trained network read of it; the yaw is that network's."
+            " The lateral offset and the depth were read in the edge's frame (`--edge-frame`): a second network, trained on the simulated images each turned by minus its own yaw, read each lab image turned by minus the yaw the simulator-trained network read of it; the yaw is that network's. The real-trained network is read the same way (the ratio's reference): a second network, trained on the fitting part's images each turned by minus its labelled yaw, read each held-out image turned by minus the yaw the real-trained network read; the last column: the real-trained network alone, the images as they are."
         } else {
             ""
         },
@@ -557,16 +600,19 @@ fn markdown(r: &Sim2RealReport) -> String {
             ""
         },
         r.map.join("; "),
+        if r.edge_frame { " trained on real, as is |" } else { "" },
+        if r.edge_frame { "---|" } else { "" },
     );
     for l in &r.labels {
         s.push_str(&format!(
-            "| {} | {:.2} | {:.2} | {:.1}x | {:.2} | {} |\n",
+            "| {} | {:.2} | {:.2} | {:.1}x | {:.2} | {} |{}\n",
             l.label,
             l.sim_trained,
             l.real_trained,
             l.ratio,
             l.chance,
-            l.sim_trained_gain.map_or("-".to_owned(), |g| format!("{g:.2}"))
+            l.sim_trained_gain.map_or("-".to_owned(), |g| format!("{g:.2}")),
+            l.real_trained_as_is.map_or(String::new(), |e| format!(" {e:.2} |"))
         ));
     }
     s.push_str("\ngrid.png: held-out real images (top) above the simulated training images nearest their labels through the map (bottom).\n");

@@ -267,7 +267,9 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
 /// `--turns`: a simulator-trained network that reads the yaw (200 deeper taps, 30 epochs) reads
 /// each lab image at four turns, its yaw turned back; both reports say so, the real-trained
 /// network reads the images as they are, and a rerun gives the same readings. Then
-/// `--edge-frame` on the same networks: a second one reads the lateral and the depth.
+/// `--edge-frame` on the same networks: a second one reads the lateral and the depth, and the
+/// real-trained network is read the same way (its own second network), its first alone kept
+/// beside; the fine-tuning curve's K = all from-scratch arm, seed 0, is that reading to the bit.
 #[test]
 fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     let dir = temp_dir("sim2real", "turns");
@@ -292,6 +294,7 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     };
     let plain = ok(&[&args[..], &["--epochs", "30", "-q"]].concat());
     let (plain_sim, plain_real) = (readings("_sim_trained"), readings("_real_trained"));
+    let plain_real_yaw = readings("Rz_real_trained");
     let turned = ok(&[&args[..], &["--turns", "4", "--epochs", "30", "-q"]].concat());
     assert!(turned.contains("at 4 turns about its centre, 90 deg apart") && !plain.contains("turns about"), "{turned}");
     let report: serde_json::Value = json_file(&out.join("report.json"));
@@ -320,9 +323,24 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     let framed_sim = readings("_sim_trained");
     assert_eq!(yaw(), turned_yaw, "the yaw is the first network's");
     assert_ne!(framed_sim, turned_sim, "the lateral and the depth are the second network's");
-    assert_eq!(readings("_real_trained"), plain_real, "the real-trained network reads the images as they are");
+    // The real-trained network in the edge's frame: its yaw its own, the lateral and the depth
+    // its second network's (trained on the fitting images turned by their labelled yaws); the
+    // images as they are in the `_as_is` columns and the report's last column.
+    assert!(out.join("real-edge-posenet").join("config.json").is_file(), "the real second network's run");
+    let framed_real = readings("_real_trained");
+    assert_eq!(readings("_real_trained_as_is"), plain_real, "the real-trained network alone, as before");
+    assert_eq!(readings("Rz_real_trained"), plain_real_yaw, "the real-trained yaw is its first network's");
+    assert_ne!(framed_real, plain_real, "the real-trained lateral and depth are its second network's");
+    assert!(framed.contains("The real-trained network is read the same way") && framed.contains("as is |"), "{framed}");
+    for l in report["labels"].as_array().expect("labels") {
+        let (sim, real, as_is) =
+            (l["sim_trained"].as_f64(), l["real_trained"].as_f64(), l["real_trained_as_is"].as_f64());
+        let (Some(sim), Some(real), Some(_)) = (sim, real, as_is) else { panic!("{l}") };
+        assert_eq!(l["ratio"].as_f64(), Some(sim / real), "the ratio is against the same reader: {l}");
+    }
     ok(&framed_args);
     assert_eq!(readings("_sim_trained"), framed_sim, "same networks, same readings to the last digit");
+    assert_eq!(readings("_real_trained"), framed_real, "the real second network read back, the same readings");
 
     // `--match-motion`: the second network's input matched to the simulated images' moments;
     // the same networks, other lateral and depth readings, the yaw still the first's; said in
@@ -343,7 +361,7 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     // images turned by its first network's yaw; the point has its own folder, keeps the first
     // networks' own figures (the yaw the same, the rest read otherwise), the reports say it,
     // and a rerun reads the point back.
-    let curve = ["--finetune", "8", "--finetune-seeds", "1", "--finetune-min-steps", "4"];
+    let curve = ["--finetune", "8,all", "--finetune-seeds", "1", "--finetune-min-steps", "4"];
     let curve_args = [&matched_args[..], &curve[..]].concat();
     ok(&curve_args);
     let point_dir = out.join("finetune/k8-s0-edge-matched");
@@ -361,8 +379,21 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
         assert_eq!(framed[2], alone[2], "{arm}: the yaw is the first network's");
         assert!(framed[..2] != alone[..2], "{arm}: the lateral and the depth are the second network's: {point}");
     }
+    // K = all, seed 0: the from-scratch arm is the zero-shot report's real-trained network, read
+    // in the edge's frame and alone, to the last bit (the curve's reference line).
+    let report: serde_json::Value = json_file(&out.join("report.json"));
+    let fitting = report["real_fitting"].as_u64().expect("real_fitting");
+    let all: serde_json::Value = json_file(&out.join(format!("finetune/k{fitting}-s0-edge-matched/point.json")));
+    let lab = |key: &str| -> Vec<f64> {
+        report["labels"].as_array().expect("labels").iter().filter_map(|l| l[key].as_f64()).collect()
+    };
+    let at_all =
+        |key: &str| -> Vec<f64> { all[key].as_array().expect(key).iter().filter_map(|v| v.as_f64()).collect() };
+    assert_eq!(at_all("scratch"), lab("real_trained"), "K = all from scratch is the report's real-trained: {all}");
+    assert_eq!(at_all("scratch_first"), lab("real_trained_as_is"), "and its first network alone: {all}");
     let md = std::fs::read_to_string(out.join("finetune.md")).expect("finetune.md");
-    assert!(md.contains("Read in the edge's frame") && md.contains("first alone (a / b)"), "{md}");
+    assert!(md.contains("Read in the edge's frame, the real-trained network on every fitting sample too"), "{md}");
+    assert!(md.contains("first alone (a / b)"), "{md}");
     let rule = std::fs::read_to_string(out.join("finetune.json")).expect("finetune.json");
     assert!(rule.contains("in the edge's frame (--edge-frame)") && rule.contains("matched"), "{rule}");
     ok(&curve_args);

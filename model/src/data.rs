@@ -171,6 +171,24 @@ impl Corpus {
         if taps.is_empty() { slides() } else { taps }
     }
 
+    /// This corpus with `rows` its only training rows, each labelled `relabel(pose)` in the
+    /// columns `labels`, every other row held out of training (the images as they are).
+    pub fn training_only(&self, rows: &[usize], relabel: impl Fn(&Pose) -> Pose, labels: &[Column]) -> Corpus {
+        let mut dataset = self.dataset.clone();
+        for r in &mut dataset.rows {
+            r.split = Split::Test;
+        }
+        for &i in rows {
+            let pose = relabel(&self.pose(i));
+            let row = &mut dataset.rows[i];
+            row.split = Split::Train;
+            for &c in labels {
+                c.set(row, pose.get(c));
+            }
+        }
+        Corpus { dataset, images: self.images.clone() }
+    }
+
     /// The labels of a row.
     pub fn pose(&self, row: usize) -> Pose {
         Pose::of_row(&self.dataset.rows[row])

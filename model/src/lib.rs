@@ -60,7 +60,8 @@ pub use transfer::{
     Coverage, Curve as FinetuneCurve, CurvePoint, EdgeStage, LabelCurve, LabelMap, LabelScore, MATCH_FACTOR,
     MAX_SIM_SHARE as FINETUNE_MAX_SIM_SHARE, MAX_TURNS, MIN_STEPS as FINETUNE_MIN_STEPS, Matching, Moments, Scores,
     Scoring, Span, Spread, TurnImage, Turns, coverage as transfer_coverage, difference as label_difference,
-    edge_frame_labels, epochs_for as finetune_epochs, in_edge_frame, label as label_name,
-    parse_ks as parse_finetune_ks, score as score_transfer, summarise as summarise_finetune, yaw_sense,
+    edge_frame_labels, epochs_for as finetune_epochs, in_edge_frame, lab_in_edge_frame, lab_yaw_sense,
+    label as label_name, parse_ks as parse_finetune_ks, score as score_transfer, summarise as summarise_finetune,
+    yaw_sense,
 };
 pub use unshear::Unshear;

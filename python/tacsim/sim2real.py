@@ -28,7 +28,8 @@ def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs
     pin field tracked, a fraction of the image's half-side in [0.2, 1]; ``turns`` with
     ``"motion"``, how many turns of each lab image the simulator-trained network's readings
     average, 1 to 64; ``edge_frame=True`` with ``"motion"``, the lateral and depth read by a second
-    network from each image turned into the edge's frame, by the fine-tuning curve's arms too;
+    network from each image turned into the edge's frame, by the real-trained network and the
+    fine-tuning curve's arms too;
     ``match_motion=True`` with it, those images matched pixel by pixel to the simulated ones'
     mean and spread) and returns
     ``{"report": ..., "finetune": ...}``: ``report.json`` and, with ``finetune``,

@@ -29,11 +29,12 @@ use std::path::Path;
 
 use burn::tensor::Device;
 
+use super::LabelMap;
 use super::turns::{KEPT, TurnImage, check_labels, sense_on};
 use crate::backend::Backend;
 use crate::data::Corpus;
 use crate::error::{ModelError, Result};
-use crate::eval::predict_poses;
+use crate::eval::{corpus_images, predict_poses};
 use crate::images::ImageSet;
 use crate::infer::load_posenet;
 use crate::posenet::{Column, Pose, PoseNet, PoseScale};
@@ -108,6 +109,46 @@ pub fn in_edge_frame(
         })
         .collect();
     Ok(Corpus { dataset: corpus.dataset.clone(), images: ImageSet::from_raw(corpus.side(), &images)? })
+}
+
+/// The lab's yaw sense under a turn of its images: the simulator's `sim_sense` times the sign
+/// of `map`'s link from the simulated yaw to the lab's (`real = sign sim + offset`).
+pub(super) fn lab_sense(map: &LabelMap, sim_sense: f64) -> Result<f64> {
+    map.links.iter().find(|l| l.real.is_angle() && l.sim == Column::PoseRz).map(|l| sim_sense * l.sign).ok_or_else(
+        || ModelError::Config {
+            field: "--edge-frame".into(),
+            reason: "the label map links no lab label to the simulated yaw (pose_Rz): nothing to turn the images by"
+                .into(),
+        },
+    )
+}
+
+/// The lab's yaw sense under a turn of its images as the fine-tuning curve's from-scratch arm
+/// takes it ([`Curve`](super::Curve)): the label map fitted on the simulator-trained network's
+/// (`sim_run`) readings of the lab's `rows`, the images as they are, and [`lab_sense`] of it.
+/// `side`: the networks' image side (px).
+pub fn lab_yaw_sense(
+    (backend, side): (Backend, usize),
+    sim_run: &Path,
+    real: &Corpus,
+    rows: &[usize],
+    labels: &[Column],
+    sim_sense: f64,
+) -> Result<f64> {
+    let device = backend.device();
+    let (net, _, scale) = load_posenet(sim_run, &device)?;
+    let read = predict_poses(&net, &scale, &corpus_images(real, rows), side, &device);
+    let truth: Vec<Pose> = rows.iter().map(|&r| real.pose(r)).collect();
+    lab_sense(&LabelMap::fit(&read, &scale.columns(), &truth, labels)?, sim_sense)
+}
+
+/// The lab's corpus with `rows` its only training rows ([`Corpus::training_only`], in the lab's
+/// labels `labels`), their images turned into the edge's frame by their labelled yaws (`sense`:
+/// the lab's, [`lab_yaw_sense`]): what a network on the lab's own labels learns the edge's
+/// frame from (`tacsim sim2real --edge-frame`'s real-trained second network, and the
+/// fine-tuning curve's from-scratch arm on the same rows).
+pub fn lab_in_edge_frame(real: &Corpus, rows: &[usize], labels: &[Column], turn: (f64, TurnImage)) -> Result<Corpus> {
+    in_edge_frame(&real.training_only(rows, |pose| *pose, labels), Some(rows), turn, None)
 }
 
 /// Row `r`'s image of `corpus` turned by minus `sense` times its yaw label (matched where

@@ -43,7 +43,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 use tacsim_data::Split;
 
-use super::edge_frame::{EdgeReader, EdgeStage, Matching, edge_frame_labels, in_edge_frame, lab_matching, turned_by};
+use super::edge_frame::{
+    EdgeReader, EdgeStage, Matching, edge_frame_labels, in_edge_frame, lab_matching, lab_sense, turned_by,
+};
 use super::turns::TurnImage;
 use super::{LabelMap, Scoring};
 use crate::checkpoint::{read_json, write_json};
@@ -393,22 +395,10 @@ impl Curve<'_> {
         Ok(())
     }
 
-    /// The lab's corpus with `rows` its only training rows, each labelled `relabel(pose)` in
-    /// the columns `labels` (every other row held out of training).
+    /// The lab's corpus with `rows` its only training rows, labelled `relabel(pose)` in the
+    /// columns `labels` ([`Corpus::training_only`]).
     fn training_set(&self, rows: &[usize], relabel: impl Fn(&Pose) -> Pose, labels: &[Column]) -> Corpus {
-        let mut dataset = self.real.dataset.clone();
-        for r in &mut dataset.rows {
-            r.split = Split::Test;
-        }
-        for &i in rows {
-            let pose = relabel(&self.real.pose(i));
-            let row = &mut dataset.rows[i];
-            row.split = Split::Train;
-            for &c in labels {
-                c.set(row, pose.get(c));
-            }
-        }
-        Corpus { dataset, images: self.real.images.clone() }
+        self.real.training_only(rows, relabel, labels)
     }
 }
 
@@ -428,18 +418,6 @@ struct EdgeArm {
     turn: (f64, TurnImage),
     /// The pretrained arm's matching of its turned input.
     matching: Option<Matching>,
-}
-
-/// The lab's yaw sense under a turn of its images: the simulator's `sim_sense` times the sign
-/// of `map`'s link from the simulated yaw to the lab's (`real = sign sim + offset`).
-fn lab_sense(map: &LabelMap, sim_sense: f64) -> Result<f64> {
-    map.links.iter().find(|l| l.real.is_angle() && l.sim == Column::PoseRz).map(|l| sim_sense * l.sign).ok_or_else(
-        || ModelError::Config {
-            field: "--edge-frame".into(),
-            reason: "the label map links no lab label to the simulated yaw (pose_Rz): nothing to turn the images by"
-                .into(),
-        },
-    )
 }
 
 /// Mean, least and greatest of a label's error over the seeds.
@@ -469,7 +447,7 @@ pub struct LabelCurve {
     /// The lab label with its unit.
     pub label: String,
     /// The real-trained network's held-out error with every fitting sample (the zero-shot
-    /// run's).
+    /// run's, read as the arms are: in the edge's frame where they are).
     pub real_all: f64,
     /// `K` in increasing order.
     pub k: Vec<usize>,

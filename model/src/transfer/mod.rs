@@ -17,7 +17,9 @@ mod finetune;
 mod score;
 mod turns;
 
-pub use edge_frame::{EdgeStage, Matching, Moments, edge_frame_labels, in_edge_frame, yaw_sense};
+pub use edge_frame::{
+    EdgeStage, Matching, Moments, edge_frame_labels, in_edge_frame, lab_in_edge_frame, lab_yaw_sense, yaw_sense,
+};
 pub use finetune::{
     Curve, CurvePoint, LabelCurve, MATCH_FACTOR, MAX_SIM_SHARE, MIN_STEPS, Spread, epochs_for, parse_ks, summarise,
 };

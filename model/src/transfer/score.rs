@@ -25,8 +25,14 @@ pub struct LabelScore {
     pub label: String,
     /// Mean absolute error of the simulator-trained network through the label map.
     pub sim_trained: f64,
-    /// Mean absolute error of the network trained on the lab's fitting part.
+    /// Mean absolute error of the network trained on the lab's fitting part, read as the
+    /// simulator-trained one is: in the edge's frame where that is (a second real-trained
+    /// network, [`score`]'s `edge`), else the images as they are.
     pub real_trained: f64,
+    /// In the edge's frame: the network trained on the lab's fitting part alone, reading the
+    /// images as they are.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub real_trained_as_is: Option<f64>,
     /// `sim_trained / real_trained`.
     pub ratio: f64,
     /// Mean absolute error of always answering the fitting part's median (chance).
@@ -80,7 +86,8 @@ pub struct Scores {
     /// For each held-out image, the simulated training row nearest its label.
     pub nearest: Vec<usize>,
     /// `predictions.csv`: each held-out image's labels and both networks' readings, in the
-    /// lab's frame.
+    /// lab's frame (in the edge's frame, the real-trained network's first alone too:
+    /// `_real_trained_as_is`).
     pub predictions: String,
     /// `fitting.csv`: each fitting image's labels and the simulator-trained network's reading
     /// through the map, in the lab's frame (where a lab diagnoses its gap, by depth or by
@@ -92,16 +99,20 @@ pub struct Scores {
 /// The label map on the lab's fitting part, both networks on its held-out part; with, for
 /// each held-out image, the simulated training image nearest its label (for a grid).
 /// `rows`: the lab's fitting and held-out rows and the simulated training rows; `runs`: the
-/// simulator-trained and the real-trained networks' run folders; `edge`, a second
-/// simulator-trained network that reads the labels a turn leaves alone in the edge's frame,
-/// the first network's yaw turned out of each image ([`EdgeStage`]).
+/// simulator-trained and the real-trained networks' run folders; `edge`, for each of the two,
+/// a second network that reads the labels a turn leaves alone in the edge's frame, its first
+/// network's yaw turned out of each image ([`EdgeStage`]; the real-trained one's trained on
+/// the lab's fitting images turned by their labelled yaws, [`lab_in_edge_frame`], and never
+/// matched).
+///
+/// [`lab_in_edge_frame`]: super::lab_in_edge_frame
 pub fn score(
     how: &Scoring,
     [sim, real]: [&Corpus; 2],
     real_labels: &[Column],
     [fitting, held_out, sim_rows]: [&[usize]; 3],
     [sim_run, real_run]: [&Path; 2],
-    edge: Option<EdgeStage<'_>>,
+    [edge, real_edge]: [Option<EdgeStage<'_>>; 2],
 ) -> Result<Scores> {
     let device = how.backend.device();
     let images = |rows: &[usize]| corpus_images(real, rows);
@@ -142,15 +153,23 @@ pub fn score(
     let sim_read = read(&test_images, read_first(&test_images));
     let sim_err = map.errors(&sim_read, &truth);
     let identity = LabelMap::identity(real_labels);
-    let real_read = predict_poses(&real_net, &real_scale, &test_images, how.size, &device);
+    let real_first = predict_poses(&real_net, &real_scale, &test_images, how.size, &device);
+    let real_read = match &real_edge {
+        None => real_first.clone(),
+        Some(stage) => EdgeReader::new(stage.run, (stage.sense, stage.turn), None, &device)?.read(
+            &test_images,
+            &real_first,
+            how.size,
+            &device,
+        ),
+    };
     let real_err = identity.errors(&real_read, &truth);
-    let predictions = readings_csv(
-        real,
-        real_labels,
-        held_out,
-        &truth,
-        &[("sim_trained", through(&map, &sim_read)), ("real_trained", through(&identity, &real_read))],
-    );
+    let as_is = real_edge.map(|_| identity.errors(&real_first, &truth));
+    let mut readers = vec![("sim_trained", through(&map, &sim_read)), ("real_trained", through(&identity, &real_read))];
+    if as_is.is_some() {
+        readers.push(("real_trained_as_is", through(&identity, &real_first)));
+    }
+    let predictions = readings_csv(real, real_labels, held_out, &truth, &readers);
     let fitting_csv =
         readings_csv(real, real_labels, fitting, &fit_truth, &[("sim_trained", through(&map, &fit_read))]);
     // Chance: one constant for every image, the best on the fitting part.
@@ -169,6 +188,7 @@ pub fn score(
                 label: super::label(l.real),
                 sim_trained: sim_err[k],
                 real_trained: real_err[k],
+                real_trained_as_is: as_is.as_ref().map(|e| e[k]),
                 ratio: sim_err[k] / real_err[k],
                 chance: chance[k],
                 sim_trained_gain: gain,
