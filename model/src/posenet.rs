@@ -45,7 +45,7 @@ impl PoseNet {
     }
 
     /// The network with its batch norms' statistics re-estimated on `images` (side `side`,
-    /// values in [0, 1]; [`ConvStack::adapt_norms`]): unlabelled images of another domain,
+    /// values in [0, 1]; `ConvStack::adapt_norms`): unlabelled images of another domain,
     /// the weights trained on one.
     pub fn adapt_norms(self, images: &[Vec<f32>], side: usize, device: &Device) -> Self {
         let batches: Vec<Tensor<4>> = images.chunks(64).map(|c| crate::images::stack(c, side, device)).collect();

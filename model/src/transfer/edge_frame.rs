@@ -13,6 +13,11 @@
 //! every yaw; where the first network's yaw is off by `e`, the second reads an edge turned by
 //! `e`. How to turn an image is the caller's, as for [`Turns`](super::Turns).
 //!
+//! The network trained on the lab's fitting part is read the same way, for a like-for-like
+//! reference: its own second network, trained on the fitting images each turned by minus its
+//! labelled yaw ([`lab_in_edge_frame`], the lab's sense from [`lab_yaw_sense`]), reads the
+//! held-out images turned by minus the yaw it read.
+//!
 //! With [`EdgeStage::match_motion`] each lab image, once turned, is matched pixel by pixel to
 //! the simulated images in the same frame ([`Matching`]): every value's mean and spread over the
 //! lab's fitting images taken to the simulated training images' (labels unused),
@@ -125,8 +130,9 @@ pub(super) fn lab_sense(map: &LabelMap, sim_sense: f64) -> Result<f64> {
 
 /// The lab's yaw sense under a turn of its images as the fine-tuning curve's from-scratch arm
 /// takes it ([`Curve`](super::Curve)): the label map fitted on the simulator-trained network's
-/// (`sim_run`) readings of the lab's `rows`, the images as they are, and [`lab_sense`] of it.
-/// `side`: the networks' image side (px).
+/// (`sim_run`) readings of the lab's `rows`, the images as they are; the sense is `sim_sense`
+/// times the sign of the map's link from the simulated yaw to the lab's. `side`: the networks'
+/// image side (px).
 pub fn lab_yaw_sense(
     (backend, side): (Backend, usize),
     sim_run: &Path,

@@ -152,7 +152,7 @@ pub struct CurvePoint {
     /// Simulated samples the pretrained arm trained on beside the `k` ([`Curve::sim_share`]).
     #[serde(default)]
     pub sim_samples: usize,
-    /// The pretrained arm's epochs where simulated samples joined the `k` ([`mixed_epochs`]);
+    /// The pretrained arm's epochs where simulated samples joined the `k` (`mixed_epochs`);
     /// without them it trains `epochs`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pretrained_epochs: Option<usize>,
