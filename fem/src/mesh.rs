@@ -31,7 +31,7 @@ pub enum Region {
 pub struct Mesh {
     /// Node positions (mm).
     pub nodes: Vec<[f64; 3]>,
-    /// Elements: four vertices then six midside nodes ([`crate::element::EDGES`]).
+    /// Elements: four vertices then six midside nodes (`crate::element::EDGES`).
     pub elements: Vec<[usize; 10]>,
     /// Each element's material.
     pub regions: Vec<Region>,
@@ -43,7 +43,7 @@ impl Mesh {
         self.elements[e].map(|n| self.nodes[n])
     }
 
-    /// Faces on the boundary, as (element, local face index in [`FACES`]), in element order.
+    /// Faces on the boundary, as (element, local face index in `FACES`), in element order.
     pub fn boundary_faces(&self) -> Vec<(usize, usize)> {
         let mut count: HashMap<[usize; 3], u32> = HashMap::new();
         for el in &self.elements {

@@ -370,7 +370,7 @@ impl PinResponse {
     /// `z >= 0`) meets the outer surface, and the six nodes' shape functions there; `None` off
     /// the hemisphere. Of the faces near the ray (its bin's), the one whose barycentric
     /// coordinates are least outside; only faces whose chord the ray meets within
-    /// [`CHORD_MARGIN`] of them are solved on their curved surface (the same face and bits as
+    /// `CHORD_MARGIN` of them are solved on their curved surface (the same face and bits as
     /// solving every candidate: test `the_chord_keeps_the_face_and_the_bits_of_every_candidate`).
     pub fn locate(&self, x: [f64; 3]) -> Option<([u32; 6], [f64; 6])> {
         self.locate_among(x, CHORD_MARGIN)

@@ -180,7 +180,7 @@ impl Scene {
     /// Casts rays from `origins` along the common unit direction `dir` (world, mm) and returns,
     /// per ray, the distance to the first stimulus surface within `max_mm` and the object hit.
     /// Rays straight down (an untilted sensor's) test only the triangles over their column
-    /// ([`ColumnIndex`]); others go through the query pipeline's bounding-volume hierarchy,
+    /// (`ColumnIndex`); others go through the query pipeline's bounding-volume hierarchy,
     /// which only tests stimuli whose bounds the ray reaches. Both give the same hits.
     pub fn cast_rays(&self, origins: &[[f64; 3]], dir: [f64; 3], max_mm: f64) -> Vec<Option<(f64, ObjectId)>> {
         self.cast_rays_down(origins, dir, max_mm).unwrap_or_else(|| self.cast_rays_bvh(origins, dir, max_mm))

@@ -208,12 +208,12 @@ pub struct SkinParams {
     #[serde(skip_serializing_if = "is_default_subcells")]
     pub edge_subcells: usize,
     /// `dome`: lattice cells from the dome's centre to its surface, in
-    /// [[`MIN_DOME_CELLS`], [`MAX_DOME_CELLS`]]: `2 dome_cells` ten-node elements span 90 deg
+    /// [`MIN_DOME_CELLS`, `MAX_DOME_CELLS`]: `2 dome_cells` ten-node elements span 90 deg
     /// of the surface. Default 8 (about 52,000 unknowns; `docs/guide/fem.md` has the pins'
     /// change with it).
     #[serde(skip_serializing_if = "is_default_dome_cells")]
     pub dome_cells: usize,
-    /// `dome`: element layers through the skin, in [1, [`MAX_DOME_SKIN_LAYERS`]] and below
+    /// `dome`: element layers through the skin, in [1, `MAX_DOME_SKIN_LAYERS`] and below
     /// `dome_cells`. Default 2.
     #[serde(skip_serializing_if = "is_default_dome_skin_layers")]
     pub dome_skin_layers: usize,
@@ -347,7 +347,7 @@ fn is_true(v: &bool) -> bool {
 #[serde(deny_unknown_fields, default)]
 pub struct CameraParams {
     /// Distance of the pinhole behind the dome centre (mm): the camera sits at
-    /// `z = -distance_mm` in the sensor frame; in [0, [`CAMERA_DISTANCE_MAX_MM`]].
+    /// `z = -distance_mm` in the sensor frame; in [0, `CAMERA_DISTANCE_MAX_MM`].
     pub distance_mm: f64,
     /// Full field of view across the image width (deg). Size-independent: the focal length in
     /// pixels is `(size / 2) / tan(fov / 2)`.
@@ -482,12 +482,12 @@ impl SensorParams {
         }
     }
 
-    /// The edge recordings' TacTip ([`EDGE2D_PRESET`]).
+    /// The edge recordings' TacTip (`EDGE2D_PRESET`).
     pub fn edge2d() -> Result<Self> {
         Self::from_toml_str(EDGE2D_PRESET, "sim/presets/tactip-331-edge2d.toml")
     }
 
-    /// The camera-only fit ([`CAMERA_ONLY_PRESET`]): 1.5 mm skin, 2 mm pins, Poisson 0.5,
+    /// The camera-only fit (`CAMERA_ONLY_PRESET`): 1.5 mm skin, 2 mm pins, Poisson 0.5,
     /// camera 10.65 mm behind the dome centre.
     pub fn camera_only() -> Result<Self> {
         Self::from_toml_str(CAMERA_ONLY_PRESET, "sim/presets/tactip-331-camera.toml")

@@ -94,13 +94,13 @@ pub struct BenchReport {
     /// `--edge-subcells`), every grid's; the reference's stay at the default, 3.
     pub edge_subcells: usize,
     /// Taps per second on all threads (contact solve + pins + 256x256 render), on a warm
-    /// model: the median of three passes over the samples after a first ([`Rates`]).
+    /// model: the median of three passes over the samples after a first (`Rates`).
     pub tap_frames_per_s: f64,
     /// Slides per second on all threads (touch down 2.5 mm away, slide in 0.25 mm steps, capture
     /// pins and a 256x256 image), on a warm model as the taps.
     pub slide_samples_per_s: f64,
     /// The same rates in the first pass over the samples, on a new model: with its first-use
-    /// costs, as a run's first samples have them ([`Rates`]).
+    /// costs, as a run's first samples have them (`Rates`).
     pub first_pass: PassRates,
     /// Mean contact cells of the taps.
     pub mean_contact_cells: f64,

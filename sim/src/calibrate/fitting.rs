@@ -63,7 +63,7 @@ pub struct FitOptions {
     /// model, pins, camera and skin.
     pub rig_only: bool,
     /// Fit the finite-element dome with the rig: at most this many domes of the
-    /// sensor's (gel ratio, skin thickness, base depth; [`super::dome`]), each scored by the
+    /// sensor's (gel ratio, skin thickness, base depth; `super::dome`), each scored by the
     /// rig fitted on it ([`FitOptions::dome_evaluations`] on the search recordings), the best
     /// polished as `rig_only` is; 0: no dome search.
     pub dome_points: usize,

@@ -105,7 +105,7 @@ impl<'a> Simulation<'a> {
     }
 
     /// A simulation on a given contact grid (sensor frame), for paths not known in advance
-    /// (closed-loop exploration): [`contact_disk_grid`] covers every contact up to a depth.
+    /// (closed-loop exploration): `contact_disk_grid` covers every contact up to a depth.
     /// `None`: nothing can touch.
     pub fn with_grid(model: &'a ContactModel, scene: &'a Scene, grid: Option<Grid>) -> Self {
         Self::in_frame(model, scene, grid, ContactFrame::SENSOR)
@@ -186,7 +186,7 @@ impl<'a> Simulation<'a> {
         &self.friction
     }
 
-    /// Normal and tangential [`MatrixCache`] counts: matrices built and reused.
+    /// Normal and tangential `MatrixCache` counts: matrices built and reused.
     pub fn matrix_counts(&self) -> [[usize; 2]; 2] {
         self.contact.matrix_counts()
     }
@@ -199,7 +199,7 @@ impl<'a> Simulation<'a> {
     /// Moves the sensor to `pose` and solves the contact there, given the history so far.
     ///
     /// The stages, each a named step: the initial gap and friction under the pose
-    /// ([`initial_gap`]; lift-off when nothing overlaps), the skin's rigid slip over the
+    /// (`initial_gap`; lift-off when nothing overlaps), the skin's rigid slip over the
     /// stimulus since the previous pose (`rigid_slip`), the coupled solve
     /// (`solve_coupled`: normal, then tangential, alternated until the tractions settle
     /// for a coupled material), and the report turned into the sensor frame

@@ -9,7 +9,7 @@
 //! the analytic cases.
 //!
 //! # Sign conventions
-//! On the contact plane `(x, y)` are the axes of the path's [`frame::ContactFrame`] (the
+//! On the contact plane `(x, y)` are the axes of the path's `frame::ContactFrame` (the
 //! sensor's axes for an untilted path); pressure `p >= 0` presses into the skin; shear
 //! traction `q` is the stimulus's force per area on the skin (MPa); the gap `g` (mm) is
 //! measured along the frame's `+z` and is negative for overlap.

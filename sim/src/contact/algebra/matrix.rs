@@ -133,7 +133,7 @@ impl CellMatrix {
         }
     }
     /// Whether the matrix of `blocks` on `cells` cells is small enough to be worth building in
-    /// `precision` ([`MAX_BYTES`]; [`LOWER_MAX_BYTES`] of lower panels where it keeps them).
+    /// `precision` (`MAX_BYTES`; `LOWER_MAX_BYTES` of lower panels where it keeps them).
     pub fn worth_building<const B: usize>(blocks: &[[Component; B]], cells: usize, precision: Precision) -> bool {
         if keeps_lower(blocks, precision) {
             let cols = B * cells;
@@ -802,7 +802,7 @@ thread_local! {
 /// The last two [`CellMatrix`]es used, handed out again while the operator's grid, the blocks
 /// and the cells stay the same (the coupling rounds of a step mostly solve on the same cells;
 /// a normal solve on its contact first checks the other candidates with their matrix,
-/// [`crate::contact::solve::normal::NormalSettings::contact_first`]).
+/// `crate::contact::solve::normal::NormalSettings::contact_first`).
 #[derive(Clone, Debug, Default)]
 pub struct MatrixCache {
     /// The most recently used first.
@@ -814,8 +814,8 @@ pub struct MatrixCache {
 }
 
 impl MatrixCache {
-    /// A cache that builds its matrices in double precision up to [`DOUBLE_MAX_BYTES`], else
-    /// in `lowest` where that fits ([`MAX_BYTES`]): the default's are all double.
+    /// A cache that builds its matrices in double precision up to `DOUBLE_MAX_BYTES`, else
+    /// in `lowest` where that fits (`MAX_BYTES`): the default's are all double.
     pub fn down_to(lowest: Precision) -> Self {
         Self { lowest, ..Self::default() }
     }
@@ -826,7 +826,7 @@ impl MatrixCache {
     }
 
     /// The precision of a matrix of `blocks x blocks` components on `cells` cells: double up
-    /// to [`DOUBLE_MAX_BYTES`], else the lowest allowed where that fits (double where that is
+    /// to `DOUBLE_MAX_BYTES`, else the lowest allowed where that fits (double where that is
     /// all it allows); `None`: none worth building.
     pub fn precision_for<const B: usize>(&self, blocks: &[[Component; B]], cells: usize) -> Option<Precision> {
         let small = CellMatrix::bytes(blocks.len(), B, cells, Precision::Double) <= DOUBLE_MAX_BYTES;

@@ -124,8 +124,8 @@ impl DomeBody {
     }
 
     /// The Gaussian patch's `s` (mm) the far field spreads each force over:
-    /// [`SPREAD_FACES`] of the outer faces' size `pi R / (4 N)` at the default `N`
-    /// ([`crate::sensor::DEFAULT_DOME_CELLS`]) whatever the sensor's mesh: 2.95 mm on the
+    /// `SPREAD_FACES` of the outer faces' size `pi R / (4 N)` at the default `N`
+    /// (`crate::sensor::DEFAULT_DOME_CELLS`) whatever the sensor's mesh: 2.95 mm on the
     /// 20 mm dome.
     pub fn spread_mm(&self) -> f64 {
         self.response.spread_mm
@@ -136,8 +136,8 @@ impl DomeBody {
     /// from the apex on the contact plane, in the contact's conventions (force `(Qx, Qy, P)`,
     /// `P` pressing; displacement `z` into the body; `layered.rs`'s `combine`): the
     /// finite-element field at the dome's point above `(x, y)` averaged over the azimuth,
-    /// its reciprocal pair `F_pr`, `-F_zq` averaged too. Tabulated every [`APEX_STEP_MM`] up
-    /// to [`APEX_REACH`] of the radius, linear between, held beyond.
+    /// its reciprocal pair `F_pr`, `-F_zq` averaged too. Tabulated every `APEX_STEP_MM` up
+    /// to `APEX_REACH` of the radius, linear between, held beyond.
     pub fn apex_radial(&self, r: f64) -> [f64; 4] {
         self.apex_radial_lanes([r], &|v: [f64; 1]| v[0])
     }

@@ -43,7 +43,7 @@ pub trait ElasticBody: std::fmt::Debug + Send + Sync {
     /// Whether the body has a skin whose pressure stays up to the contact's edge and drops to
     /// zero within a cell there (the layers and the dome, not the half-space): the cells along
     /// the contact's own edge are then solved again at sub-cells for the pins
-    /// ([`crate::contact::geometry::refine`]).
+    /// (`crate::contact::geometry::refine`).
     fn refines_contact_edge(&self) -> bool {
         false
     }
@@ -96,7 +96,7 @@ impl ElasticBody for LayeredKernels {
 pub struct DomeContact {
     /// The skin-on-gel kernels of the same skin and gel.
     pub contact: Arc<LayeredKernels>,
-    /// Their near field at the pins ([`LayeredKernels::near_field`]).
+    /// Their near field at the pins (`LayeredKernels::near_field`).
     pub near: Arc<LayeredKernels>,
     /// The dome.
     pub dome: Arc<DomeBody>,
@@ -106,7 +106,7 @@ impl DomeContact {
     /// The dome's far field on the contact plane less the layers': radial functions
     /// `[F_zz, F_pr, F_s, F_d]` (mm/N) at `r` (mm) of the dome's surface response to the
     /// apex's Gaussian patch ([`DomeBody::apex_radial`]) minus the layers' response to the same
-    /// patch ([`LayeredKernels::surface_patch_radial`]).
+    /// patch (`LayeredKernels::surface_patch_radial`).
     pub fn far_field_radial(&self, r: f64) -> [f64; 4] {
         self.radial([r], &|v: [f64; 1]| v[0])
     }

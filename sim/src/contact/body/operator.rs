@@ -374,7 +374,7 @@ impl Operator {
     /// (the lesser of its two eigenvalues). A uniform traction sinks every cell together (the
     /// symbol at `(0, 0)`, which grows with the footprint); a checkerboard's cells mostly undo
     /// each other's, so it is about the smallest response a cell set has, and the tangential
-    /// solver takes it for its smallest eigenvalue ([`crate::contact::solve::tangential`]). It is an
+    /// solver takes it for its smallest eigenvalue (`crate::contact::solve::tangential`). It is an
     /// estimate, not a bound: the truncated table's symbol dips below it elsewhere.
     pub fn checkerboard(&self) -> f64 {
         self.checkerboard

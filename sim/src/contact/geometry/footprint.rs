@@ -17,9 +17,9 @@ const PROBE_CELLS: usize = 15;
 const PROBE_REACH_MARGIN_MM: f64 = 1.0;
 
 /// Where a path's contact is solved: its [`ContactFrame`] and the footprint grid in that
-/// frame ([`footprint_grid`]). Finding it probes the scene with rays (hundreds per pose), so
+/// frame (`footprint_grid`). Finding it probes the scene with rays (hundreds per pose), so
 /// a caller that has already found it (a dataset checks every sample's before any work)
-/// hands it to [`Simulation::on_footprint`] instead of probing again.
+/// hands it to `Simulation::on_footprint` instead of probing again.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Footprint {
     /// The path's frame.
