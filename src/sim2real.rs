@@ -328,18 +328,13 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         }
         _ => None,
     };
-    let edge_stage = edge.as_ref().map(|(run, sense)| EdgeStage {
-        run,
-        sense: *sense,
-        turn: tacsim_sim::turn_motion,
-        match_motion: o.match_motion,
-    });
-    let real_edge_stage = real_edge.as_ref().map(|(run, sense)| EdgeStage {
-        run,
-        sense: *sense,
-        turn: tacsim_sim::turn_motion,
-        match_motion: false,
-    });
+    // The lab's images are matched to the simulated ones for the simulator's second network
+    // only.
+    fn stage((run, sense): &(PathBuf, f64), match_motion: bool) -> EdgeStage<'_> {
+        EdgeStage { run, sense: *sense, turn: tacsim_sim::turn_motion, match_motion }
+    }
+    let edge_stage = edge.as_ref().map(|e| stage(e, o.match_motion));
+    let real_edge_stage = real_edge.as_ref().map(|e| stage(e, false));
     let how = Scoring { backend: o.backend, size: o.size, adapt_norms: o.adapt_norms, turns };
     let Scores { labels, map, nearest, predictions, fitting: fitting_csv } = score_transfer(
         &how,

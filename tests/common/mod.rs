@@ -1,5 +1,6 @@
-//! Helpers shared by the command-line integration tests: running the `tacsim` binary,
-//! fresh temporary folders and reading the JSON reports it writes. Each test binary uses a subset, hence the `dead_code` allowance.
+//! Helpers shared by the command-line integration tests: running the `tacsim` binary, fresh
+//! temporary folders and reading the JSON reports it writes. Each test binary uses a subset,
+//! hence the `dead_code` allowance.
 #![allow(dead_code)]
 
 use std::path::{Path, PathBuf};

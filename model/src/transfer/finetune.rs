@@ -248,7 +248,7 @@ impl Curve<'_> {
                 Some((edge_frame_labels(&sim_labels)?, edge_frame_labels(self.labels)?, lab_sense(&map, stage.sense)?))
             }
         };
-        let mut as_sim = self.training_set(&rows, |pose| map.sim_pose(pose), &sim_labels);
+        let mut as_sim = self.real.training_only(&rows, |pose| map.sim_pose(pose), &sim_labels);
         let sim_samples = sim_samples(k, self.sim_share).min(self.sim_rows.len());
         let mut pretrained_epochs = None;
         if sim_samples > 0 {
@@ -283,7 +283,7 @@ impl Curve<'_> {
         let pretrained_first = map.errors(&pretrained_read, &held_truth);
 
         // (b) From scratch, on the lab's own labels.
-        let own = self.training_set(&rows, |pose| *pose, self.labels);
+        let own = self.real.training_only(&rows, |pose| *pose, self.labels);
         let scratch_cfg = PoseConfig { labels: self.labels.to_vec(), epochs, seed: seed_cfg, ..self.cfg.clone() };
         let run = dir.join("scratch");
         train_posenet(&own, &scratch_cfg, self.how.backend, &run, run.join("config.json").is_file(), None, progress)?;
@@ -302,7 +302,7 @@ impl Curve<'_> {
                     lab_matching(turn, (self.sim, self.sim_rows), &fitting)
                 });
                 let second = EdgeArm {
-                    set: self.training_set(&rows, |pose| map.sim_pose(pose), &sim_labels),
+                    set: self.real.training_only(&rows, |pose| map.sim_pose(pose), &sim_labels),
                     labels: sim_edge_labels,
                     cfg: PoseConfig { epochs, lr, seed: seed_cfg, ..self.cfg.clone() },
                     run: dir.join("pretrained-edge"),
@@ -393,12 +393,6 @@ impl Curve<'_> {
             )));
         }
         Ok(())
-    }
-
-    /// The lab's corpus with `rows` its only training rows, labelled `relabel(pose)` in the
-    /// columns `labels` ([`Corpus::training_only`]).
-    fn training_set(&self, rows: &[usize], relabel: impl Fn(&Pose) -> Pose, labels: &[Column]) -> Corpus {
-        self.real.training_only(rows, relabel, labels)
     }
 }
 

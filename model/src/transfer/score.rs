@@ -154,18 +154,21 @@ pub fn score(
     let sim_err = map.errors(&sim_read, &truth);
     let identity = LabelMap::identity(real_labels);
     let real_first = predict_poses(&real_net, &real_scale, &test_images, how.size, &device);
-    let real_read = match &real_edge {
-        None => real_first.clone(),
-        Some(stage) => EdgeReader::new(stage.run, (stage.sense, stage.turn), None, &device)?.read(
+    // In the edge's frame, the real-trained network's second network reads what a turn leaves
+    // alone; else its first reads everything.
+    let real_framed = match &real_edge {
+        None => None,
+        Some(stage) => Some(EdgeReader::new(stage.run, (stage.sense, stage.turn), None, &device)?.read(
             &test_images,
             &real_first,
             how.size,
             &device,
-        ),
+        )),
     };
-    let real_err = identity.errors(&real_read, &truth);
+    let real_read = real_framed.as_deref().unwrap_or(&real_first);
+    let real_err = identity.errors(real_read, &truth);
     let as_is = real_edge.map(|_| identity.errors(&real_first, &truth));
-    let mut readers = vec![("sim_trained", through(&map, &sim_read)), ("real_trained", through(&identity, &real_read))];
+    let mut readers = vec![("sim_trained", through(&map, &sim_read)), ("real_trained", through(&identity, real_read))];
     if as_is.is_some() {
         readers.push(("real_trained_as_is", through(&identity, &real_first)));
     }
