@@ -2,11 +2,13 @@
 //! press and the pins' tips at a few polar angles (the mesh-convergence figures of
 //! `docs/experiments/fem-dome.md`).
 //!
-//! `cargo run --release -p tacsim-fem --example dome_build -- [CELLS] [SKIN_LAYERS] [PATCH_MM] [CAP_DEG]`
+//! `cargo run --release -p tacsim-fem --example dome_build -- [CELLS] [SKIN_LAYERS] [PATCH_MM] [CAP_DEG] [REFINEMENT] [GEL_SHELLS]`
 //!
 //! `PATCH_MM`: the pins' skin patch radius (default 0, the base alone). With `CAP_DEG`, the response is also condensed onto the outer nodes within that angle of
 //! the apex and the default sensor's 331 pins (10 rings 4.536 deg apart), and the time taken
-//! reported.
+//! reported (`-`: not condensed). `REFINEMENT`: the skin's elements that many times finer than
+//! the gel's (`DomeSpec::skin_refinement`, default 1), and with them the gel's outer
+//! `GEL_SHELLS` shells (`DomeSpec::refined_gel_shells`, default 0).
 //!
 //! The press: a Hertz-shaped pressure `p0 sqrt(1 - (theta / 15 deg)^2)`, `p0` = 0.01 MPa, on
 //! the outer sphere about the apex. Pins: bases on the skin's inner face, 2.84 mm long, at
@@ -24,11 +26,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let skin_layers = args.get(2).map_or(Ok(2), |s| s.parse())?;
     let patch_radius_mm: f64 = args.get(3).map_or(Ok(0.0), |s| s.parse())?;
     let (r, t, pin_length) = support::SIZES_MM;
-    let spec = support::spec(cells, skin_layers)?;
+    let refinement = args.get(5).map_or(Ok(1), |s| s.parse())?;
+    let gel_shells = args.get(6).map_or(Ok(0), |s| s.parse())?;
+    let spec = support::spec(cells, skin_layers, refinement, gel_shells)?;
     let clock = Instant::now();
     let dome = Dome::build(&spec)?;
     println!(
-        "cells {cells}, skin layers {skin_layers}: {} nodes, {} elements, {} free dofs, L {} entries; build {:.2} s",
+        "cells {cells}, skin layers {skin_layers}, skin refinement {refinement} with {gel_shells} gel shells: {} nodes, {} elements, {} free dofs, L {} entries; build {:.2} s",
         dome.mesh.nodes.len(),
         dome.mesh.elements.len(),
         dome.stiffness.size(),
@@ -61,7 +65,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             println!("pin azimuth {azimuth} polar {deg}: tip {:?} mm", d.map(|v| (v * 1e5).round() / 1e5));
         }
     }
-    if let Some(cap) = args.get(4) {
+    if let Some(cap) = args.get(4).filter(|c| *c != "-") {
         let cap: f64 = cap.parse()?;
         let sites = support::rings(patch_radius_mm);
         let clock = Instant::now();

@@ -18,7 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cells = args.get(1).map_or(Ok(6), |s| s.parse())?;
     let step_mm: f64 = args.get(2).map_or(Ok(0.25), |s| s.parse())?;
     let skin_layers = args.get(3).map_or(Ok(2), |s| s.parse())?;
-    let dome = Dome::build(&support::spec(cells, skin_layers)?)?;
+    let dome = Dome::build(&support::spec(cells, skin_layers, 1, 0)?)?;
     let sites = support::rings(0.0);
     let probes = dome.pin_probes(&sites)?;
     let press = FlatPress { depths_mm: vec![0.1, 1.0, 2.0, 3.0], step_mm, penalty_n_per_mm: 1000.0 };

@@ -110,7 +110,7 @@ impl Compliance {
                     for (i, &row) in columns.iter().enumerate() {
                         out_s[j * rows_s + i] = x[row];
                     }
-                    let u = |node: usize, m: usize| dome.stiffness.free_index(3 * node + m).map_or(0.0, |f| x[f]);
+                    let u = |node: usize, m: usize| dome.stiffness.value(x, 3 * node + m);
                     for (p, probe) in probes.iter().enumerate() {
                         let tip = probe.displacement_of(u);
                         out_p[j * rows_p + 3 * p..j * rows_p + 3 * p + 3].copy_from_slice(&tip);

@@ -72,6 +72,13 @@ pub struct DomeSpec {
     pub cells: usize,
     /// Element layers through the skin.
     pub skin_layers: usize,
+    /// How many times finer the skin's elements are than the gel's along the surface: the
+    /// skin is meshed on a lattice of `refinement x cells` cells, tied to the gel's outer faces
+    /// ([`CubedBall::mesh_with_refined_skin`]); 1, the one lattice for both.
+    pub skin_refinement: usize,
+    /// With a refined skin: the gel's outer shells of the lattice refined with it (`0`: the
+    /// skin alone), at most `cells - skin_layers - 2` (the coarse gel keeps two shells).
+    pub refined_gel_shells: usize,
 }
 
 impl DomeSpec {
@@ -96,9 +103,27 @@ impl DomeSpec {
             self.skin_layers >= 1 && self.skin_layers + 2 <= self.cells,
             "an integer in [1, cells - 2]: the gel needs two of the lattice's shells",
         )?;
+        check(
+            "skin_refinement",
+            self.skin_refinement as f64,
+            (1..=MAX_SKIN_REFINEMENT).contains(&self.skin_refinement),
+            "an integer in [1, 4]",
+        )?;
+        check(
+            "refined_gel_shells",
+            self.refined_gel_shells as f64,
+            self.refined_gel_shells + self.skin_layers + 2 <= self.cells,
+            "an integer in [0, cells - skin_layers - 2]: the coarse gel keeps two of the lattice's shells",
+        )?;
         Material::new(self.skin.youngs_modulus_mpa, self.skin.poisson)?;
         Material::new(self.gel.youngs_modulus_mpa, self.gel.poisson)?;
         Ok(())
+    }
+
+    /// The mesh: the lattice's, its skin and [`DomeSpec::refined_gel_shells`] of the gel
+    /// refined [`DomeSpec::skin_refinement`] times.
+    pub fn mesh(&self) -> Mesh {
+        self.lattice().mesh_with_refined_skin(self.skin_refinement, self.refined_gel_shells)
     }
 
     /// The lattice and its map.
@@ -132,6 +157,9 @@ impl DomeSpec {
     }
 }
 
+/// Most [`DomeSpec::skin_refinement`].
+pub const MAX_SKIN_REFINEMENT: usize = 4;
+
 /// A meshed, assembled and factorised dome.
 pub struct Dome {
     /// What it was built from.
@@ -150,7 +178,7 @@ impl Dome {
     /// Meshes, assembles and factorises a (checked) dome.
     pub fn build(spec: &DomeSpec) -> Result<Self> {
         spec.validate()?;
-        let mesh = spec.lattice().mesh();
+        let mesh = spec.mesh();
         let base = spec.base_z_mm();
         let tol = 1e-9 * spec.outer_radius_mm;
         let held: Vec<bool> = mesh.nodes.iter().flat_map(|x| [(x[2] - base).abs() < tol; 3]).collect();

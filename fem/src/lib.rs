@@ -29,11 +29,11 @@ mod response;
 mod system;
 
 pub use condense::{Compliance, Header, key as condensation_key};
-pub use dome::{Dome, DomeSpec, MOTION, PinProbe, PinSite, ProbeTerm, THROUGH_SKIN};
+pub use dome::{Dome, DomeSpec, MAX_SKIN_REFINEMENT, MOTION, PinProbe, PinSite, ProbeTerm, THROUGH_SKIN};
 pub use element::{ElementMatrices, face_forces, face_shape, matrices};
 pub use error::{FemError, Result};
 pub use hyperelastic::{FlatPress, Kinematics, NonlinearElement, PressState, large_displacement, neo_hookean};
 pub use material::{MAX_POISSON, Material};
-pub use mesh::{Block, CubedBall, Mesh, Region};
+pub use mesh::{Block, CubedBall, Mesh, Region, Tie};
 pub use response::{PinResponse, ResponseHeader, response_key};
 pub use system::{Factor, SOLVE_BLOCK, Stiffness};

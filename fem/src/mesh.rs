@@ -35,6 +35,20 @@ pub struct Mesh {
     pub elements: Vec<[usize; 10]>,
     /// Each element's material.
     pub regions: Vec<Region>,
+    /// Nodes whose displacement is not their own but interpolated from other nodes' (a finer
+    /// mesh's nodes on a coarser mesh's face), in node order.
+    pub ties: Vec<Tie>,
+}
+
+/// A node that moves with the face of a coarser element it lies on: `u(node) = sum_k w_k
+/// u(master_k)`, the face's six-node shape functions at the node (exact: a quadratic field on
+/// a face is quadratic on each triangle of its subdivision, so the two meshes conform).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tie {
+    /// The tied node.
+    pub node: usize,
+    /// The nodes it moves with and their weights (non-zero, summing to 1).
+    pub masters: Vec<(usize, f64)>,
 }
 
 impl Mesh {
@@ -150,10 +164,130 @@ pub struct CubedBall {
 impl CubedBall {
     /// The mesh.
     pub fn mesh(&self) -> Mesh {
+        self.kuhn().mesh
+    }
+
+    /// The mesh with the skin's cells (shells from `skin_from` out) and the gel's outer
+    /// `gel_shells` shells divided `refinement` times. The gel within is this lattice's; the
+    /// band outside it is cut from a lattice `refinement` times as fine, its gel shells divided
+    /// through their depth too, as many element layers through the skin as here. The band's
+    /// nodes on the coarse gel's outer faces that are not its own lie on those faces'
+    /// quadratic map and are tied to them ([`Tie`]): the two meshes conform, in their geometry
+    /// and in their displacements. `refinement` 1 is [`CubedBall::mesh`].
+    pub fn mesh_with_refined_skin(&self, refinement: usize, gel_shells: usize) -> Mesh {
+        if refinement <= 1 || self.skin_from >= self.cells || gel_shells >= self.skin_from {
+            return self.mesh();
+        }
+        let k = refinement as i64;
+        let c = self.skin_from - gel_shells;
+        let gel = CubedBall {
+            cells: c,
+            cell_range: self.cell_range,
+            min_shell: self.min_shell,
+            radii: self.radii[..=c].to_vec(),
+            skin_from: c,
+            skirt: self.skirt,
+        };
+        let fine_shell = c * refinement;
+        let mut radii: Vec<f64> = (0..fine_shell).map(|m| self.radii[c] * m as f64 / fine_shell as f64).collect();
+        for j in fine_shell..=self.skin_from * refinement {
+            let (m, frac) = (j / refinement, (j % refinement) as f64 / refinement as f64);
+            let next = self.radii[(m + 1).min(self.cells)];
+            radii.push(self.radii[m] + frac * (next - self.radii[m]));
+        }
+        radii.extend_from_slice(&self.radii[self.skin_from + 1..]);
+        let skin = CubedBall {
+            cells: self.skin_from * refinement + (self.cells - self.skin_from),
+            cell_range: self.cell_range.map(|(lo, hi)| (lo * k, hi * k)),
+            min_shell: fine_shell,
+            radii,
+            skin_from: self.skin_from * refinement,
+            skirt: self.skirt.map(|(l, depth)| (l * refinement, depth)),
+        };
+        let coarse = gel.kuhn();
+        let fine = skin.kuhn();
+        let mut mesh = coarse.mesh.clone();
+        // Each fine node's point of the doubled lattice (the index is a bijection).
+        let mut points = vec![[0i64; 3]; fine.mesh.nodes.len()];
+        for (p, &i) in &fine.index {
+            points[i] = *p;
+        }
+        let interface = 2 * fine_shell as i64;
+        let global: Vec<usize> = points
+            .iter()
+            .zip(&fine.mesh.nodes)
+            .map(|(p, x)| {
+                if skin.shell_of(*p) != interface {
+                    mesh.nodes.push(*x);
+                    return mesh.nodes.len() - 1;
+                }
+                if p.iter().all(|v| v % k == 0) {
+                    let q = p.map(|v| v / k);
+                    // The gel's outer faces hold a node at every point of the doubled lattice
+                    // on them (vertices, edges' midpoints, the squares' diagonals' midpoints).
+                    return *coarse.index.get(&q).expect("a gel node under every coinciding skin node");
+                }
+                let (at, masters) = gel.on_face(&coarse, p.map(|v| v as f64 / k as f64));
+                mesh.nodes.push(at);
+                let node = mesh.nodes.len() - 1;
+                mesh.ties.push(Tie { node, masters });
+                node
+            })
+            .collect();
+        for (el, region) in fine.mesh.elements.iter().zip(&fine.mesh.regions) {
+            mesh.elements.push(el.map(|n| global[n]));
+            mesh.regions.push(*region);
+        }
+        mesh
+    }
+
+    /// The point `q` (doubled lattice, may be fractional) of the outer boundary, on the
+    /// quadratic map of an element that holds it: its position (mm) and the element's nodes
+    /// with their non-zero shape functions there.
+    fn on_face(&self, kuhn: &Kuhn, q: [f64; 3]) -> ([f64; 3], Vec<(usize, f64)>) {
+        let n = self.cells as i64;
+        let zmin = self.skirt.map_or(-n, |(layers, _)| -(layers as i64));
+        let bounds = [(-n, n - 1), (-n, n - 1), (zmin, n - 1)];
+        let corner = [0, 1, 2].map(|a| ((q[a] / 2.0).floor() as i64).clamp(bounds[a].0, bounds[a].1));
+        for v in kuhn_tets(corner) {
+            let v0 = v[0].map(|c| c as f64);
+            let m = nalgebra::Matrix3::from_fn(|r, c| (v[c + 1][r] - v[0][r]) as f64);
+            let Some(inv) = m.try_inverse() else { continue };
+            let x = inv * nalgebra::Vector3::new(q[0] - v0[0], q[1] - v0[1], q[2] - v0[2]);
+            let l = [1.0 - x.x - x.y - x.z, x.x, x.y, x.z].map(|c| if c.abs() < 1e-12 { 0.0 } else { c });
+            if l.iter().any(|&c| c < 0.0) {
+                continue;
+            }
+            let mut nodes = [0usize; 10];
+            for (slot, p) in v.iter().enumerate() {
+                nodes[slot] = kuhn.index[p];
+            }
+            for (e, &(a, b)) in EDGES.iter().enumerate() {
+                nodes[4 + e] = kuhn.index[&[0, 1, 2].map(|c| (v[a][c] + v[b][c]) / 2)];
+            }
+            let w = crate::element::shape(l);
+            let mut at = [0.0; 3];
+            let mut masters = Vec::new();
+            for (&node, &wk) in nodes.iter().zip(&w) {
+                if wk != 0.0 {
+                    for (c, x) in at.iter_mut().zip(kuhn.mesh.nodes[node]) {
+                        *c += wk * x;
+                    }
+                    masters.push((node, wk));
+                }
+            }
+            return (at, masters);
+        }
+        unreachable!("a lattice point on the boundary lies in one of its cell's six tetrahedra")
+    }
+
+    fn kuhn(&self) -> Kuhn {
         let n = self.cells as i64;
         let mut kuhn = Kuhn::default();
         let [(xlo, xhi), (ylo, yhi), (zlo, zhi)] = self.cell_range;
-        for k in zlo.max(-n)..zhi.min(n) {
+        // A skirt's layers are not the lattice's: they may outnumber its cells.
+        let zmin = if self.skirt.is_some() { zlo } else { zlo.max(-n) };
+        for k in zmin..zhi.min(n) {
             for j in ylo.max(-n)..yhi.min(n) {
                 for i in xlo.max(-n)..xhi.min(n) {
                     let shell = (0..8)
@@ -168,7 +302,7 @@ impl CubedBall {
                 }
             }
         }
-        kuhn.mesh
+        kuhn
     }
 
     /// The shell (in cells) of a lattice vertex.
@@ -248,19 +382,7 @@ struct Kuhn {
 impl Kuhn {
     /// Adds the cell with lowest corner `corner`; `position` maps a doubled-lattice point (mm).
     fn cell(&mut self, corner: [i64; 3], region: Region, position: impl Fn([i64; 3]) -> [f64; 3]) {
-        let flip = corner.map(|c| c < 0);
-        let reflections = flip.iter().filter(|&&f| f).count();
-        for (perm, even) in PERMUTATIONS {
-            let mut v = [[0i64; 3]; 4];
-            v[0] = [0, 1, 2].map(|a| 2 * (corner[a] + i64::from(flip[a])));
-            for s in 0..3 {
-                v[s + 1] = v[s];
-                v[s + 1][perm[s]] += if flip[perm[s]] { -2 } else { 2 };
-            }
-            // Each reflection turns the tetrahedron inside out.
-            if even == (reflections % 2 == 1) {
-                v.swap(2, 3);
-            }
+        for v in kuhn_tets(corner) {
             let mut el = [0usize; 10];
             for (slot, p) in v.iter().enumerate() {
                 el[slot] = self.node(*p, &position);
@@ -280,6 +402,26 @@ impl Kuhn {
             nodes.len() - 1
         })
     }
+}
+
+/// The six tetrahedra of the cell with lowest corner `corner` (its vertices on the doubled
+/// lattice, each positively oriented), Kuhn's split reflected into the cell's octant.
+fn kuhn_tets(corner: [i64; 3]) -> [[[i64; 3]; 4]; 6] {
+    let flip = corner.map(|c| c < 0);
+    let reflections = flip.iter().filter(|&&f| f).count();
+    PERMUTATIONS.map(|(perm, even)| {
+        let mut v = [[0i64; 3]; 4];
+        v[0] = [0, 1, 2].map(|a| 2 * (corner[a] + i64::from(flip[a])));
+        for s in 0..3 {
+            v[s + 1] = v[s];
+            v[s + 1][perm[s]] += if flip[perm[s]] { -2 } else { 2 };
+        }
+        // Each reflection turns the tetrahedron inside out.
+        if even == (reflections % 2 == 1) {
+            v.swap(2, 3);
+        }
+        v
+    })
 }
 
 /// The six orders of the axes that make Kuhn's tetrahedra, and whether each is even.

@@ -159,8 +159,8 @@ impl PinResponse {
                     for term in &probes[p].terms {
                         for (a, &node) in term.nodes.iter().enumerate() {
                             for c in 0..3 {
-                                if let Some(f) = dome.stiffness.free_index(3 * node + c) {
-                                    block[j * n + f] += term.coefficients[i][3 * a + c];
+                                for (f, w) in dome.stiffness.terms(3 * node + c) {
+                                    block[j * n + f] += w * term.coefficients[i][3 * a + c];
                                 }
                             }
                         }
@@ -615,6 +615,8 @@ mod tests {
             gel: crate::Material::new(0.1, 0.4999).expect("gel"),
             cells: 4,
             skin_layers: 1,
+            skin_refinement: 1,
+            refined_gel_shells: 0,
         };
         let dome = Dome::build(&spec).expect("dome");
         let pin = PinSite { base: [0.0, 0.0, 19.34], tip: [0.0, 0.0, 16.5], patch_radius_mm: 0.0 };

@@ -2,7 +2,9 @@
 //! Cholesky factor (faer's supernodal `L L^T`, fill-reducing AMD order).
 //!
 //! Degrees of freedom are `3 node + direction`; the held ones (zero displacement) are left out
-//! of the system, the others numbered in the same order ("free" indices). The matrix is kept
+//! of the system, and so are a tied node's ([`crate::Tie`]: its displacement is its masters'
+//! weighted sum, its stiffness and loads go to them); the others are numbered in the same order
+//! ("free" indices). The matrix is kept
 //! as its upper triangle, column by column. Every product and solve here runs its columns in
 //! fixed blocks, each block on one thread: the bytes do not depend on the thread count.
 
@@ -26,6 +28,7 @@ const ELEMENT_BATCH: usize = 2048;
 /// Right-hand sides solved together on one thread.
 pub const SOLVE_BLOCK: usize = 32;
 const HELD: usize = usize::MAX;
+const TIED: usize = usize::MAX - 1;
 
 /// The stiffness matrix of a mesh (N/mm) over its free degrees of freedom.
 #[derive(Clone)]
@@ -37,6 +40,8 @@ pub struct Stiffness {
     values: Vec<f64>,
     /// Each element's volume-change row `b` (see [`crate::element`]).
     volume_change: Vec<[f64; 30]>,
+    /// The tied nodes' masters (node, weight), by node; empty where a node is its own.
+    ties: Vec<Vec<(usize, f64)>>,
 }
 
 impl Stiffness {
@@ -54,19 +59,32 @@ impl Stiffness {
         element: impl Fn(usize) -> ElementMatrices + Sync,
     ) -> Result<Self> {
         let dofs = 3 * mesh.nodes.len();
+        let mut ties: Vec<Vec<(usize, f64)>> = vec![Vec::new(); mesh.nodes.len()];
+        for tie in &mesh.ties {
+            ties[tie.node].clone_from(&tie.masters);
+        }
         let mut free = vec![HELD; dofs];
         let mut free_count = 0;
         for (d, slot) in free.iter_mut().enumerate() {
-            if !held.get(d).copied().unwrap_or(false) {
+            if held.get(d).copied().unwrap_or(false) {
+                continue;
+            }
+            if ties[d / 3].is_empty() {
                 *slot = free_count;
                 free_count += 1;
+            } else {
+                *slot = TIED;
             }
         }
+        // Each node's own nodes: itself, or a tied node's masters.
+        let owners =
+            |n: usize| -> Vec<(usize, f64)> { if ties[n].is_empty() { vec![(n, 1.0)] } else { ties[n].clone() } };
         // Node adjacency, then the upper triangle's pattern column by column.
         let mut adjacent: Vec<Vec<usize>> = vec![Vec::new(); mesh.nodes.len()];
         for el in &mesh.elements {
-            for &a in el {
-                adjacent[a].extend_from_slice(el);
+            let own: Vec<usize> = el.iter().flat_map(|&a| owners(a)).map(|(n, _)| n).collect();
+            for &a in &own {
+                adjacent[a].extend_from_slice(&own);
             }
         }
         for list in &mut adjacent {
@@ -77,13 +95,13 @@ impl Stiffness {
         let mut row_idx = Vec::new();
         col_ptr.push(0);
         for (d, &fc) in free.iter().enumerate() {
-            if fc == HELD {
+            if fc >= TIED {
                 continue;
             }
             for &a in &adjacent[d / 3] {
                 for i in 0..3 {
                     let fr = free[3 * a + i];
-                    if fr != HELD && fr <= fc {
+                    if fr < TIED && fr <= fc {
                         row_idx.push(fr);
                     }
                 }
@@ -101,31 +119,71 @@ impl Stiffness {
                 if m.min_jacobian.is_nan() || m.min_jacobian <= 0.0 {
                     return Err(FemError::Degenerate { element: e, jacobian: m.min_jacobian });
                 }
-                let el = &mesh.elements[e];
-                let mut dof = [HELD; 30];
-                for (a, &node) in el.iter().enumerate() {
+                // Each element row's free degrees of freedom and weights.
+                let mut terms: Vec<Vec<(usize, f64)>> = Vec::with_capacity(30);
+                for &node in &mesh.elements[e] {
                     for i in 0..3 {
-                        dof[3 * a + i] = free[3 * node + i];
+                        terms.push(Self::terms_of(&free, &ties, 3 * node + i));
                     }
                 }
-                for (r, &fr) in dof.iter().enumerate() {
-                    if fr == HELD {
-                        continue;
-                    }
-                    for (c, &fc) in dof.iter().enumerate() {
-                        if fc == HELD || fr > fc {
-                            continue;
-                        }
-                        let col = &row_idx[col_ptr[fc]..col_ptr[fc + 1]];
-                        if let Ok(pos) = col.binary_search(&fr) {
-                            values[col_ptr[fc] + pos] += m.stiffness[r][c];
+                for (r, row) in terms.iter().enumerate() {
+                    for (c, col_terms) in terms.iter().enumerate() {
+                        let k = m.stiffness[r][c];
+                        for &(fr, wr) in row {
+                            for &(fc, wc) in col_terms {
+                                if fr > fc {
+                                    continue;
+                                }
+                                let col = &row_idx[col_ptr[fc]..col_ptr[fc + 1]];
+                                if let Ok(pos) = col.binary_search(&fr) {
+                                    values[col_ptr[fc] + pos] += wr * wc * k;
+                                }
+                            }
                         }
                     }
                 }
                 volume_change.push(m.volume_change);
             }
         }
-        Ok(Self { free, col_ptr, row_idx, values, volume_change })
+        Ok(Self { free, col_ptr, row_idx, values, volume_change, ties })
+    }
+
+    /// The free degrees of freedom and weights a degree of freedom moves with: itself, none
+    /// where held, its masters' where its node is tied.
+    fn terms_of(free: &[usize], ties: &[Vec<(usize, f64)>], dof: usize) -> Vec<(usize, f64)> {
+        match free[dof] {
+            HELD => Vec::new(),
+            TIED => ties[dof / 3]
+                .iter()
+                .filter_map(|&(n, w)| {
+                    let f = free[3 * n + dof % 3];
+                    (f < TIED).then_some((f, w))
+                })
+                .collect(),
+            f => vec![(f, 1.0)],
+        }
+    }
+
+    /// The free degrees of freedom and weights that degree of freedom `3 node + direction`
+    /// moves with: itself, none where held, its masters' where its node is tied.
+    pub fn terms(&self, dof: usize) -> Vec<(usize, f64)> {
+        Self::terms_of(&self.free, &self.ties, dof)
+    }
+
+    /// The displacement (mm) of degree of freedom `3 node + direction` in a solution over the
+    /// free ones.
+    pub fn value(&self, solution: &[f64], dof: usize) -> f64 {
+        match self.free[dof] {
+            HELD => 0.0,
+            TIED => self.ties[dof / 3]
+                .iter()
+                .map(|&(n, w)| {
+                    let f = self.free[3 * n + dof % 3];
+                    if f < TIED { w * solution[f] } else { 0.0 }
+                })
+                .sum(),
+            f => solution[f],
+        }
     }
 
     /// Whether each degree of freedom (`3 node + direction`) is held.
@@ -167,9 +225,10 @@ impl Stiffness {
         self.values.len()
     }
 
-    /// The free index of degree of freedom `3 node + direction`, `None` where held.
+    /// The free index of degree of freedom `3 node + direction`, `None` where held or tied
+    /// (see [`Stiffness::terms`]).
     pub fn free_index(&self, dof: usize) -> Option<usize> {
-        self.free.get(dof).copied().filter(|&f| f != HELD)
+        self.free.get(dof).copied().filter(|&f| f < TIED)
     }
 
     /// The free right-hand side (N) of nodal forces on every node (held ones dropped: the base
@@ -178,8 +237,8 @@ impl Stiffness {
         let mut rhs = vec![0.0; self.size()];
         for (n, f) in forces.iter().enumerate() {
             for (c, fc) in f.iter().enumerate() {
-                if let Some(i) = self.free_index(3 * n + c) {
-                    rhs[i] += fc;
+                for (i, w) in self.terms(3 * n + c) {
+                    rhs[i] += w * fc;
                 }
             }
         }
@@ -190,10 +249,8 @@ impl Stiffness {
     /// (held ones zero).
     pub fn expand(&self, solution: &[f64]) -> Vec<[f64; 3]> {
         let mut u = vec![[0.0; 3]; self.free.len() / 3];
-        for (d, &f) in self.free.iter().enumerate() {
-            if f != HELD {
-                u[d / 3][d % 3] = solution[f];
-            }
+        for d in 0..self.free.len() {
+            u[d / 3][d % 3] = self.value(solution, d);
         }
         u
     }

@@ -25,6 +25,8 @@ fn solid(cells: usize, poisson: f64) -> DomeSpec {
         gel: m,
         cells,
         skin_layers: 1,
+        skin_refinement: 1,
+        refined_gel_shells: 0,
     }
 }
 

@@ -29,7 +29,15 @@ fn loads() -> Vec<([f64; 3], [f64; 3])> {
 
 #[test]
 fn pin_response_reproduces_a_direct_solve_of_point_loads() {
-    let dome = Dome::build(&spec()).expect("dome");
+    // On the one lattice and with the skin's elements twice finer (its pins read through tied
+    // nodes).
+    for refinement in [1, 2] {
+        reproduces_a_direct_solve(&DomeSpec { skin_refinement: refinement, ..spec() });
+    }
+}
+
+fn reproduces_a_direct_solve(spec: &DomeSpec) {
+    let dome = Dome::build(spec).expect("dome");
     let sites = pins(1.0);
     let response = PinResponse::compute(&dome, &sites, |_, _| {}).expect("response");
     let (motions, missed) = response.motions(loads());

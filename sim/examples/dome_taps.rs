@@ -4,9 +4,10 @@
 //! and a sum of the pins' tips (the same bits, the same sum).
 //!
 //! `cargo run --release -p tacsim-sim --example dome_taps -- [SAMPLES] [REPEATS] [CELLS]
-//! [EDGE_SUBCELLS] [flat|rim]` (default 200 3, the sensor's 25 cells across the footprint and 3
-//! sub-cells; 0: the contact's edge not solved again, as the taps on the disk's top cut no
-//! cell; `rim`: the bench's taps across the disk's rim, whose sharp edge cuts cells). The dome
+//! [EDGE_SUBCELLS] [flat|rim] [MESH]` (default 200 3, the sensor's 25 cells across the footprint
+//! and 3 sub-cells; 0: the contact's edge not solved again, as the taps on the disk's top cut
+//! no cell; `rim`: the bench's taps across the disk's rim, whose sharp edge cuts cells; `MESH`
+//! the dome's, `CELLS[xREFINEMENT[+GEL_SHELLS]]` as `dome_convergence`'s, default 8). The dome
 //! is built once into the cache folder (`TACSIM_CACHE_DIR`). The pins' product runs on rayon's
 //! pool (`RAYON_NUM_THREADS=1` for one thread).
 
@@ -25,6 +26,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     sensor.skin.model = SkinModel::Dome;
     sensor.skin.cells_across = support::whole(&args, 2, sensor.skin.cells_across)?;
     sensor.skin.edge_subcells = support::whole(&args, 3, sensor.skin.edge_subcells)?;
+    let (cells, refinement, gel_shells) = support::dome_mesh(&args, 5, sensor.skin.dome_cells)?;
+    sensor.skin.dome_cells = cells;
+    sensor.skin.dome_skin_refinement = refinement;
+    sensor.skin.dome_refined_gel_shells = gel_shells;
     sensor.validate("CELLS")?;
     let t = Instant::now();
     let model = ContactModel::new(&sensor)?;

@@ -22,7 +22,8 @@
 //!   the grids' pins grouped as the bench's and the datasets' are, or every cell on every pin
 //!   with `--exact` (the reference always).
 
-#[allow(dead_code)] // `support::whole` and `support::tractions_hash` serve the timing examples.
+#[allow(dead_code)]
+// `support::whole` and `support::tractions_hash` serve the timing examples, `support::dome_mesh` the dome's.
 mod support;
 
 use rayon::prelude::*;

@@ -16,7 +16,8 @@
 //! refined cells (`skin.edge_subcells`; the 65-cell reference keeps the default, 3). The
 //! calibrated default sensor with that body.
 
-#[allow(dead_code)] // `support::model_at` and `support::tractions_hash` serve the timing examples.
+#[allow(dead_code)]
+// `support::model_at` and `support::tractions_hash` serve the timing examples, `support::dome_mesh` the dome's.
 mod support;
 
 use tacsim_sim::contact::{ContactModel, Simulation};

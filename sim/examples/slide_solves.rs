@@ -11,6 +11,7 @@
 //! 0). The slide: the calibrated default sensor on the built-in `disk`, 3 mm deep, yaw 30 deg,
 //! from `(6.5, -1)` to `(5, -3)` mm on its flat top (the companion of `tap_solves`' tap there).
 
+#[allow(dead_code)] // `support::dome_mesh` serves the dome's examples.
 mod support;
 
 use tacsim_sim::contact::Simulation;

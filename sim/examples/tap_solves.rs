@@ -13,6 +13,7 @@
 //! sensor on the built-in `disk` (100 mm across, centred at the origin), pressed 3 mm on its
 //! flat top at `(5, -3)` mm, yaw 30 deg, and across its rim at `(48, 0)` mm.
 
+#[allow(dead_code)] // `support::dome_mesh` serves the dome's examples.
 mod support;
 
 use tacsim_sim::SensorPose;

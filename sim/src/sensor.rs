@@ -217,6 +217,16 @@ pub struct SkinParams {
     /// `dome_cells`. Default 2.
     #[serde(skip_serializing_if = "is_default_dome_skin_layers")]
     pub dome_skin_layers: usize,
+    /// `dome`: how many times finer the skin's elements are than the gel's along the
+    /// surface, in [1, `MAX_DOME_SKIN_REFINEMENT`]: the skin meshed on a lattice of
+    /// `dome_skin_refinement x dome_cells`, tied to the gel's outer faces. Default 1 (one
+    /// lattice for both; `docs/guide/fem.md`, "The skin's own mesh").
+    #[serde(skip_serializing_if = "is_default_dome_skin_refinement")]
+    pub dome_skin_refinement: usize,
+    /// `dome`, with `dome_skin_refinement` above 1: the gel's outer lattice shells refined
+    /// with the skin, in [0, `dome_cells - dome_skin_layers - 2`]. Default 0 (the skin alone).
+    #[serde(skip_serializing_if = "is_no_shells")]
+    pub dome_refined_gel_shells: usize,
 }
 
 impl Default for SkinParams {
@@ -236,6 +246,8 @@ impl Default for SkinParams {
             edge_subcells: DEFAULT_EDGE_SUBCELLS,
             dome_cells: DEFAULT_DOME_CELLS,
             dome_skin_layers: DEFAULT_DOME_SKIN_LAYERS,
+            dome_skin_refinement: DEFAULT_DOME_SKIN_REFINEMENT,
+            dome_refined_gel_shells: 0,
         }
     }
 }
@@ -260,6 +272,19 @@ fn is_default_dome_cells(v: &usize) -> bool {
 
 fn is_default_dome_skin_layers(v: &usize) -> bool {
     *v == DEFAULT_DOME_SKIN_LAYERS
+}
+
+/// Default [`SkinParams::dome_skin_refinement`].
+pub const DEFAULT_DOME_SKIN_REFINEMENT: usize = 1;
+/// Most [`SkinParams::dome_skin_refinement`] (tacsim-fem's `MAX_SKIN_REFINEMENT`).
+pub const MAX_DOME_SKIN_REFINEMENT: usize = tacsim_fem::MAX_SKIN_REFINEMENT;
+
+fn is_default_dome_skin_refinement(v: &usize) -> bool {
+    *v == DEFAULT_DOME_SKIN_REFINEMENT
+}
+
+fn is_no_shells(v: &usize) -> bool {
+    *v == 0
 }
 
 /// Default [`SkinParams::edge_subcells`].
@@ -853,6 +878,23 @@ impl SensorParams {
                 ),
             );
         }
+        if !(1..=MAX_DOME_SKIN_REFINEMENT).contains(&k.dome_skin_refinement) {
+            return check.bad(
+                "skin.dome_skin_refinement",
+                format!("must be in [1, {MAX_DOME_SKIN_REFINEMENT}], got {}", k.dome_skin_refinement),
+            );
+        }
+        if k.dome_refined_gel_shells + k.dome_skin_layers + 2 > k.dome_cells {
+            return check.bad(
+                "skin.dome_refined_gel_shells",
+                format!(
+                    "must be in [0, skin.dome_cells - skin.dome_skin_layers - 2 = {}] (the coarse gel keeps two of \
+                     the lattice's shells), got {}",
+                    k.dome_cells.saturating_sub(k.dome_skin_layers + 2),
+                    k.dome_refined_gel_shells
+                ),
+            );
+        }
         let r = self.dome.outer_radius_mm;
         if k.model == SkinModel::Dome && !(r..=2.0 * r).contains(&k.base_depth_mm) {
             return check.bad(
@@ -968,6 +1010,9 @@ mod tests {
             ("[skin]\ndome_cells = 2\n", "skin.dome_cells"),
             ("[skin]\ndome_cells = 17\n", "skin.dome_cells"),
             ("[skin]\ndome_skin_layers = 0\n", "skin.dome_skin_layers"),
+            ("[skin]\ndome_skin_refinement = 0\n", "skin.dome_skin_refinement"),
+            ("[skin]\ndome_skin_refinement = 5\n", "skin.dome_skin_refinement"),
+            ("[skin]\ndome_refined_gel_shells = 5\n", "skin.dome_cells - skin.dome_skin_layers - 2 = 4"),
             ("[skin]\ndome_cells = 4\ndome_skin_layers = 4\n", "skin.dome_skin_layers"),
             // Regression: one gel shell passed and its mesh turned inside out in the build.
             ("[skin]\ndome_cells = 3\ndome_skin_layers = 2\n", "skin.dome_cells - 2 = 1"),

@@ -76,8 +76,11 @@ fn the_dome_body_keeps_the_solvers_invariants_history_and_lift_off() {
 #[test]
 fn a_centred_tap_moves_the_dome_pins_as_mirrors() {
     let scene = scene_with("disk");
-    let mirror_difference = |subcells: usize| {
-        let mut model = ContactModel::new(&sensor(SkinModel::Dome)).expect("contact model");
+    let mirror_difference = |subcells: usize, refinement: usize| {
+        let mut s = sensor(SkinModel::Dome);
+        s.skin.dome_skin_refinement = refinement;
+        s.skin.dome_refined_gel_shells = usize::from(refinement > 1);
+        let mut model = ContactModel::new(&s).expect("contact model");
         model.edge_subcells = subcells;
         let tap = SensorPath::tap(SensorPose::new(0.0, 0.0, 1.5, 0.0)).run(&model, &scene).expect("tap");
         // The disk, the pin layout and the mesh are mirror symmetric about the x axis: pin
@@ -100,9 +103,16 @@ fn a_centred_tap_moves_the_dome_pins_as_mirrors() {
         }
         worst
     };
-    let (mesh, refined) = (mirror_difference(0), mirror_difference(tacsim_sim::DEFAULT_EDGE_SUBCELLS));
-    println!("mirror pins differ by {mesh:.2e} mm, {refined:.2e} mm with the contact's edge refined");
+    let (mesh, refined) = (mirror_difference(0, 1), mirror_difference(tacsim_sim::DEFAULT_EDGE_SUBCELLS, 1));
+    // The skin and the gel's outer shell meshed twice finer, tied to the gel within: the band's
+    // lattice keeps the mirrors too.
+    let band = mirror_difference(0, 2);
+    println!(
+        "mirror pins differ by {mesh:.2e} mm, {refined:.2e} mm with the contact's edge refined, {band:.2e} mm with \
+         the skin's band refined"
+    );
     assert!(mesh < 5e-5, "mirror pins differ by {mesh} mm");
+    assert!(band < 5e-5, "mirror pins differ by {band} mm with the skin's band refined");
     assert!(refined < 1e-3, "mirror pins differ by {refined} mm with the contact's edge refined");
 }
 

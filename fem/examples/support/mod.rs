@@ -6,8 +6,8 @@ use tacsim_fem::{DomeSpec, Material, PinSite, Result};
 pub const SIZES_MM: (f64, f64, f64) = (20.0, 0.66, 2.84);
 
 /// The calibrated TacTip's dome (R 20 mm, skin 0.66 mm of 1 MPa / 0.436, gel 0.1 MPa /
-/// 0.4999) at `cells`, `skin_layers`.
-pub fn spec(cells: usize, skin_layers: usize) -> Result<DomeSpec> {
+/// 0.4999) at `cells`, `skin_layers`, `skin_refinement` and `refined_gel_shells`.
+pub fn spec(cells: usize, skin_layers: usize, skin_refinement: usize, refined_gel_shells: usize) -> Result<DomeSpec> {
     let (r, t, _) = SIZES_MM;
     Ok(DomeSpec {
         outer_radius_mm: r,
@@ -17,6 +17,8 @@ pub fn spec(cells: usize, skin_layers: usize) -> Result<DomeSpec> {
         gel: Material::new(0.1, 0.4999)?,
         cells,
         skin_layers,
+        skin_refinement,
+        refined_gel_shells,
     })
 }
 

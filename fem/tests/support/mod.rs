@@ -12,7 +12,15 @@ pub fn spec(cells: usize) -> DomeSpec {
         gel: Material::new(0.1, 0.4999).expect("gel"),
         cells,
         skin_layers: if cells > 4 { 2 } else { 1 },
+        skin_refinement: 1,
+        refined_gel_shells: 0,
     }
+}
+
+/// The same dome with the skin's elements `refinement` times finer along the surface.
+#[allow(dead_code)] // Not every test file builds a refined skin.
+pub fn spec_refined(cells: usize, refinement: usize) -> DomeSpec {
+    DomeSpec { skin_refinement: refinement, ..spec(cells) }
 }
 
 /// Pins at polar angles from the apex to near the rim, 2.84 mm posts on the inner face.

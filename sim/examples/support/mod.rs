@@ -10,6 +10,17 @@ pub fn whole(args: &[String], i: usize, default: usize) -> Result<usize, String>
         .map_or(Ok(default), |s| s.parse().map_err(|_| format!("argument {}: `{s}` is not a whole number", i + 1)))
 }
 
+/// Argument `i`, a dome mesh: `CELLS`, `CELLSxREFINEMENT` or `CELLSxREFINEMENT+GEL_SHELLS`
+/// (`skin.dome_cells`, `skin.dome_skin_refinement`, `skin.dome_refined_gel_shells`); absent,
+/// `default` cells, the skin not refined.
+pub fn dome_mesh(args: &[String], i: usize, default: usize) -> Result<(usize, usize, usize), String> {
+    let Some(a) = args.get(i) else { return Ok((default, 1, 0)) };
+    let (c, rest) = a.split_once('x').unwrap_or((a, "1"));
+    let (r, g) = rest.split_once('+').unwrap_or((rest, "0"));
+    let bad = || format!("argument {}: `{a}` is not CELLS, CELLSxREFINEMENT or CELLSxREFINEMENT+GEL_SHELLS", i + 1);
+    Ok((c.parse().map_err(|_| bad())?, r.parse().map_err(|_| bad())?, g.parse().map_err(|_| bad())?))
+}
+
 /// The bench's scene: the built-in `disk` (100 mm across) at the origin.
 pub fn disk_scene() -> Result<Scene, Box<dyn std::error::Error>> {
     let catalogue = tacsim_sim::builtin_catalogue()?;
