@@ -73,7 +73,7 @@ pub struct DomeSpec {
     /// Element layers through the skin.
     pub skin_layers: usize,
     /// How many times finer the skin's elements are than the gel's along the surface: the
-    /// skin is meshed on a lattice of `refinement x cells` cells, tied to the gel's outer faces
+    /// skin cut from a lattice that many times as fine, tied to the gel's outer faces
     /// ([`CubedBall::mesh_with_refined_skin`]); 1, the one lattice for both.
     pub skin_refinement: usize,
     /// With a refined skin: the gel's outer shells of the lattice refined with it (`0`: the

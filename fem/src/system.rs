@@ -4,9 +4,9 @@
 //! Degrees of freedom are `3 node + direction`; the held ones (zero displacement) are left out
 //! of the system, and so are a tied node's ([`crate::Tie`]: its displacement is its masters'
 //! weighted sum, its stiffness and loads go to them); the others are numbered in the same order
-//! ("free" indices). The matrix is kept
-//! as its upper triangle, column by column. Every product and solve here runs its columns in
-//! fixed blocks, each block on one thread: the bytes do not depend on the thread count.
+//! ("free" indices). The matrix is kept as its upper triangle, column by column. Every product
+//! and solve here runs its columns in fixed blocks, each block on one thread: the bytes do not
+//! depend on the thread count.
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;

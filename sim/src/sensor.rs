@@ -218,9 +218,9 @@ pub struct SkinParams {
     #[serde(skip_serializing_if = "is_default_dome_skin_layers")]
     pub dome_skin_layers: usize,
     /// `dome`: how many times finer the skin's elements are than the gel's along the
-    /// surface, in [1, `MAX_DOME_SKIN_REFINEMENT`]: the skin meshed on a lattice of
-    /// `dome_skin_refinement x dome_cells`, tied to the gel's outer faces. Default 1 (one
-    /// lattice for both; `docs/guide/fem.md`, "The skin's own mesh").
+    /// surface, in [1, `MAX_DOME_SKIN_REFINEMENT`]: the skin cut from a lattice that many times
+    /// as fine, tied to the gel's outer faces. Default 1 (one lattice for both;
+    /// `docs/guide/fem.md`, "The skin's own mesh").
     #[serde(skip_serializing_if = "is_default_dome_skin_refinement")]
     pub dome_skin_refinement: usize,
     /// `dome`, with `dome_skin_refinement` above 1: the gel's outer lattice shells refined
