@@ -112,8 +112,14 @@ impl DomeSpec {
         check(
             "refined_gel_shells",
             self.refined_gel_shells as f64,
-            self.refined_gel_shells + self.skin_layers + 2 <= self.cells,
+            self.refined_gel_shells.saturating_add(self.skin_layers + 2) <= self.cells,
             "an integer in [0, cells - skin_layers - 2]: the coarse gel keeps two of the lattice's shells",
+        )?;
+        check(
+            "refined_gel_shells",
+            self.refined_gel_shells as f64,
+            self.refined_gel_shells == 0 || self.skin_refinement > 1,
+            "0 unless skin_refinement is above 1: the gel's shells are refined with the skin",
         )?;
         Material::new(self.skin.youngs_modulus_mpa, self.skin.poisson)?;
         Material::new(self.gel.youngs_modulus_mpa, self.gel.poisson)?;

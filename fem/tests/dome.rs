@@ -129,6 +129,14 @@ fn absurd_specs_are_refused_with_the_field_named() {
         let e = Dome::build(&spec_refined(4, refinement)).err().expect("refused").to_string();
         assert!(e.contains(&format!("skin_refinement = {refinement}")) && e.contains("[1, 4]"), "{e}");
     }
+    // Gel shells refined without the skin, more than the coarse gel can give, or past usize.
+    for (refinement, shells, says) in
+        [(1, 1, "unless skin_refinement"), (2, 3, "cells - skin_layers - 2"), (2, usize::MAX, "")]
+    {
+        let s = tacsim_fem::DomeSpec { refined_gel_shells: shells, ..spec_refined(4, refinement) };
+        let e = Dome::build(&s).err().expect("refused").to_string();
+        assert!(e.contains("refined_gel_shells") && e.contains(says), "{e}");
+    }
     assert!(Material::new(0.1, 0.5).expect_err("refused").to_string().contains("0.4999"));
     assert!(Material::new(f64::NAN, 0.3).is_err());
     let dome = Dome::build(&spec(4)).expect("dome");

@@ -884,7 +884,17 @@ impl SensorParams {
                 format!("must be in [1, {MAX_DOME_SKIN_REFINEMENT}], got {}", k.dome_skin_refinement),
             );
         }
-        if k.dome_refined_gel_shells + k.dome_skin_layers + 2 > k.dome_cells {
+        if k.dome_refined_gel_shells > 0 && k.dome_skin_refinement == 1 {
+            return check.bad(
+                "skin.dome_refined_gel_shells",
+                format!(
+                    "must be 0 unless skin.dome_skin_refinement is above 1 (the gel's shells are refined with the \
+                     skin), got {}",
+                    k.dome_refined_gel_shells
+                ),
+            );
+        }
+        if k.dome_refined_gel_shells.saturating_add(k.dome_skin_layers + 2) > k.dome_cells {
             return check.bad(
                 "skin.dome_refined_gel_shells",
                 format!(
@@ -1012,7 +1022,15 @@ mod tests {
             ("[skin]\ndome_skin_layers = 0\n", "skin.dome_skin_layers"),
             ("[skin]\ndome_skin_refinement = 0\n", "skin.dome_skin_refinement"),
             ("[skin]\ndome_skin_refinement = 5\n", "skin.dome_skin_refinement"),
-            ("[skin]\ndome_refined_gel_shells = 5\n", "skin.dome_cells - skin.dome_skin_layers - 2 = 4"),
+            (
+                "[skin]\ndome_skin_refinement = 2\ndome_refined_gel_shells = 5\n",
+                "skin.dome_cells - skin.dome_skin_layers - 2 = 4",
+            ),
+            ("[skin]\ndome_refined_gel_shells = 1\n", "unless skin.dome_skin_refinement is above 1"),
+            (
+                "[skin]\ndome_skin_refinement = 2\ndome_refined_gel_shells = 18446744073709551615\n",
+                "skin.dome_refined_gel_shells",
+            ),
             ("[skin]\ndome_cells = 4\ndome_skin_layers = 4\n", "skin.dome_skin_layers"),
             // Regression: one gel shell passed and its mesh turned inside out in the build.
             ("[skin]\ndome_cells = 3\ndome_skin_layers = 2\n", "skin.dome_cells - 2 = 1"),
