@@ -273,11 +273,18 @@ fn a_uniform_strain_leaves_no_force_inside_a_refined_skin() {
     // equilibrium, so the assembled force `K u` vanishes at every node not on the outer sphere
     // (up to the curved elements' quadrature). Ties that did not conform would leave forces at
     // the gel's nodes under the skin of the order of the stress times a face.
-    for refinement in [1, 2] {
+    // With a skirt (the base 5 mm below the equator) the band and its ties run down the
+    // cylinder too: `u = (z + 5) (a, b, c)`.
+    for (refinement, skirt) in [(1, 0.0), (2, 0.0), (2, 5.0)] {
         let mut s = spec_refined(4, refinement);
         s.gel = s.skin;
+        s.skirt_mm = skirt;
         let dome = Dome::build(&s).expect("dome");
-        let field = |x: &[f64; 3]| [0.01 * x[2], -0.02 * x[2], 0.015 * x[2]];
+        let below = dome.mesh.nodes.iter().filter(|p| p[2] < -1e-9).count();
+        let tied_below = dome.mesh.ties.iter().filter(|t| dome.mesh.nodes[t.node][2] < -1e-9).count();
+        assert_eq!(below > 0, skirt > 0.0, "{below} nodes below the equator");
+        assert_eq!(tied_below > 0, skirt > 0.0 && refinement > 1, "{tied_below} tied nodes below the equator");
+        let field = |x: &[f64; 3]| [0.01 * (x[2] + skirt), -0.02 * (x[2] + skirt), 0.015 * (x[2] + skirt)];
         let k = &dome.stiffness;
         let mut x = vec![0.0; k.size()];
         for (n, p) in dome.mesh.nodes.iter().enumerate() {
@@ -288,7 +295,8 @@ fn a_uniform_strain_leaves_no_force_inside_a_refined_skin() {
             }
         }
         let y = k.apply(&x);
-        let radius = |p: &[f64; 3]| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        // The distance from the centre above the equator, from the axis below it.
+        let radius = |p: &[f64; 3]| (p[0] * p[0] + p[1] * p[1] + p[2].max(0.0).powi(2)).sqrt();
         let (mut gel_face, mut inside, mut outside) = (0.0f64, 0.0f64, 0.0f64);
         for (n, p) in dome.mesh.nodes.iter().enumerate() {
             for c in 0..3 {
@@ -305,8 +313,8 @@ fn a_uniform_strain_leaves_no_force_inside_a_refined_skin() {
             }
         }
         eprintln!(
-            "skin refinement {refinement}: largest force on the gel's outer face {gel_face:.3e} N, elsewhere \
-             inside {inside:.3e} N, on the outer sphere {outside:.3e} N"
+            "skin refinement {refinement}, skirt {skirt} mm ({below} nodes below the equator): largest force on the gel's outer face {gel_face:.3e} N, \
+             elsewhere inside {inside:.3e} N, on the outer surface {outside:.3e} N"
         );
         // Measured 5.0e-4 / 1.4e-4 N on the gel's face and 1.4e-3 N elsewhere (unrefined /
         // refined twice) against 0.24 / 0.078 N on the outer sphere; a tie that did not conform
