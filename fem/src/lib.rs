@@ -36,4 +36,4 @@ pub use hyperelastic::{FlatPress, Kinematics, NonlinearElement, PressState, larg
 pub use material::{MAX_POISSON, Material};
 pub use mesh::{Block, CubedBall, Mesh, Region, Tie};
 pub use response::{PinResponse, ResponseHeader, response_key};
-pub use system::{Factor, SOLVE_BLOCK, Stiffness};
+pub use system::{Factor, SOLVE_BLOCK, Stiffness, Terms};

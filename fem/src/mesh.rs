@@ -173,7 +173,9 @@ impl CubedBall {
     /// through their depth too, as many element layers through the skin as here. The band's
     /// nodes on the coarse gel's outer faces that are not its own lie on those faces'
     /// quadratic map and are tied to them ([`Tie`]): the two meshes conform, in their geometry
-    /// and in their displacements. `refinement` 1 is [`CubedBall::mesh`].
+    /// and in their displacements. `refinement` 1, a lattice without skin shells, or
+    /// `gel_shells` reaching its centre give [`CubedBall::mesh`] (`DomeSpec::validate` refuses
+    /// the last).
     pub fn mesh_with_refined_skin(&self, refinement: usize, gel_shells: usize) -> Mesh {
         if refinement <= 1 || self.skin_from >= self.cells || gel_shells >= self.skin_from {
             return self.mesh();
@@ -258,13 +260,7 @@ impl CubedBall {
             if l.iter().any(|&c| c < 0.0) {
                 continue;
             }
-            let mut nodes = [0usize; 10];
-            for (slot, p) in v.iter().enumerate() {
-                nodes[slot] = kuhn.index[p];
-            }
-            for (e, &(a, b)) in EDGES.iter().enumerate() {
-                nodes[4 + e] = kuhn.index[&[0, 1, 2].map(|c| (v[a][c] + v[b][c]) / 2)];
-            }
+            let nodes = ten_points(v).map(|p| kuhn.index[&p]);
             let w = crate::element::shape(l);
             let mut at = [0.0; 3];
             let mut masters = Vec::new();
@@ -383,13 +379,7 @@ impl Kuhn {
     /// Adds the cell with lowest corner `corner`; `position` maps a doubled-lattice point (mm).
     fn cell(&mut self, corner: [i64; 3], region: Region, position: impl Fn([i64; 3]) -> [f64; 3]) {
         for v in kuhn_tets(corner) {
-            let mut el = [0usize; 10];
-            for (slot, p) in v.iter().enumerate() {
-                el[slot] = self.node(*p, &position);
-            }
-            for (e, &(a, b)) in EDGES.iter().enumerate() {
-                el[4 + e] = self.node([0, 1, 2].map(|c| (v[a][c] + v[b][c]) / 2), &position);
-            }
+            let el = ten_points(v).map(|p| self.node(p, &position));
             self.mesh.elements.push(el);
             self.mesh.regions.push(region);
         }
@@ -421,6 +411,19 @@ fn kuhn_tets(corner: [i64; 3]) -> [[[i64; 3]; 4]; 6] {
             v.swap(2, 3);
         }
         v
+    })
+}
+
+/// A tetrahedron's ten nodes on the doubled lattice: its vertices, then its edges' midpoints
+/// in [`EDGES`]' order.
+fn ten_points(v: [[i64; 3]; 4]) -> [[i64; 3]; 10] {
+    std::array::from_fn(|k| {
+        if k < 4 {
+            v[k]
+        } else {
+            let (a, b) = EDGES[k - 4];
+            [0, 1, 2].map(|c| (v[a][c] + v[b][c]) / 2)
+        }
     })
 }
 

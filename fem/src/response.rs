@@ -159,7 +159,7 @@ impl PinResponse {
                     for term in &probes[p].terms {
                         for (a, &node) in term.nodes.iter().enumerate() {
                             for c in 0..3 {
-                                for (f, w) in dome.stiffness.terms(3 * node + c) {
+                                for &(f, w) in dome.stiffness.terms(3 * node + c).iter() {
                                     block[j * n + f] += w * term.coefficients[i][3 * a + c];
                                 }
                             }

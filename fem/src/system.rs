@@ -61,6 +61,10 @@ impl Stiffness {
         let dofs = 3 * mesh.nodes.len();
         let mut ties: Vec<Vec<(usize, f64)>> = vec![Vec::new(); mesh.nodes.len()];
         for tie in &mesh.ties {
+            if tie.masters.len() > MAX_MASTERS {
+                let expected = "at most 6 masters a tied node (a face's nodes)";
+                return Err(FemError::Parameter { field: "ties", value: tie.masters.len() as f64, expected });
+            }
             ties[tie.node].clone_from(&tie.masters);
         }
         let mut free = vec![HELD; dofs];
@@ -76,13 +80,14 @@ impl Stiffness {
                 *slot = TIED;
             }
         }
-        // Each node's own nodes: itself, or a tied node's masters.
-        let owners =
-            |n: usize| -> Vec<(usize, f64)> { if ties[n].is_empty() { vec![(n, 1.0)] } else { ties[n].clone() } };
-        // Node adjacency, then the upper triangle's pattern column by column.
+        // Node adjacency (a tied node's through its masters), then the upper triangle's pattern
+        // column by column.
         let mut adjacent: Vec<Vec<usize>> = vec![Vec::new(); mesh.nodes.len()];
         for el in &mesh.elements {
-            let own: Vec<usize> = el.iter().flat_map(|&a| owners(a)).map(|(n, _)| n).collect();
+            let own: Vec<usize> = el
+                .iter()
+                .flat_map(|&a| if ties[a].is_empty() { vec![a] } else { ties[a].iter().map(|m| m.0).collect() })
+                .collect();
             for &a in &own {
                 adjacent[a].extend_from_slice(&own);
             }
@@ -120,17 +125,13 @@ impl Stiffness {
                     return Err(FemError::Degenerate { element: e, jacobian: m.min_jacobian });
                 }
                 // Each element row's free degrees of freedom and weights.
-                let mut terms: Vec<Vec<(usize, f64)>> = Vec::with_capacity(30);
-                for &node in &mesh.elements[e] {
-                    for i in 0..3 {
-                        terms.push(Self::terms_of(&free, &ties, 3 * node + i));
-                    }
-                }
+                let terms: [Terms; 30] =
+                    std::array::from_fn(|r| Self::terms_of(&free, &ties, 3 * mesh.elements[e][r / 3] + r % 3));
                 for (r, row) in terms.iter().enumerate() {
                     for (c, col_terms) in terms.iter().enumerate() {
                         let k = m.stiffness[r][c];
-                        for &(fr, wr) in row {
-                            for &(fc, wc) in col_terms {
+                        for &(fr, wr) in row.iter() {
+                            for &(fc, wc) in col_terms.iter() {
                                 if fr > fc {
                                     continue;
                                 }
@@ -150,40 +151,33 @@ impl Stiffness {
 
     /// The free degrees of freedom and weights a degree of freedom moves with: itself, none
     /// where held, its masters' where its node is tied.
-    fn terms_of(free: &[usize], ties: &[Vec<(usize, f64)>], dof: usize) -> Vec<(usize, f64)> {
+    fn terms_of(free: &[usize], ties: &[Vec<(usize, f64)>], dof: usize) -> Terms {
+        let mut terms = Terms::default();
         match free[dof] {
-            HELD => Vec::new(),
-            TIED => ties[dof / 3]
-                .iter()
-                .filter_map(|&(n, w)| {
+            HELD => {}
+            TIED => {
+                for &(n, w) in &ties[dof / 3] {
                     let f = free[3 * n + dof % 3];
-                    (f < TIED).then_some((f, w))
-                })
-                .collect(),
-            f => vec![(f, 1.0)],
+                    if f < TIED {
+                        terms.push(f, w);
+                    }
+                }
+            }
+            f => terms.push(f, 1.0),
         }
+        terms
     }
 
     /// The free degrees of freedom and weights that degree of freedom `3 node + direction`
     /// moves with: itself, none where held, its masters' where its node is tied.
-    pub fn terms(&self, dof: usize) -> Vec<(usize, f64)> {
+    pub fn terms(&self, dof: usize) -> Terms {
         Self::terms_of(&self.free, &self.ties, dof)
     }
 
     /// The displacement (mm) of degree of freedom `3 node + direction` in a solution over the
     /// free ones.
     pub fn value(&self, solution: &[f64], dof: usize) -> f64 {
-        match self.free[dof] {
-            HELD => 0.0,
-            TIED => self.ties[dof / 3]
-                .iter()
-                .map(|&(n, w)| {
-                    let f = self.free[3 * n + dof % 3];
-                    if f < TIED { w * solution[f] } else { 0.0 }
-                })
-                .sum(),
-            f => solution[f],
-        }
+        self.terms(dof).iter().map(|&(f, w)| w * solution[f]).sum()
     }
 
     /// Whether each degree of freedom (`3 node + direction`) is held.
@@ -237,7 +231,7 @@ impl Stiffness {
         let mut rhs = vec![0.0; self.size()];
         for (n, f) in forces.iter().enumerate() {
             for (c, fc) in f.iter().enumerate() {
-                for (i, w) in self.terms(3 * n + c) {
+                for &(i, w) in self.terms(3 * n + c).iter() {
                     rhs[i] += w * fc;
                 }
             }
@@ -298,6 +292,29 @@ impl Stiffness {
             )
             .map_err(|e| FemError::Factorisation(format!("{e:?}")))?;
         Ok(Factor { symbolic, values })
+    }
+}
+
+/// Most masters a tied node has: a face's six nodes ([`crate::Tie`]).
+const MAX_MASTERS: usize = 6;
+
+/// The free degrees of freedom a degree of freedom moves with, and their weights
+/// ([`Stiffness::terms`]): itself with weight 1, none where held, up to six masters where tied.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Terms {
+    items: [(usize, f64); MAX_MASTERS],
+    len: usize,
+}
+
+impl Terms {
+    fn push(&mut self, free: usize, weight: f64) {
+        self.items[self.len] = (free, weight);
+        self.len += 1;
+    }
+
+    /// The (free index, weight) pairs.
+    pub fn iter(&self) -> std::slice::Iter<'_, (usize, f64)> {
+        self.items[..self.len].iter()
     }
 }
 

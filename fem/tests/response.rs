@@ -32,7 +32,7 @@ fn pin_response_reproduces_a_direct_solve_of_point_loads() {
     // On the one lattice and with the skin's elements twice finer (its pins read through tied
     // nodes).
     for refinement in [1, 2] {
-        reproduces_a_direct_solve(&DomeSpec { skin_refinement: refinement, ..spec() });
+        reproduces_a_direct_solve(&support::spec_refined(4, refinement));
     }
 }
 
