@@ -81,6 +81,7 @@ fn a_dome_fit_of_the_surface_presses_writes_the_best_dome() {
     let mut sensor = SensorParams::default();
     sensor.skin.model = SkinModel::Dome;
     sensor.skin.dome_cells = 4;
+    sensor.skin.dome_skin_refinement = 1;
     sensor.skin.gel_youngs_modulus_mpa = 0.02;
     sensor.validate("the test's dome").expect("a valid dome sensor");
     let start = dir.join("start.toml");
@@ -510,6 +511,7 @@ fn the_dome_fit_finds_the_gel_the_edge_taps_were_simulated_with() {
     sensor.skin.cells_across = tacsim_sim::calibrate::edge::grid_cells().expect("the edge fit's grid");
     sensor.skin.model = SkinModel::Dome;
     sensor.skin.dome_cells = 4;
+    sensor.skin.dome_skin_refinement = 1;
     sensor.skin.gel_youngs_modulus_mpa = 0.02 * sensor.skin.youngs_modulus_mpa;
     // The base at the 40 mm dome's equator.
     sensor.skin.base_depth_mm = sensor.dome.outer_radius_mm;

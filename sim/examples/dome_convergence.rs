@@ -3,7 +3,7 @@
 //! grid fixed.
 //!
 //! `cargo run --release -p tacsim-sim --example dome_convergence -- [A] [B] [SKIN_LAYERS]`
-//! (default 8 10 2). A mesh is `skin.dome_cells`, or `CELLSxREFINEMENT` with the skin's
+//! (default 8 10 2). A mesh is `skin.dome_cells` (one lattice for skin and gel), or `CELLSxREFINEMENT` with the skin's
 //! elements that many times finer along the surface (`skin.dome_skin_refinement`): `6x2`,
 //! or `CELLSxREFINEMENT+GEL_SHELLS` with the gel's outer shells refined too
 //! (`skin.dome_refined_gel_shells`): `8x2+1`.
@@ -17,7 +17,7 @@ use tacsim_sim::{PinLayout, PinPose, SensorParams, SensorPath, SensorPose, SkinM
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let meshes = [support::dome_mesh(&args, 0, 8)?, support::dome_mesh(&args, 1, 10)?];
+    let meshes = [support::dome_mesh(&args, 0, (8, 1, 0))?, support::dome_mesh(&args, 1, (10, 1, 0))?];
     let layers = support::whole(&args, 2, 2)?;
     let scene = support::disk_scene()?;
     let paths = [
@@ -32,7 +32,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         sensor.skin.dome_cells = n;
         sensor.skin.dome_skin_layers = layers;
         sensor.skin.dome_skin_refinement = refinement;
-        sensor.skin.dome_refined_gel_shells = gel_shells;
+        sensor.skin.dome_refined_gel_shells = Some(gel_shells);
         sensor.validate("dome_convergence")?;
         let t = std::time::Instant::now();
         let model = ContactModel::new(&sensor)?;

@@ -7,7 +7,8 @@
 //! [EDGE_SUBCELLS] [flat|rim] [MESH]` (default 200 3, the sensor's 25 cells across the footprint
 //! and 3 sub-cells; 0: the contact's edge not solved again, as the taps on the disk's top cut
 //! no cell; `rim`: the bench's taps across the disk's rim, whose sharp edge cuts cells; `MESH`
-//! the dome's, `CELLS[xREFINEMENT[+GEL_SHELLS]]` as `dome_convergence`'s, default 8). The dome
+//! the dome's, `CELLS[xREFINEMENT[+GEL_SHELLS]]` as `dome_convergence`'s, default the sensor's
+//! `8x2+1`; `8` the one lattice of before). The dome
 //! is built once into the cache folder (`TACSIM_CACHE_DIR`). The pins' product runs on rayon's
 //! pool (`RAYON_NUM_THREADS=1` for one thread).
 
@@ -26,10 +27,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     sensor.skin.model = SkinModel::Dome;
     sensor.skin.cells_across = support::whole(&args, 2, sensor.skin.cells_across)?;
     sensor.skin.edge_subcells = support::whole(&args, 3, sensor.skin.edge_subcells)?;
-    let (cells, refinement, gel_shells) = support::dome_mesh(&args, 5, sensor.skin.dome_cells)?;
+    let k = &sensor.skin;
+    let (cells, refinement, gel_shells) =
+        support::dome_mesh(&args, 5, (k.dome_cells, k.dome_skin_refinement, k.dome_gel_shells()))?;
     sensor.skin.dome_cells = cells;
     sensor.skin.dome_skin_refinement = refinement;
-    sensor.skin.dome_refined_gel_shells = gel_shells;
+    sensor.skin.dome_refined_gel_shells = Some(gel_shells);
     sensor.validate("CELLS")?;
     let t = Instant::now();
     let model = ContactModel::new(&sensor)?;

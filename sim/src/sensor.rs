@@ -219,14 +219,31 @@ pub struct SkinParams {
     pub dome_skin_layers: usize,
     /// `dome`: how many times finer the skin's elements are than the gel's along the
     /// surface, in [1, `MAX_DOME_SKIN_REFINEMENT`]: the skin cut from a lattice that many times
-    /// as fine, tied to the gel's outer faces. Default 1 (one lattice for both;
-    /// `docs/guide/fem.md`, "The skin's own mesh").
+    /// as fine, tied to the gel's outer faces. Default 2: with the default 8 cells and one gel
+    /// shell refined (`8x2+1`) the pins lie within 0.009 mm of the next mesh, `10x2+1`
+    /// (`docs/guide/fem.md`, "The skin's own mesh"); 1 is one lattice for both (`8`: 0.025 mm
+    /// from 10 cells, a fifth of the build's time and memory).
     #[serde(skip_serializing_if = "is_default_dome_skin_refinement")]
     pub dome_skin_refinement: usize,
     /// `dome`, with `dome_skin_refinement` above 1: the gel's outer lattice shells refined
-    /// with the skin, in [0, `dome_cells - dome_skin_layers - 2`]. Default 0 (the skin alone).
-    #[serde(skip_serializing_if = "is_no_shells")]
-    pub dome_refined_gel_shells: usize,
+    /// with the skin, in [0, `dome_cells - dome_skin_layers - 2`]. Absent (the default):
+    /// [`DEFAULT_DOME_REFINED_GEL_SHELLS`] where the skin is refined and the lattice has
+    /// room for it, else 0 ([`SkinParams::dome_gel_shells`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dome_refined_gel_shells: Option<usize>,
+}
+
+impl SkinParams {
+    /// The gel's refined shells the dome is built with: `dome_refined_gel_shells` where given,
+    /// else [`DEFAULT_DOME_REFINED_GEL_SHELLS`] with a refined skin, as many as the lattice
+    /// leaves room for (`dome_cells - dome_skin_layers - 2`), and 0 with one lattice.
+    pub fn dome_gel_shells(&self) -> usize {
+        self.dome_refined_gel_shells.unwrap_or(if self.dome_skin_refinement > 1 {
+            DEFAULT_DOME_REFINED_GEL_SHELLS.min(self.dome_cells.saturating_sub(self.dome_skin_layers + 2))
+        } else {
+            0
+        })
+    }
 }
 
 impl Default for SkinParams {
@@ -247,7 +264,7 @@ impl Default for SkinParams {
             dome_cells: DEFAULT_DOME_CELLS,
             dome_skin_layers: DEFAULT_DOME_SKIN_LAYERS,
             dome_skin_refinement: DEFAULT_DOME_SKIN_REFINEMENT,
-            dome_refined_gel_shells: 0,
+            dome_refined_gel_shells: None,
         }
     }
 }
@@ -275,16 +292,15 @@ fn is_default_dome_skin_layers(v: &usize) -> bool {
 }
 
 /// Default [`SkinParams::dome_skin_refinement`].
-pub const DEFAULT_DOME_SKIN_REFINEMENT: usize = 1;
+pub const DEFAULT_DOME_SKIN_REFINEMENT: usize = 2;
+/// The gel's shells refined with the skin where [`SkinParams::dome_refined_gel_shells`] is
+/// absent and the skin is refined (the lattice leaving room).
+pub const DEFAULT_DOME_REFINED_GEL_SHELLS: usize = 1;
 /// Most [`SkinParams::dome_skin_refinement`] (tacsim-fem's `MAX_SKIN_REFINEMENT`).
 pub const MAX_DOME_SKIN_REFINEMENT: usize = tacsim_fem::MAX_SKIN_REFINEMENT;
 
 fn is_default_dome_skin_refinement(v: &usize) -> bool {
     *v == DEFAULT_DOME_SKIN_REFINEMENT
-}
-
-fn is_no_shells(v: &usize) -> bool {
-    *v == 0
 }
 
 /// Default [`SkinParams::edge_subcells`].
@@ -884,24 +900,23 @@ impl SensorParams {
                 format!("must be in [1, {MAX_DOME_SKIN_REFINEMENT}], got {}", k.dome_skin_refinement),
             );
         }
-        if k.dome_refined_gel_shells > 0 && k.dome_skin_refinement == 1 {
+        let shells = k.dome_gel_shells();
+        if shells > 0 && k.dome_skin_refinement == 1 {
             return check.bad(
                 "skin.dome_refined_gel_shells",
                 format!(
                     "must be 0 unless skin.dome_skin_refinement is above 1 (the gel's shells are refined with the \
-                     skin), got {}",
-                    k.dome_refined_gel_shells
+                     skin), got {shells}"
                 ),
             );
         }
-        if k.dome_refined_gel_shells.saturating_add(k.dome_skin_layers + 2) > k.dome_cells {
+        if shells.saturating_add(k.dome_skin_layers + 2) > k.dome_cells {
             return check.bad(
                 "skin.dome_refined_gel_shells",
                 format!(
                     "must be in [0, skin.dome_cells - skin.dome_skin_layers - 2 = {}] (the coarse gel keeps two of \
-                     the lattice's shells), got {}",
+                     the lattice's shells), got {shells}",
                     k.dome_cells.saturating_sub(k.dome_skin_layers + 2),
-                    k.dome_refined_gel_shells
                 ),
             );
         }
@@ -1026,7 +1041,10 @@ mod tests {
                 "[skin]\ndome_skin_refinement = 2\ndome_refined_gel_shells = 5\n",
                 "skin.dome_cells - skin.dome_skin_layers - 2 = 4",
             ),
-            ("[skin]\ndome_refined_gel_shells = 1\n", "unless skin.dome_skin_refinement is above 1"),
+            (
+                "[skin]\ndome_skin_refinement = 1\ndome_refined_gel_shells = 1\n",
+                "unless skin.dome_skin_refinement is above 1",
+            ),
             (
                 "[skin]\ndome_skin_refinement = 2\ndome_refined_gel_shells = 18446744073709551615\n",
                 "skin.dome_refined_gel_shells",
@@ -1105,6 +1123,35 @@ mod tests {
         back.dome.skin_thickness_mm = calibrated.dome.skin_thickness_mm;
         back.pins.length_mm = calibrated.pins.length_mm;
         assert_eq!(back, calibrated, "rerun the command in sim/presets/{name}.toml");
+    }
+
+    /// The default dome is `8x2+1` (issue 85: the pins within 0.01 mm of a finer mesh); a
+    /// lattice too coarse for a refined gel shell gets none instead of an error about a field
+    /// its file does not name, and a shell asked for by name is checked as given.
+    #[test]
+    fn the_default_dome_mesh_is_the_converged_one_and_coarse_lattices_still_parse() {
+        let s = SensorParams::default().skin;
+        assert_eq!((s.dome_cells, s.dome_skin_refinement, s.dome_gel_shells()), (8, 2, 1));
+        let parse = |extra: &str| {
+            let text = format!("[skin]\nmodel = \"dome\"\nbase_depth_mm = 20.0\n{extra}");
+            SensorParams::from_toml_str(&text, "s.toml")
+        };
+        for (extra, shells) in [
+            ("dome_cells = 4\n", 0),
+            ("dome_cells = 5\n", 1),
+            ("dome_cells = 4\ndome_skin_layers = 1\n", 1),
+            ("dome_skin_refinement = 1\n", 0),
+            ("dome_refined_gel_shells = 2\n", 2),
+            ("dome_refined_gel_shells = 0\n", 0),
+        ] {
+            let sensor = parse(extra).unwrap_or_else(|e| panic!("{extra}: {e}"));
+            assert_eq!(sensor.skin.dome_gel_shells(), shells, "{extra}");
+        }
+        let e = parse("dome_cells = 4\ndome_refined_gel_shells = 1\n").expect_err("no room for the shell");
+        assert!(e.to_string().contains("skin.dome_refined_gel_shells"), "{e}");
+        // Written back, an absent field stays absent (the default), a given one as given.
+        let text = toml::to_string(&parse("").expect("default dome")).expect("toml");
+        assert!(!text.contains("dome_refined_gel_shells") && !text.contains("dome_skin_refinement"), "{text}");
     }
 
     #[test]

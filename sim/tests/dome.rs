@@ -1,7 +1,7 @@
 //! The finite-element dome behind the contact solver (`skin.model = "dome"`): the solver's
 //! invariants, the pins' history and lift-off, the dome's own signature (a press bulges the
 //! skin outside the contact) and determinism. The dome is built coarse here (`dome_cells`
-//! 4) and cached in the user's cache folder (`contact::cache_dir`).
+//! 4, one lattice) and cached in the user's cache folder (`contact::cache_dir`).
 
 use std::path::PathBuf;
 
@@ -23,6 +23,8 @@ fn sensor(model: SkinModel) -> SensorParams {
     s.skin.cells_across = 17;
     s.skin.dome_cells = 4;
     s.skin.dome_skin_layers = 1;
+    // One lattice for skin and gel (the default refines the skin: `8x2+1`).
+    s.skin.dome_skin_refinement = 1;
     s
 }
 
@@ -79,7 +81,7 @@ fn a_centred_tap_moves_the_dome_pins_as_mirrors() {
     let mirror_difference = |subcells: usize, refinement: usize| {
         let mut s = sensor(SkinModel::Dome);
         s.skin.dome_skin_refinement = refinement;
-        s.skin.dome_refined_gel_shells = usize::from(refinement > 1);
+        s.skin.dome_refined_gel_shells = Some(usize::from(refinement > 1));
         let mut model = ContactModel::new(&s).expect("contact model");
         model.edge_subcells = subcells;
         let tap = SensorPath::tap(SensorPose::new(0.0, 0.0, 1.5, 0.0)).run(&model, &scene).expect("tap");

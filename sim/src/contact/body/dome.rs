@@ -259,7 +259,7 @@ fn inputs_of(sensor: &SensorParams) -> Result<(DomeSpec, Vec<PinSite>, u64)> {
 /// The finite-element spec of a sensor: its dome's radius and skin, the skin's and gel's
 /// materials, the base `skin.base_depth_mm` below the apex (a skirt below the equator where
 /// deeper than the radius), and the resolution `skin.dome_cells`, `skin.dome_skin_layers`,
-/// `skin.dome_skin_refinement`, `skin.dome_refined_gel_shells`.
+/// `skin.dome_skin_refinement`, `skin.dome_refined_gel_shells` (`SkinParams::dome_gel_shells`).
 fn spec_of(sensor: &SensorParams) -> Result<DomeSpec> {
     let (d, k) = (&sensor.dome, &sensor.skin);
     let material = |e: f64, nu: f64| Material::new(e, nu.min(MAX_POISSON));
@@ -272,7 +272,7 @@ fn spec_of(sensor: &SensorParams) -> Result<DomeSpec> {
         cells: k.dome_cells,
         skin_layers: k.dome_skin_layers,
         skin_refinement: k.dome_skin_refinement,
-        refined_gel_shells: k.dome_refined_gel_shells,
+        refined_gel_shells: k.dome_gel_shells(),
     };
     spec.validate()?;
     Ok(spec)
