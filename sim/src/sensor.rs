@@ -209,8 +209,10 @@ pub struct SkinParams {
     pub edge_subcells: usize,
     /// `dome`: lattice cells from the dome's centre to its surface, in
     /// [`MIN_DOME_CELLS`, `MAX_DOME_CELLS`]: `2 dome_cells` ten-node elements span 90 deg
-    /// of the surface. Default 8 (about 52,000 unknowns; `docs/guide/fem.md` has the pins'
-    /// change with it).
+    /// of the surface. Default 8 (with the default skin refinement, `8x2+1`: about 185,000
+    /// unknowns, 3.4 GB to build; `10x2+1` 7.9 GB, and more cells more than a laptop has:
+    /// set `dome_skin_refinement = 1` for a finer lattice alone; `docs/guide/fem.md` has the
+    /// pins' change with it).
     #[serde(skip_serializing_if = "is_default_dome_cells")]
     pub dome_cells: usize,
     /// `dome`: element layers through the skin, in [1, `MAX_DOME_SKIN_LAYERS`] and below
