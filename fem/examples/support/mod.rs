@@ -24,6 +24,7 @@ pub fn spec(cells: usize, skin_layers: usize, skin_refinement: usize, refined_ge
 
 /// The default sensor's 331 pins: 10 rings 4.536 deg apart, `6 k` pins on ring `k`, bases on
 /// the skin's inner face.
+#[allow(dead_code)] // not every example reads the pins
 pub fn rings(patch_radius_mm: f64) -> Vec<PinSite> {
     let (r, t, pin_length) = SIZES_MM;
     let mut sites = Vec::new();
