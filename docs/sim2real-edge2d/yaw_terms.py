@@ -6,11 +6,14 @@ a cos(yaw) + b sin(yaw). From one or more `tacsim sim2real` runs' predictions.cs
 network: the mean absolute error, after the best straight line in lateral and depth, and after
 that line plus the two yaw terms (with their amplitude); the lateral and yaw bias by 20 deg
 yaw band. With several runs (training seeds of one set), the error of their mean reading too.
+Where a run's `fitting.csv` lies beside its predictions, the lateral's offset and yaw terms
+fitted there are scored on the held-out taps.
 A diagnosis on held-out labels, not a fit. Needs numpy.
 
     python3 docs/sim2real-edge2d/yaw_terms.py RUN/predictions.csv [RUN2/predictions.csv ...]
 """
 import csv
+import os
 import sys
 
 import numpy as np
@@ -18,6 +21,26 @@ import numpy as np
 
 def wrap(deg):
     return (deg + 180) % 360 - 180
+
+
+def held_out_terms(fitting, rows):
+    """A rig that turns with the yaw taken into the label map: the simulator-trained lateral
+    reading's offset, and with it `a cos + b sin` of the yaw it read, fitted on the fitting
+    part's readings (`fitting.csv` beside `predictions.csv`, the lab's labels there) and scored
+    on the held-out taps, as a lab with those labels could map its readings."""
+    fit = list(csv.DictReader(open(fitting)))
+    col = lambda r, k: np.array([float(x[k]) for x in r])  # noqa: E731
+
+    def terms(r):
+        th = np.radians(col(r, "pose_Rz_sim_trained"))
+        return np.c_[np.ones(len(r)), np.cos(th), np.sin(th)]
+
+    err_fit = col(fit, "pose_y_sim_trained") - col(fit, "pose_y")
+    err = col(rows, "pose_y_sim_trained") - col(rows, "pose_y")
+    coef = np.linalg.lstsq(terms(fit), err_fit, rcond=None)[0]
+    print(f"  sim-trained lateral on the held-out taps: {np.abs(err).mean():.3f} mm; less the fitting part's mean "
+          f"error {np.abs(err - err_fit.mean()).mean():.3f}; less its offset and yaw terms {np.abs(err - terms(rows) @ coef).mean():.3f} "
+          f"(amplitude {np.hypot(coef[1], coef[2]):.2f} mm, the yaw read)")
 
 
 def main(paths):
@@ -42,6 +65,9 @@ def main(paths):
                     f"{np.abs(after_line).mean():5.2f} | with a cos + b sin of the yaw {np.abs(after_yaw).mean():5.2f} "
                     f"(amplitude {np.hypot(coef[3], coef[4]):.2f})"
                 )
+        fitting = path.rsplit("/", 1)[0] + "/fitting.csv" if "/" in path else "fitting.csv"
+        if os.path.isfile(fitting):
+            held_out_terms(fitting, rows)
         bands = [(a, (yaw >= a) & (yaw < a + 20)) for a in range(-180, 180, 20)]
         lateral = col("pose_y_sim_trained") - y
         turn = wrap(col("pose_Rz_sim_trained") - yaw)
