@@ -7,8 +7,8 @@ network: the mean absolute error, after the best straight line in lateral and de
 that line plus the two yaw terms (with their amplitude); the lateral and yaw bias by 20 deg
 yaw band. With several runs (training seeds of one set), the error of their mean reading too.
 Where a run's `fitting.csv` lies beside its predictions, the lateral's offset and yaw terms
-fitted there are scored on the held-out taps.
-A diagnosis on held-out labels, not a fit. Needs numpy.
+fitted there are scored on the held-out taps. Otherwise a diagnosis on held-out labels, not a
+fit. Needs numpy.
 
     python3 docs/sim2real-edge2d/yaw_terms.py RUN/predictions.csv [RUN2/predictions.csv ...]
 """
@@ -65,7 +65,7 @@ def main(paths):
                     f"{np.abs(after_line).mean():5.2f} | with a cos + b sin of the yaw {np.abs(after_yaw).mean():5.2f} "
                     f"(amplitude {np.hypot(coef[3], coef[4]):.2f})"
                 )
-        fitting = path.rsplit("/", 1)[0] + "/fitting.csv" if "/" in path else "fitting.csv"
+        fitting = os.path.join(os.path.dirname(path), "fitting.csv")
         if os.path.isfile(fitting):
             held_out_terms(fitting, rows)
         bands = [(a, (yaw >= a) & (yaw < a + 20)) for a in range(-180, 180, 20)]
