@@ -74,6 +74,14 @@ def report(name, lateral, depth, read_lateral, read_depth):
     print(f"   lateral bias against depth: {slope:+.2f} mm per mm; " + "; ".join(cells))
 
 
+def sim_fields(folder):
+    """A simulated set's rows, motion fields in the edge's frame (image angle `yaw - 84.4` deg)
+    and those angles (rad)."""
+    rows = list(csv.DictReader(open(f"{folder}/targets.csv")))
+    angle = np.radians(np.array([float(r["pose_Rz"]) for r in rows]) - 84.4)
+    return rows, fields(folder, [r["sensor_image"] for r in rows], angle, load(f"{folder}/images/image_0.png")), angle
+
+
 def lab_fields(real_dir, keep=lambda name: True, yaws=None):
     """The lab's taps whose image name `keep` accepts: their motion fields (tracked from the
     consensus of these taps), lateral labels and depths. Each field is turned into the edge's
@@ -101,9 +109,7 @@ def main(real_dir, args):
             report("real (leave-one-out)", lateral, depth, lateral[near].mean(1), depth[near].mean(1))
             continue
         folder, offset, shift, args = args[0], float(args[1]), float(args[2]), args[3:]
-        srows = list(csv.DictReader(open(f"{folder}/targets.csv")))
-        sim_yaw = np.array([float(r["pose_Rz"]) for r in srows])
-        sim = fields(folder, [r["sensor_image"] for r in srows], np.radians(sim_yaw - 84.4), load(f"{folder}/images/image_0.png"))
+        srows, sim, _ = sim_fields(folder)
         sim_lateral = offset - np.array([float(r["pose_x"]) for r in srows])
         sim_depth = np.array([float(r["pose_z"]) for r in srows]) + shift
         _, near = cKDTree(sim).query(real, K)

@@ -26,9 +26,8 @@ import sys
 import numpy as np
 
 sys.path.insert(0, __file__.rsplit("/", 1)[0])
-from field_knn import fields, lab_fields  # noqa: E402
+from field_knn import lab_fields, sim_fields  # noqa: E402
 from image_change_fit import is_held_out  # noqa: E402
-from radial_signature import load  # noqa: E402
 
 
 def signature(f, lateral, depth, angle):
@@ -46,9 +45,7 @@ def signature(f, lateral, depth, angle):
 
 
 def sim_set(folder):
-    rows = list(csv.DictReader(open(f"{folder}/targets.csv")))
-    angle = np.radians(np.array([float(r["pose_Rz"]) for r in rows]) - 84.4)
-    f = fields(folder, [r["sensor_image"] for r in rows], angle, load(f"{folder}/images/image_0.png"))
+    rows, f, angle = sim_fields(folder)
     lateral = -np.array([float(r["pose_x"]) for r in rows])
     depth = np.array([float(r["pose_z"]) for r in rows])
     return signature(f, lateral, depth, angle)

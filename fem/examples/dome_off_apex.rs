@@ -14,7 +14,7 @@
 //! dome); the default mesh `8x2+1`, built here (about 100 s, 3.4 GB).
 
 use nalgebra::Vector3;
-use tacsim_fem::{Dome, Material};
+use tacsim_fem::{Dome, Material, patch_weight};
 
 mod support;
 
@@ -54,10 +54,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let n = c / r;
             let meridian = Vector3::new(th.cos(), 0.0, -th.sin());
             let dir = if shear { meridian } else { -n };
-            // The far field's patch `exp(-d^2 / s^2)` (chord distance), cut at 3.5 s.
             let forces = dome.traction_forces(|p, _| {
-                let d2 = (Vector3::from(p) - c).norm_squared();
-                let w = if d2 < 12.25 * s * s { (-d2 / (s * s)).exp() } else { 0.0 };
+                let w = patch_weight(p, c, s);
                 [w * dir.x, w * dir.y, w * dir.z]
             });
             let total: Vector3<f64> = forces.iter().map(|f| Vector3::from(*f)).sum();

@@ -35,5 +35,5 @@ pub use error::{FemError, Result};
 pub use hyperelastic::{FlatPress, Kinematics, NonlinearElement, PressState, large_displacement, neo_hookean};
 pub use material::{MAX_POISSON, Material};
 pub use mesh::{Block, CubedBall, Mesh, Region, Tie};
-pub use response::{PinResponse, ResponseHeader, response_key};
+pub use response::{PinResponse, ResponseHeader, patch_weight, response_key};
 pub use system::{Factor, SOLVE_BLOCK, Stiffness, Terms};

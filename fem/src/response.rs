@@ -119,7 +119,7 @@ const PATCH_REACH: f64 = 3.5;
 /// The Gaussian patch's weight `exp(-|p - centre|^2 / s^2)` at `p` (chord distance, mm), cut
 /// at [`PATCH_REACH`] `s`: the far field's load ([`PinResponse::spread`],
 /// [`PinResponse::with_apex`]).
-fn patch_weight(p: [f64; 3], centre: Vector3<f64>, spread_mm: f64) -> f64 {
+pub fn patch_weight(p: [f64; 3], centre: Vector3<f64>, spread_mm: f64) -> f64 {
     let d2 = (Vector3::from(p) - centre).norm_squared();
     let reach = PATCH_REACH * spread_mm;
     if d2 < reach * reach { (-d2 / (spread_mm * spread_mm)).exp() } else { 0.0 }
