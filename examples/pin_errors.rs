@@ -48,7 +48,7 @@ impl TapError {
 
 /// The calibrated default sensor's contact model at `cells` cells across the footprint.
 fn model_at(cells: usize) -> Result<ContactModel, Box<dyn std::error::Error>> {
-    let mut sensor = SensorParams::default();
+    let mut sensor = SensorParams::half_space();
     sensor.skin.cells_across = cells;
     sensor.validate("GRIDS")?;
     Ok(ContactModel::new(&sensor)?)

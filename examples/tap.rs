@@ -13,7 +13,7 @@ use tacsim_sim::{ObjectPose, PinRenderer, PngDepth, Scene, SensorParams, SensorP
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = PathBuf::from(std::env::args().nth(1).unwrap_or_else(|| "tap.png".into()));
     // The sensor: the calibrated TacTip (331 pins, half-space skin); `SensorParams::load` reads a file.
-    let sensor = SensorParams::default();
+    let sensor = SensorParams::half_space();
     // The scene: the built-in disk (100 mm across) at the world's origin.
     let mut scene = Scene::new();
     scene.add(builtin_catalogue()?.get("disk")?, ObjectPose::default())?;

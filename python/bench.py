@@ -37,7 +37,8 @@ def main():
     p.add_argument("--json")
     a = p.parse_args()
     rng = np.random.default_rng(0)
-    contact = tacsim.Contact(tacsim.Sensor.load(), tacsim.Scene("square"))
+    # The edge-follow environment's sensor: the calibrated TacTip over a half-space.
+    contact = tacsim.Contact(tacsim.Sensor.load("tactip-331-calibrated"), tacsim.Scene("square"))
 
     def tap():
         contact.press((45.0 + rng.uniform(-3, 3), rng.uniform(-5, 5), rng.uniform(0.5, 2.0), rng.uniform(-180, 180)))

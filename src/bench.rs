@@ -24,8 +24,9 @@ pub struct BenchOptions {
     /// sensor's, 25).
     #[arg(long)]
     pub cells: Option<usize>,
-    /// Elastic body behind the skin for the throughput figures: half-space, layer,
-    /// skin-on-gel or dome (default: the sensor's).
+    /// Elastic body behind the skin for the throughput figures: half-space (default, the
+    /// built-in recipes' body), layer, skin-on-gel or dome (the calibrated TacTip's fitted
+    /// dome, the default sensor).
     #[arg(long)]
     pub skin: Option<SkinModel>,
     /// Sub-cells per side of the cells along a sharp edge (the sensor's `skin.edge_subcells`,
@@ -62,10 +63,11 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     Ok(if json { serde_json::to_string_pretty(&report)? + "\n" } else { report.table(plot) })
 }
 
-/// The calibrated sensor with the bench's `--cells`, `--skin`, `--edge-subcells` and cut cells
+/// The calibrated sensor as fitted for the `--skin` body (the half-space where none is named,
+/// as the built-in recipes run it) with the bench's `--cells`, `--edge-subcells` and cut cells
 /// at edges unless `--no-edge-cuts`.
 fn bench_sensor(o: &BenchOptions) -> Result<SensorParams> {
-    let mut sensor = SensorParams::default();
+    let mut sensor = SensorParams::calibrated_for(o.skin.unwrap_or(SkinModel::HalfSpace));
     sensor.skin.cut_edges = !o.no_edge_cuts;
     if let Some(n) = o.cells {
         sensor.skin.cells_across = n;
@@ -74,9 +76,6 @@ fn bench_sensor(o: &BenchOptions) -> Result<SensorParams> {
     if let Some(r) = o.edge_subcells {
         sensor.skin.edge_subcells = r;
         sensor.validate("--edge-subcells")?;
-    }
-    if let Some(m) = o.skin {
-        sensor.skin.model = m;
     }
     Ok(sensor)
 }

@@ -24,9 +24,10 @@ pub struct CalibrateOptions {
     /// The lab folder.
     #[arg(long)]
     pub real: PathBuf,
-    /// Sensor TOML or built-in preset to start from (default: the built-in TacTip, itself
-    /// calibrated on the lab's recordings; `sim/presets/tactip-331-camera.toml` is the
-    /// uncalibrated start it came from).
+    /// Sensor TOML or built-in preset to start from (default: tactip-331-calibrated, the
+    /// built-in TacTip over a half-space, itself calibrated on the lab's recordings;
+    /// `sim/presets/tactip-331-camera.toml` is the uncalibrated start it came from; `--dome`
+    /// fits a dome from it).
     #[arg(long)]
     pub sensor: Option<PathBuf>,
     /// The preset TOML to write.
@@ -124,7 +125,8 @@ pub fn default_report_dir(output: &Path) -> PathBuf {
 pub fn calibrate(o: &CalibrateOptions, command: &str) -> Result<String> {
     let folder = LabFolder::open(&o.real)
         .with_context(|| format!("{} is not a lab folder (targets.csv + images/)", o.real.display()))?;
-    let base = crate::commands::SensorArgs { sensor: o.sensor.clone(), ..Default::default() }.load()?;
+    let base = crate::commands::SensorArgs { sensor: o.sensor.clone(), ..Default::default() }
+        .load_or(tacsim_sim::SensorParams::half_space)?;
     // The outputs are checked writable before any work.
     let report_dir = o.report.clone().unwrap_or_else(|| default_report_dir(&o.output));
     let _made = crate::commands::ensure_file_writable(&o.output)?.and(crate::commands::ensure_writable(&report_dir)?);

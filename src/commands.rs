@@ -28,8 +28,9 @@ pub enum RenderMode {
 #[derive(Args, Clone, Debug, Default)]
 pub struct SensorArgs {
     /// Sensor TOML or built-in preset (tactip-331-calibrated, tactip-331-camera,
-    /// tactip-331-edge2d, tactip-331-dome, tactip-331-edge2d-dome; default: the TacTip
-    /// calibrated to the lab's images).
+    /// tactip-331-edge2d, tactip-331-dome, tactip-331-edge2d-dome; default: tactip-331-dome,
+    /// the TacTip calibrated to the lab's flat-surface recordings with its finite-element
+    /// dome; with --skin alone, that TacTip as fitted for the body named).
     #[arg(long)]
     pub sensor: Option<PathBuf>,
     /// Pin count, centred hexagonal (331 default, 127, ...).
@@ -42,12 +43,18 @@ pub struct SensorArgs {
 }
 
 impl SensorArgs {
-    /// The sensor named (or the built-in calibrated TacTip), with the pin count and skin
-    /// model given.
+    /// The sensor named (or the built-in calibrated TacTip, as fitted for the `--skin` body
+    /// where one is named), with the pin count and skin model given.
     pub fn load(&self) -> Result<SensorParams> {
-        let mut sensor = match &self.sensor {
-            Some(p) => sensor_file_or_preset(&p.to_string_lossy(), None)?,
-            None => SensorParams::default(),
+        self.load_or(SensorParams::default)
+    }
+
+    /// [`SensorArgs::load`] with `default` where neither `--sensor` nor `--skin` names one.
+    pub fn load_or(&self, default: fn() -> SensorParams) -> Result<SensorParams> {
+        let mut sensor = match (&self.sensor, self.skin) {
+            (Some(p), _) => sensor_file_or_preset(&p.to_string_lossy(), None)?,
+            (None, Some(m)) => SensorParams::calibrated_for(m),
+            (None, None) => default(),
         };
         if let Some(n) = self.pins {
             sensor = sensor.with_pin_count(n)?;

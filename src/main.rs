@@ -69,8 +69,11 @@ enum Command {
         /// their directory names (`posenet`, `unshear`, `baseline`).
         #[arg(long)]
         models: Option<PathBuf>,
-        /// The sensor (default: the built-in calibrated TacTip). The learned runs' networks must
-        /// have been trained on images of the same sensor.
+        /// The sensor (default: tactip-331-calibrated, the built-in calibrated TacTip over a
+        /// half-space: the scenarios slide along sharp edges, where the dome's pins need 49
+        /// contact cells, and the learned runs' networks are trained on the `explore` recipe's
+        /// half-space images). The learned runs' networks must have been trained on images of
+        /// the same sensor.
         #[command(flatten)]
         sensor: commands::SensorArgs,
     },
@@ -151,7 +154,7 @@ fn main() -> Result<ExitCode> {
             print!("{}", tacsim::dataset::verify(&dir)?);
         }
         Command::Run { scenarios, out, json, models, sensor } => {
-            let sensor = sensor.load()?;
+            let sensor = sensor.load_or(tacsim_sim::SensorParams::half_space)?;
             let (text, pass) = tacsim::explore::report::run_files(&scenarios, &out, json, models.as_deref(), &sensor)?;
             print!("{text}");
             return Ok(exit_code(pass));

@@ -78,7 +78,7 @@ fn a_dome_fit_of_the_surface_presses_writes_the_best_dome() {
     let Some(real) = lab_folder("real-tactip-surface3d") else { return };
     let dir = temp_dir("calibrate", "tiny-dome");
     let lab = tiny_surface_folder(&real, &dir);
-    let mut sensor = SensorParams::default();
+    let mut sensor = SensorParams::half_space();
     sensor.skin.model = SkinModel::Dome;
     sensor.skin.dome_cells = 4;
     sensor.skin.dome_skin_refinement = 1;
@@ -239,7 +239,7 @@ fn the_consensus_of_the_shallowest_presses_stands_in_for_the_undeformed_image() 
 fn camera_only_recovers_a_simulated_sensor_from_framed_non_square_images_without_a_reference() {
     // The truth: the default sensor at 128 px with a rim, drawn into 150 x 136 frames (no
     // reference image; the lab's older column names).
-    let mut truth = SensorParams::default();
+    let mut truth = SensorParams::half_space();
     truth.camera.fov_deg *= 1.1;
     truth.framing = FramingParams { rim_radius: Some(0.455), rim_width: Some(0.02), mask_radius: Some(0.47) };
     let img = PinRenderer::new(&truth, 128).expect("renderable").render_undeformed();
@@ -279,7 +279,7 @@ fn camera_only_recovers_a_simulated_sensor_from_framed_non_square_images_without
 fn pin_offsets_recover_a_simulated_sensors_irregular_pins() {
     // The truth: the default sensor at 128 px, each pin off its ring place by up to 0.4 px
     // (a fixed pseudo-random pattern), with an undeformed reference image.
-    let mut truth = SensorParams::default();
+    let mut truth = SensorParams::half_space();
     truth.camera.image_size = 128;
     let wobble = |i: usize, k: f64| ((i as f64 * 12.9898 + k * 78.233).sin() * 43758.5453).fract() * 0.4 / 128.0;
     truth.pins.image_offsets = (0..truth.pin_count()).map(|i| [wobble(i, 1.0), wobble(i, 2.0)]).collect();

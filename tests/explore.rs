@@ -32,7 +32,7 @@ fn scenarios() -> Vec<PathBuf> {
 #[test]
 fn every_scenario_meets_its_criteria() {
     let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
-    let sensor = SensorParams::default();
+    let sensor = SensorParams::half_space();
     let files = scenarios();
     assert!(files.len() >= 7, "one scenario per shape at least");
     let reports: Vec<_> = files
@@ -88,7 +88,7 @@ fn a_run_is_deterministic_for_its_seed() {
     let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/explore/disk-oracle-noisy.toml");
     let mut s = Scenario::load(&file).expect("scenario");
     s.max_steps = 30;
-    let sensor = SensorParams::default();
+    let sensor = SensorParams::half_space();
     let (a, b) = (run(&s, &sensor, &catalogue).expect("run"), run(&s, &sensor, &catalogue).expect("run"));
     assert_eq!(a.trajectory, b.trajectory);
     s.seed = 2;
@@ -102,7 +102,7 @@ fn the_same_pose_by_another_path_gives_other_pins() {
     let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
     let mut scene = Scene::new();
     scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("add");
-    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
+    let model = ContactModel::new(&SensorParams::half_space()).expect("contact model");
     let grid = contact_disk_grid(&model, 1.5);
     let pose = SensorPose::new(50.0, 0.0, 1.5, 90.0);
     let mut direct = Simulation::with_grid(&model, &scene, Some(grid));
@@ -168,7 +168,7 @@ fn on_the_disk(depth_mm: f64) -> (Scene, SensorParams, ContactModel, Grid) {
     let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
     let mut scene = Scene::new();
     scene.add(catalogue.get("disk").expect("disk"), ObjectPose::default()).expect("add");
-    let sensor = SensorParams::default();
+    let sensor = SensorParams::half_space();
     let model = ContactModel::new(&sensor).expect("contact model");
     let grid = contact_disk_grid(&model, depth_mm);
     (scene, sensor, model, grid)
@@ -281,7 +281,7 @@ fn learned_perception_without_trained_runs_names_the_field_and_the_command() {
     let mut s: Scenario = toml::from_str("perception = \"learned\"\nimage_size = 128\n").expect("scenario");
     s.name = "learned".into();
     s.models.posenet = std::env::temp_dir().join("tacsim-no-such-run/posenet");
-    let err = format!("{:#}", run(&s, &SensorParams::default(), &catalogue).expect_err("no runs"));
+    let err = format!("{:#}", run(&s, &SensorParams::half_space(), &catalogue).expect_err("no runs"));
     assert!(
         err.contains("models") && err.contains("cargo xtask explore") && err.contains("model.safetensors"),
         "{err}"

@@ -53,7 +53,8 @@ pub struct Scenario {
     /// Friction coefficient, overriding the stimulus's.
     pub friction: Option<f64>,
     /// Sensor file (TOML), relative to the scenario file; default: the sensor `tacsim run`
-    /// is given (`--sensor`, else the built-in calibrated TacTip).
+    /// is given (`--sensor`, else the built-in calibrated TacTip over a half-space,
+    /// `tactip-331-calibrated`).
     pub sensor: Option<PathBuf>,
     /// Perception.
     pub perception: PerceptionKind,

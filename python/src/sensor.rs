@@ -35,7 +35,8 @@ pub(crate) fn image_array<'py>(py: Python<'py>, img: image::GrayImage) -> PyResu
 #[pymethods]
 impl PySensor {
     /// A sensor from a built-in preset name or a sensor TOML file (default: the built-in
-    /// TacTip calibrated on the lab's flat-surface recordings).
+    /// TacTip calibrated on the lab's flat-surface recordings, with its finite-element dome:
+    /// `tactip-331-dome`; `tactip-331-calibrated` is the same TacTip over a half-space).
     #[staticmethod]
     #[pyo3(signature = (name_or_path = None))]
     fn load(name_or_path: Option<&str>) -> PyResult<Self> {

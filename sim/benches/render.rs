@@ -11,7 +11,7 @@ use tacsim_sim::{PinRenderer, SensorParams};
 const BATCH: usize = 512;
 
 fn bench_render(c: &mut Criterion) {
-    let sensor = SensorParams::default();
+    let sensor = SensorParams::half_space();
     let mut group = c.benchmark_group("render");
     for size in [128u32, 256, 420] {
         let renderer = PinRenderer::new(&sensor, size).expect("renderable");

@@ -18,7 +18,7 @@ fn bench_tap(c: &mut Criterion) {
     let single = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("a one-thread pool");
     // The disk (100 mm across) centred at the origin: a press on its top, a tap across its rim.
     let taps = [("flat", SensorPose::new(5.0, -3.0, 3.0, 30.0)), ("rim", SensorPose::new(48.0, 0.0, 3.0, 0.0))];
-    let default_cells = SensorParams::default().skin.cells_across;
+    let default_cells = SensorParams::half_space().skin.cells_across;
     // 13 cells: pins within 0.03 mm of the 65-cell reference on flat contacts (`tacsim bench`).
     let mut grids = vec![13, default_cells, 33];
     grids.sort_unstable();
@@ -26,7 +26,7 @@ fn bench_tap(c: &mut Criterion) {
     let models: Vec<(usize, ContactModel)> = grids
         .iter()
         .map(|&cells| {
-            let mut sensor = SensorParams::default();
+            let mut sensor = SensorParams::half_space();
             sensor.skin.cells_across = cells;
             (cells, ContactModel::new(&sensor).expect("contact model"))
         })

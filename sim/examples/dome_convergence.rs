@@ -27,7 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ];
     let mut pins: Vec<Vec<Vec<PinPose>>> = Vec::new();
     for &(n, refinement, gel_shells) in &meshes {
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.skin.model = SkinModel::Dome;
         sensor.skin.dome_cells = n;
         sensor.skin.dome_skin_layers = layers;
@@ -47,7 +47,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         pins.push(per_path);
     }
-    let layout = PinLayout::new(&SensorParams::default());
+    let layout = PinLayout::new(&SensorParams::half_space());
     for (k, (name, _)) in paths.iter().enumerate() {
         let (a, b) = (&pins[0][k], &pins[1][k]);
         let (mut worst, mut at, mut moved, mut squares) = (0.0f64, 0, 0.0f64, 0.0f64);

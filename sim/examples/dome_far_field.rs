@@ -14,7 +14,7 @@ use tacsim_sim::{SensorParams, SkinModel};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let sensor = match std::env::args().nth(1) {
         Some(path) => SensorParams::load(std::path::Path::new(&path))?,
-        None => SensorParams::default(),
+        None => SensorParams::half_space(),
     };
     let grid = Grid { nx: 81, ny: 81, cell_mm: 0.25, centre_mm: [0.0, 0.0] };
     let mut rows: Vec<(&str, Vec<[f64; 2]>)> = Vec::new();

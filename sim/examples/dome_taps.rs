@@ -23,7 +23,7 @@ use tacsim_sim::{SensorParams, SkinModel};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (samples, repeats) = (support::whole(&args, 0, 200)?, support::whole(&args, 1, 3)?);
-    let mut sensor = SensorParams::default();
+    let mut sensor = SensorParams::half_space();
     sensor.skin.model = SkinModel::Dome;
     sensor.skin.cells_across = support::whole(&args, 2, sensor.skin.cells_across)?;
     sensor.skin.edge_subcells = support::whole(&args, 3, sensor.skin.edge_subcells)?;

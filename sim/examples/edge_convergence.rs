@@ -40,7 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let pose = SensorPose::new(x, 0.3, depth, yaw);
     let mut runs = Vec::new();
     for &(n, sub) in &grids {
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.skin.cells_across = n;
         sensor.validate("CELLS")?;
         sensor.skin.cut_edges = cut_edges;

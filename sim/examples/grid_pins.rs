@@ -29,7 +29,7 @@ const GRIDS: [usize; 7] = [13, 17, 19, 25, 33, 49, 65];
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let body = args.first().map_or("dome", String::as_str);
-    let mut sensor = SensorParams::default();
+    let mut sensor = SensorParams::half_space();
     sensor.skin.model = body.parse::<SkinModel>().map_err(|e| format!("argument 1: {e}"))?;
     let n = support::whole(&args, 1, 40)?;
     let taps = match args.get(2).map_or("flat", String::as_str) {

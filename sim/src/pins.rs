@@ -91,7 +91,7 @@ mod tests {
 
     #[test]
     fn rings_hold_6k_pins_on_the_inner_surface() {
-        let s = SensorParams::default();
+        let s = SensorParams::half_space();
         let layout = PinLayout::new(&s);
         assert_eq!(layout.pins.len(), 331);
         assert_eq!(layout.ring_sizes(), (0..=10).map(|k| if k == 0 { 1 } else { 6 * k }).collect::<Vec<_>>());

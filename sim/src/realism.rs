@@ -86,7 +86,7 @@ mod tests {
 
     #[test]
     fn realistic_render_keeps_every_pin_and_is_seeded() {
-        let sensor = SensorParams::default();
+        let sensor = SensorParams::half_space();
         let r = PinRenderer::new(&sensor, 256).expect("renderable");
         let tips = r.layout().poses();
         let real = Realism::default();

@@ -340,7 +340,7 @@ mod tests {
 
     #[test]
     fn rendering_is_deterministic_and_binary() {
-        let r = PinRenderer::new(&SensorParams::default(), 256).expect("renderable");
+        let r = PinRenderer::new(&SensorParams::half_space(), 256).expect("renderable");
         let a = r.render_undeformed();
         let b = r.render_undeformed();
         assert_eq!(a.as_raw(), b.as_raw());
@@ -351,9 +351,9 @@ mod tests {
     fn framing_draws_the_rim_ring_and_masks_outside_its_circle() {
         let sensor = SensorParams {
             framing: FramingParams { rim_radius: Some(0.46), rim_width: Some(0.02), mask_radius: Some(0.48) },
-            ..SensorParams::default()
+            ..SensorParams::half_space()
         };
-        let plain = PinRenderer::new(&SensorParams::default(), 128).expect("renderable").render_undeformed();
+        let plain = PinRenderer::new(&SensorParams::half_space(), 128).expect("renderable").render_undeformed();
         let r = PinRenderer::new(&sensor, 128).expect("renderable");
         let framed = r.render_undeformed();
         let [cu, cv] = r.camera().principal;
@@ -378,7 +378,7 @@ mod tests {
     #[test]
     fn the_framing_fit_recovers_a_rendered_rim_and_finds_none_without_one() {
         // A wider view than the default's keeps the pins (out to 0.37 of the image, at 192 px) inside the rim.
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.camera.fov_deg *= 1.2;
         sensor.framing = FramingParams { rim_radius: Some(0.46), rim_width: Some(0.025), mask_radius: Some(0.48) };
         let r = PinRenderer::new(&sensor, 192).expect("renderable");
@@ -431,7 +431,7 @@ mod tests {
 
     #[test]
     fn pin_jitter_moves_each_pin_by_its_own_normal_draw() {
-        let r = PinRenderer::new(&SensorParams::default(), 128).expect("renderer");
+        let r = PinRenderer::new(&SensorParams::half_space(), 128).expect("renderer");
         let pins = r.layout().poses();
         let nominal = r.discs(&pins);
         let v = Variation { pin_jitter_px: 0.5, jitter_seed: 9, ..Variation::NOMINAL };
@@ -455,7 +455,7 @@ mod tests {
 
     #[test]
     fn image_offsets_move_each_layout_pin_and_nothing_else() {
-        let plain = SensorParams::default();
+        let plain = SensorParams::half_space();
         let mut offset = plain.clone();
         let n = offset.pin_count();
         offset.pins.image_offsets = (0..n).map(|i| [0.002 * (i % 3) as f64, -0.001 * (i % 2) as f64]).collect();
@@ -478,7 +478,7 @@ mod tests {
 
     #[test]
     fn too_small_image_is_a_clear_error() {
-        let e = PinRenderer::new(&SensorParams::default(), 16).expect_err("16 px is too small");
+        let e = PinRenderer::new(&SensorParams::half_space(), 16).expect_err("16 px is too small");
         assert!(e.to_string().contains("16x16"), "{e}");
     }
 }

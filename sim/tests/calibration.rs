@@ -22,7 +22,7 @@ fn default_sensor_matches_the_real_reference() {
     let Some(path) = reference() else { return };
     let real = read_png(&path).expect("reference decodes");
     assert_eq!(real.dimensions(), (420, 420));
-    let sensor = SensorParams::default();
+    let sensor = SensorParams::half_space();
     let (cmp, sim, real_p) = compare_sensor(&sensor, &real, &path.display().to_string()).expect("comparison");
     print!("{}", ring_table(&sim, &real_p));
     println!(
@@ -49,7 +49,7 @@ fn default_sensor_matches_the_real_reference() {
 fn realistic_render_has_the_real_ring_structure() {
     let Some(path) = reference() else { return };
     let real = read_png(&path).expect("reference decodes");
-    let sensor = SensorParams::default();
+    let sensor = SensorParams::half_space();
     let renderer = PinRenderer::new(&sensor, 420).expect("renderable");
     let img = Realism::default().render(&renderer, &renderer.layout().poses()).expect("render");
     let sim = ring_profile(&img, 10, "realistic render").expect("profile");

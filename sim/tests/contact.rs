@@ -21,7 +21,7 @@ fn max_pin_shift(a: &[tacsim_sim::PinPose], b: &[tacsim_sim::PinPose]) -> f64 {
 #[test]
 fn tap_and_slide_differ_and_lift_off_restores_pins() {
     let scene = scene_with("disk");
-    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
+    let model = ContactModel::new(&SensorParams::half_space()).expect("contact model");
     let target = SensorPose::new(0.0, 0.0, 2.0, 0.0);
     let t = Instant::now();
     let tap = SensorPath::tap(target).run(&model, &scene).expect("tap");
@@ -54,7 +54,7 @@ fn tap_and_slide_differ_and_lift_off_restores_pins() {
 #[test]
 fn no_contact_skips_the_solve() {
     let scene = scene_with("disk");
-    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
+    let model = ContactModel::new(&SensorParams::half_space()).expect("contact model");
     let mut sim = Simulation::new(&model, &scene, &[SensorPose::new(200.0, 0.0, 2.0, 0.0)]);
     assert!(sim.grid().is_none());
     let r = sim.step(SensorPose::new(200.0, 0.0, 2.0, 0.0)).expect("step").clone();
@@ -65,12 +65,12 @@ fn no_contact_skips_the_solve() {
 fn slide_history_grows_then_saturates_with_gross_sliding() {
     // Incompressible skin (Poisson 0.5): the normal and tangential problems decouple and gross
     // sliding slips every contact cell. The calibrated default (0.436) is checked below.
-    let mut sensor = SensorParams::default();
+    let mut sensor = SensorParams::half_space();
     sensor.skin.poisson = 0.5;
     check_slide_history(&sensor, 1.0);
     // Coupled: the tangential traction lowers the pressure at the trailing rim, and a few rim
     // cells under a vanishing pressure stay within the stick tolerance (218 of 221 slip).
-    check_slide_history(&SensorParams::default(), 0.98);
+    check_slide_history(&SensorParams::half_space(), 0.98);
 }
 
 /// Slides of 0.1, 3 and 5 mm into the same pose: partial slip moves the pins less than gross
@@ -98,7 +98,7 @@ fn check_slide_history(sensor: &SensorParams, slipping: f64) {
 #[test]
 fn block_grouping_of_far_cells_matches_the_direct_sum() {
     let scene = scene_with("clover");
-    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
+    let model = ContactModel::new(&SensorParams::half_space()).expect("contact model");
     for (pose, from) in
         [(SensorPose::new(0.0, 0.0, 3.0, 0.0), None), (SensorPose::new(30.0, 5.0, 4.0, 20.0), Some([2.5, 1.0]))]
     {
@@ -209,7 +209,7 @@ fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
 fn a_tilted_press_pushes_the_skin_along_the_surface_normal() {
     use tacsim_sim::contact::press_direction;
     let scene = scene_with("disk");
-    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
+    let model = ContactModel::new(&SensorParams::half_space()).expect("contact model");
     let radius = model.sensor.dome.outer_radius_mm;
     let indentation = 1.5;
     let tip_motion = |pose: SensorPose, pin: usize| {
@@ -252,7 +252,7 @@ fn a_rounded_edge_lowers_the_top_face_by_the_quarter_circle() {
 
     let cat = Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue");
     let square = cat.get("square").expect("square");
-    let model = ContactModel::new(&SensorParams::default()).expect("contact model");
+    let model = ContactModel::new(&SensorParams::half_space()).expect("contact model");
     // The square's right side is the line x = 45 mm, material at x < 45; the sensor over it.
     let pose = SensorPose::new(45.0, 0.0, 1.0, 0.0);
     // Cell centres at x = -3.875..4.125 mm (none on the edge line), y = -1..1 mm.
@@ -295,13 +295,13 @@ fn the_gap_is_measured_on_the_gap_profile() {
     // Cell centres -9.75..9.75 mm on either axis: past 0.95 of an 8 mm profile (7.6 mm).
     let grid = Grid { nx: 40, ny: 40, cell_mm: 0.5, centre_mm: [0.0, 0.0] };
     let gaps = |gap_radius_mm: f64| -> Vec<f64> {
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.skin.gap_radius_mm = gap_radius_mm;
         sensor.validate("test").expect("valid");
         let model = ContactModel::new(&sensor).expect("contact model");
         initial_gap(&model, &scene, &pose, &ContactFrame::SENSOR, &grid).into_iter().map(|g| g.0).collect()
     };
-    let dome = SensorParams::default().dome.outer_radius_mm;
+    let dome = SensorParams::half_space().dome.outer_radius_mm;
     let (own, same, tight) = (gaps(0.0), gaps(dome), gaps(8.0));
     let mut later = 0;
     for (k, c) in grid.centres().iter().enumerate() {
@@ -347,7 +347,7 @@ fn largest_split(rest: &[tacsim_sim::PinPose], moved: &[tacsim_sim::PinPose]) ->
 fn a_skin_patch_closes_the_split_of_the_pins_along_a_sharp_edge() {
     let scene = scene_with("square");
     let tap = |patch: f64, x: f64| {
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.pins.patch_radius_mm = patch;
         let model = ContactModel::new(&sensor).expect("contact model");
         let pose = SensorPose::new(x, 0.0, 1.5, 0.0);
@@ -373,7 +373,7 @@ fn the_dome_slope_drags_the_skin_towards_a_contact_off_the_apex() {
     let scene = scene_with("square");
     // 5 mm off the square's edge (x = 45 mm): the contact is on the sensor's -x side.
     let tap = |slope: f64| {
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.skin.dome_slope = slope;
         let model = ContactModel::new(&sensor).expect("contact model");
         let pose = SensorPose::new(50.0, 0.0, 1.5, 0.0);
@@ -396,7 +396,7 @@ fn the_dome_slope_drags_the_skin_towards_a_contact_off_the_apex() {
 #[test]
 fn a_tap_through_the_contact_matrices_equals_one_through_fft_products() {
     let scene = scene_with("disk");
-    let mut sensor = SensorParams::default();
+    let mut sensor = SensorParams::half_space();
     sensor.skin.cells_across = 13;
     let mut matrices = ContactModel::new(&sensor).expect("contact model");
     matrices.normal.tolerance = 1e-10;
@@ -441,7 +441,7 @@ fn default_tolerances_keep_the_pins_within_a_tenth_of_a_micron_of_a_tight_solve(
     let disk = cat.get("disk").expect("shape").with_friction(Some(0.0));
     frictionless.add(disk, ObjectPose::default()).expect("add");
     for cells in [17, 25] {
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.skin.cells_across = cells;
         let default = ContactModel::new(&sensor).expect("contact model");
         let mut tight = default.clone();
@@ -477,7 +477,7 @@ fn seventeen_cells_keep_a_deep_tap_across_the_rim_within_0_03_mm_of_65_cells() {
     let scene = scene_with("disk");
     let pose = SensorPose::new(51.66, -4.01, 4.99, -60.29);
     let pins = |cells: usize, exact: bool| {
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.skin.cells_across = cells;
         let model = ContactModel::new(&sensor).expect("contact model");
         let mut sim = Simulation::new(&model, &scene, &[pose]);

@@ -24,7 +24,7 @@ fn model(cells: usize, poisson: f64) -> ContactModel {
 }
 
 fn model_of(cells: usize, poisson: f64, skin: SkinModel) -> ContactModel {
-    let mut s = SensorParams::default();
+    let mut s = SensorParams::half_space();
     s.skin.cells_across = cells;
     s.skin.poisson = poisson;
     s.skin.model = skin;

@@ -18,7 +18,7 @@ fn scene_with(shape: &str) -> Scene {
 
 /// The calibrated TacTip with the elastic body `model` on a coarse grid (and a coarse dome).
 fn sensor(model: SkinModel) -> SensorParams {
-    let mut s = SensorParams::default();
+    let mut s = SensorParams::half_space();
     s.skin.model = model;
     s.skin.cells_across = 17;
     s.skin.dome_cells = 4;

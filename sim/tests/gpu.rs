@@ -20,7 +20,7 @@ fn a_batch_of_taps_renders_on_the_gpu_as_on_the_cpu() {
     let cat = Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue");
     let mut scene = Scene::new();
     scene.add(cat.get("square").expect("square"), ObjectPose::default()).expect("add");
-    let sensor = SensorParams::default();
+    let sensor = SensorParams::half_space();
     let model = ContactModel::new(&sensor).expect("contact model");
     let taps: Vec<Vec<tacsim_sim::PinPose>> = (0..12)
         .map(|k| {
@@ -83,7 +83,7 @@ fn the_gpu_moves_the_pins_as_the_cpu_does() {
     let cat = Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes")).expect("catalogue");
     let mut scene = Scene::new();
     scene.add(cat.get("square").expect("square"), ObjectPose::default()).expect("add");
-    let calibrated = SensorParams::default();
+    let calibrated = SensorParams::half_space();
     let mut gel = calibrated.clone();
     gel.skin.model = tacsim_sim::SkinModel::SkinOnGel;
     let sensors = [

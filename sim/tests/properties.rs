@@ -17,7 +17,7 @@ fn plausible_sensor() -> impl Strategy<Value = (SensorParams, u32)> {
         prop::sample::select(vec![128u32, 192, 256, 420, 512]),
     )
         .prop_map(|((radius, skin, length, tip), (rings, outer_deg, phase), (dist, fill, ox, oy, k1), size)| {
-            let mut s = SensorParams::default();
+            let mut s = SensorParams::half_space();
             s.dome.outer_radius_mm = radius;
             s.dome.skin_thickness_mm = skin * radius;
             s.pins.length_mm = length * radius;
@@ -98,7 +98,7 @@ proptest! {
         cam in (any_f64(), any_f64(), any_f64(), any_f64(), any_f64(), any_f64()),
         size in 0u32..600,
     ) {
-        let mut s = SensorParams::default();
+        let mut s = SensorParams::half_space();
         (s.dome.outer_radius_mm, s.dome.skin_thickness_mm) = dome;
         (s.pins.rings, s.pins.length_mm, s.pins.tip_radius_mm, s.pins.ring_pitch_deg, s.pins.phase_deg) = pins;
         (s.camera.distance_mm, s.camera.fov_deg, s.camera.principal_offset[0], s.camera.principal_offset[1], s.camera.k1, s.camera.k2) = cam;

@@ -95,7 +95,7 @@ fn real_pins_are_tracked_and_the_label_frame_is_found() {
     // The undeformed simulated pins sit within 1 px RMS of the real reference's.
     let cat = tacsim_sim::stimulus::Catalogue::load_dir(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shapes"))
         .expect("catalogue");
-    let base = tacsim_sim::SensorParams::default();
+    let base = tacsim_sim::SensorParams::half_space();
     let d = tacsim_sim::calibrate::Deformation::of(&base, 0.5);
     let disk = cat.get("disk").expect("disk");
     let sim = tacsim_sim::calibrate::Simulator::new(&base, &d, 13, &obs, &disk).expect("simulator");

@@ -345,7 +345,8 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
 fn compared_model(args: &RealCompareArgs, reference: &Reference) -> Result<(SensorParams, Deformation)> {
     let mut base = match &args.sensor {
         Some(p) => SensorParams::load(p)?,
-        None => SensorParams::default(),
+        // The layered skins' analytic model compares on the half-space preset's skin.
+        None => SensorParams::half_space(),
     };
     if let Some(v) = args.camera_distance {
         base = tacsim_sim::calibrate::fit_camera_at(&base, &reference.image, &reference.describe(), Some(v))?;

@@ -17,7 +17,10 @@ ends (terminated) when the loop closes or the sensor leaves the edge by more tha
 list of them: each ``reset`` then draws one from the environment's generator (a policy
 trained over several stimuli). Options of ``reset``: ``shape`` (a built-in name), ``obj_path``,
 ``start_mm`` (a point near the edge; default: a random point of the contour drawn from the
-seed).
+seed). ``sensor`` (a ``tacsim.Sensor``, a preset name or a sensor file) defaults to
+``tactip-331-calibrated``, the calibrated TacTip over a half-space: along a sharp edge its pins
+are within 0.03 mm of a fine contact grid at the sensor's cells, where the default dome's
+need 49 (``docs/guide/fem.md``, "The contact grid").
 """
 
 import math
@@ -40,7 +43,7 @@ class EdgeFollowEnv(gym.Env):
         self,
         shape="square",
         obj_path=None,
-        sensor=None,
+        sensor="tactip-331-calibrated",
         depth_mm=1.5,
         image_size=128,
         obs_type="image",

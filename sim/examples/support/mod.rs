@@ -31,7 +31,7 @@ pub fn disk_scene() -> Result<Scene, Box<dyn std::error::Error>> {
 
 /// The calibrated default sensor's contact model at `cells` cells across the footprint.
 pub fn model_at(cells: usize) -> Result<ContactModel, Box<dyn std::error::Error>> {
-    let mut sensor = SensorParams::default();
+    let mut sensor = SensorParams::half_space();
     sensor.skin.cells_across = cells;
     sensor.validate("CELLS")?;
     Ok(ContactModel::new(&sensor)?)

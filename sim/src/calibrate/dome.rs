@@ -245,7 +245,7 @@ mod tests {
     use super::*;
 
     fn dome_sensor() -> SensorParams {
-        let mut s = SensorParams::default();
+        let mut s = SensorParams::half_space();
         s.skin.model = SkinModel::Dome;
         s.skin.gel_youngs_modulus_mpa = 0.1;
         s.dome.skin_thickness_mm = 1.0;

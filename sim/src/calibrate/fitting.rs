@@ -394,7 +394,7 @@ mod tests {
 
     #[test]
     fn parameters_round_trip_through_the_search_coordinates_and_bounds_hold() {
-        let base = SensorParams::default();
+        let base = SensorParams::half_space();
         for model in [SkinModel::HalfSpace, SkinModel::Layer, SkinModel::SkinOnGel] {
             let d = start(&base, model);
             let (p, step) = encode(&d, false);

@@ -231,12 +231,12 @@ mod tests {
 
     #[test]
     fn label_frames_map_offsets_as_vectors_and_tilts_as_rotation_vectors() {
-        let mut press = Deformation::of(&SensorParams::default(), 0.5);
+        let mut press = Deformation::of(&SensorParams::half_space(), 0.5);
         press.depth_offset_mm = 0.5;
         let (start, target) = RigFrame::IDENTITY.poses(&sample().pose, &sample().shear, &press.press());
         assert_eq!((start.x_mm, start.y_mm, start.yaw_deg, target.depth_mm), (3.0, 1.0, 5.0, 2.5));
         assert_eq!((target.rx_deg, target.ry_deg), (10.0, -4.0));
-        let at_zero = Deformation::of(&SensorParams::default(), 0.5);
+        let at_zero = Deformation::of(&SensorParams::half_space(), 0.5);
         // A quarter turn: x -> y, y -> -x, for offsets and tilts alike.
         let (s, t) = RigFrame::new(90.0, false).poses(&sample().pose, &sample().shear, &at_zero.press());
         assert!((s.x_mm + 1.0).abs() < 1e-12 && (s.y_mm - 3.0).abs() < 1e-12);
@@ -267,7 +267,7 @@ mod tests {
 
     #[test]
     fn a_tilt_about_a_pivot_above_the_apex_raises_the_apex() {
-        let mut press = Deformation::of(&SensorParams::default(), 0.5);
+        let mut press = Deformation::of(&SensorParams::half_space(), 0.5);
         press.pivot_mm = 20.0;
         let s = LabSample { image: "x.png".into(), pose: [0.0, 0.0, 2.0, 60.0, 0.0, 0.0], shear: [0.0; 6] };
         let (_, t) = RigFrame::IDENTITY.poses(&s.pose, &s.shear, &press.press());
@@ -278,7 +278,7 @@ mod tests {
 
     #[test]
     fn a_loaded_rig_loses_depth_as_the_load_grows_and_relaxes_its_tilt() {
-        let mut press = Deformation::of(&SensorParams::default(), 0.5);
+        let mut press = Deformation::of(&SensorParams::half_space(), 0.5);
         press.depth_offset_mm = 1.0;
         press.depth_compliance = 0.1;
         press.tilt_relaxation_per_mm = 0.05;
@@ -296,7 +296,7 @@ mod tests {
 
     #[test]
     fn a_new_pin_length_keeps_the_tips_where_the_camera_fit_put_them() {
-        let base = SensorParams::default();
+        let base = SensorParams::half_space();
         let mut d = Deformation::of(&base, 0.5);
         d.pin_length_mm = 1.2;
         let s = d.sensor(&base).expect("valid");

@@ -348,12 +348,12 @@ mod tests {
     use crate::sensor::SensorParams;
 
     fn sim_reference(size: u32) -> GrayImage {
-        PinRenderer::new(&SensorParams::default(), size).expect("renderable").render_undeformed()
+        PinRenderer::new(&SensorParams::half_space(), size).expect("renderable").render_undeformed()
     }
 
     #[test]
     fn the_pin_field_of_a_simulated_image_is_centred_on_the_principal_point() {
-        let r = PinRenderer::new(&SensorParams::default(), 256).expect("renderable");
+        let r = PinRenderer::new(&SensorParams::half_space(), 256).expect("renderable");
         let f = PinField::find(&r.render_undeformed()).expect("field");
         let p = r.camera().principal;
         assert!((f.centre[0] - p[0]).hypot(f.centre[1] - p[1]) < 0.5, "{f:?} vs {p:?}");

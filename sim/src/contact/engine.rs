@@ -406,7 +406,7 @@ mod tests {
 
     /// The default (calibrated) sensor's contact at `cells` across the footprint.
     fn default_model(cells: usize) -> ContactModel {
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.skin.cells_across = cells;
         ContactModel::new(&sensor).expect("contact model")
     }
@@ -436,7 +436,7 @@ mod tests {
     #[test]
     fn an_edge_moves_the_contact_smoothly_across_a_cell() {
         let scene = scene_of("disk");
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.skin.cells_across = 13;
         sensor.skin.cut_edges = true;
         let model = ContactModel::new(&sensor).expect("contact model");
@@ -709,7 +709,7 @@ mod tests {
         let scene = scene_of("disk");
         let pose = SensorPose::new(-7.776575308315564, 9.177743360236832, 4.482424269147743, -34.85223108884202);
         let pins = |skin: SkinModel, cells: usize, subcells: usize| {
-            let mut sensor = SensorParams::default();
+            let mut sensor = SensorParams::half_space();
             (sensor.skin.model, sensor.skin.cells_across) = (skin, cells);
             let mut model = ContactModel::new(&sensor).expect("contact model");
             model.edge_subcells = subcells;
@@ -735,7 +735,7 @@ mod tests {
         let scene = scene_of("disk");
         let pose = worst_rim_taps()[0];
         let refined = |subcells: usize| {
-            let mut sensor = SensorParams::default();
+            let mut sensor = SensorParams::half_space();
             (sensor.skin.cells_across, sensor.skin.edge_subcells) = (13, subcells);
             let model = ContactModel::new(&sensor).expect("contact model");
             assert_eq!(model.edge_subcells, subcells);
@@ -812,7 +812,7 @@ mod tests {
     #[test]
     fn cut_cells_close_their_gaps_as_whole_cells_do() {
         let scene = scene_of("spiral-2");
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         (sensor.skin.cells_across, sensor.skin.poisson, sensor.skin.model) = (11, 0.5, crate::SkinModel::Layer);
         let model = ContactModel::new(&sensor).expect("contact model");
         // The proptest's case: a touch-down on the second spiral, tilted, then a slide and

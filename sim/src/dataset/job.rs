@@ -69,7 +69,7 @@ fn human_bytes(bytes: u64) -> String {
 
 /// The sensor a run of `recipe` starts from: `sensor` (a file or a preset), else the
 /// recipe's `sensor` field (a preset, or a file beside the recipe file `recipe_path`), else
-/// the calibrated TacTip.
+/// the default sensor (the calibrated TacTip with its finite-element dome).
 pub fn base_sensor(recipe: &Recipe, recipe_path: Option<&Path>, sensor: Option<&str>) -> Result<SensorParams> {
     match (sensor, &recipe.sensor) {
         (Some(arg), _) => SensorParams::file_or_preset(arg, None),

@@ -154,7 +154,7 @@ mod tests {
 
     #[test]
     fn an_operator_kept_for_another_path_is_the_one_built_on_the_grid() {
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.skin.model = SkinModel::Layer;
         sensor.skin.cells_across = 9;
         let model = ContactModel::new(&sensor).expect("contact model");
@@ -170,7 +170,7 @@ mod tests {
 
     #[test]
     fn a_half_space_keeps_nothing() {
-        let mut sensor = SensorParams::default();
+        let mut sensor = SensorParams::half_space();
         sensor.skin.model = SkinModel::HalfSpace;
         let model = ContactModel::new(&sensor).expect("contact model");
         model.operator(Grid::square(9, 0.81));

@@ -138,7 +138,7 @@ mod tests {
     #[test]
     fn short_probe_rays_sort_the_cells_as_full_rays_do() {
         let catalogue = crate::builtin_catalogue().expect("shapes");
-        let model = ContactModel::new(&SensorParams::default()).expect("contact model");
+        let model = ContactModel::new(&SensorParams::half_space()).expect("contact model");
         let r = cell_limit(&model);
         let s = 2.0 * r / PROBE_CELLS as f64;
         let coarse = (Grid::square(PROBE_CELLS, s), s * s / (4.0 * tightest_radius(&model)) * 1.01);

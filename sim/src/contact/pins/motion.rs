@@ -818,7 +818,7 @@ mod tests {
         let tables = near_field_tables();
         let forces = loaded_forces();
         for patch in [0.0, 1.5] {
-            let mut sensor = crate::sensor::SensorParams::default();
+            let mut sensor = crate::sensor::SensorParams::half_space();
             sensor.pins.patch_radius_mm = patch;
             let layout = PinLayout::new(&sensor);
             for exact in [false, true] {
