@@ -426,9 +426,7 @@ impl SensorParams {
             framing: FramingParams::default(),
         }
     }
-}
 
-impl SensorParams {
     /// The surface recordings' TacTip over the body `model`, as fitted for it: the dome's own
     /// fit ([`SensorParams::default`]) for the dome, else [`SensorParams::half_space`] with its
     /// `skin.model` set to `model` (the layered bodies take the half-space's skin and gel
