@@ -46,7 +46,7 @@ impl TapError {
     }
 }
 
-/// The calibrated default sensor's contact model at `cells` cells across the footprint.
+/// The calibrated half-space sensor's contact model at `cells` cells across the footprint.
 fn model_at(cells: usize) -> Result<ContactModel, Box<dyn std::error::Error>> {
     let mut sensor = SensorParams::half_space();
     sensor.skin.cells_across = cells;

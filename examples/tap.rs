@@ -1,5 +1,7 @@
-//! A runnable start: the default sensor tapped 1.5 mm onto the built-in disk's flat top,
-//! the contact solved, the pins moved and the camera's binarised image written.
+//! A runnable start: the calibrated TacTip over a half-space (`SensorParams::half_space()`;
+//! `SensorParams::default()` is its finite-element dome, whose first use builds its table in
+//! a minute or two) tapped 1.5 mm onto the built-in disk's flat top, the contact solved, the
+//! pins moved and the camera's binarised image written.
 //!
 //! ```text
 //! cargo run --release --example tap -- [OUT.png]   (default: tap.png)

@@ -237,7 +237,7 @@ fn the_consensus_of_the_shallowest_presses_stands_in_for_the_undeformed_image() 
 
 #[test]
 fn camera_only_recovers_a_simulated_sensor_from_framed_non_square_images_without_a_reference() {
-    // The truth: the default sensor at 128 px with a rim, drawn into 150 x 136 frames (no
+    // The truth: the calibrated half-space sensor at 128 px with a rim, drawn into 150 x 136 frames (no
     // reference image; the lab's older column names).
     let mut truth = SensorParams::half_space();
     truth.camera.fov_deg *= 1.1;
@@ -277,7 +277,7 @@ fn camera_only_recovers_a_simulated_sensor_from_framed_non_square_images_without
 
 #[test]
 fn pin_offsets_recover_a_simulated_sensors_irregular_pins() {
-    // The truth: the default sensor at 128 px, each pin off its ring place by up to 0.4 px
+    // The truth: the calibrated half-space sensor at 128 px, each pin off its ring place by up to 0.4 px
     // (a fixed pseudo-random pattern), with an undeformed reference image.
     let mut truth = SensorParams::half_space();
     truth.camera.image_size = 128;

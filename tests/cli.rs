@@ -180,7 +180,7 @@ fn disk_taps_turned_about_its_centre_gave_one_image_but_two_yaw_labels() {
 #[test]
 fn render_on_layered_skins() {
     let dir = temp_dir("cli", "layered");
-    // The camera-only sensor fit (1.5 mm skin): with the calibrated default's 0.66 mm skin a
+    // The camera-only sensor fit (1.5 mm skin): with the calibrated half-space preset's 0.66 mm skin a
     // slide on the skin-on-gel model drags neighbouring pins into one blob (320 of 331 at 256 px).
     let camera_fit = concat!(env!("CARGO_MANIFEST_DIR"), "/sim/presets/tactip-331-camera.toml");
     let pose = ["--shape", "disk", "--pose", "0,0,1.5,0", "--slide-from", "2.5,0", "--sensor", camera_fit];

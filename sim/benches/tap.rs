@@ -1,4 +1,4 @@
-//! The hot kernels of a tap on the default sensor, one thread: the footprint probe (rays down
+//! The hot kernels of a tap on the calibrated half-space sensor, one thread: the footprint probe (rays down
 //! the scene: by the column index straight down, by parry's BVH when tilted), the coupled
 //! contact solve (initial gap, then normal and tangential solves alternated until the
 //! tractions settle) and the pin product (every pin's tip from the solved tractions), on the

@@ -8,7 +8,7 @@
 //! (the sensor's `skin.cut_edges`). A grid written `CELLS/SUB` solves the cells along the edge
 //! again at `SUB x SUB` sub-cells for the pins (`ContactModel::edge_subcells`; 0: none);
 //! without it, the model's default.
-//! The tap: the calibrated default sensor over the built-in `disk` (its sharp rim at
+//! The tap: the calibrated half-space sensor over the built-in `disk` (its sharp rim at
 //! `x = 50` mm), apex at `(X, 0.3)` mm, `DEPTH` mm deep, yaw `YAW` deg; grids of `CELLS`
 //! cells across the footprint (default `13,17,25,33,65,97`; the last is the reference), every
 //! cell acting on every pin (`Simulation::pins_exact`).

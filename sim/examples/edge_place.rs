@@ -6,7 +6,7 @@
 //! cargo run --release -p tacsim-sim --example edge_place -- sweep DEPTH X[,X...] CELLS[,CELLS...] [REFERENCE[@F]]
 //! cargo run --release -p tacsim-sim --example edge_place -- taps REFERENCE[@F] CELLS[,CELLS...] F[,F...] [TAPS] [--exact]
 //! ```
-//! The taps: the calibrated default sensor over the built-in `disk` (its sharp rim at
+//! The taps: the calibrated half-space sensor over the built-in `disk` (its sharp rim at
 //! `x = 50` mm), yaw 0, so the rim runs along the grid's `y` (the sensor's `x` is the world's
 //! at yaw 0: the rim at sensor `x = 50 - X`). A grid "at `F`" is the footprint's own grid
 //! ([`Footprint::of_path`]) shifted along `x` by under half a cell so that the rim lies at

@@ -14,7 +14,7 @@
 //! cell (default the model's, 3); `FRICTION` the disk's friction coefficient (default the
 //! built-in disk's; `-` for it); `EDGE_SUBCELLS` the sub-cells a side of the compared grids'
 //! refined cells (`skin.edge_subcells`; the 65-cell reference keeps the default, 3). The
-//! calibrated default sensor with that body.
+//! calibrated half-space sensor with that body.
 
 #[allow(dead_code)]
 // `support::model_at` and `support::tractions_hash` serve the timing examples, `support::dome_mesh` the dome's.

@@ -8,7 +8,7 @@
 //! cargo run --release -p tacsim-sim --example slide_solves -- [CELLS] [REPEATS]
 //! ```
 //! `CELLS` cells across the footprint (default 25); `REPEATS` runs after the first (default
-//! 0). The slide: the calibrated default sensor on the built-in `disk`, 3 mm deep, yaw 30 deg,
+//! 0). The slide: the calibrated half-space sensor on the built-in `disk`, 3 mm deep, yaw 30 deg,
 //! from `(6.5, -1)` to `(5, -3)` mm on its flat top (the companion of `tap_solves`' tap there).
 
 #[allow(dead_code)] // `support::dome_mesh` serves the dome's examples.

@@ -1,4 +1,4 @@
-//! The default sensor against the lab's real undeformed reference image
+//! The calibrated sensor (its half-space preset) against the lab's real undeformed reference image
 //! (`../shared/data/real-tactip-surface3d/images/image_0.png`): same pin count and ring
 //! structure, ring radii within 0.2 px RMS (0.4 px the largest), mean blob area within 2%
 //! (at commit 1805347: 0.118 px RMS, 0.238 px the largest, -0.1% area; the realistic render

@@ -64,7 +64,7 @@ fn no_contact_skips_the_solve() {
 #[test]
 fn slide_history_grows_then_saturates_with_gross_sliding() {
     // Incompressible skin (Poisson 0.5): the normal and tangential problems decouple and gross
-    // sliding slips every contact cell. The calibrated default (0.436) is checked below.
+    // sliding slips every contact cell. The calibrated half-space preset (0.436) is checked below.
     let mut sensor = SensorParams::half_space();
     sensor.skin.poisson = 0.5;
     check_slide_history(&sensor, 1.0);
@@ -152,7 +152,7 @@ fn layered_skins_keep_the_invariants_and_a_softer_gel_spreads_shear() {
     ] {
         // The camera-only preset's 1.5 mm skin at Poisson 0.5 (the gel's): a skin over a gel
         // of the same material is then one layer, and a softer gel lets the stiff skin carry
-        // the shear across the dome. The calibrated default's 0.66 mm skin is too thin for
+        // the shear across the dome. The calibrated half-space preset's 0.66 mm skin is too thin for
         // that: its rim/centre ratio falls from 0.314 to 0.302 between 1 and 0.1 MPa.
         let mut sensor = SensorParams::camera_only().expect("the camera-only preset");
         sensor.skin.model = skin;
