@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
 use plotters::prelude::*;
+use tacsim_sim::SensorParams;
 use tacsim_sim::bench::{BenchReport, CurvePoint};
-use tacsim_sim::{SensorParams, SkinModel};
 
 /// `tacsim bench`'s flags.
 #[derive(Clone, Debug, clap::Args)]
@@ -24,11 +24,10 @@ pub struct BenchOptions {
     /// sensor's, 25).
     #[arg(long)]
     pub cells: Option<usize>,
-    /// Elastic body behind the skin for the throughput figures: half-space (default, the
-    /// built-in recipes' body), layer, skin-on-gel or dome (the calibrated TacTip's fitted
-    /// dome, the default sensor).
-    #[arg(long)]
-    pub skin: Option<SkinModel>,
+    /// The sensor timed (default: the half-space preset tactip-331-calibrated, the built-in
+    /// recipes' body; `--skin dome` alone: the default sensor's fitted dome).
+    #[command(flatten)]
+    pub sensor: crate::commands::SensorArgs,
     /// Sub-cells per side of the cells along a sharp edge (the sensor's `skin.edge_subcells`,
     /// 0 to 6; default 3), for the throughput figures and every grid's row; the 65-cell
     /// reference keeps the default.
@@ -63,11 +62,11 @@ pub fn run(o: &BenchOptions) -> Result<String> {
     Ok(if json { serde_json::to_string_pretty(&report)? + "\n" } else { report.table(plot) })
 }
 
-/// The calibrated sensor as fitted for the `--skin` body (the half-space where none is named,
-/// as the built-in recipes run it) with the bench's `--cells`, `--edge-subcells` and cut cells
-/// at edges unless `--no-edge-cuts`.
+/// The sensor of `--sensor`, `--pins` and `--skin` (the half-space preset where none is
+/// named, as the built-in recipes run it) with the bench's `--cells`, `--edge-subcells` and
+/// cut cells at edges unless `--no-edge-cuts`.
 fn bench_sensor(o: &BenchOptions) -> Result<SensorParams> {
-    let mut sensor = SensorParams::calibrated_for(o.skin.unwrap_or(SkinModel::HalfSpace));
+    let mut sensor = o.sensor.load_or(SensorParams::half_space)?;
     sensor.skin.cut_edges = !o.no_edge_cuts;
     if let Some(n) = o.cells {
         sensor.skin.cells_across = n;

@@ -30,7 +30,8 @@ pub struct SensorArgs {
     /// Sensor TOML or built-in preset (tactip-331-calibrated, tactip-331-camera,
     /// tactip-331-edge2d, tactip-331-dome, tactip-331-edge2d-dome; default: tactip-331-dome,
     /// the TacTip calibrated to the lab's flat-surface recordings with its finite-element
-    /// dome; with --skin alone, that TacTip as fitted for the body named).
+    /// dome, on `run` and `bench` tactip-331-calibrated, the same TacTip over a half-space;
+    /// with --skin alone, that TacTip as fitted for the body named).
     #[arg(long)]
     pub sensor: Option<PathBuf>,
     /// Pin count, centred hexagonal (331 default, 127, ...).

@@ -118,7 +118,7 @@ const RECIPES: [&str; 3] = [
 /// Every numeric flag of the commands, `{}` standing for the value. Each command's output is
 /// one it cannot write (a path under /proc) or its input an empty folder, so that an accepted
 /// value ends at that check instead of running the command's whole work.
-const FLAGS: [&str; 28] = [
+const FLAGS: [&str; 29] = [
     "render -o OUT --size {}",
     "render -o OUT --pins {}",
     "render -o OUT --seed {} --grey",
@@ -135,6 +135,7 @@ const FLAGS: [&str; 28] = [
     "bench --plot /proc/tacsim-fuzz.svg --samples {}",
     "bench --plot /proc/tacsim-fuzz.svg --cells {}",
     "bench --plot /proc/tacsim-fuzz.svg --edge-subcells {}",
+    "bench --plot /proc/tacsim-fuzz.svg --pins {}",
     "train posenet --data EMPTY --out OUT --epochs {}",
     "train posenet --data EMPTY --out OUT --batch {}",
     "train posenet --data EMPTY --out OUT --size {}",
