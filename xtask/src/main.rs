@@ -4,7 +4,7 @@
 //! - `fit-camera [--real PNG]`: fit the camera and ring layout to the lab's undeformed
 //!   reference image and write `sim/presets/tactip-331-camera.toml` (the calibration's start);
 //! - `real-compare [--real DIR] [--sensor FILE] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM]
-//!   [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM]
+//!   [--pivot-offset X,Y] [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM]
 //!   [--cells N] [--frame DEG[m][r]|auto] [--dump FILE]`: track the lab's recordings and compare the
 //!   simulated pin motion of one parameter set with the real one (undeformed positions, radial
 //!   profiles by depth, the label frame found from the data, used with `--frame auto`, the
@@ -131,6 +131,9 @@ struct RealCompareArgs {
     /// Tilt pivot above the apex (mm).
     #[arg(long, value_name = "MM")]
     pivot: Option<f64>,
+    /// The tilt pivot's offset off the sensor's axis (mm, `X,Y`), as `tacsim calibrate` fits it.
+    #[arg(long, value_name = "X,Y", allow_hyphen_values = true)]
+    pivot_offset: Option<String>,
     /// The rig's yield under load (mm^-0.5).
     #[arg(long, value_name = "C")]
     depth_compliance: Option<f64>,
@@ -370,6 +373,11 @@ fn compared_model(args: &RealCompareArgs, reference: &Reference) -> Result<(Sens
         if let Some(v) = value {
             *field = v;
         }
+    }
+    if let Some(xy) = &args.pivot_offset {
+        let parsed: Vec<f64> = xy.split(',').map(|v| v.trim().parse()).collect::<Result<_, _>>().unwrap_or_default();
+        let [x, y] = parsed[..] else { bail!("--pivot-offset {xy}: expected two numbers in mm, `X,Y`") };
+        d.pivot_offset_mm = [x, y];
     }
     Ok((base, d))
 }
