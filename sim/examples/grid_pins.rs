@@ -7,14 +7,18 @@
 //! on every grid, where the contact ends.
 //!
 //! ```text
-//! cargo run --release -p tacsim-sim --example grid_pins -- [BODY] [TAPS] [flat|rim] [SUBSQUARES] [FRICTION] [EDGE_SUBCELLS]
+//! cargo run --release -p tacsim-sim --example grid_pins -- [BODY] [TAPS] [flat|rim] [SUBSQUARES] [FRICTION] [EDGE_SUBCELLS] [SEED] [SENSOR]
 //! ```
 //! `BODY` `half-space`, `layer`, `skin-on-gel` or `dome` (default `dome`, built once into the
 //! cache folder); `TAPS` (default 40); `SUBSQUARES` the pins' sub-squares per side of a near
 //! cell (default the model's, 3); `FRICTION` the disk's friction coefficient (default the
 //! built-in disk's; `-` for it); `EDGE_SUBCELLS` the sub-cells a side of the compared grids'
-//! refined cells (`skin.edge_subcells`; the 65-cell reference keeps the default, 3). The
-//! calibrated half-space sensor with that body.
+//! refined cells (`skin.edge_subcells`; the 65-cell reference keeps the default, 3; `-` for
+//! it); `SEED` the taps' seed (default the bench's); `SENSOR` a preset or sensor file whose
+//! skin, dome and pins are taken (default the calibrated half-space preset), with `BODY` as its
+//! skin's model. For each grid the three worst pins are printed too: the tap, its depth, the
+//! pin's tip at rest (mm, sensor frame) and its distance from the disk's rim (mm, positive
+//! over the disk).
 
 #[allow(dead_code)]
 // `support::model_at` and `support::tractions_hash` serve the timing examples, `support::dome_mesh` the dome's.
@@ -29,16 +33,24 @@ const GRIDS: [usize; 7] = [13, 17, 19, 25, 33, 49, 65];
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let body = args.first().map_or("dome", String::as_str);
-    let mut sensor = SensorParams::half_space();
+    let mut sensor = match args.get(7) {
+        None => SensorParams::half_space(),
+        Some(name) if std::path::Path::new(name).exists() => SensorParams::load(std::path::Path::new(name))?,
+        Some(name) => SensorParams::preset(name)?,
+    };
     sensor.skin.model = body.parse::<SkinModel>().map_err(|e| format!("argument 1: {e}"))?;
     let n = support::whole(&args, 1, 40)?;
+    let seed = match args.get(6) {
+        Some(s) => s.parse().map_err(|_| format!("argument 7: `{s}` is not a seed (a whole number)"))?,
+        None => tacsim_sim::bench::SAMPLES_SEED,
+    };
     let taps = match args.get(2).map_or("flat", String::as_str) {
-        "flat" => tacsim_sim::bench::samples(n, tacsim_sim::bench::SAMPLES_SEED),
-        "rim" => tacsim_sim::bench::rim_samples(n, tacsim_sim::bench::SAMPLES_SEED),
+        "flat" => tacsim_sim::bench::samples(n, seed),
+        "rim" => tacsim_sim::bench::rim_samples(n, seed),
         other => return Err(format!("argument 3: `{other}` is neither `flat` nor `rim`").into()),
     };
     let subsquares = args.get(3).map(|_| support::whole(&args, 3, 3)).transpose()?;
-    let edge_subcells = args.get(5).map(|_| support::whole(&args, 5, 3)).transpose()?;
+    let edge_subcells = args.get(5).filter(|a| *a != "-").map(|_| support::whole(&args, 5, 3)).transpose()?;
     let scene = match args.get(4).filter(|f| *f != "-") {
         Some(f) => {
             let friction: f64 = f.parse().map_err(|_| format!("argument 5: `{f}` is not a number"))?;
@@ -89,11 +101,54 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "{cells:>3} cells: largest {largest:.4}, rms {rms:.4}; cell by cell: largest {exact:.4}; the blocks' part {blocks:.4}"
         );
     }
+    let rest = Simulation::new(&ContactModel::new(&sensor)?, &scene, &[taps[0].0]).pins();
+    for (cells, run) in GRIDS.iter().zip(&runs) {
+        worst_pins(*cells, run, reference, &taps, &rest);
+    }
     println!("pressure (MPa) at x (mm) along y = 0, x < -6 mm, first tap:");
     for (cells, p) in GRIDS.iter().zip(&profiles) {
         println!("{cells:>3} cells: {p}");
     }
     Ok(())
+}
+
+/// The three worst pins of a grid's `run` against the `reference`: the error (mm), the tap and
+/// its depth, the pin and its tip at `rest` (sensor frame, mm), its distance from the disk's
+/// rim (mm, the disk 50 mm in radius at the origin; positive past it), the error and the
+/// reference's motion (mm).
+fn worst_pins(
+    cells: usize,
+    run: &[(Vec<PinPose>, Vec<PinPose>)],
+    reference: &[(Vec<PinPose>, Vec<PinPose>)],
+    taps: &[(tacsim_sim::SensorPose, [f64; 2])],
+    rest: &[PinPose],
+) {
+    let mut all = Vec::new();
+    for (t, ((pins, _), (_, truth))) in run.iter().zip(reference).enumerate() {
+        for (i, (a, b)) in pins.iter().zip(truth).enumerate() {
+            all.push(((a.tip - b.tip).norm(), t, i, a.tip - b.tip, b.tip - rest[i].tip));
+        }
+    }
+    all.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for (e, t, i, d, m) in all.iter().take(3) {
+        let (pose, _) = taps[*t];
+        let r = rest[*i].tip;
+        let yaw = pose.yaw_deg.to_radians();
+        let (x, y) = (pose.x_mm + r.x * yaw.cos() - r.y * yaw.sin(), pose.y_mm + r.x * yaw.sin() + r.y * yaw.cos());
+        println!(
+            "{cells} cells: error {e:.3} tap {t} depth {:.2} pin {i} at ({:.2}, {:.2}) rim {:+.3}; error ({:+.3}, {:+.3}, {:+.3}), motion ({:+.3}, {:+.3}, {:+.3})",
+            pose.depth_mm,
+            r.x,
+            r.y,
+            x.hypot(y) - 50.0,
+            d.x,
+            d.y,
+            d.z,
+            m.x,
+            m.y,
+            m.z
+        );
+    }
 }
 
 /// The pressure of the cells on the footprint's `x` axis left of `x = -6` mm, as `x:p` pairs.

@@ -282,6 +282,7 @@ impl<'a> Simulation<'a> {
             qy: &self.contact.qy,
             cuts: &self.cuts,
             contact_edge,
+            profile: self.model.edge_profile,
         };
         let gaps = |points: &[[f64; 2]]| {
             hits_at(self.model, self.scene, &self.frame, pose, points.iter().map(|c| (*c, true)))
@@ -390,6 +391,7 @@ impl<'a> Simulation<'a> {
 
 #[cfg(test)]
 mod tests {
+    use crate::contact::geometry::cut::EdgeProfile;
     use crate::contact::geometry::footprint::contact_disk_grid;
     use crate::sensor::{SensorParams, SkinModel};
 
@@ -726,6 +728,35 @@ mod tests {
             (largest_tip_difference(&plain, &reference), largest_tip_difference(&refined, &reference));
         assert!(before > 0.1 && after < 0.03, "17 cells against 49: {before} mm plain, {after} mm refined");
         assert_eq!(pins(SkinModel::HalfSpace, 17, crate::DEFAULT_EDGE_SUBCELLS).1, 0, "a flat tap on a half-space");
+    }
+
+    /// Regression (issue 85): on a skin over a gel a stimulus's sharp edge loads the skin as a
+    /// line load, gathered within a fraction of its thickness, but each cut cell took a
+    /// half-space's singular profile and put its force a third of its covered width in; the
+    /// pins under the edge turned with where the grid put that load: on one of the bench's
+    /// worst taps across the disk's rim (4.9 mm deep, the calibrated half-space preset's 0.66 mm
+    /// skin) 17 cells were 0.311 mm off 49 cells' (every cell on every pin). With the skin's
+    /// profile ([`EdgeProfile::of_skin`]) 0.176 mm.
+    #[test]
+    fn a_skins_load_along_a_sharp_edge_gathers_at_the_edge() {
+        let scene = scene_of("disk");
+        // The bench's rim tap 30 of 40 (`tacsim_sim::bench::rim_samples`).
+        let pose = SensorPose::new(50.93734347195456, 2.4020248331089347, 4.880514260115042, -8.187009015325515);
+        let pins = |cells: usize, profile: Option<EdgeProfile>| {
+            let mut sensor = SensorParams::half_space();
+            (sensor.skin.model, sensor.skin.cells_across) = (SkinModel::SkinOnGel, cells);
+            let mut model = ContactModel::new(&sensor).expect("contact model");
+            if let Some(p) = profile {
+                model.edge_profile = p;
+            }
+            let mut sim = Simulation::new(&model, &scene, &[pose]);
+            sim.step(pose).expect("solved");
+            sim.pins_exact()
+        };
+        let singular = Some(EdgeProfile::SINGULAR);
+        let before = largest_tip_difference(&pins(17, singular), &pins(49, singular));
+        let after = largest_tip_difference(&pins(17, None), &pins(49, None));
+        assert!(before > 0.25 && after < 0.2, "17 cells against 49: {before} mm singular, {after} mm the skin's");
     }
 
     /// The sensor's `skin.edge_subcells` sets the model's sub-cells: none refine with 0, and

@@ -9,6 +9,7 @@ use super::body::kernel::Elastic;
 use super::body::layered::{Layer, LayeredBody, LayeredKernels};
 use super::body::operator::{HalfSpace, Operator, Pairing};
 use super::body::{DomeContact, ElasticBody};
+use super::geometry::cut::EdgeProfile;
 use super::geometry::grid::Grid;
 use super::geometry::refine::FineGrids;
 use super::pins::motion::PIN_SUBSQUARES;
@@ -42,6 +43,10 @@ pub struct ContactModel {
     /// Sub-cells per side of the cells along a sharp edge, solved again for the pins
     /// (`refine.rs`; 0 or 1: none): the sensor's `skin.edge_subcells`.
     pub edge_subcells: usize,
+    /// The pressure's profile across a stimulus's sharp edge: the singular one on a
+    /// half-space and a layer, decaying over a fraction of the skin's thickness on a skin over
+    /// a gel and the dome ([`EdgeProfile::of_skin`]).
+    pub(in crate::contact) edge_profile: EdgeProfile,
     /// The sub-cells' fine grids, shared by the model's simulations.
     pub(in crate::contact) fine_grids: FineGrids,
     /// The operators built on the paths' grids, kept for the next path on a grid of the same
@@ -95,6 +100,10 @@ impl ContactModel {
             coupling_iterations: 4,
             pin_subsquares: PIN_SUBSQUARES,
             edge_subcells: sensor.skin.edge_subcells,
+            edge_profile: match skin.model {
+                SkinModel::HalfSpace | SkinModel::Layer => EdgeProfile::SINGULAR,
+                SkinModel::SkinOnGel | SkinModel::Dome => EdgeProfile::of_skin(t),
+            },
             fine_grids: FineGrids::default(),
             operators: KeptOperators::default(),
         })

@@ -9,7 +9,7 @@
 //! frame). The covered part is taken as a rectangle of the cell's side across the edge's
 //! direction and `phi h` along it (`phi` the covered fraction), at the covered part's
 //! centroid, loaded with the edge's singular profile across it (`p ~ s^(-1/2)` at a distance
-//! `s` from the edge), whose force acts a third of the width in from the edge
+//! `s` from the edge, a half-space's), whose force acts a third of the width in from the edge
 //! ([`Cut::load_point_mm`]):
 //! - its gap is the gap at that point, where its own load acts (at the centroid instead, the
 //!   bench's rim taps were 0.212 / 0.080 mm off 65 cells on 13 / 25 cells, against 0.196 /
@@ -25,6 +25,13 @@
 //! - the cells next to it see its coupling to them ([`CutCoupling`]); the pins see its force
 //!   at the sub-cells of a second solve along the edge ([`crate::contact::geometry::refine`]; with the profile
 //!   of `pins::motion::edge_profile` without it).
+//!
+//! On a body with a skin the edge's pressure is the skin's line load, gathered within a fraction
+//! of its thickness: there the profile is `p ~ s^(-1/2) exp(-s / lambda)` ([`EdgeProfile`]),
+//! its centroid nearer the edge than a third, and every place above takes it. On the bench's
+//! rim taps with the calibrated preset's 0.66 mm skin over a gel it took the pins' largest
+//! error against 65 cells from 0.436 / 0.332 / 0.196 mm to 0.305 / 0.207 / 0.092 at 13 / 17 /
+//! 25 cells (`docs/guide/fem.md`, "The contact grid").
 //!
 //! Every value is continuous in the edge's position as long as the edge stays in the cell; as
 //! the cell becomes whole its load point moves from a third of the side in from its border to
@@ -54,13 +61,15 @@ pub(crate) struct Cut {
     /// The edge's line `d + a u + b v = 0` as `[d, a, b]` (mm, and per mm of the offsets
     /// `(u, v)` from the cell's centre): the half-plane it was found from.
     pub line: [f64; 3],
+    /// The pressure's profile across the edge (the body's).
+    pub profile: EdgeProfile,
 }
 
 impl Cut {
     /// The cut of a square cell of side `side_mm` by the half-plane `d + a u + b v < 0`
-    /// (offsets `(u, v)` from its centre, mm): `None` when the cell is wholly on one side
-    /// (within `1e-9` of its area).
-    pub(crate) fn of_half_plane(side_mm: f64, d: f64, a: f64, b: f64) -> Option<Self> {
+    /// (offsets `(u, v)` from its centre, mm), loaded with `profile` across the edge: `None`
+    /// when the cell is wholly on one side (within `1e-9` of its area).
+    pub(crate) fn of_half_plane(side_mm: f64, d: f64, a: f64, b: f64, profile: EdgeProfile) -> Option<Self> {
         // Integrate exactly along the axis the line is steepest in: `w` along it, `s` across.
         let along_x = steepest_axis(a, b) == 0;
         let (g_across, g_along) = if along_x { (b, a) } else { (a, b) };
@@ -90,17 +99,23 @@ impl Cut {
             if along_x { ([cw, cs], [fraction * h, h]) } else { ([cs, cw], [h, fraction * h]) };
         let toward = g_along.signum();
         let toward_edge = if along_x { [toward, 0.0] } else { [0.0, toward] };
-        Some(Self { fraction, centroid_mm, sides_mm, toward_edge, line: [d, a, b] })
+        Some(Self { fraction, centroid_mm, sides_mm, toward_edge, line: [d, a, b], profile })
     }
 
     /// Where the edge's profile puts the cell's force (offset from the cell's centre, mm, grid
-    /// frame): a third of the covered width in from the edge across it (`p ~ s^(-1/2)`, the
-    /// module's docs), at the covered part's centroid along it. The pins see the force there
+    /// frame): the profile's centroid across the covered width (a third of it in from the edge
+    /// where `p ~ s^(-1/2)`, the module's docs; nearer on a skin, [`EdgeProfile`]), at the
+    /// covered part's centroid along it. The pins see the force there
     /// (`pins::motion::edge_profile`), and the cell's gap and displacement are taken there.
     pub(crate) fn load_point_mm(&self) -> [f64; 2] {
         let mut point = self.centroid_mm;
         let (axis, t) = self.across();
-        point[axis] += t * self.sides_mm[axis] * (0.5 - 1.0 / 3.0);
+        let w = self.sides_mm[axis];
+        point[axis] += if self.profile.decay_mm.is_finite() {
+            t * (0.5 * w - self.profile.centroid_mm(0.0, w))
+        } else {
+            t * w * (0.5 - 1.0 / 3.0)
+        };
         point
     }
 
@@ -131,6 +146,106 @@ pub(crate) fn profile_centroid_mm(w: f64, h: f64) -> f64 {
     ((w + h).powf(1.5) - w.powf(1.5)) / (3.0 * ((w + h).sqrt() - w.sqrt()))
 }
 
+/// The pressure's profile across a sharp edge, `p(s) ~ s^(-1/2) exp(-s / decay_mm)` at a
+/// distance `s` (mm) from it: a rigid punch's singular edge (Johnson 1985 sec. 2.8) where
+/// `decay_mm` is infinite, the half-space's, and on a body with a skin a line load the skin
+/// gathers within a fraction of its thickness ([`EdgeProfile::of_skin`]).
+///
+/// With `s = u^2` the force over a band is `2 int exp(-u^2 / decay) du`, so every figure here
+/// is in closed form through `erfc`: the centroid of the band `u` in `[a, b]` is
+/// ```text
+/// s_c = decay / 2 - (decay / 2) (b e^(-b^2 / decay) - a e^(-a^2 / decay)) / int_a^b e^(-u^2 / decay) du
+/// ```
+/// and the equal-force strips' bounds are found by bisection on the integral.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct EdgeProfile {
+    /// The line load's decay length (mm; infinite: the singular profile alone).
+    pub decay_mm: f64,
+}
+
+impl EdgeProfile {
+    /// A half-space's: `p ~ s^(-1/2)` all the way.
+    pub(crate) const SINGULAR: Self = Self { decay_mm: f64::INFINITY };
+
+    /// The profile across a stimulus's edge on a skin `thickness_mm` thick over a softer body:
+    /// decaying over [`DECAY_PER_SKIN`] of the thickness.
+    pub(crate) fn of_skin(thickness_mm: f64) -> Self {
+        Self { decay_mm: DECAY_PER_SKIN * thickness_mm }
+    }
+
+    /// The same profile on lengths `1 / unit_mm` as large (a grid in units of `unit_mm`).
+    pub(crate) fn in_units(self, unit_mm: f64) -> Self {
+        Self { decay_mm: self.decay_mm / unit_mm }
+    }
+
+    /// The profile's force over `u` in `[0, u]` (`s = u^2`), up to a constant factor.
+    fn force_to(&self, u: f64) -> f64 {
+        let r = self.decay_mm.sqrt();
+        0.5 * std::f64::consts::PI.sqrt() * r * (1.0 - libm::erfc(u / r))
+    }
+
+    /// The centroid's distance from the edge (mm) of the band from `w` to `w + h` off it.
+    /// Singular: [`profile_centroid_mm`]; where the band is short against the decay, the
+    /// same to within `1e-12` of its width.
+    pub(crate) fn centroid_mm(&self, w: f64, h: f64) -> f64 {
+        let (a, b) = (w.sqrt(), (w + h).sqrt());
+        if !self.decay_mm.is_finite() || b * b < 1e-6 * self.decay_mm {
+            return profile_centroid_mm(w, h);
+        }
+        let k = self.decay_mm;
+        let r = k.sqrt();
+        let force = 0.5 * std::f64::consts::PI.sqrt() * r * (libm::erfc(a / r) - libm::erfc(b / r));
+        let moment = 0.5 * k * (force - (b * (-b * b / k).exp() - a * (-a * a / k).exp()));
+        moment / force
+    }
+
+    /// The centroids' distances from the edge (mm) of `n` strips of equal force across a band
+    /// `width` mm wide that starts at the edge, nearest the edge first: singular,
+    /// `width (3 i^2 + 3 i + 1) / (3 n^2)`.
+    pub(crate) fn strip_centroids_mm(&self, width: f64, n: usize) -> Vec<f64> {
+        let bounds = self.strip_bounds_mm(width, n);
+        bounds.windows(2).map(|b| self.centroid_mm(b[0], b[1] - b[0])).collect()
+    }
+
+    /// The bounds (mm from the edge, `n + 1` of them, `0` to `width`) of `n` strips of equal
+    /// force across a band `width` wide that starts at the edge: singular, `width (i / n)^2`.
+    pub(crate) fn strip_bounds_mm(&self, width: f64, n: usize) -> Vec<f64> {
+        let nf = n as f64;
+        if !self.decay_mm.is_finite() {
+            return (0..=n).map(|i| width * (i as f64 / nf).powi(2)).collect();
+        }
+        let top = width.sqrt();
+        let whole = self.force_to(top);
+        (0..=n)
+            .map(|i| {
+                if i == 0 || i == n {
+                    return width * (i as f64 / nf).powi(2);
+                }
+                let target = whole * i as f64 / nf;
+                let (mut lo, mut hi) = (0.0, top);
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    if self.force_to(mid) < target { lo = mid } else { hi = mid }
+                }
+                (0.5 * (lo + hi)).powi(2)
+            })
+            .collect()
+    }
+}
+
+/// The edge profile's decay length on a skin over a softer body, as a fraction of the skin's
+/// thickness ([`EdgeProfile::of_skin`]). On a skin the rim's pressure is a line load: on 65
+/// cells 0.32-0.45 MPa in the column at the edge, 0.17 in the next, about 0.05 inside
+/// (`docs/experiments/fem-dome.md`), where the singular profile keeps a third of the first
+/// column's. Chosen on the bench's 40 rim taps with the calibrated half-space preset's skin
+/// (0.66 mm) over a gel (`cargo run --release -p tacsim-sim --example grid_pins --
+/// skin-on-gel 40 rim`): the largest pin error against 65 cells at 13 / 17 / 19 / 25 / 33
+/// cells 0.305 / 0.207 / 0.172 / 0.092 / 0.064 mm, 0.436 / 0.332 / 0.283 / 0.196 / 0.091 with
+/// the singular profile; decays of 0.2 to 1.0 mm (0.3 to 1.5 of the skin) tried with the load
+/// points alone, 0.3-0.4 mm best (`docs/experiments/fem-dome.md`); on other taps and the
+/// fitted dome's 1.86 mm skin: `docs/guide/fem.md`, "The contact grid".
+pub(crate) const DECAY_PER_SKIN: f64 = 0.45;
+
 /// The grid axis (0 for `x`, 1 for `y`) along which the line `d + a u + b v = 0` changes
 /// fastest: the one a cut is taken across.
 fn steepest_axis(a: f64, b: f64) -> usize {
@@ -141,7 +256,7 @@ fn steepest_axis(a: f64, b: f64) -> usize {
 /// covered side of an edge, `d` (mm, as [`Cut::line`]'s, at the square's centre; `(a, b)` its
 /// change per mm of the grid's `x, y`) the edge's line there: for the square right behind the
 /// edge (its side nearest the edge within one side of it, across [`steepest_axis`], as a cut
-/// is taken) the centroid of the edge's profile over it ([`profile_centroid_mm`]), zero for
+/// is taken) the centroid of the edge's `profile` over it ([`EdgeProfile::centroid_mm`]), zero for
 /// the others and past the edge.
 ///
 /// A cut square carries that profile over its covered part (its load a third of the covered
@@ -154,7 +269,7 @@ fn steepest_axis(a: f64, b: f64) -> usize {
 /// side (0.4 and 0.7 of its cell), against 0.017-0.028 elsewhere (regression test
 /// `a_whole_sub_cell_behind_the_edge_takes_its_force_where_the_profile_puts_it`;
 /// `docs/experiments/contact.md`, "The edge's profile behind a cut sub-cell").
-pub(crate) fn behind_edge_mm(d: f64, [a, b]: [f64; 2], side_mm: f64) -> [f64; 2] {
+pub(crate) fn behind_edge_mm(d: f64, [a, b]: [f64; 2], side_mm: f64, profile: EdgeProfile) -> [f64; 2] {
     let axis = steepest_axis(a, b);
     let slope = [a, b][axis];
     // The square's centre lies `t` from the edge across `axis`, its nearer side `w`.
@@ -163,7 +278,7 @@ pub(crate) fn behind_edge_mm(d: f64, [a, b]: [f64; 2], side_mm: f64) -> [f64; 2]
     let mut offset = [0.0; 2];
     if d < 0.0 && (0.0..side_mm).contains(&w) {
         // Towards the edge: along `axis`, the way `d` grows.
-        offset[axis] = (t - profile_centroid_mm(w, side_mm)) * slope.signum();
+        offset[axis] = (t - profile.centroid_mm(w, side_mm)) * slope.signum();
     }
     offset
 }
@@ -274,13 +389,17 @@ struct Patch {
     sides: [f64; 2],
     /// A cut cell's axis across the edge and its direction towards it.
     toward_edge: Option<(usize, f64)>,
+    /// A cut cell's profile across the edge, in cell units.
+    profile: EdgeProfile,
 }
 
 impl Patch {
     fn of(i: usize, j: usize, cut: Option<&Cut>, cell_mm: f64) -> Self {
         let centre = [i as f64, j as f64];
         match cut {
-            None => Self { centre, field: centre, sides: [1.0, 1.0], toward_edge: None },
+            None => {
+                Self { centre, field: centre, sides: [1.0, 1.0], toward_edge: None, profile: EdgeProfile::SINGULAR }
+            }
             Some(c) => {
                 let in_cells =
                     |offset_mm: [f64; 2]| [centre[0] + offset_mm[0] / cell_mm, centre[1] + offset_mm[1] / cell_mm];
@@ -289,6 +408,7 @@ impl Patch {
                     field: in_cells(c.load_point_mm()),
                     sides: c.sides_mm.map(|v| v / cell_mm),
                     toward_edge: Some(c.across()),
+                    profile: c.profile.in_units(cell_mm),
                 }
             }
         }
@@ -316,7 +436,8 @@ impl Patch {
             std::array::from_fn::<f64, 4, _>(|m| p[m] - q[m])
         };
         let edge = 0.5 * toward * across;
-        let at = |b: usize| edge - toward * across * (b as f64 / strips as f64).powi(2);
+        let bounds = source.profile.strip_bounds_mm(across, strips);
+        let at = |b: usize| edge - toward * bounds[b];
         let mut sum = [0.0; 4];
         let mut last = (at(0), g(at(0)));
         for b in 1..=strips {
@@ -337,6 +458,46 @@ impl Patch {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The decaying profile's band centroids and equal-force strips against a fine midpoint
+    /// sum of `s^(-1/2) exp(-s / decay)` (with `s = u^2`), and the singular profile's closed
+    /// forms where the decay is infinite or long against the band.
+    #[test]
+    fn the_edge_profiles_centroids_and_strips_match_its_integral() {
+        let p = EdgeProfile { decay_mm: 0.3 };
+        let sums = |w: f64, h: f64| {
+            let (a, b, n) = (w.sqrt(), (w + h).sqrt(), 100_000);
+            let du = (b - a) / n as f64;
+            (0..n).fold((0.0, 0.0), |(f, m), i| {
+                let u = a + (i as f64 + 0.5) * du;
+                let g = (-u * u / p.decay_mm).exp() * du;
+                (f + g, m + g * u * u)
+            })
+        };
+        for (w, h) in [(0.0, 0.1), (0.0, 0.67), (0.2, 0.5), (1.0, 2.0), (3.0, 1.0)] {
+            let (f, m) = sums(w, h);
+            let c = p.centroid_mm(w, h);
+            assert!((c - m / f).abs() < 1e-6 * h && c > w && c < w + h, "band {w} + {h}: {c} against {}", m / f);
+            // Nearer the band's start than the singular profile's.
+            assert!(c < profile_centroid_mm(w, h), "band {w} + {h}");
+        }
+        let width = 0.67;
+        let bounds = p.strip_bounds_mm(width, 3);
+        let whole = sums(0.0, width).0;
+        assert_eq!((bounds[0], bounds[3]), (0.0, width));
+        for (i, b) in bounds.windows(2).enumerate() {
+            assert!((sums(b[0], b[1] - b[0]).0 - whole / 3.0).abs() < 1e-6 * whole, "strip {i}: {bounds:?}");
+        }
+        let singular = EdgeProfile::SINGULAR;
+        for (i, c) in singular.strip_centroids_mm(width, 3).iter().enumerate() {
+            let fi = i as f64;
+            assert!((c - width * (3.0 * fi * fi + 3.0 * fi + 1.0) / 27.0).abs() < 1e-12, "singular strip {i}");
+        }
+        assert_eq!(singular.strip_bounds_mm(width, 2), vec![0.0, width / 4.0, width]);
+        let long = EdgeProfile { decay_mm: 1e9 };
+        assert!((long.centroid_mm(0.0, width) - width / 3.0).abs() < 1e-9);
+        assert!((long.centroid_mm(0.5, width) - profile_centroid_mm(0.5, width)).abs() < 1e-9);
+    }
     use crate::contact::algebra::matrix::{CellProduct, MatrixCache};
     use crate::contact::body::kernel::Elastic;
     use crate::contact::body::operator::{Component, HalfSpace, Operator, Pairing};
@@ -348,16 +509,16 @@ mod tests {
     fn an_edge_along_y_covers_the_width_on_its_side() {
         let h = 0.8;
         // Covered where `x - 0.1 < 0`: `u` from -0.4 to 0.1.
-        let c = Cut::of_half_plane(h, -0.1, 1.0, 0.0).expect("cut");
+        let c = Cut::of_half_plane(h, -0.1, 1.0, 0.0, EdgeProfile::SINGULAR).expect("cut");
         assert!((c.fraction - 0.625).abs() < 1e-12, "{c:?}");
         assert!((c.centroid_mm[0] - -0.15).abs() < 1e-12 && c.centroid_mm[1].abs() < 1e-12, "{c:?}");
         assert!((c.sides_mm[0] - 0.5).abs() < 1e-12 && (c.sides_mm[1] - h).abs() < 1e-12, "{c:?}");
         // Material on the other side: the mirror image.
-        let m = Cut::of_half_plane(h, -0.1, -1.0, 0.0).expect("cut");
+        let m = Cut::of_half_plane(h, -0.1, -1.0, 0.0, EdgeProfile::SINGULAR).expect("cut");
         assert!((m.fraction - 0.625).abs() < 1e-12 && (m.centroid_mm[0] - 0.15).abs() < 1e-12, "{m:?}");
         // Wholly in or out.
-        assert_eq!(Cut::of_half_plane(h, -0.5, 1.0, 0.0), None);
-        assert_eq!(Cut::of_half_plane(h, 0.5, 1.0, 0.0), None);
+        assert_eq!(Cut::of_half_plane(h, -0.5, 1.0, 0.0, EdgeProfile::SINGULAR), None);
+        assert_eq!(Cut::of_half_plane(h, 0.5, 1.0, 0.0, EdgeProfile::SINGULAR), None);
     }
 
     /// A diagonal edge through the centre covers half the cell, its centroid on the covered
@@ -367,7 +528,7 @@ mod tests {
     fn a_diagonal_edge_covers_a_triangle() {
         let h = 1.0;
         let s = std::f64::consts::FRAC_1_SQRT_2;
-        let c = Cut::of_half_plane(h, 0.0, s, s).expect("cut");
+        let c = Cut::of_half_plane(h, 0.0, s, s, EdgeProfile::SINGULAR).expect("cut");
         assert!((c.fraction - 0.5).abs() < 1e-12, "{c:?}");
         // The triangle (-1/2, -1/2), (1/2, -1/2), (-1/2, 1/2): centroid (-1/6, -1/6).
         for v in c.centroid_mm {
@@ -384,7 +545,8 @@ mod tests {
         let mut last = 1.0;
         for i in 0..=200 {
             let d = -0.75 + 1.5 * i as f64 / 200.0;
-            let f = Cut::of_half_plane(h, d, a, b).map_or(if d < 0.0 { 1.0 } else { 0.0 }, |c| c.fraction);
+            let f = Cut::of_half_plane(h, d, a, b, EdgeProfile::SINGULAR)
+                .map_or(if d < 0.0 { 1.0 } else { 0.0 }, |c| c.fraction);
             assert!((f - last).abs() <= 1.5 / 200.0 * 1.2, "d {d}: {f} after {last}");
             last = f;
         }
@@ -396,7 +558,7 @@ mod tests {
     fn a_smaller_covered_part_is_more_compliant() {
         assert!((compliance_ratio(1.0) - 1.0).abs() < 1e-15);
         assert!((compliance_ratio(0.25) - 2.0).abs() < 1e-15);
-        let c = Cut::of_half_plane(1.0, 0.25, -1.0, 0.0).expect("cut");
+        let c = Cut::of_half_plane(1.0, 0.25, -1.0, 0.0, EdgeProfile::SINGULAR).expect("cut");
         assert!((c.fraction - 0.25).abs() < 1e-12 && (c.extra_compliance() - 1.0).abs() < 1e-12, "{c:?}");
     }
 
@@ -423,7 +585,7 @@ mod tests {
         let h = 0.5;
         // Covered where `u - 0.1 < 0` (mm from the cell's centre): 0.35 mm wide, the edge at
         // u = 0.1 mm.
-        let cut = Cut::of_half_plane(h, -0.1, 1.0, 0.0).expect("cut");
+        let cut = Cut::of_half_plane(h, -0.1, 1.0, 0.0, EdgeProfile::SINGULAR).expect("cut");
         let source = Patch::of(50, 50, Some(&cut), h);
         let force_at = [50.0 + (0.1 - 0.35 / 3.0) / h, 50.0];
         for (i, j) in [(90, 50), (50, 90), (20, 75), (10, 50)] {
@@ -450,7 +612,7 @@ mod tests {
         let cuts: Vec<Option<Cut>> = (0..n * n)
             .map(|k| {
                 let (x, y) = ((k % n) as f64 * h - 1.2, (k / n) as f64 * h - 1.4);
-                Cut::of_half_plane(h, a * x + b * y - 0.12, a, b)
+                Cut::of_half_plane(h, a * x + b * y - 0.12, a, b, EdgeProfile::SINGULAR)
             })
             .collect();
         assert!(cuts.iter().filter(|c| c.is_some()).count() >= n, "the edge must cut a row of cells");
@@ -515,16 +677,16 @@ mod tests {
         // just past the whole square's side, and just past a cut one's whole (the profile's
         // centroid moves as the square root of the gap there: 2e-4 mm at 1e-6 mm).
         let d = -(0.5 * h + 1e-10);
-        let behind = behind_edge_mm(d, [1.0, 0.0], h);
-        let cut = Cut::of_half_plane(h, -(0.5 * h - 1e-6), 1.0, 0.0).expect("barely cut");
+        let behind = behind_edge_mm(d, [1.0, 0.0], h, EdgeProfile::SINGULAR);
+        let cut = Cut::of_half_plane(h, -(0.5 * h - 1e-6), 1.0, 0.0, EdgeProfile::SINGULAR).expect("barely cut");
         assert!((behind[0] - h / 6.0).abs() < 1e-5 && behind[1] == 0.0, "{behind:?}");
         assert!((behind[0] - cut.load_point_mm()[0]).abs() < 1e-5, "{behind:?} {:?}", cut.load_point_mm());
         // The same edge along `y`, the covered side at higher `y`: towards `-y`.
-        let down = behind_edge_mm(d, [0.0, -1.0], h);
+        let down = behind_edge_mm(d, [0.0, -1.0], h, EdgeProfile::SINGULAR);
         assert!((down[1] + h / 6.0).abs() < 1e-5 && down[0] == 0.0, "{down:?}");
         // One square farther in (its side a whole side from the edge), past the edge, far.
-        assert_eq!(behind_edge_mm(d - h, [1.0, 0.0], h), [0.0; 2]);
-        assert_eq!(behind_edge_mm(d + h, [1.0, 0.0], h), [0.0; 2]);
-        assert_eq!(behind_edge_mm(d - 5.0 * h, [1.0, 0.0], h), [0.0; 2]);
+        assert_eq!(behind_edge_mm(d - h, [1.0, 0.0], h, EdgeProfile::SINGULAR), [0.0; 2]);
+        assert_eq!(behind_edge_mm(d + h, [1.0, 0.0], h, EdgeProfile::SINGULAR), [0.0; 2]);
+        assert_eq!(behind_edge_mm(d - 5.0 * h, [1.0, 0.0], h, EdgeProfile::SINGULAR), [0.0; 2]);
     }
 }

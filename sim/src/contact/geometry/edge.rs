@@ -104,7 +104,7 @@ pub(in crate::contact) fn cut_cells(
             nalgebra::Vector2::new(e.tangent[1], -e.tangent[0])
         };
         let (a, b) = (normal.dot(&ux.xy()), normal.dot(&uy.xy()));
-        if let Some(cut) = Cut::of_half_plane(h, d, a, b) {
+        if let Some(cut) = Cut::of_half_plane(h, d, a, b, model.edge_profile) {
             cuts[k] = Some(cut);
             let (c, at) = (grid.centre(k), cut.load_point_mm());
             load_points.push((k, [c[0] + at[0], c[1] + at[1]], dome.inside[k]));

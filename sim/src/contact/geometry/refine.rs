@@ -47,7 +47,7 @@ use std::ops::Range;
 use crate::contact::algebra::matrix::MatrixCache;
 use crate::contact::algebra::precision::Precision;
 use crate::contact::body::operator::{Component, Operator};
-use crate::contact::geometry::cut::{Cut, CutCoupling, behind_edge_mm};
+use crate::contact::geometry::cut::{Cut, CutCoupling, EdgeProfile, behind_edge_mm};
 use crate::contact::geometry::grid::Grid;
 use crate::contact::solve::normal::{self, Control, NormalSettings, ProductChoice};
 
@@ -230,6 +230,8 @@ pub(crate) struct Coarse<'a> {
     pub cuts: &'a [Option<Cut>],
     /// Whether the contact's own edge is refined too (a body with a skin; module docs).
     pub contact_edge: bool,
+    /// The pressure's profile across a stimulus's edge (the body's, mm).
+    pub profile: EdgeProfile,
 }
 
 /// A step's refined cells: each one's loaded sub-cells as point forces (grid frame: positions
@@ -442,16 +444,18 @@ fn subcells(fine: &FineGrid, coarse: &Coarse<'_>, cells: &[usize]) -> Vec<Sub> {
                 // The edge's line at the sub-cell's centre (the cell's own where it is cut).
                 let at = line.map(|[d, da, db]| (d + da * offset_mm[0] + db * offset_mm[1], [da, db]));
                 let sub_cut = match (cut, at) {
-                    (Some(_), Some((d, [da, db]))) => match Cut::of_half_plane(side, d / unit_mm, da, db) {
-                        Some(sub) => Some(sub),
-                        // Wholly past the edge.
-                        None if d > 0.0 => continue,
-                        None => None,
-                    },
+                    (Some(_), Some((d, [da, db]))) => {
+                        match Cut::of_half_plane(side, d / unit_mm, da, db, coarse.profile.in_units(unit_mm)) {
+                            Some(sub) => Some(sub),
+                            // Wholly past the edge.
+                            None if d > 0.0 => continue,
+                            None => None,
+                        }
+                    }
                     _ => None,
                 };
                 let offset_mm = match (sub_cut, at) {
-                    (None, Some((d, slope))) => behind_edge_mm(d, slope, grid.cell_mm / r as f64),
+                    (None, Some((d, slope))) => behind_edge_mm(d, slope, grid.cell_mm / r as f64, coarse.profile),
                     _ => [0.0; 2],
                 };
                 subs.push(Sub { at: (r * ci + a, r * cj + b), cell, cut: sub_cut, offset_mm });
@@ -526,6 +530,17 @@ mod tests {
     use crate::contact::body::kernel::Elastic;
     use crate::contact::body::operator::{HalfSpace, Pairing};
 
+    /// A step's coarse solution with no shear unless given, the half-space's edge profile.
+    fn coarse_of<'a>(
+        grid: &'a Grid,
+        pressure: &'a [f64],
+        shear: &'a [f64],
+        cuts: &'a [Option<Cut>],
+        contact_edge: bool,
+    ) -> Coarse<'a> {
+        Coarse { grid, pressure, qx: shear, qy: shear, cuts, contact_edge, profile: EdgeProfile::SINGULAR }
+    }
+
     fn half_space(grid: Grid) -> Operator {
         let material = Elastic::from_young(1.0, 0.436);
         Operator::new(&HalfSpace { material, pairing: Pairing::RigidIndenter }, grid)
@@ -541,8 +556,7 @@ mod tests {
         let pressure: Vec<f64> =
             (0..grid.len()).map(|k| grid.column_row(k)).map(|(i, j)| if block(i, j) { 0.1 } else { 0.0 }).collect();
         let (zero, cuts) = (vec![0.0; grid.len()], vec![None; grid.len()]);
-        let coarse =
-            |contact_edge| Coarse { grid: &grid, pressure: &pressure, qx: &zero, qy: &zero, cuts: &cuts, contact_edge };
+        let coarse = |contact_edge| coarse_of(&grid, &pressure, &zero, &cuts, contact_edge);
         assert_eq!(refined_cells(&coarse(false)), (vec![], false));
         let (cells, cut) = refined_cells(&coarse(true));
         assert!(!cut);
@@ -577,7 +591,7 @@ mod tests {
         let pressure: Vec<f64> =
             (0..grid.len()).map(|k| grid.column_row(k)).map(|(i, j)| if block(i, j) { 0.1 } else { 0.0 }).collect();
         let (zero, mut cuts) = (vec![0.0; grid.len()], vec![None; grid.len()]);
-        let coarse = Coarse { grid: &grid, pressure: &pressure, qx: &zero, qy: &zero, cuts: &cuts, contact_edge: true };
+        let coarse = coarse_of(&grid, &pressure, &zero, &cuts, true);
         let (cells, cut) = refined_cells(&coarse);
         assert!(!cut);
         let subs = subcells(&fine, &coarse, &cells);
@@ -590,8 +604,8 @@ mod tests {
         let left = 4 * n + 1;
         let kept: Vec<(usize, usize)> = subs.iter().filter(|s| s.cell == left).map(|s| s.at).collect();
         assert_eq!(kept, vec![(5, 12), (5, 13), (5, 14)]);
-        cuts[4 * n + 4] = Cut::of_half_plane(1.0, 0.1, 0.8, 0.6);
-        let coarse = Coarse { grid: &grid, pressure: &pressure, qx: &zero, qy: &zero, cuts: &cuts, contact_edge: true };
+        cuts[4 * n + 4] = Cut::of_half_plane(1.0, 0.1, 0.8, 0.6, EdgeProfile::SINGULAR);
+        let coarse = coarse_of(&grid, &pressure, &zero, &cuts, true);
         assert!(refined_cells(&coarse).1, "a loaded cut cell");
     }
 
@@ -639,10 +653,9 @@ mod tests {
         let pressure = vec![0.1; n * n];
         let shear = vec![0.0; n * n];
         let mut cuts = vec![None; n * n];
-        cuts[4] = Cut::of_half_plane(1.0, 0.1, 0.8, 0.6);
+        cuts[4] = Cut::of_half_plane(1.0, 0.1, 0.8, 0.6, EdgeProfile::SINGULAR);
         assert!(cuts[4].is_some());
-        let coarse =
-            Coarse { grid: &grid, pressure: &pressure, qx: &shear, qy: &shear, cuts: &cuts, contact_edge: false };
+        let coarse = coarse_of(&grid, &pressure, &shear, &cuts, false);
         // A dome's gap: deeper towards the centre.
         let gaps = |points: &[[f64; 2]]| points.iter().map(|[x, y]| 0.02 * (x * x + y * y) - 0.05).collect();
         let converged = NormalSettings::default();

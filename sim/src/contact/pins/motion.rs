@@ -347,7 +347,10 @@ impl CellForces {
 /// an edge: on the bench's worst tap across the disk's rim, 13 cells were 0.46 mm off 65
 /// cells, and 0.045 mm with each cut cell's force spread as 65 cells spread it; with this
 /// profile 0.30 mm (test `a_cut_cells_force_leans_to_the_edge_for_the_pins`,
-/// `docs/experiments/contact.md`, "The edge's profile in the pins").
+/// `docs/experiments/contact.md`, "The edge's profile in the pins"). On a skin the cut's
+/// [`crate::contact::geometry::cut::EdgeProfile`] decays: its strips' centroids, nearer the
+/// edge, are laid out by the quadratic through strips 0, `n / 2` and `n - 1`, exact for the
+/// default 3 sub-squares.
 fn edge_profile(cut: &Cut, n: usize) -> ([f64; 2], [f64; 6]) {
     let nf = n as f64;
     let mut subs = [0.0; 6];
@@ -359,16 +362,44 @@ fn edge_profile(cut: &Cut, n: usize) -> ([f64; 2], [f64; 6]) {
             let step = side / nf;
             subs[axis] = 0.5 * (step - side);
             subs[2 + axis] = step;
-        } else {
+        } else if !cut.profile.decay_mm.is_finite() {
             // Across: from the load point, w / 3 in from the edge ([`Cut::load_point_mm`]),
             // s_i - w / 3 = w (3 i^2 + 3 i + 1 - n^2) / (3 n^2), away from the edge (-t).
             let unit = -t * side / (nf * nf);
             subs[axis] = unit * (1.0 - nf * nf) / 3.0;
             subs[2 + axis] = unit;
             subs[4 + axis] = unit;
+        } else {
+            // A decaying profile: the strips' centroids `s_i` less the load point's, away from
+            // the edge, as the quadratic through strips 0, n / 2 and n - 1 (exact for n <= 3).
+            let s = cut.profile.strip_centroids_mm(side, n);
+            let load = cut.profile.centroid_mm(0.0, side);
+            let v = |i: usize| -t * (s[i] - load);
+            let [first, step, curve] = quadratic_through(n, v);
+            subs[axis] = first;
+            subs[2 + axis] = step;
+            subs[4 + axis] = curve;
         }
     }
     (cut.load_point_mm(), subs)
+}
+
+/// `[c0, c1, c2]` of the quadratic `c0 + c1 i + c2 i^2` through `v(i)` at `i` = 0, `n / 2`
+/// and `n - 1` (through the points there are for `n < 3`).
+fn quadratic_through(n: usize, v: impl Fn(usize) -> f64) -> [f64; 3] {
+    match n {
+        0 | 1 => [v(0), 0.0, 0.0],
+        2 => [v(0), v(1) - v(0), 0.0],
+        _ => {
+            let (m, l) = (n / 2, n - 1);
+            let (x1, x2) = (m as f64, l as f64);
+            let (y0, y1, y2) = (v(0), v(m), v(l));
+            // Divided differences.
+            let d1 = (y1 - y0) / x1;
+            let d2 = ((y2 - y1) / (x2 - x1) - d1) / x2;
+            [y0, d1 - d2 * x1, d2]
+        }
+    }
 }
 
 /// The point forces one point sees, as offsets from it (mm) and forces (N), in lane-sized
@@ -715,6 +746,7 @@ pub(crate) struct PinLoad<'a> {
 mod tests {
     use super::*;
     use crate::contact::body::kernel::Elastic;
+    use crate::contact::geometry::cut::EdgeProfile;
 
     /// A cut cell's sub-squares follow the edge's `s^(-1/2)` profile: equal forces at the
     /// strips' centroids `w (3 i^2 + 3 i + 1) / (3 n^2)` from the edge, whose mean is the
@@ -724,7 +756,7 @@ mod tests {
     fn a_cut_cells_force_leans_to_the_edge_as_its_singular_pressure() {
         let h = 1.2;
         for (d, a, b) in [(-0.1, 1.0, 0.0), (-0.1, -1.0, 0.0), (0.3, 0.1, 1.0), (0.3, 0.1, -1.0)] {
-            let cut = Cut::of_half_plane(h, d, a, b).expect("cut");
+            let cut = Cut::of_half_plane(h, d, a, b, EdgeProfile::SINGULAR).expect("cut");
             let (axis, t) = cut.across();
             let w = cut.sides_mm[axis];
             let edge = cut.centroid_mm[axis] + 0.5 * t * w;
@@ -747,6 +779,29 @@ mod tests {
                     assert!((along - (fi + 0.5 - 0.5 * nf) * side / nf).abs() < 1e-12, "{cut:?} n {n}");
                 }
                 assert!((mean - point[axis]).abs() < 1e-12, "{cut:?} n {n}: mean {mean}");
+            }
+        }
+    }
+
+    /// On a skin the cut cell's force leans further to the edge ([`EdgeProfile::of_skin`]):
+    /// its point at the profile's centroid, nearer than `w / 3`, and with 3 sub-squares a
+    /// side (the default) at the centroids of the profile's three strips of equal force.
+    #[test]
+    fn a_cut_cells_force_on_a_skin_gathers_at_the_edge() {
+        let profile = EdgeProfile::of_skin(0.66);
+        for (d, a, b) in [(-0.1, 1.0, 0.0), (0.3, 0.1, -1.0)] {
+            let cut = Cut::of_half_plane(1.2, d, a, b, profile).expect("cut");
+            let (axis, t) = cut.across();
+            let w = cut.sides_mm[axis];
+            let edge = cut.centroid_mm[axis] + 0.5 * t * w;
+            let (point, subs) = edge_profile(&cut, 3);
+            let from_edge = (edge - point[axis]) * t;
+            assert!((from_edge - profile.centroid_mm(0.0, w)).abs() < 1e-12 && from_edge < 0.9 * w / 3.0, "{cut:?}");
+            let strips = profile.strip_centroids_mm(w, 3);
+            for (i, expected) in strips.iter().enumerate() {
+                let fi = i as f64;
+                let at = point[axis] + subs[axis] + fi * subs[2 + axis] + fi * fi * subs[4 + axis];
+                assert!(((edge - at) * t - expected).abs() < 1e-12, "{cut:?} strip {i}");
             }
         }
     }
