@@ -185,8 +185,8 @@ impl EdgeProfile {
     }
 
     /// The centroid's distance from the edge (mm) of the band from `w` to `w + h` off it.
-    /// Singular: [`profile_centroid_mm`]; where the band is short against the decay, the
-    /// same to within `1e-12` of its width.
+    /// Singular: [`profile_centroid_mm`], which also stands in where the band ends within
+    /// `1e-6` of the decay from the edge (the two part by about that fraction of its width).
     pub(crate) fn centroid_mm(&self, w: f64, h: f64) -> f64 {
         let (a, b) = (w.sqrt(), (w + h).sqrt());
         if !self.decay_mm.is_finite() || b * b < 1e-6 * self.decay_mm {
@@ -235,9 +235,9 @@ impl EdgeProfile {
 
 /// The edge profile's decay length on a skin over a softer body, as a fraction of the skin's
 /// thickness ([`EdgeProfile::of_skin`]). On a skin the rim's pressure is a line load: on 65
-/// cells 0.32-0.45 MPa in the column at the edge, 0.17 in the next, about 0.05 inside
-/// (`docs/experiments/fem-dome.md`), where the singular profile keeps a third of the first
-/// column's. Chosen on the bench's 40 rim taps with the calibrated half-space preset's skin
+/// cells 0.32-0.45 MPa in the column at the edge, 0.17 in the next, about 0.05 in the third
+/// (`docs/experiments/fem-dome.md`), where the singular profile would keep 0.41 and 0.32 of
+/// the first column's. Chosen on the bench's 40 rim taps with the calibrated half-space preset's skin
 /// (0.66 mm) over a gel (`cargo run --release -p tacsim-sim --example grid_pins --
 /// skin-on-gel 40 rim`): the largest pin error against 65 cells at 13 / 17 / 19 / 25 / 33
 /// cells 0.305 / 0.207 / 0.172 / 0.092 / 0.064 mm, 0.436 / 0.332 / 0.283 / 0.196 / 0.091 with
