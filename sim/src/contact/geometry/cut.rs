@@ -178,10 +178,11 @@ impl EdgeProfile {
         Self { decay_mm: self.decay_mm / unit_mm }
     }
 
-    /// The profile's force over `u` in `[0, u]` (`s = u^2`), up to a constant factor.
-    fn force_to(&self, u: f64) -> f64 {
+    /// The profile's force over `u` in `[a, b]` (`s = u^2`), up to a constant factor:
+    /// `int_a^b exp(-u^2 / decay) du`.
+    fn band_force(&self, a: f64, b: f64) -> f64 {
         let r = self.decay_mm.sqrt();
-        0.5 * std::f64::consts::PI.sqrt() * r * (1.0 - libm::erfc(u / r))
+        0.5 * std::f64::consts::PI.sqrt() * r * (libm::erfc(a / r) - libm::erfc(b / r))
     }
 
     /// The centroid's distance from the edge (mm) of the band from `w` to `w + h` off it.
@@ -193,8 +194,7 @@ impl EdgeProfile {
             return profile_centroid_mm(w, h);
         }
         let k = self.decay_mm;
-        let r = k.sqrt();
-        let force = 0.5 * std::f64::consts::PI.sqrt() * r * (libm::erfc(a / r) - libm::erfc(b / r));
+        let force = self.band_force(a, b);
         let moment = 0.5 * k * (force - (b * (-b * b / k).exp() - a * (-a * a / k).exp()));
         moment / force
     }
@@ -215,23 +215,33 @@ impl EdgeProfile {
             return (0..=n).map(|i| width * (i as f64 / nf).powi(2)).collect();
         }
         let top = width.sqrt();
-        let whole = self.force_to(top);
+        let whole = self.band_force(0.0, top);
         (0..=n)
             .map(|i| {
+                let x = i as f64 / nf;
                 if i == 0 || i == n {
-                    return width * (i as f64 / nf).powi(2);
+                    return width * x * x;
                 }
-                let target = whole * i as f64 / nf;
-                let (mut lo, mut hi) = (0.0, top);
-                for _ in 0..60 {
-                    let mid = 0.5 * (lo + hi);
-                    if self.force_to(mid) < target { lo = mid } else { hi = mid }
+                // Newton on `u` from the singular profile's bound (`u = x top`), the force's
+                // derivative the density `exp(-u^2 / decay)`; kept within `[0, top]`.
+                let target = whole * x;
+                let mut u = x * top;
+                for _ in 0..NEWTON_STEPS {
+                    let step = (self.band_force(0.0, u) - target) / (-u * u / self.decay_mm).exp();
+                    u = (u - step).clamp(0.0, top);
+                    if step.abs() <= 1e-13 * top {
+                        break;
+                    }
                 }
-                (0.5 * (lo + hi)).powi(2)
+                u * u
             })
             .collect()
     }
 }
+
+/// Newton steps at most for a strip's bound ([`EdgeProfile::strip_bounds_mm`]), each stopped
+/// once a step is under `1e-13` of the band (the force is concave in `u`: a few steps).
+const NEWTON_STEPS: usize = 30;
 
 /// The edge profile's decay length on a skin over a softer body, as a fraction of the skin's
 /// thickness ([`EdgeProfile::of_skin`]). On a skin the rim's pressure is a line load: on 65
@@ -345,8 +355,10 @@ impl CutCoupling {
             extra[*k] = c.extra_compliance();
         }
         let (nx, ny, h) = (grid.nx, grid.ny, grid.cell_mm);
-        let cut = |k: usize| cuts.binary_search_by_key(&k, |(c, _)| *c).ok().map(|i| &cuts[i].1);
-        let patch = |k: usize| Patch::of(k % nx, k / nx, cut(k), h);
+        let cut = |k: usize| cuts.binary_search_by_key(&k, |(c, _)| *c).ok();
+        // The cut cells' patches once: each takes part in up to eight pairs.
+        let cut_patches: Vec<Patch> = cuts.iter().map(|(k, c)| Patch::of(k % nx, k / nx, Some(c), h, strips)).collect();
+        let patch = |k: usize| cut(k).map_or_else(|| Patch::of(k % nx, k / nx, None, h, strips), |i| cut_patches[i]);
         let mut near = Vec::new();
         for &(k, _) in cuts.iter().filter(|(k, _)| reached(*k)) {
             let (i, j) = (k % nx, k / nx);
@@ -359,7 +371,7 @@ impl CutCoupling {
                     }
                     let (a, b) = (k.min(other), k.max(other));
                     let (pa, pb) = (patch(a), patch(b));
-                    let (ab, ba) = (pa.seen_from(&pb, strips), pb.seen_from(&pa, strips));
+                    let (ab, ba) = (pa.seen_from(&pb), pb.seen_from(&pa));
                     let whole =
                         op.unit_integrals((a % nx) as isize - (b % nx) as isize, (a / nx) as isize - (b / nx) as isize);
                     near.push((a, b, std::array::from_fn(|m| 0.5 * (ab[m] + ba[m]) - whole[m])));
@@ -389,35 +401,44 @@ struct Patch {
     sides: [f64; 2],
     /// A cut cell's axis across the edge and its direction towards it.
     toward_edge: Option<(usize, f64)>,
-    /// A cut cell's profile across the edge, in cell units.
-    profile: EdgeProfile,
+    /// A cut cell's strips of equal force across the edge: their number and their bounds'
+    /// distances from the edge (cell units, [`EdgeProfile::strip_bounds_mm`]), found once.
+    strips: usize,
+    bounds: [f64; MAX_STRIPS + 1],
 }
 
+/// The most strips a cut cell's coupling takes ([`STRIPS`] on the contact grid, fewer on the
+/// sub-cells along an edge).
+const MAX_STRIPS: usize = 3;
+
 impl Patch {
-    fn of(i: usize, j: usize, cut: Option<&Cut>, cell_mm: f64) -> Self {
+    /// Cell `(i, j)`, or its part `cut` covers, a cut one's load in `strips` strips (at most
+    /// [`MAX_STRIPS`]).
+    fn of(i: usize, j: usize, cut: Option<&Cut>, cell_mm: f64, strips: usize) -> Self {
         let centre = [i as f64, j as f64];
-        match cut {
-            None => {
-                Self { centre, field: centre, sides: [1.0, 1.0], toward_edge: None, profile: EdgeProfile::SINGULAR }
-            }
-            Some(c) => {
-                let in_cells =
-                    |offset_mm: [f64; 2]| [centre[0] + offset_mm[0] / cell_mm, centre[1] + offset_mm[1] / cell_mm];
-                Self {
-                    centre: in_cells(c.centroid_mm),
-                    field: in_cells(c.load_point_mm()),
-                    sides: c.sides_mm.map(|v| v / cell_mm),
-                    toward_edge: Some(c.across()),
-                    profile: c.profile.in_units(cell_mm),
-                }
-            }
+        let whole =
+            Self { centre, field: centre, sides: [1.0, 1.0], toward_edge: None, strips, bounds: [0.0; MAX_STRIPS + 1] };
+        let Some(c) = cut else { return whole };
+        assert!((1..=MAX_STRIPS).contains(&strips), "{strips} strips");
+        let in_cells = |offset_mm: [f64; 2]| [centre[0] + offset_mm[0] / cell_mm, centre[1] + offset_mm[1] / cell_mm];
+        let (axis, toward) = c.across();
+        let sides = c.sides_mm.map(|v| v / cell_mm);
+        let mut bounds = [0.0; MAX_STRIPS + 1];
+        bounds[..=strips].copy_from_slice(&c.profile.in_units(cell_mm).strip_bounds_mm(sides[axis], strips));
+        Self {
+            centre: in_cells(c.centroid_mm),
+            field: in_cells(c.load_point_mm()),
+            sides,
+            toward_edge: Some((axis, toward)),
+            strips,
+            bounds,
         }
     }
 
     /// The even kernels' integrals at this patch's field point from the unit force (a whole
     /// cell's at unit traction) on `source`: uniform over a whole cell, with the edge's
-    /// profile over a covered part (in `strips` strips).
-    fn seen_from(&self, source: &Patch, strips: usize) -> [f64; 4] {
+    /// profile over a covered part (in its strips).
+    fn seen_from(&self, source: &Patch) -> [f64; 4] {
         let d = [self.field[0] - source.centre[0], self.field[1] - source.centre[1]];
         let Some((axis, toward)) = source.toward_edge else {
             return Kernel::even_rectangles(d[0], d[1], source.sides[0], source.sides[1]);
@@ -436,7 +457,7 @@ impl Patch {
             std::array::from_fn::<f64, 4, _>(|m| p[m] - q[m])
         };
         let edge = 0.5 * toward * across;
-        let bounds = source.profile.strip_bounds_mm(across, strips);
+        let (strips, bounds) = (source.strips, &source.bounds);
         let at = |b: usize| edge - toward * bounds[b];
         let mut sum = [0.0; 4];
         let mut last = (at(0), g(at(0)));
@@ -481,13 +502,15 @@ mod tests {
             // Nearer the band's start than the singular profile's.
             assert!(c < profile_centroid_mm(w, h), "band {w} + {h}");
         }
-        let width = 0.67;
-        let bounds = p.strip_bounds_mm(width, 3);
-        let whole = sums(0.0, width).0;
-        assert_eq!((bounds[0], bounds[3]), (0.0, width));
-        for (i, b) in bounds.windows(2).enumerate() {
-            assert!((sums(b[0], b[1] - b[0]).0 - whole / 3.0).abs() < 1e-6 * whole, "strip {i}: {bounds:?}");
+        for width in [0.67, 3.0] {
+            let bounds = p.strip_bounds_mm(width, 3);
+            let whole = sums(0.0, width).0;
+            assert_eq!((bounds[0], bounds[3]), (0.0, width));
+            for (i, b) in bounds.windows(2).enumerate() {
+                assert!((sums(b[0], b[1] - b[0]).0 - whole / 3.0).abs() < 1e-6 * whole, "strip {i}: {bounds:?}");
+            }
         }
+        let width = 0.67;
         let singular = EdgeProfile::SINGULAR;
         for (i, c) in singular.strip_centroids_mm(width, 3).iter().enumerate() {
             let fi = i as f64;
@@ -566,9 +589,9 @@ mod tests {
     /// cell; the even kernels).
     #[test]
     fn a_whole_cell_is_seen_as_the_tables_see_it() {
-        let source = Patch::of(3, 4, None, 0.7);
+        let source = Patch::of(3, 4, None, 0.7, STRIPS);
         for (i, j) in [(3, 4), (4, 4), (2, 6), (9, 1)] {
-            let seen = Patch::of(i, j, None, 0.7).seen_from(&source, STRIPS);
+            let seen = Patch::of(i, j, None, 0.7, STRIPS).seen_from(&source);
             for (k, v) in Kernel::ALL.iter().zip(seen) {
                 let want = k.rectangle(i as f64 - 3.0, j as f64 - 4.0, 1.0, 1.0);
                 assert!((v - want).abs() < 1e-12 * (1.0 + want.abs()), "{k:?} at ({i}, {j}): {v} vs {want}");
@@ -586,10 +609,10 @@ mod tests {
         // Covered where `u - 0.1 < 0` (mm from the cell's centre): 0.35 mm wide, the edge at
         // u = 0.1 mm.
         let cut = Cut::of_half_plane(h, -0.1, 1.0, 0.0, EdgeProfile::SINGULAR).expect("cut");
-        let source = Patch::of(50, 50, Some(&cut), h);
+        let source = Patch::of(50, 50, Some(&cut), h, STRIPS);
         let force_at = [50.0 + (0.1 - 0.35 / 3.0) / h, 50.0];
         for (i, j) in [(90, 50), (50, 90), (20, 75), (10, 50)] {
-            let seen = Patch::of(i, j, None, h).seen_from(&source, STRIPS);
+            let seen = Patch::of(i, j, None, h, STRIPS).seen_from(&source);
             let (x, y) = (i as f64 - force_at[0], j as f64 - force_at[1]);
             let point: [f64; 4] = std::array::from_fn(|m| Kernel::ALL[m].value(x, y));
             let scale = point.iter().fold(0.0f64, |m, v| m.max(v.abs()));
