@@ -4,11 +4,12 @@
 //! and a sum of the pins' tips (the same bits, the same sum).
 //!
 //! `cargo run --release -p tacsim-sim --example dome_taps -- [SAMPLES] [REPEATS] [CELLS]
-//! [EDGE_SUBCELLS] [flat|rim] [MESH]` (default 200 3, the sensor's 25 cells across the footprint
+//! [EDGE_SUBCELLS] [flat|rim] [MESH] [SENSOR]` (default 200 3, the sensor's 25 cells across the footprint
 //! and 3 sub-cells; 0: the contact's edge not solved again, as the taps on the disk's top cut
 //! no cell; `rim`: the bench's taps across the disk's rim, whose sharp edge cuts cells; `MESH`
 //! the dome's, `CELLS[xREFINEMENT[+GEL_SHELLS]]` as `dome_convergence`'s, default the sensor's
-//! `8x2+1`; `8` the one lattice of before). The dome
+//! `8x2+1`; `8` the one lattice of before; `-` the sensor's); `SENSOR` a preset or sensor file
+//! (default the calibrated half-space preset with the dome behind it). The dome
 //! is built once into the cache folder (`TACSIM_CACHE_DIR`). The pins' product runs on rayon's
 //! pool (`RAYON_NUM_THREADS=1` for one thread).
 
@@ -23,7 +24,11 @@ use tacsim_sim::{SensorParams, SkinModel};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (samples, repeats) = (support::whole(&args, 0, 200)?, support::whole(&args, 1, 3)?);
-    let mut sensor = SensorParams::half_space();
+    let mut sensor = match args.get(6) {
+        None => SensorParams::half_space(),
+        Some(name) if std::path::Path::new(name).exists() => SensorParams::load(std::path::Path::new(name))?,
+        Some(name) => SensorParams::preset(name)?,
+    };
     sensor.skin.model = SkinModel::Dome;
     sensor.skin.cells_across = support::whole(&args, 2, sensor.skin.cells_across)?;
     sensor.skin.edge_subcells = support::whole(&args, 3, sensor.skin.edge_subcells)?;

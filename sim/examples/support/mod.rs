@@ -14,7 +14,7 @@ pub fn whole(args: &[String], i: usize, default: usize) -> Result<usize, String>
 /// (`skin.dome_cells`, `skin.dome_skin_refinement`, `skin.dome_refined_gel_shells`; `CELLS`
 /// alone is one lattice for skin and gel, `CELLSx1+0`); absent, `default`.
 pub fn dome_mesh(args: &[String], i: usize, default: (usize, usize, usize)) -> Result<(usize, usize, usize), String> {
-    let Some(a) = args.get(i) else { return Ok(default) };
+    let Some(a) = args.get(i).filter(|a| *a != "-") else { return Ok(default) };
     let (c, rest) = a.split_once('x').unwrap_or((a, "1"));
     let (r, g) = rest.split_once('+').unwrap_or((rest, "0"));
     let bad = || format!("argument {}: `{a}` is not CELLS, CELLSxREFINEMENT or CELLSxREFINEMENT+GEL_SHELLS", i + 1);
