@@ -179,23 +179,24 @@ impl Compliance {
     /// Reads the tables back, checking the magic, the key and the sizes; an error names the
     /// file and says what to do (delete it: it is rebuilt on the next use).
     pub fn load(path: &Path, key: u64) -> Result<Self> {
-        let (header, data): (Header, _) = cache::read(path, MAGIC)?;
+        let (header, mut data): (Header, _) = cache::read(path, MAGIC)?;
         let err = |message: String| cache::unusable(path, message);
         cache::check(path, (header.format, FORMAT), (&header.key, key))?;
-        let (s, p) = (3 * header.surface_nodes, 3 * header.pins);
-        let expected = 8 * (s + s * s + p * s);
-        if data.len() != expected {
-            return Err(err(format!("{} bytes of tables where {expected} were expected", data.len())));
+        // In u128 (saturating) so that no header's counts overflow; once they add up to the
+        // file's bytes, each fits a usize.
+        let (s, p) = (3 * header.surface_nodes as u128, 3 * header.pins as u128);
+        let expected = s.saturating_add(s.saturating_mul(s)).saturating_add(p.saturating_mul(s)).saturating_mul(8);
+        if u128::from(data.left()) != expected {
+            return Err(err(format!("{} bytes of tables where {expected} were expected", data.left())));
         }
-        let values = cache::values_of(&data, f64::from_le_bytes);
-        let (nodes, tables) = values.split_at(s);
-        let (surface, pin_table) = tables.split_at(s * s);
+        let (s, p) = (s as usize, p as usize);
+        let nodes = data.values::<f64>(s)?;
         Ok(Self {
             key,
             nodes: nodes.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
             pins: header.pins,
-            surface: surface.to_vec(),
-            pin_table: pin_table.to_vec(),
+            surface: data.values(s * s)?,
+            pin_table: data.values(p * s)?,
         })
     }
 

@@ -497,35 +497,30 @@ impl PinResponse {
     /// Reads a response back, checking the magic, format, key, sizes and face indices; an
     /// error names the file and says what to do.
     pub fn load(path: &Path, key: u64) -> Result<Self> {
-        let (header, data): (ResponseHeader, _) = cache::read(path, MAGIC)?;
+        let (header, mut data): (ResponseHeader, _) = cache::read(path, MAGIC)?;
         let err = |message: String| cache::unusable(path, message);
         cache::check(path, (header.format, FORMAT), (&header.key, key))?;
-        let rows = MOTION * header.pins;
-        let apex = if header.apex { 9 * header.nodes } else { 0 };
-        let sizes = [8 * 3 * header.nodes, 4 * 6 * header.faces, 4 * rows * 3 * header.nodes, 4 * apex];
-        if data.len() != sizes.iter().sum::<usize>() {
-            return Err(err(format!(
-                "{} bytes of tables where {} were expected",
-                data.len(),
-                sizes.iter().sum::<usize>()
-            )));
+        // Counts and bytes of the four tables, in u128 (each product of two usizes fits, and
+        // past that saturating) so that no header's counts overflow; once they add up to the
+        // file's bytes, each fits a usize.
+        let (nodes, faces, pins) = (header.nodes as u128, header.faces as u128, header.pins as u128);
+        let apex = if header.apex { 9 * nodes } else { 0 };
+        let counts = [3 * nodes, 6 * faces, (3 * MOTION as u128 * pins).saturating_mul(nodes), apex];
+        let bytes = counts.iter().zip([8, 4, 4, 4]).fold(0u128, |sum, (&n, b)| sum.saturating_add(n.saturating_mul(b)));
+        if u128::from(data.left()) != bytes {
+            return Err(err(format!("{} bytes of tables where {bytes} were expected", data.left())));
         }
-        let (nodes, rest) = data.split_at(sizes[0]);
-        let (faces, rest) = rest.split_at(sizes[1]);
-        let (table, apex) = rest.split_at(sizes[2]);
-        let nodes: Vec<[f64; 3]> =
-            cache::values_of(nodes, f64::from_le_bytes).chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-        let faces: Vec<[u32; 6]> = cache::values_of(faces, u32::from_le_bytes)
-            .chunks_exact(6)
-            .map(|c| std::array::from_fn(|i| c[i]))
-            .collect();
+        let counts = counts.map(|n| n as usize);
+        let nodes: Vec<[f64; 3]> = data.values::<f64>(counts[0])?.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let faces: Vec<[u32; 6]> =
+            data.values::<u32>(counts[1])?.chunks_exact(6).map(|c| std::array::from_fn(|i| c[i])).collect();
         if faces.iter().flatten().any(|&k| k as usize >= nodes.len()) {
             return Err(err("a face names a node past the nodes stored".into()));
         }
-        let table = cache::values_of(table, f32::from_le_bytes);
+        let table = data.values::<f32>(counts[2])?;
         let mut out = Self::with_bins(key, header.radius_mm, nodes, faces, header.pins, table);
         out.spread_mm = header.spread_mm;
-        out.apex = cache::values_of(apex, f32::from_le_bytes);
+        out.apex = data.values::<f32>(counts[3])?;
         Ok(out)
     }
 

@@ -136,6 +136,21 @@ fn pin_response_cache_reads_back_what_it_wrote_and_refuses_other_files() {
     std::fs::write(&path, &bytes[..bytes.len() - 4]).expect("write");
     let cut = PinResponse::load(&path, key).expect_err("truncated");
     assert!(cut.to_string().contains("bytes of tables"), "{cut}");
+    // A header whose counts would overflow a usize's product: refused, no panic, nothing
+    // allocated for them.
+    let start = bytes.iter().position(|&b| b == b'{').expect("the JSON header");
+    let len = u64::from_le_bytes(bytes[start - 8..start].try_into().expect("8 bytes")) as usize;
+    let header = std::str::from_utf8(&bytes[start..start + len]).expect("JSON");
+    let nodes = format!("\"nodes\":{}", read.nodes.len());
+    assert!(header.contains(&nodes), "{header}");
+    let absurd = header.replace(&nodes, &format!("\"nodes\":{}", usize::MAX / 2));
+    let mut forged = bytes[..start - 8].to_vec();
+    forged.extend((absurd.len() as u64).to_le_bytes());
+    forged.extend(absurd.as_bytes());
+    forged.extend(&bytes[start + len..]);
+    std::fs::write(&path, &forged).expect("write");
+    let huge = PinResponse::load(&path, key).expect_err("absurd counts");
+    assert!(huge.to_string().contains("bytes of tables"), "{huge}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
