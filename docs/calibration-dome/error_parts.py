@@ -5,7 +5,10 @@ mean pin error over the mean real motion (the fit's relative error) and what is 
 after mapping the simulated field onto the real one by (a) its global shift (the median pin
 motion) moved onto the real one, (b) the best similarity (shift, scale and turn in the image)
 and (c) the best affine map; then the global shift's size, real against simulated, by depth,
-and for presses tilted under 12 deg by depth and slide distance (`shear_x`, `shear_y`).
+and for presses tilted under 12 deg by depth and slide distance (`shear_x`, `shear_y`); last,
+the pins' mean motion (px), real against simulated, by distance from the real pressed region's
+centre (`contact_centres.py`'s), for the shallow (1-2 mm) presses tilted over 15 deg and for
+the 2-4 mm presses tilted under 10 deg.
 
     python3 docs/calibration-dome/error_parts.py WORK/dump.json
 """
@@ -70,5 +73,33 @@ def main(path):
         print("%g-%g mm  %s" % (dlo, int(dhi), "   ".join(cells)))
 
 
+def reach(path):
+    """Mean pin motion (px), real / simulated, by distance (px) from the pressed region."""
+    dump = json.load(open(path))
+    reference = np.array(dump["reference"], dtype=float)
+    groups = {"1-2 mm, tilt over 15 deg": lambda t, d: t >= 15 and 1 <= d < 2,
+              "2-4 mm, tilt under 10 deg": lambda t, d: t < 10 and 2 <= d < 4}
+    edges = np.arange(0, 280, 40)
+    for name, keep in groups.items():
+        sums = np.zeros((len(edges), 3))
+        for s in dump["samples"]:
+            pose = s["pose"]
+            if not keep(np.hypot(pose[3], pose[4]), pose[2]):
+                continue
+            real, sim = field(s["real"]), field(s["sim"])
+            ok = ~np.isnan(real).any(axis=1) & ~np.isnan(sim).any(axis=1)
+            w = np.linalg.norm(real - np.median(real[ok], axis=0), axis=1)
+            w[~ok] = 0.0
+            top = np.where(w >= np.quantile(w[ok], 0.9), w, 0.0)
+            centre = (reference * top[:, None]).sum(axis=0) / top.sum()
+            far = np.minimum(np.linalg.norm(reference - centre, axis=1) // 40, len(edges) - 1).astype(int)
+            for k in np.where(ok)[0]:
+                sums[far[k]] += (1.0, np.linalg.norm(real[k]), np.linalg.norm(sim[k]))
+        print("%s: mean pin motion (px) real / simulated by distance from the pressed region" % name)
+        print("  " + ", ".join("%d-%d px %.2f / %.2f" % (e, e + 40, r / n, m / n)
+                               for e, (n, r, m) in zip(edges, sums) if n > 0))
+
+
 if __name__ == "__main__":
     main(sys.argv[1])
+    reach(sys.argv[1])
