@@ -26,8 +26,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (samples, repeats) = (support::whole(&args, 0, 200)?, support::whole(&args, 1, 3)?);
     let mut sensor = match args.get(6) {
         None => SensorParams::half_space(),
-        Some(name) if std::path::Path::new(name).exists() => SensorParams::load(std::path::Path::new(name))?,
-        Some(name) => SensorParams::preset(name)?,
+        Some(name) => SensorParams::file_or_preset(name, None)?,
     };
     sensor.skin.model = SkinModel::Dome;
     sensor.skin.cells_across = support::whole(&args, 2, sensor.skin.cells_across)?;

@@ -35,8 +35,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let body = args.first().map_or("dome", String::as_str);
     let mut sensor = match args.get(7) {
         None => SensorParams::half_space(),
-        Some(name) if std::path::Path::new(name).exists() => SensorParams::load(std::path::Path::new(name))?,
-        Some(name) => SensorParams::preset(name)?,
+        Some(name) => SensorParams::file_or_preset(name, None)?,
     };
     sensor.skin.model = body.parse::<SkinModel>().map_err(|e| format!("argument 1: {e}"))?;
     let n = support::whole(&args, 1, 40)?;

@@ -375,8 +375,11 @@ fn compared_model(args: &RealCompareArgs, reference: &Reference) -> Result<(Sens
         }
     }
     if let Some(xy) = &args.pivot_offset {
-        let parsed: Vec<f64> = xy.split(',').map(|v| v.trim().parse()).collect::<Result<_, _>>().unwrap_or_default();
-        let [x, y] = parsed[..] else { bail!("--pivot-offset {xy}: expected two numbers in mm, `X,Y`") };
+        let parsed: Option<Vec<f64>> =
+            xy.split(',').map(|v| v.trim().parse::<f64>().ok().filter(|v| v.is_finite())).collect();
+        let [x, y] = parsed.as_deref().unwrap_or_default()[..] else {
+            bail!("--pivot-offset {xy}: expected two finite numbers in mm, `X,Y`")
+        };
         d.pivot_offset_mm = [x, y];
     }
     Ok((base, d))

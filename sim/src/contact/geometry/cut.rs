@@ -156,7 +156,7 @@ pub(crate) fn profile_centroid_mm(w: f64, h: f64) -> f64 {
 /// ```text
 /// s_c = decay / 2 - (decay / 2) (b e^(-b^2 / decay) - a e^(-a^2 / decay)) / int_a^b e^(-u^2 / decay) du
 /// ```
-/// and the equal-force strips' bounds are found by bisection on the integral.
+/// and the equal-force strips' bounds are found by Newton steps on the integral.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct EdgeProfile {
     /// The line load's decay length (mm; infinite: the singular profile alone).
@@ -479,6 +479,10 @@ impl Patch {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::algebra::matrix::{CellProduct, MatrixCache};
+    use crate::contact::body::kernel::Elastic;
+    use crate::contact::body::operator::{Component, HalfSpace, Operator, Pairing};
+    use crate::contact::geometry::grid::Grid;
 
     /// The decaying profile's band centroids and equal-force strips against a fine midpoint
     /// sum of `s^(-1/2) exp(-s / decay)` (with `s = u^2`), and the singular profile's closed
@@ -521,10 +525,6 @@ mod tests {
         assert!((long.centroid_mm(0.0, width) - width / 3.0).abs() < 1e-9);
         assert!((long.centroid_mm(0.5, width) - profile_centroid_mm(0.5, width)).abs() < 1e-9);
     }
-    use crate::contact::algebra::matrix::{CellProduct, MatrixCache};
-    use crate::contact::body::kernel::Elastic;
-    use crate::contact::body::operator::{Component, HalfSpace, Operator, Pairing};
-    use crate::contact::geometry::grid::Grid;
 
     /// A straight edge across `x`: the covered fraction is the covered width over the side,
     /// the centroid halfway along it, and both move continuously as the edge crosses.
