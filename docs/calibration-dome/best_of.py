@@ -16,12 +16,10 @@ import sys
 
 import numpy as np
 
-DEPTHS = [(1, 2), (2, 3), (3, 4), (4, 5.1)]
+sys.path.insert(0, __file__.rsplit("/", 1)[0])
+from error_parts import DEPTHS, field  # noqa: E402
+
 TILTS = [(0, 8), (8, 15), (15, 26)]
-
-
-def field(values):
-    return np.array([[np.nan, np.nan] if v is None else v for v in values], dtype=float)
 
 
 def errors(path):

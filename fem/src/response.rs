@@ -576,10 +576,9 @@ fn add_column(out: &mut [f64], w: f64, column: &[f32]) {
     AddColumn { out, w, column }.run();
 }
 
-/// Columns [`PinResponse::motions`] adds in one pass over the rows. The sums are read and
-/// written once a group: a flat dome tap at 17 cells 2.6-2.9 ms on one thread against 2.9-3.3
-/// adding one column at a time, 4 columns about halfway, 16 as 8
-/// (`docs/experiments/fem-dome.md`, 2026-12-07 "the far field's columns in groups").
+/// Columns [`PinResponse::motions`] adds in one pass over the rows, so that the sums are read
+/// and written once a group (8 and 16 alike, 4 slower: `docs/experiments/fem-dome.md`,
+/// 2026-12-07 "the far field's columns in groups").
 const COLUMN_GROUP: usize = 8;
 
 /// [`add_column`] of `COLUMN_GROUP` columns in turn, row by row: each row's sum takes the
