@@ -5,7 +5,7 @@
 //!   reference image and write `sim/presets/tactip-331-camera.toml` (the calibration's start);
 //! - `real-compare [--real DIR] [--sensor FILE] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM]
 //!   [--pivot-offset X,Y] [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM]
-//!   [--cells N] [--frame DEG[m][r]|auto] [--dump FILE]`: track the lab's recordings and compare the
+//!   [--cells N] [--frame DEG[m][r]|auto] [--dump FILE] [--sensor-out FILE]`: track the lab's recordings and compare the
 //!   simulated pin motion of one parameter set with the real one (undeformed positions, radial
 //!   profiles by depth, the label frame found from the data, used with `--frame auto`, the
 //!   error left after a per-recording affine map, errors by subset); `--dump` writes every
@@ -165,6 +165,10 @@ struct RealCompareArgs {
     /// Write every recording's real and simulated fields as JSON.
     #[arg(long, value_name = "FILE")]
     dump: Option<PathBuf>,
+    /// Write the sensor compared (its camera refitted at `--camera-distance`, the skin and
+    /// pin flags applied) as a sensor file, before the comparison runs.
+    #[arg(long, value_name = "FILE")]
+    sensor_out: Option<PathBuf>,
 }
 
 fn main() -> Result<()> {
@@ -305,6 +309,10 @@ fn real_compare(args: &RealCompareArgs) -> Result<()> {
         tracked.iter().min().copied().unwrap_or(0)
     );
     let (base, d) = compared_model(args, &reference)?;
+    if let Some(path) = &args.sensor_out {
+        write_atomic(path, d.sensor(&base)?.to_toml().as_bytes())
+            .with_context(|| format!("--sensor-out {}", path.display()))?;
+    }
     let cat = Catalogue::load_dir(&root().join("shapes"))?;
     let disk = cat.get("disk")?;
     // 17 cells across the footprint, as `tacsim calibrate` fits; `--cells` for a finer grid.
