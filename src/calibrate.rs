@@ -57,8 +57,9 @@ pub struct CalibrateOptions {
     #[arg(long, conflicts_with_all = ["quick", "camera_only", "rig_only", "edge"])]
     pub pin_offsets: bool,
     /// Fit the rig alone (depth offset, friction, the tilt pivot's height and its offset off
-    /// the axis, yield, tilt relaxation), the sensor held as given ([`FitOptions::rig_only`]):
-    /// for a preset already calibrated. The preset written is the sensor unchanged.
+    /// the axis, yield, tilt relaxation, play in tilt; searched from 0, 2 and 4 deg of play),
+    /// the sensor held as given ([`FitOptions::rig_only`]): for a preset already calibrated.
+    /// The preset written is the sensor unchanged.
     #[arg(long, conflicts_with = "camera_only")]
     pub rig_only: bool,
     /// The recordings are taps on this stimulus's edge (a catalogue shape, e.g. square) at
@@ -304,7 +305,7 @@ fn write_calibrated_sensor(
     let header = format!(
         "# {} calibrated against {} by `{command}`.\n# Held-out mean relative error {:.3}; report: {}.\n\
          # The recordings' press (not part of the sensor): depth offset {:.3} mm, friction {:.3}, tilt pivot \
-         {:.2} mm above the apex and ({:.3}, {:.3}) mm off its axis,\n# depth compliance {:.4} mm^-0.5, tilt relaxation {:.4} per mm.\n\n",
+         {:.2} mm above the apex and ({:.3}, {:.3}) mm off its axis,\n# depth compliance {:.4} mm^-0.5, tilt relaxation {:.4} per mm, play in tilt {:.2} deg.\n\n",
         base.name,
         o.real.display(),
         report.held_out_means.relative_error,
@@ -316,6 +317,7 @@ fn write_calibrated_sensor(
         calib.deformation.pivot_offset_mm[1],
         calib.deformation.depth_compliance,
         calib.deformation.tilt_relaxation_per_mm,
+        calib.deformation.tilt_play_deg,
     );
     write_atomic(&o.output, format!("{header}{}", sensor.to_toml()).as_bytes())?;
     Ok(())

@@ -448,7 +448,7 @@ fn a_rig_takes_the_labs_labels_where_its_robot_went() {
                 yaw_deg = [0.0, 0.0]\nrx_deg = [-25.0, 25.0]\nry_deg = [-25.0, 25.0]\n\
                 [taps]\nper_pose = 0\n[slides]\nper_pose = 1\noffset_mm = [-5.0, 5.0]\naxes = [\"both\"]\ntwist_deg = [-5.0, 5.0]\n";
     let rig = "[rig]\nrotation_deg = 160.0\nmirrored = true\ntilts_reversed = true\ndepth_offset_mm = 0.2\n\
-               pivot_mm = 25.0\ndepth_compliance = 0.09\ntilt_relaxation_per_mm = 0.05\n";
+               pivot_mm = 25.0\ndepth_compliance = 0.09\ntilt_relaxation_per_mm = 0.05\ntilt_play_deg = 2.0\n";
     let catalogue = tacsim::commands::load_catalogue(None).expect("catalogue");
     let plain = Recipe::from_toml_str(text, "plain.toml").expect("recipe");
     let rigged = Recipe::from_toml_str(&format!("{text}{rig}"), "rig.toml").expect("recipe");

@@ -34,17 +34,42 @@ pub struct Press {
     /// tilt, one way for one direction and the other way for the opposite one.
     #[serde(default)]
     pub pivot_offset_mm: [f64; 2],
+    /// The rig's play in tilt (deg): the contact's off-axis load takes it up, turning the
+    /// sensor back towards upright, so a labelled tilt of size `|t|` reaches the contact as
+    /// `max(|t| - play, 0)` about the same axis (then relaxed by
+    /// [`Press::tilt_relaxation_per_mm`]); a sensor above the surface keeps its full tilt.
+    #[serde(default)]
+    pub tilt_play_deg: f64,
 }
 
 impl Press {
     /// A press with these parameters (fields in order), the pivot on the sensor's axis.
     pub const fn new(depth_offset_mm: f64, pivot_mm: f64, depth_compliance: f64, tilt_relaxation_per_mm: f64) -> Self {
-        Self { depth_offset_mm, pivot_mm, depth_compliance, tilt_relaxation_per_mm, pivot_offset_mm: [0.0; 2] }
+        Self {
+            depth_offset_mm,
+            pivot_mm,
+            depth_compliance,
+            tilt_relaxation_per_mm,
+            pivot_offset_mm: [0.0; 2],
+            tilt_play_deg: 0.0,
+        }
     }
 
     /// This press with the pivot `offset_mm` off the sensor's axis (sensor frame, mm).
     pub const fn with_pivot_offset(self, offset_mm: [f64; 2]) -> Self {
         Self { pivot_offset_mm: offset_mm, ..self }
+    }
+
+    /// This press with `play_deg` of play in tilt ([`Press::tilt_play_deg`]).
+    pub const fn with_tilt_play(self, play_deg: f64) -> Self {
+        Self { tilt_play_deg: play_deg, ..self }
+    }
+
+    /// The share of a labelled tilt of size `tilt_deg` (deg) left after the play:
+    /// `max(|t| - play, 0) / |t|` (1 without play or tilt).
+    pub fn kept_by_play(&self, tilt_deg: f64) -> f64 {
+        let t = tilt_deg.abs();
+        if self.tilt_play_deg <= 0.0 || t == 0.0 { 1.0 } else { (t - self.tilt_play_deg).max(0.0) / t }
     }
 }
 
@@ -106,12 +131,15 @@ impl RigFrame {
     /// body): of a commanded indentation `c = z + depth offset` (mm) the sensor loses
     /// `press.depth_compliance c^1.5` (the load of a sphere pressed into a half-space grows as
     /// `c^1.5`), and its tilt relaxes to `t (1 - press.tilt_relaxation_per_mm c)`, the
-    /// off-axis load turning it back towards upright.
+    /// off-axis load turning it back towards upright; before that, the rig's play in tilt
+    /// (`press.tilt_play_deg`) is taken off the tilt's size ([`Press::kept_by_play`]).
     pub fn poses(&self, pose: &[f64; 6], shear: &[f64; 6], press: &Press) -> (SensorPose, SensorPose) {
         let d = self.det();
         let commanded = pose[2] + press.depth_offset_mm;
         let loaded = commanded.max(0.0);
-        let relaxed = (1.0 - press.tilt_relaxation_per_mm * loaded).max(0.0);
+        // Unloaded (above the surface) the rig neither yields nor takes up its play.
+        let play = if loaded > 0.0 { press.kept_by_play(pose[3].hypot(pose[4])) } else { 1.0 };
+        let relaxed = (1.0 - press.tilt_relaxation_per_mm * loaded).max(0.0) * play;
         let tilt = self.apply([pose[3], pose[4]]).map(|v| self.tilt_sign * relaxed * v);
         let offset = self.apply([shear[0], shear[1]]);
         let (rx, ry) = ((d * tilt[0]).to_radians(), (d * tilt[1]).to_radians());

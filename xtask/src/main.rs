@@ -4,7 +4,7 @@
 //! - `fit-camera [--real PNG]`: fit the camera and ring layout to the lab's undeformed
 //!   reference image and write `sim/presets/tactip-331-camera.toml` (the calibration's start);
 //! - `real-compare [--real DIR] [--sensor FILE] [--skin MODEL] [--depth-offset MM] [--friction MU] [--pivot MM]
-//!   [--pivot-offset X,Y] [--depth-compliance C] [--tilt-relaxation K] [--base-depth MM] [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM]
+//!   [--pivot-offset X,Y] [--depth-compliance C] [--tilt-relaxation K] [--tilt-play DEG] [--base-depth MM] [--gel-ratio R] [--pin-length MM] [--poisson NU] [--camera-distance MM]
 //!   [--cells N] [--frame DEG[m][r]|auto] [--dump FILE] [--sensor-out FILE]`: track the lab's recordings and compare the
 //!   simulated pin motion of one parameter set with the real one (undeformed positions, radial
 //!   profiles by depth, the label frame found from the data, used with `--frame auto`, the
@@ -140,6 +140,9 @@ struct RealCompareArgs {
     /// Tilt relaxation (1/mm).
     #[arg(long, value_name = "K")]
     tilt_relaxation: Option<f64>,
+    /// The rig's play in tilt (deg), taken off each labelled tilt's size.
+    #[arg(long, value_name = "DEG")]
+    tilt_play: Option<f64>,
     /// Rigid base below the apex (mm).
     #[arg(long, value_name = "MM")]
     base_depth: Option<f64>,
@@ -372,6 +375,7 @@ fn compared_model(args: &RealCompareArgs, reference: &Reference) -> Result<(Sens
         (args.pivot, &mut d.pivot_mm),
         (args.depth_compliance, &mut d.depth_compliance),
         (args.tilt_relaxation, &mut d.tilt_relaxation_per_mm),
+        (args.tilt_play, &mut d.tilt_play_deg),
         (args.base_depth, &mut d.base_depth_mm),
         (args.gel_ratio, &mut d.gel_ratio),
         (args.pin_length, &mut d.pin_length_mm),

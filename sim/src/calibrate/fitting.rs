@@ -59,8 +59,9 @@ pub struct FitOptions {
     /// Candidate elastic models.
     pub models: Vec<SkinModel>,
     /// Fit the rig alone (depth offset, friction, the pivot's height and its offset off the
-    /// axis, depth compliance, tilt relaxation), the sensor held as given: its own elastic
-    /// model, pins, camera and skin.
+    /// axis, depth compliance, tilt relaxation, play in tilt: one search from each of
+    /// [`RIG_PLAY_STARTS_DEG`]), the sensor held as given: its own elastic model, pins, camera
+    /// and skin.
     pub rig_only: bool,
     /// Fit the finite-element dome with the rig: at most this many domes of the
     /// sensor's (gel ratio, skin thickness, base depth; `super::dome`), each scored by the
@@ -175,13 +176,23 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { 0.0 } else { s / n as f64 }
 }
 
+/// Which parameters a search moves ([`encode`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Coordinates {
+    /// The rig and the sensor's elastic parameters (the full fit).
+    Full,
+    /// The rig alone: depth offset, friction, pivot height, the pivot's offset `x`, `y`,
+    /// depth compliance and tilt relaxation (the dome search's rig on each dome).
+    Rig,
+    /// The rig alone and its play in tilt (`--rig-only`).
+    RigAndPlay,
+}
+
 /// The parameters a model fits, in the search's coordinates (friction and the gel ratio on a
-/// log scale), with the search's first steps.
-/// With `rig_only`, the rig's parameters alone: depth offset, friction, pivot height, the
-/// pivot's offset `x`, `y`, depth compliance and tilt relaxation.
-fn encode(d: &Deformation, rig_only: bool) -> (Vec<f64>, Vec<f64>) {
-    if rig_only {
-        let p = vec![
+/// log scale), with the search's first steps. What `coords` leaves out is held at `d`'s.
+fn encode(d: &Deformation, coords: Coordinates) -> (Vec<f64>, Vec<f64>) {
+    if coords != Coordinates::Full {
+        let mut p = vec![
             d.depth_offset_mm,
             d.friction.ln(),
             d.pivot_mm,
@@ -190,7 +201,12 @@ fn encode(d: &Deformation, rig_only: bool) -> (Vec<f64>, Vec<f64>) {
             d.depth_compliance,
             d.tilt_relaxation_per_mm,
         ];
-        return (p, vec![0.4, 0.5, 5.0, 1.0, 1.0, 0.05, 0.04]);
+        let mut step = vec![0.4, 0.5, 5.0, 1.0, 1.0, 0.05, 0.04];
+        if coords == Coordinates::RigAndPlay {
+            p.push(d.tilt_play_deg);
+            step.push(1.0);
+        }
+        return (p, step);
     }
     let mut p = vec![
         d.depth_offset_mm,
@@ -214,23 +230,34 @@ fn encode(d: &Deformation, rig_only: bool) -> (Vec<f64>, Vec<f64>) {
     (p, step)
 }
 
+/// The most play in tilt a fit tries (deg): a quarter of the surface recordings' largest tilts.
+pub const MAX_TILT_PLAY_DEG: f64 = 6.0;
+
+/// The plays in tilt (deg) the rig alone is searched from, one search each
+/// ([`calibrate`] with [`FitOptions::rig_only`]).
+pub const RIG_PLAY_STARTS_DEG: [f64; 3] = [0.0, 2.0, 4.0];
+
 /// Inverse of [`encode`] on `start`; `None` outside the physical bounds: depth offset
 /// -2..1.5 mm, friction 0.02..2, pivot 0..40 mm, its offset within 10 mm of the axis, depth
-/// compliance 0..0.3 mm^-0.5, tilt relaxation 0..0.15 per mm, and in the full fit pin length
+/// compliance 0..0.3 mm^-0.5, tilt relaxation 0..0.15 per mm, the play in tilt 0..6 deg
+/// ([`MAX_TILT_PLAY_DEG`]), and in the full fit pin length
 /// 0.5..3 mm, camera 4..80 mm, skin Poisson's ratio 0.3..0.5, base depth 3..25 mm, gel ratio
-/// 0.003..1. With `rig_only` the sensor's own parameters are held, not bounded: a sensor with
-/// 3.1 mm pins had every evaluation refused, and the fit reported its start.
-fn decode(start: &Deformation, p: &[f64], rig_only: bool) -> Option<Deformation> {
+/// 0.003..1. Fitting the rig alone, the sensor's own parameters are held, not bounded: a
+/// sensor with 3.1 mm pins had every evaluation refused, and the fit reported its start.
+fn decode(start: &Deformation, p: &[f64], coords: Coordinates) -> Option<Deformation> {
     let mut d = start.clone();
-    if rig_only {
+    if coords == Coordinates::Full {
+        decode_full(&mut d, p);
+    } else {
         d.depth_offset_mm = p[0];
         d.friction = p[1].exp();
         d.pivot_mm = p[2];
         d.pivot_offset_mm = [p[3], p[4]];
         d.depth_compliance = p[5];
         d.tilt_relaxation_per_mm = p[6];
-    } else {
-        decode_full(&mut d, p);
+        if coords == Coordinates::RigAndPlay {
+            d.tilt_play_deg = p[7];
+        }
     }
     let within = |v: f64, lo: f64, hi: f64| v.is_finite() && (lo..=hi).contains(&v);
     let rig = within(d.depth_offset_mm, -2.0, 1.5)
@@ -238,8 +265,9 @@ fn decode(start: &Deformation, p: &[f64], rig_only: bool) -> Option<Deformation>
         && within(d.pivot_mm, 0.0, 40.0)
         && within(d.pivot_offset_mm[0].hypot(d.pivot_offset_mm[1]), 0.0, 10.0)
         && within(d.depth_compliance, 0.0, 0.3)
-        && within(d.tilt_relaxation_per_mm, 0.0, 0.15);
-    if rig_only {
+        && within(d.tilt_relaxation_per_mm, 0.0, 0.15)
+        && within(d.tilt_play_deg, 0.0, MAX_TILT_PLAY_DEG);
+    if coords != Coordinates::Full {
         return rig.then_some(d);
     }
     (rig && within(d.pin_length_mm, 0.5, 3.0)
@@ -277,13 +305,13 @@ fn minimise(
     frame: &RigFrame,
     which: &[usize],
     evaluations: usize,
-    rig_only: bool,
+    coords: Coordinates,
     progress: &dyn Fn(&str),
 ) -> Candidate {
-    let (p0, step) = encode(start, rig_only);
+    let (p0, step) = encode(start, coords);
     let mut best = f64::INFINITY;
     let min = nelder_mead(&p0, &step, 1e-3, evaluations, |p| {
-        let Some(d) = decode(start, p, rig_only) else { return f64::INFINITY };
+        let Some(d) = decode(start, p, coords) else { return f64::INFINITY };
         let v = problem.relative_error(&d, frame, which).unwrap_or(f64::INFINITY);
         if v < best {
             best = v;
@@ -291,7 +319,7 @@ fn minimise(
         }
         v
     });
-    let deformation = decode(start, &min.params, rig_only).unwrap_or_else(|| start.clone());
+    let deformation = decode(start, &min.params, coords).unwrap_or_else(|| start.clone());
     Candidate { deformation, relative_error: min.value, evaluations: min.evaluations }
 }
 
@@ -352,17 +380,30 @@ pub fn calibrate(
             &mut |point, best: Option<&Candidate>| {
                 let from = point.on(problem.base, best.map_or(&rig, |c| &c.deformation));
                 let evaluations = if best.is_some() { opts.dome_evaluations } else { opts.search_evaluations };
-                let c = minimise(problem, &from, &frame.frame, &search, evaluations, true, progress);
+                let c = minimise(problem, &from, &frame.frame, &search, evaluations, Coordinates::Rig, progress);
                 Ok((c.relative_error, c))
             },
             progress,
         )?;
         candidates = tried.trials.into_iter().map(|t| t.fitted).collect();
     }
+    // The rig alone searches from each of a few plays in tilt: the play trades against the
+    // tilt's relaxation, along a valley one simplex from no play does not leave.
+    let (coords, plays): (_, &[f64]) = match (rig_only, domes) {
+        (false, _) => (Coordinates::Full, &[0.0]),
+        (true, true) => (Coordinates::Rig, &[0.0]),
+        (true, false) => (Coordinates::RigAndPlay, &RIG_PLAY_STARTS_DEG),
+    };
     for &model in &models {
-        let c = minimise(problem, &start_of(model), &frame.frame, &search, opts.search_evaluations, rig_only, progress);
-        progress(&format!("{model:?}: relative error {:.3} after {} evaluations", c.relative_error, c.evaluations));
-        candidates.push(c);
+        for &play in plays {
+            let from = Deformation { tilt_play_deg: play, ..start_of(model) };
+            let c = minimise(problem, &from, &frame.frame, &search, opts.search_evaluations, coords, progress);
+            progress(&format!(
+                "{model:?} from {play} deg of play: relative error {:.3} after {} evaluations",
+                c.relative_error, c.evaluations
+            ));
+            candidates.push(c);
+        }
     }
     let best = candidates.iter().min_by(|a, b| a.relative_error.total_cmp(&b.relative_error)).expect("one model");
     // A search none of whose evaluations succeeded would report its start as a fit.
@@ -377,7 +418,7 @@ pub fn calibrate(
     }
     let frame = problem.frame(&best.deformation, &split.train)?;
     let polished =
-        minimise(problem, &best.deformation, &frame.frame, &split.train, opts.polish_evaluations, rig_only, progress);
+        minimise(problem, &best.deformation, &frame.frame, &split.train, opts.polish_evaluations, coords, progress);
     let sensor = polished.deformation.sensor(&problem.camera_at(polished.deformation.camera_distance_mm)?)?;
     Ok(Calibration {
         sensor,
@@ -397,30 +438,43 @@ mod tests {
         let base = SensorParams::half_space();
         for model in [SkinModel::HalfSpace, SkinModel::Layer, SkinModel::SkinOnGel] {
             let d = start(&base, model);
-            let (p, step) = encode(&d, false);
+            let (p, step) = encode(&d, Coordinates::Full);
             assert_eq!(p.len(), step.len());
-            let back = decode(&d, &p, false).expect("in bounds");
+            let back = decode(&d, &p, Coordinates::Full).expect("in bounds");
             assert!((back.friction - d.friction).abs() < 1e-12 && back.pivot_mm == d.pivot_mm, "{back:?}");
             let mut bad = p.clone();
             bad[3] = 3.5;
-            assert!(decode(&d, &bad, false).is_none(), "a 3.5 mm pin leaves no skin");
+            assert!(decode(&d, &bad, Coordinates::Full).is_none(), "a 3.5 mm pin leaves no skin");
         }
         // The rig alone: its parameters round-trip, the sensor's stay, and the pivot stays
         // within 10 mm of the axis.
         let mut d = start(&base, SkinModel::HalfSpace);
         d.pivot_offset_mm = [0.5, -1.25];
-        let (p, step) = encode(&d, true);
-        assert_eq!((p.len(), step.len()), (7, 7));
-        assert_eq!(decode(&d, &p, true), Some(d.clone()));
+        d.tilt_play_deg = 2.0;
+        let (p, step) = encode(&d, Coordinates::RigAndPlay);
+        assert_eq!((p.len(), step.len()), (8, 8));
+        assert_eq!(decode(&d, &p, Coordinates::RigAndPlay), Some(d.clone()));
         let mut far = p.clone();
         far[3] = 11.0;
-        assert!(decode(&d, &far, true).is_none(), "a pivot 11 mm off the axis");
+        assert!(decode(&d, &far, Coordinates::RigAndPlay).is_none(), "a pivot 11 mm off the axis");
+        for play in [-0.1, MAX_TILT_PLAY_DEG + 0.1] {
+            let mut loose = p.clone();
+            loose[7] = play;
+            assert!(decode(&d, &loose, Coordinates::RigAndPlay).is_none(), "{play} deg of play");
+        }
+        // The dome search's rig and the full fit hold the play where it starts.
+        for coords in [Coordinates::Rig, Coordinates::Full] {
+            let (p, step) = encode(&d, coords);
+            assert_eq!(p.len(), step.len());
+            assert_eq!(decode(&d, &p, coords).map(|b| b.tilt_play_deg), Some(2.0), "{coords:?}");
+        }
         // What broke: the held sensor was bounded as the full fit bounds it, so a sensor with
         // 3.1 mm pins (a 0.4 mm skin at the calibrated tips) refused every rig evaluation.
         let mut long_pins = d.clone();
         long_pins.pin_length_mm = 3.1;
-        let (p, _) = encode(&long_pins, true);
-        assert_eq!(decode(&long_pins, &p, true), Some(long_pins.clone()));
-        assert!(decode(&long_pins, &encode(&long_pins, false).0, false).is_none(), "the full fit bounds it");
+        let (p, _) = encode(&long_pins, Coordinates::RigAndPlay);
+        assert_eq!(decode(&long_pins, &p, Coordinates::RigAndPlay), Some(long_pins.clone()));
+        let full = encode(&long_pins, Coordinates::Full).0;
+        assert!(decode(&long_pins, &full, Coordinates::Full).is_none(), "the full fit bounds it");
     }
 }

@@ -51,6 +51,10 @@ pub struct Deformation {
     /// [`RigFrame::poses`]); fitted by `--rig-only` calibration, 0 in the full fit.
     #[serde(default)]
     pub pivot_offset_mm: [f64; 2],
+    /// The rig's play in tilt (deg): taken off each labelled tilt's size
+    /// ([`Press::tilt_play_deg`]).
+    #[serde(default)]
+    pub tilt_play_deg: f64,
     /// Camera distance behind the dome centre (mm) the camera is refitted at
     /// ([`crate::calibrate::rings::fit_camera_at`]): the undeformed image hardly tells it, the
     /// perspective of pins pressed towards the camera does.
@@ -75,6 +79,7 @@ impl Deformation {
             depth_compliance: 0.0,
             tilt_relaxation_per_mm: 0.0,
             pivot_offset_mm: [0.0; 2],
+            tilt_play_deg: 0.0,
             camera_distance_mm: sensor.camera.distance_mm,
             poisson: k.poisson,
         }
@@ -84,6 +89,7 @@ impl Deformation {
     pub fn press(&self) -> Press {
         Press::new(self.depth_offset_mm, self.pivot_mm, self.depth_compliance, self.tilt_relaxation_per_mm)
             .with_pivot_offset(self.pivot_offset_mm)
+            .with_tilt_play(self.tilt_play_deg)
     }
 
     /// `base` with these parameters (validated).
@@ -292,6 +298,25 @@ mod tests {
         let s = LabSample { pose: [0.0, 0.0, -2.0, 10.0, -5.0, 0.0], ..s };
         let (_, t) = RigFrame::IDENTITY.poses(&s.pose, &s.shear, &press.press());
         assert!((t.depth_mm + 1.0).abs() < 1e-12 && t.rx_deg == 10.0, "{t:?}");
+    }
+
+    #[test]
+    fn the_rigs_play_takes_its_size_off_a_loaded_tilt() {
+        let mut press = Deformation::of(&SensorParams::half_space(), 0.5);
+        press.tilt_play_deg = 2.0;
+        press.tilt_relaxation_per_mm = 0.05;
+        // A tilt of size 10 deg (6, -8) keeps 8 deg about the same axis, then 1 - 0.05 * 2 =
+        // 90% of it at 2 mm.
+        let s = LabSample { image: "x.png".into(), pose: [0.0, 0.0, 2.0, 6.0, -8.0, 0.0], shear: [0.0; 6] };
+        let (_, t) = RigFrame::IDENTITY.poses(&s.pose, &s.shear, &press.press());
+        assert!((t.rx_deg - 6.0 * 0.8 * 0.9).abs() < 1e-12 && (t.ry_deg + 8.0 * 0.8 * 0.9).abs() < 1e-12, "{t:?}");
+        // A tilt within the play is taken up whole; above the surface nothing is.
+        let small = LabSample { pose: [0.0, 0.0, 2.0, 1.2, 0.9, 0.0], ..s.clone() };
+        let (_, t) = RigFrame::IDENTITY.poses(&small.pose, &small.shear, &press.press());
+        assert!(t.rx_deg == 0.0 && t.ry_deg == 0.0, "{t:?}");
+        let above = LabSample { pose: [0.0, 0.0, -1.0, 6.0, -8.0, 0.0], ..s };
+        let (_, t) = RigFrame::IDENTITY.poses(&above.pose, &above.shear, &press.press());
+        assert!(t.rx_deg == 6.0 && t.ry_deg == -8.0, "{t:?}");
     }
 
     #[test]

@@ -327,7 +327,8 @@ fn fitted_model_section(r: &Report) -> String {
          | friction | {:.3} |\n| tilt pivot above the apex | {:.2} mm |\n\
          | tilt pivot off the axis (sensor x, y) | {:.3}, {:.3} mm |\n\
          | depth compliance of the rig (indentation lost: c d^1.5) | {:.4} mm^-0.5 |\n\
-         | tilt relaxation under load (tilt kept: 1 - k d) | {:.4} per mm |\n| pin length | {:.3} mm |\n\
+         | tilt relaxation under load (tilt kept: 1 - k d) | {:.4} per mm |\n\
+         | the rig's play in tilt (taken off each tilt's size) | {:.2} deg |\n| pin length | {:.3} mm |\n\
          | camera distance behind the dome centre | {:.2} mm |\n| skin Poisson's ratio | {:.3} |\n| base depth (layered models, dome) | {:.2} mm |\n\
          | gel / skin modulus (skin-on-gel, dome) | {:.4} |\n\n\
          Label frame: rotation {:.0} deg{}{}, shift residual {:.2} px; `sensor = m label` with m = {:?}.\n\n\
@@ -340,6 +341,7 @@ fn fitted_model_section(r: &Report) -> String {
         d.pivot_offset_mm[1],
         d.depth_compliance,
         d.tilt_relaxation_per_mm,
+        d.tilt_play_deg,
         d.pin_length_mm,
         d.camera_distance_mm,
         d.poisson,
@@ -356,10 +358,10 @@ fn fitted_model_section(r: &Report) -> String {
         // The dome search's candidates differ in their dome, not their model.
         let model = match d.model {
             SkinModel::Dome => format!(
-                "Dome: gel / skin {:.4}, pins {:.2} mm, base {:.1} mm",
-                d.gel_ratio, d.pin_length_mm, d.base_depth_mm
+                "Dome: gel / skin {:.4}, pins {:.2} mm, base {:.1} mm, play {:.2} deg",
+                d.gel_ratio, d.pin_length_mm, d.base_depth_mm, d.tilt_play_deg
             ),
-            m => format!("{m:?}"),
+            m => format!("{m:?}, play {:.2} deg", d.tilt_play_deg),
         };
         s += &format!("| {model} | {:.3} | {} |\n", c.relative_error, c.evaluations);
     }
@@ -370,7 +372,7 @@ fn fitted_model_section(r: &Report) -> String {
 fn rig_section(r: &Report) -> String {
     let d = &r.deformation;
     format!(
-        "\nA dataset recipe replays this rig (labels in the lab's frame, the sensor where the rig took it) with:\n\n```toml\n[[shapes]]\nname = \"disk\"\nfriction = {:.3}\n\n[rig]\nrotation_deg = {:.1}\nmirrored = {}\ntilts_reversed = {}\ndepth_offset_mm = {:.3}\npivot_mm = {:.2}\ndepth_compliance = {:.4}\ntilt_relaxation_per_mm = {:.4}\npivot_offset_mm = [{:.3}, {:.3}]\n```\n",
+        "\nA dataset recipe replays this rig (labels in the lab's frame, the sensor where the rig took it) with:\n\n```toml\n[[shapes]]\nname = \"disk\"\nfriction = {:.3}\n\n[rig]\nrotation_deg = {:.1}\nmirrored = {}\ntilts_reversed = {}\ndepth_offset_mm = {:.3}\npivot_mm = {:.2}\ndepth_compliance = {:.4}\ntilt_relaxation_per_mm = {:.4}\npivot_offset_mm = [{:.3}, {:.3}]\ntilt_play_deg = {:.2}\n```\n",
         d.friction,
         r.frame.rotation_deg,
         r.frame.mirrored,
@@ -381,6 +383,7 @@ fn rig_section(r: &Report) -> String {
         d.tilt_relaxation_per_mm,
         d.pivot_offset_mm[0],
         d.pivot_offset_mm[1],
+        d.tilt_play_deg,
     )
 }
 

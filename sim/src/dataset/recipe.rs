@@ -207,6 +207,8 @@ pub struct RigSpec {
     /// The pivot's offset off the sensor's axis (mm, sensor frame `x`, `y`): a tilt then
     /// raises the apex in proportion to it.
     pub pivot_offset_mm: [f64; 2],
+    /// The rig's play in tilt (deg): taken off each labelled tilt's size.
+    pub tilt_play_deg: f64,
 }
 
 impl RigSpec {
@@ -219,6 +221,7 @@ impl RigSpec {
     pub fn press(&self) -> Press {
         Press::new(self.depth_offset_mm, self.pivot_mm, self.depth_compliance, self.tilt_relaxation_per_mm)
             .with_pivot_offset(self.pivot_offset_mm)
+            .with_tilt_play(self.tilt_play_deg)
     }
 }
 
@@ -523,7 +526,8 @@ impl Recipe {
         one("rig.depth_compliance", r.depth_compliance, 0.0, 1.0)?;
         one("rig.tilt_relaxation_per_mm", r.tilt_relaxation_per_mm, 0.0, 0.2)?;
         one("rig.pivot_offset_mm[0]", r.pivot_offset_mm[0], -10.0, 10.0)?;
-        one("rig.pivot_offset_mm[1]", r.pivot_offset_mm[1], -10.0, 10.0)
+        one("rig.pivot_offset_mm[1]", r.pivot_offset_mm[1], -10.0, 10.0)?;
+        one("rig.tilt_play_deg", r.tilt_play_deg, 0.0, 10.0)
     }
 
     /// `[split]`: fractions summing to 1.
@@ -609,6 +613,7 @@ mod tests {
             ("[rig]\ntilt_relaxation_per_mm = 0.5\n", "rig.tilt_relaxation_per_mm"),
             ("[rig]\nscale = 2.0\n", "scale"),
             ("[rig]\npivot_offset_mm = [0.0, -12.0]\n", "rig.pivot_offset_mm[1]"),
+            ("[rig]\ntilt_play_deg = 12.0\n", "rig.tilt_play_deg"),
             ("[[shapes]]\nname = \"disk\"\nfriction = 3.0\n", "shapes[0].friction"),
             ("[[shapes]]\nname = \"square\"\nedge_radius_mm = 11.0\n", "shapes[0].edge_radius_mm"),
             ("[[shapes]]\nname = \"square\"\nedge_radius_mm = -0.5\n", "shapes[0].edge_radius_mm"),
