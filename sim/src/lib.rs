@@ -59,7 +59,7 @@ pub use png_io::{PngDepth, decode_png, read_png, write_png};
 pub use processing::LabProcessing;
 pub use realism::Realism;
 pub use render::PinRenderer;
-pub use rig::{Press, RigFrame};
+pub use rig::{Press, RigFrame, TILT_PLAY_RANGE_DEG};
 pub use scene::{NearEdges, ObjectId, ObjectPose, Scene, SceneObject, SurfaceHit, flat_scene};
 pub use sensor::{
     CameraParams, DEFAULT_EDGE_SUBCELLS, DomeParams, FramingParams, MAX_EDGE_SUBCELLS, MAX_IMAGE_OFFSET, PRESETS,

@@ -73,6 +73,10 @@ impl Press {
     }
 }
 
+/// The play in tilt a rig may have (deg, [`Press::tilt_play_deg`]): a recipe's `[rig]
+/// tilt_play_deg` and `cargo xtask real-compare --tilt-play` are held to it.
+pub const TILT_PLAY_RANGE_DEG: [f64; 2] = [0.0, 10.0];
+
 /// The indentation (mm) a rig that yields `depth_compliance` (mm^-0.5) reaches when
 /// commanded `commanded_mm`: `c - depth_compliance max(c, 0)^1.5` ([`Press::depth_compliance`]).
 pub fn yielded_depth_mm(commanded_mm: f64, depth_compliance: f64) -> f64 {

@@ -298,8 +298,9 @@ fn bench(extra: &[String]) -> Result<()> {
 }
 
 fn real_compare(args: &RealCompareArgs) -> Result<()> {
-    if let Some(play) = args.tilt_play.filter(|p| !(0.0..=10.0).contains(p)) {
-        bail!("--tilt-play {play}: expected a play in tilt of 0 to 10 deg, as a recipe's [rig] tilt_play_deg");
+    let [lo, hi] = tacsim_sim::TILT_PLAY_RANGE_DEG;
+    if let Some(play) = args.tilt_play.filter(|p| !(lo..=hi).contains(p)) {
+        bail!("--tilt-play {play}: expected a play in tilt of {lo} to {hi} deg, as a recipe's [rig] tilt_play_deg");
     }
     let dir = args.real.clone().unwrap_or_else(|| root().join("../shared/data/real-tactip-surface3d"));
     let lab = tacsim_data::LabFolder::open(&dir)?;

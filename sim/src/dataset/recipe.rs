@@ -527,7 +527,8 @@ impl Recipe {
         one("rig.tilt_relaxation_per_mm", r.tilt_relaxation_per_mm, 0.0, 0.2)?;
         one("rig.pivot_offset_mm[0]", r.pivot_offset_mm[0], -10.0, 10.0)?;
         one("rig.pivot_offset_mm[1]", r.pivot_offset_mm[1], -10.0, 10.0)?;
-        one("rig.tilt_play_deg", r.tilt_play_deg, 0.0, 10.0)
+        let [lo, hi] = crate::rig::TILT_PLAY_RANGE_DEG;
+        one("rig.tilt_play_deg", r.tilt_play_deg, lo, hi)
     }
 
     /// `[split]`: fractions summing to 1.
