@@ -207,7 +207,10 @@ pub struct RigSpec {
     /// The pivot's offset off the sensor's axis (mm, sensor frame `x`, `y`): a tilt then
     /// raises the apex in proportion to it.
     pub pivot_offset_mm: [f64; 2],
-    /// The rig's play in tilt (deg): taken off each labelled tilt's size.
+    /// The rig's play in tilt (deg): taken off each labelled tilt's size. Left out of the
+    /// written recipe where 0, so that a dataset made before the field existed is still the
+    /// same dataset (`meta.json`) to `--resume` and `sim2real`'s work folders.
+    #[serde(skip_serializing_if = "crate::sensor::is_zero")]
     pub tilt_play_deg: f64,
 }
 
@@ -637,5 +640,20 @@ mod tests {
             let e = Recipe::from_toml_str(&taps, "r.toml").expect_err("jitter").to_string();
             assert!(e.contains("poses.depth_mm") && e.contains("jitter"), "{e}");
         }
+    }
+
+    /// What broke: the rig's play (33ec276) was written into every dataset's `meta.json` as
+    /// `tilt_play_deg: 0.0`, so a work folder made before it "held a different dataset" and
+    /// could not be resumed (a `sim2real --finetune` on a finished run was refused).
+    #[test]
+    fn a_rig_without_play_is_written_as_before_the_play_existed() {
+        let rig = RigSpec { depth_offset_mm: -2.252, depth_compliance: 0.05, ..RigSpec::default() };
+        let written = serde_json::to_value(&rig).expect("json");
+        assert!(written.get("tilt_play_deg").is_none(), "{written}");
+        assert_eq!(written.as_object().map(|o| o.len()), Some(8), "{written}");
+        let played = serde_json::to_value(RigSpec { tilt_play_deg: 1.5, ..rig.clone() }).expect("json");
+        assert_eq!(played.get("tilt_play_deg").and_then(|v| v.as_f64()), Some(1.5));
+        let back: RigSpec = serde_json::from_value(written).expect("read back");
+        assert_eq!(back, rig);
     }
 }
