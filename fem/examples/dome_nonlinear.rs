@@ -8,7 +8,7 @@
 //! skin 1.86 mm, gel 0.0177 MPa) instead of the calibrated TacTip's, and the depths a list
 //! (mm, default 0.1,1,2,3). Each depth also gives the pins' gain: the least-squares factor of
 //! the linear pins' motion onto the neo-Hookean's, in all three directions and across the
-//! image (x, y).
+//! image (x, y), and each ring's mean outward and axial motion in both.
 //!
 //! `cargo run --release -p tacsim-fem --example dome_nonlinear -- [CELLS] [STEP_MM] [SKIN_LAYERS]
 //! [calibrated|default] [DEPTHS]` (default 6 0.25 2 calibrated 0.1,1,2,3).
@@ -60,12 +60,25 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .map(|&n| (0..3).map(|k| (a.displacement[n][k] - b.displacement[n][k]).powi(2)).sum::<f64>().sqrt())
             .fold(0.0f64, f64::max);
         let (mut worst, mut moved, mut worst_pin) = (0.0f64, 0.0f64, 0);
+        // Per ring (1 + 6 r pins, the sites' order): the mean radial motion across the image
+        // (mm, outward positive) and the mean motion along the axis, linear and neo-Hookean.
+        let mut rings = [[0.0f64; 4]; 11];
         // Sums of lin . big and lin . lin, in 3-d and across the image (x, y).
         let mut gain = [0.0f64; 4];
         for (p, probe) in probes.iter().enumerate() {
             let lin = probe.displacement(&a.displacement);
             let big = large_displacement(probe, &dome.mesh, &b.displacement);
             let d = (0..3).map(|k| (lin[k] - big[k]).powi(2)).sum::<f64>().sqrt();
+            let ring = (0..=10usize).find(|&r| p < 1 + 3 * r * (r + 1)).unwrap_or(10);
+            let base = sites[p].base;
+            let across = base[0].hypot(base[1]);
+            let outward = |v: [f64; 3]| {
+                if across > 0.0 { (v[0] * base[0] + v[1] * base[1]) / across } else { v[0].hypot(v[1]) }
+            };
+            let count = (6 * ring).max(1) as f64;
+            for (slot, v) in [outward(lin), lin[2], outward(big), big[2]].into_iter().enumerate() {
+                rings[ring][slot] += v / count;
+            }
             for k in 0..3 {
                 gain[0] += lin[k] * big[k];
                 gain[1] += lin[k] * lin[k];
@@ -96,6 +109,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             a.iterations,
             b.iterations,
             b.linear_steps,
+        );
+        let line = |slot: usize| rings.iter().map(|r| format!("{:+.3}", r[slot])).collect::<Vec<_>>().join(" ");
+        println!("  rings 0-10, outward mm: linear {}\n                       neo-Hookean {}", line(0), line(2));
+        println!(
+            "  rings 0-10, along the axis mm: linear {}\n                              neo-Hookean {}",
+            line(1),
+            line(3)
         );
     }
     Ok(())
