@@ -123,6 +123,13 @@ pub struct Sim2RealOptions {
     /// pretrained arm's too).
     #[arg(long, requires = "edge_frame")]
     pub match_motion: bool,
+    /// Fit the lab sensor's axis offset into the label map: each lateral label also gets `a
+    /// cos(yaw) + b sin(yaw)` (mm, the yaw the simulator-trained network reads), fitted on the
+    /// fitting part with the offset, as a sensor off the robot's yaw axis (or an image centred
+    /// off its pin field) shifts the lateral with the yaw. For sets whose network reads the
+    /// yaw (the edge recipes); the fine-tuning curve's maps are fitted without it.
+    #[arg(long)]
+    pub axis_offset: bool,
     /// After the zero-shot run, the fine-tuning curve: for each of these counts K of the lab's
     /// labelled fitting samples (`all`: every one), the simulator-trained network fine-tuned
     /// on K and the same network trained from scratch on them, both on the held-out part
@@ -202,6 +209,8 @@ pub struct Sim2RealReport {
     /// Whether the second network's input was matched to the simulated images' mean and
     /// spread, pixel by pixel (`--match-motion`).
     pub match_motion: bool,
+    /// Whether the label map carries the lab sensor's axis offset (`--axis-offset`).
+    pub axis_offset: bool,
     /// The fitted label map.
     pub map: Vec<String>,
     /// Errors per label on the held-out part.
@@ -335,7 +344,8 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     }
     let edge_stage = edge.as_ref().map(|e| stage(e, o.match_motion));
     let real_edge_stage = real_edge.as_ref().map(|e| stage(e, false));
-    let how = Scoring { backend: o.backend, size: o.size, adapt_norms: o.adapt_norms, turns };
+    let how =
+        Scoring { backend: o.backend, size: o.size, adapt_norms: o.adapt_norms, turns, axis_offset: o.axis_offset };
     let Scores { labels, map, nearest, predictions, fitting: fitting_csv } = score_transfer(
         &how,
         [&sim, &real],
@@ -365,6 +375,7 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
         turns: o.turns,
         edge_frame: o.edge_frame,
         match_motion: o.match_motion,
+        axis_offset: o.axis_offset,
         map: map.describe(),
         labels,
         coverage,
@@ -552,7 +563,7 @@ fn write_grid(path: &Path, sim: &Corpus, real: &Corpus, held_out: &[usize], near
 
 fn markdown(r: &Sim2RealReport) -> String {
     let mut s = format!(
-        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s in this run (stages found finished in the work folder not counted).{}{}{}{}{}\n\nLabel map: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |{}\n|---|---|---|---|---|---|{}\n",
+        "# Sim-to-real: {} against {}\n\n`{}`\n\n{} simulated training images (labels read: {}); the real folder's fitting part ({} recordings) trains the real-trained network and fits the label map, its held-out part ({}) is the test. Pose network at {} px, {} epochs, seed {}; {:.0} s in this run (stages found finished in the work folder not counted).{}{}{}{}{}\n\nLabel map{}: {}.\n\n| label (held-out real) | trained on tacsim | trained on real | ratio | chance | tacsim reading's gain |{}\n|---|---|---|---|---|---|{}\n",
         r.recipe,
         r.real,
         r.command,
@@ -591,6 +602,11 @@ fn markdown(r: &Sim2RealReport) -> String {
         },
         if r.match_motion {
             " Before the second network read them, the turned lab images were matched pixel by pixel to the simulated images turned into the same frame (`--match-motion`): each value's mean and spread over the fitting part's images taken to the simulated training images' (labels unused)."
+        } else {
+            ""
+        },
+        if r.axis_offset {
+            " (with the lab sensor's axis offset, `--axis-offset`: the lateral's `a cos + b sin` of the yaw read, fitted on the fitting part with its offset)"
         } else {
             ""
         },

@@ -356,6 +356,20 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     ok(&matched_args);
     assert_eq!(readings("_sim_trained"), matched_sim, "same statistics, same readings to the last digit");
 
+    // `--axis-offset`: the lateral's map gains a cos + b sin of the yaw read, fitted on the
+    // fitting part; the same networks, the yaw and the depth through the map as before, the
+    // lateral not; said in both reports, and a run without it gives back the plain map.
+    let offset_args = [&matched_args[..], &["--axis-offset"]].concat();
+    let offset = ok(&offset_args);
+    assert!(offset.contains("`--axis-offset`") && offset.contains("cos(sim pose_Rz)"), "{offset}");
+    let report: serde_json::Value = json_file(&out.join("report.json"));
+    assert_eq!(report["axis_offset"].as_bool(), Some(true));
+    assert_eq!(yaw(), turned_yaw, "the yaw's link is left alone");
+    assert_ne!(readings("_sim_trained"), matched_sim, "the lateral turns with the yaw read");
+    assert!(!matched.contains("cos(sim pose_Rz)"), "{matched}");
+    ok(&matched_args);
+    assert_eq!(readings("_sim_trained"), matched_sim, "without the flag, the plain map's readings");
+
     // The fine-tuning curve in the edge's frame: each arm trains a second network on the K
     // turned by their labelled yaws and reads the lateral and the depth from the held-out
     // images turned by its first network's yaw; the point has its own folder, keeps the first

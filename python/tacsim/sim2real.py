@@ -21,7 +21,7 @@ from pathlib import Path
 def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs=None, seed=None,
              finetune=None, finetune_seeds=None, finetune_min_steps=None, finetune_lr_scale=None,
              finetune_sim_share=None, input=None, motion_field=None, turns=None, edge_frame=False,  # noqa: A002
-             match_motion=False, report=None, extra=(), tacsim_bin=None):
+             match_motion=False, axis_offset=False, report=None, extra=(), tacsim_bin=None):
     """Runs ``tacsim sim2real --real REAL --out OUT`` with the options given (the flags of the
     same names; ``finetune`` a list of sample counts and ``"all"``; ``input`` ``"pins"`` or
     ``"motion"``, what the networks read; ``motion_field`` with ``"motion"``, the part of the
@@ -31,7 +31,8 @@ def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs
     network from each image turned into the edge's frame, by the real-trained network and the
     fine-tuning curve's arms too;
     ``match_motion=True`` with it, those images matched pixel by pixel to the simulated ones'
-    mean and spread) and returns
+    mean and spread; ``axis_offset=True``, the lab sensor's axis offset fitted into the label
+    map: the lateral's ``a cos + b sin`` of the yaw read) and returns
     ``{"report": ..., "finetune": ...}``: ``report.json`` and, with ``finetune``,
     ``finetune.json`` (``None`` without). Raises ``FileNotFoundError`` where no tool is found
     and ``RuntimeError`` with the tool's message where it fails."""
@@ -55,6 +56,8 @@ def sim2real(real, out, *, recipe=None, sensor=None, sim=None, size=None, epochs
         args += ["--edge-frame"]
     if match_motion:
         args += ["--match-motion"]
+    if axis_offset:
+        args += ["--axis-offset"]
     if finetune is not None:
         args += ["--finetune", ",".join(str(k) for k in finetune)]
     args += [str(a) for a in extra]

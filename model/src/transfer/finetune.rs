@@ -554,8 +554,8 @@ mod tests {
     fn the_labs_yaw_sense_is_the_simulators_times_the_maps_sign() {
         let link = |sign| LabelMap {
             links: vec![
-                super::super::Link { real: Column::PoseY, sim: Column::PoseX, sign: -1.0, offset: 0.5 },
-                super::super::Link { real: Column::PoseRz, sim: Column::PoseRz, sign, offset: 90.0 },
+                super::super::Link::new(Column::PoseY, Column::PoseX, -1.0, 0.5),
+                super::super::Link::new(Column::PoseRz, Column::PoseRz, sign, 90.0),
             ],
         };
         assert_eq!(lab_sense(&link(1.0), -1.0).expect("kept"), -1.0);

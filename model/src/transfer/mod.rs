@@ -11,6 +11,13 @@
 //! show it in the error.
 //!
 //! `real = sign * sim + offset` (mm, or deg modulo 360 for a rotation).
+//!
+//! A lab's sensor whose axis lies off the robot's yaw axis (or whose image is centred off its
+//! pin field) reads a lateral offset that turns with the yaw: with the axis offset fitted
+//! ([`LabelMap::with_axis_offset`]), a lateral label (`pose_x`, `pose_y` simulated) is
+//! `real = sign * sim + offset + a cos(yaw) + b sin(yaw)` (mm), `yaw` the simulated reading's
+//! `pose_Rz` (deg): two more numbers fitted on the fitting part, as the surface rig's pivot
+//! offset is (`tacsim calibrate`).
 
 mod edge_frame;
 mod finetune;
@@ -55,18 +62,41 @@ pub struct Link {
     pub sign: f64,
     /// Offset (mm or deg).
     pub offset: f64,
+    /// The axis offset's terms `[a, b]` (mm): `a cos(yaw) + b sin(yaw)` added, `yaw` the
+    /// simulated pose's `pose_Rz` (deg); zero unless fitted ([`LabelMap::with_axis_offset`]).
+    #[serde(default, skip_serializing_if = "no_turning")]
+    pub turning_mm: [f64; 2],
+}
+
+fn no_turning(t: &[f64; 2]) -> bool {
+    *t == [0.0, 0.0]
+}
+
+/// `a cos(yaw) + b sin(yaw)` for `[a, b]` and `yaw` in deg.
+fn turning(t: [f64; 2], yaw_deg: f64) -> f64 {
+    if no_turning(&t) {
+        return 0.0;
+    }
+    let (s, c) = yaw_deg.to_radians().sin_cos();
+    t[0] * c + t[1] * s
 }
 
 impl Link {
+    /// A link without the axis offset's terms.
+    pub fn new(real: Column, sim: Column, sign: f64, offset: f64) -> Self {
+        Self { real, sim, sign, offset, turning_mm: [0.0; 2] }
+    }
+
     /// The lab's value of the simulated pose `p`.
     pub fn apply(&self, p: &Pose) -> f64 {
-        let v = self.sign * p.get(self.sim) + self.offset;
+        let v = self.sign * p.get(self.sim) + self.offset + turning(self.turning_mm, p.get(Column::PoseRz));
         if self.real.is_angle() { wrap_deg(v) } else { v }
     }
 
-    /// The simulated value of the lab's value `v` (inverse of [`Self::apply`]).
-    pub fn invert(&self, v: f64) -> f64 {
-        let s = self.sign * (v - self.offset);
+    /// The simulated value of the lab's value `v` (inverse of [`Self::apply`]), `sim_yaw_deg`
+    /// the simulated pose's `pose_Rz` (read only where the link has the axis offset's terms).
+    pub fn invert(&self, v: f64, sim_yaw_deg: f64) -> f64 {
+        let s = self.sign * (v - self.offset - turning(self.turning_mm, sim_yaw_deg));
         if self.sim.is_angle() { wrap_deg(s) } else { s }
     }
 }
@@ -81,19 +111,14 @@ pub struct LabelMap {
 impl LabelMap {
     /// The identity on `labels` (a network trained on the lab's own labels).
     pub fn identity(labels: &[Column]) -> Self {
-        Self { links: labels.iter().map(|&c| Link { real: c, sim: c, sign: 1.0, offset: 0.0 }).collect() }
+        Self { links: labels.iter().map(|&c| Link::new(c, c, 1.0, 0.0)).collect() }
     }
 
     /// Chance: each of `labels` answered by the one constant that fits `real` best (the
     /// median; for a rotation, on the circle).
     pub fn constant(labels: &[Column], real: &[Pose]) -> Self {
         let zero = vec![Pose::default(); real.len()];
-        Self {
-            links: labels
-                .iter()
-                .map(|&c| Link { real: c, sim: c, sign: 1.0, offset: best_offset(c, c, 1.0, &zero, real) })
-                .collect(),
-        }
+        Self { links: labels.iter().map(|&c| Link::new(c, c, 1.0, best_offset(c, c, 1.0, &zero, real))).collect() }
     }
 
     /// Fits the map from `predicted` (a simulator-trained network's readings, of the
@@ -136,12 +161,7 @@ impl LabelMap {
                                 .into_iter()
                                 .map(|sign| {
                                     let r = labels[k];
-                                    let link = Link {
-                                        real: r,
-                                        sim: s,
-                                        sign,
-                                        offset: best_offset(r, s, sign, predicted, real),
-                                    };
+                                    let link = Link::new(r, s, sign, best_offset(r, s, sign, predicted, real));
                                     (mean_error(&link, predicted, real) / chance[k].max(1e-12), link)
                                 })
                                 .min_by(|a, b| a.0.total_cmp(&b.0))
@@ -164,11 +184,36 @@ impl LabelMap {
         self.links.iter().map(|l| mean_error(l, predicted, real)).collect()
     }
 
-    /// The simulated pose of a lab pose (labels the map does not name are 0).
+    /// The lab sensor's axis offset fitted into this map (see the module docs): each lateral
+    /// link (simulated `pose_x` or `pose_y`) refitted as `offset + a cos(yaw) + b sin(yaw)` on
+    /// `predicted` (the simulator-trained readings of the fitting images, with their yaw)
+    /// against their lab labels `real`, of least mean absolute error (iteratively reweighted
+    /// least squares from the link's offset). Unchanged where the readings carry no yaw.
+    pub fn with_axis_offset(mut self, predicted: &[Pose], real: &[Pose]) -> Self {
+        let yawed = self.links.iter().any(|l| l.sim == Column::PoseRz);
+        for l in self.links.iter_mut().filter(|l| yawed && matches!(l.sim, Column::PoseX | Column::PoseY)) {
+            let rows: Vec<([f64; 3], f64)> = predicted
+                .iter()
+                .zip(real)
+                .map(|(p, t)| {
+                    let (s, c) = p.get(Column::PoseRz).to_radians().sin_cos();
+                    ([1.0, c, s], t.get(l.real) - l.sign * p.get(l.sim))
+                })
+                .collect();
+            let [offset, a, b] = least_absolute(&rows, [l.offset, 0.0, 0.0]);
+            (l.offset, l.turning_mm) = (offset, [a, b]);
+        }
+        self
+    }
+
+    /// The simulated pose of a lab pose (labels the map does not name are 0): the rotations
+    /// first, so that the lateral links' axis offset turns with the simulated yaw.
     pub fn sim_pose(&self, real: &Pose) -> Pose {
         let mut p = Pose::default();
-        for l in &self.links {
-            p.set(l.sim, l.invert(real.get(l.real)));
+        for angle in [true, false] {
+            for l in self.links.iter().filter(|l| l.sim.is_angle() == angle) {
+                p.set(l.sim, l.invert(real.get(l.real), p.get(Column::PoseRz)));
+            }
         }
         p
     }
@@ -178,12 +223,26 @@ impl LabelMap {
         self.links
             .iter()
             .map(|l| {
+                let sign = |v: f64| if v < 0.0 { "-" } else { "+" };
+                let turning = if no_turning(&l.turning_mm) {
+                    String::new()
+                } else {
+                    let [a, b] = l.turning_mm;
+                    format!(
+                        " {} {:.2} cos(sim pose_Rz) {} {:.2} sin(sim pose_Rz) (the axis offset, {:.2} mm)",
+                        sign(a),
+                        a.abs(),
+                        sign(b),
+                        b.abs(),
+                        a.hypot(b)
+                    )
+                };
                 format!(
-                    "lab {} = {}sim {} {} {:.2}",
+                    "lab {} = {}sim {} {} {:.2}{turning}",
                     label(l.real),
                     if l.sign < 0.0 { "-" } else { "" },
                     label(l.sim),
-                    if l.offset < 0.0 { "-" } else { "+" },
+                    sign(l.offset),
                     l.offset.abs()
                 )
             })
@@ -265,6 +324,27 @@ fn assign<T>(cost: &[Vec<(f64, T)>], distinct: bool) -> Vec<usize> {
     best.1
 }
 
+/// The coefficients `x` of least `sum |y - r . x|` over `rows` `(r, y)`, by iteratively
+/// reweighted least squares from `start` (weights `1 / max(|residual|, 1e-4)`, 50 rounds;
+/// a round whose normal equations are singular keeps the last coefficients).
+fn least_absolute(rows: &[([f64; 3], f64)], start: [f64; 3]) -> [f64; 3] {
+    let mut x = start;
+    for _ in 0..50 {
+        let (mut m, mut v) = (nalgebra::Matrix3::<f64>::zeros(), nalgebra::Vector3::<f64>::zeros());
+        for (r, y) in rows {
+            let r = nalgebra::Vector3::from(*r);
+            let w = 1.0 / (y - r.dot(&nalgebra::Vector3::from(x))).abs().max(1e-4);
+            m += w * r * r.transpose();
+            v += w * *y * r;
+        }
+        match m.lu().solve(&v) {
+            Some(next) if next.iter().all(|c| c.is_finite()) => x = next.into(),
+            _ => break,
+        }
+    }
+    x
+}
+
 fn mean_error(link: &Link, predicted: &[Pose], real: &[Pose]) -> f64 {
     let sum: f64 =
         predicted.iter().zip(real).map(|(p, t)| difference(link.real, link.apply(p), t.get(link.real))).sum();
@@ -319,6 +399,54 @@ mod tests {
         assert_eq!((x.lo, x.width, x.hi(Column::PoseX)), (-1.0, 3.0, 2.0));
         assert!(x.contains(Column::PoseX, 2.0) && !x.contains(Column::PoseX, 2.1));
         assert_eq!(Span::of(Column::PoseX, &[]), None);
+    }
+
+    #[test]
+    fn an_off_axis_sensors_turning_lateral_is_fitted_and_inverted() {
+        // Lab: lateral = -sim x + 0.4 + 0.42 cos(yaw) + 0.05 sin(yaw) (mm, yaw the simulated
+        // one), yaw reversed and 90 deg off; the readings carry a little noise and a few
+        // wild lateral readings (a least-absolute fit is not pulled by them).
+        let turning = |yaw: f64| 0.42 * yaw.to_radians().cos() + 0.05 * yaw.to_radians().sin();
+        let sim: Vec<Pose> = (0..300)
+            .map(|i| {
+                let t = i as f64;
+                pose(-6.0 + 12.0 * ((t * 0.618) % 1.0), 0.0, -180.0 + 360.0 * ((t * 0.377) % 1.0))
+            })
+            .collect();
+        let real: Vec<Pose> = sim
+            .iter()
+            .map(|p| pose(0.0, -p.x_mm() + 0.4 + turning(p.yaw_deg()), wrap_deg(-p.yaw_deg() + 90.0)))
+            .collect();
+        let read: Vec<Pose> = sim
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let wild = if i % 50 == 0 { 3.0 } else { 0.0 };
+                pose(p.x_mm() + 0.03 * ((i % 3) as f64 - 1.0) + wild, 0.0, p.yaw_deg())
+            })
+            .collect();
+        let labels = [Column::PoseY, Column::PoseRz];
+        let plain = LabelMap::fit(&read, &SIM, &real, &labels).expect("fit");
+        assert_eq!(plain.links[0].turning_mm, [0.0, 0.0]);
+        // Without the terms the map's JSON is the one written before they existed.
+        let json = serde_json::to_string(&plain).expect("json");
+        assert!(!json.contains("turning"), "{json}");
+        let fitted = plain.clone().with_axis_offset(&read, &real);
+        let lat = fitted.links[0];
+        assert!((lat.offset - 0.4).abs() < 0.02, "{lat:?}");
+        assert!((lat.turning_mm[0] - 0.42).abs() < 0.02 && (lat.turning_mm[1] - 0.05).abs() < 0.02, "{lat:?}");
+        assert_eq!(fitted.links[1], plain.links[1], "the yaw's link is left alone");
+        let (before, after) = (plain.errors(&read, &real)[0], fitted.errors(&read, &real)[0]);
+        // After: the six wild readings' 3 mm (0.06 of the mean) and the noise (0.02).
+        assert!(before > 0.25 && after < 0.085, "{before} -> {after}");
+        assert!(fitted.describe()[0].contains("cos(sim pose_Rz)"), "{:?}", fitted.describe());
+        // The inverse takes a lab pose back to the simulated one, the yaw first.
+        let back = fitted.sim_pose(&real[11]);
+        assert!((back.x_mm() - sim[11].x_mm()).abs() < 0.03, "{back:?} against {:?}", sim[11]);
+        // Readings without a yaw leave the map as it is.
+        let flat = [Column::PoseX];
+        let lateral_only = LabelMap::fit(&read, &flat, &real, &[Column::PoseY]).expect("fit");
+        assert_eq!(lateral_only.clone().with_axis_offset(&read, &real), lateral_only);
     }
 
     #[test]

@@ -74,6 +74,8 @@ pub struct Scoring {
     /// held-out part) averaged over turns of each image ([`Turns`]); the real-trained network
     /// reads the images as they are.
     pub turns: Option<Turns>,
+    /// Fit the lab sensor's axis offset into the label map ([`LabelMap::with_axis_offset`]).
+    pub axis_offset: bool,
 }
 
 /// What [`score`] finds.
@@ -148,6 +150,7 @@ pub fn score(
     };
     let fit_read = read(&fit_images, fit_read);
     let map = LabelMap::fit(&fit_read, &sim_scale.columns(), &fit_truth, real_labels)?;
+    let map = if how.axis_offset { map.with_axis_offset(&fit_read, &fit_truth) } else { map };
     let truth = poses(held_out);
     let test_images = images(held_out);
     let sim_read = read(&test_images, read_first(&test_images));
@@ -260,7 +263,7 @@ pub fn coverage(map: &LabelMap, [sim, real]: [&Corpus; 2], [sim_rows, fitting]: 
     map.links
         .iter()
         .filter_map(|l| {
-            let lab: Vec<f64> = fitting.iter().map(|&r| l.invert(real.pose(r).get(l.real))).collect();
+            let lab: Vec<f64> = fitting.iter().map(|&r| map.sim_pose(&real.pose(r)).get(l.sim)).collect();
             let simulated: Vec<f64> = sim_rows.iter().map(|&r| sim.pose(r).get(l.sim)).collect();
             let (lab_span, sim_span) = (Span::of(l.sim, &lab)?, Span::of(l.sim, &simulated)?);
             let outside = lab.iter().filter(|&&v| !sim_span.contains(l.sim, v)).count();
