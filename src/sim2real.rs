@@ -306,6 +306,14 @@ pub fn sim2real(o: &Sim2RealOptions, command: &str) -> Result<String> {
     if let Some(t) = &turns {
         t.check(&sim_labels).with_context(|| format!("the simulated set {}", sim_dir.display()))?;
     }
+    if o.axis_offset && !sim_labels.contains(&Column::PoseRz) {
+        bail!(
+            "--axis-offset turns the lateral's map with the yaw, but the simulator-trained network does not read the \
+             yaw (no pose_Rz varies over the simulated training images of {}): use a recipe whose poses draw a yaw (the \
+             edge recipes) or drop the flag",
+            sim_dir.display()
+        );
+    }
     let edge_labels = match o.edge_frame {
         false => None,
         true => Some(

@@ -535,6 +535,23 @@ fn sim2real_scores_slide_offsets_on_slid_recordings() {
         .map(|l| l.split(" = ").nth(1).expect("rhs").trim_start_matches('-').split(' ').nth(1).expect("sim"))
         .collect();
     assert_eq!(sims.len(), 3, "{map:?}");
+    // `--axis-offset` turns the lateral's map with the yaw: these slides draw none, so it is
+    // refused with what to do, not run as a plain map.
+    let train = recipe("train", 8);
+    let e = err(&[
+        "sim2real",
+        "--real",
+        s(&lab),
+        "--recipe",
+        s(&train),
+        "--out",
+        s(&out),
+        "--epochs",
+        "2",
+        "--axis-offset",
+        "-q",
+    ]);
+    assert!(e.contains("--axis-offset") && e.contains("does not read the yaw"), "{e}");
 }
 
 /// The built-in `surface-3d` recipe replays the rig `tacsim calibrate` fitted to the surface
