@@ -260,10 +260,11 @@ fn readings_csv(
 /// Per link of `map`: the lab's fitting poses (`real` at `rows[1]`) in the recipe's frame
 /// against the simulated training poses (`sim` at `rows[0]`).
 pub fn coverage(map: &LabelMap, [sim, real]: [&Corpus; 2], [sim_rows, fitting]: [&[usize]; 2]) -> Vec<Coverage> {
+    let lab_poses: Vec<Pose> = fitting.iter().map(|&r| map.sim_pose(&real.pose(r))).collect();
     map.links
         .iter()
         .filter_map(|l| {
-            let lab: Vec<f64> = fitting.iter().map(|&r| map.sim_pose(&real.pose(r)).get(l.sim)).collect();
+            let lab: Vec<f64> = lab_poses.iter().map(|p| p.get(l.sim)).collect();
             let simulated: Vec<f64> = sim_rows.iter().map(|&r| sim.pose(r).get(l.sim)).collect();
             let (lab_span, sim_span) = (Span::of(l.sim, &lab)?, Span::of(l.sim, &simulated)?);
             let outside = lab.iter().filter(|&&v| !sim_span.contains(l.sim, v)).count();

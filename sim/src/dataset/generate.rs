@@ -120,6 +120,24 @@ pub fn shard_range(len: usize, i: usize, n: usize) -> std::ops::Range<usize> {
     (i * len / n)..((i + 1) * len / n)
 }
 
+/// Whether `old` (a dataset's `meta.json`) names the dataset `new` does: equal, or equal once
+/// each side's recipe and sensor are read back as this build reads them, so that a field added
+/// since, at its default, names no other dataset. Regression: 33ec276's `[rig] tilt_play_deg`
+/// made every earlier work folder "a different dataset".
+fn same_dataset(old: &Meta, new: &Meta) -> bool {
+    fn read_back<T: Serialize + serde::de::DeserializeOwned>(v: &serde_json::Value) -> Option<serde_json::Value> {
+        serde_json::to_value(serde_json::from_value::<T>(v.clone()).ok()?).ok()
+    }
+    let normal = |m: &Meta| -> Option<Meta> {
+        Some(Meta {
+            recipe: read_back::<super::Recipe>(&m.recipe)?,
+            sensor: read_back::<SensorParams>(&m.sensor)?,
+            ..m.clone()
+        })
+    };
+    old == new || matches!((normal(old), normal(new)), (Some(a), Some(b)) if a == b)
+}
+
 /// Prepares `target.out` for `meta`: a new (or empty) directory, or the same dataset when
 /// resuming. Refuses a directory holding anything else.
 fn prepare(target: &Target, meta: &Meta) -> Result<()> {
@@ -129,7 +147,7 @@ fn prepare(target: &Target, meta: &Meta) -> Result<()> {
         let meta_path = out.join("meta.json");
         if meta_path.exists() {
             let old = Meta::load(&meta_path)?;
-            if old != *meta {
+            if !same_dataset(&old, meta) {
                 return Err(SimError::Analysis {
                     source_name: out.display().to_string(),
                     reason: "holds a different dataset (recipe, seed, sensor, size or shard differ); \
@@ -627,6 +645,34 @@ fn shard_set(parts: &[(tacsim_data::Shard, tacsim_data::Dataset)]) -> std::resul
 /// the f32 one (`gpu/raster.rs`). Regression: in f32, samples 81 and 225 (`image_81.png`,
 /// `image_225.png` of `tacsim generate quick`) differed from the CPU's in one pixel each,
 /// coverage 2.9e-5 and 2.1e-9 from 1/2 on lavapipe; on an NVIDIA H100 201 of 300 images did.
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::dataset::{Job, Recipe, base_sensor};
+
+    /// A `meta.json` written before a defaulted field existed is the same dataset; one whose
+    /// recipe differs in a value is not.
+    #[test]
+    fn a_field_added_at_its_default_names_the_same_dataset() {
+        let (recipe, source) = Recipe::file_or_builtin("quick").expect("quick");
+        let base = base_sensor(&recipe, None, None).expect("sensor");
+        let job = Job::new(&recipe, &source, &base, &crate::builtin_catalogue().expect("shapes"), None).expect("job");
+        let sensor = recipe_sensor(&job.plan, &base).expect("sensor");
+        let now = meta(&job.plan, &sensor, None).expect("meta");
+        let mut before = now.clone();
+        let randomise = before.recipe["randomise"].as_object_mut().expect("randomise");
+        assert!(randomise.remove("pin_jitter_px").is_some(), "a field at its default");
+        assert_ne!(before, now);
+        assert!(same_dataset(&before, &now) && same_dataset(&now, &now));
+        let mut other = now.clone();
+        other.recipe["seed"] = serde_json::json!(7);
+        assert!(!same_dataset(&other, &now));
+        let mut unreadable = before;
+        unreadable.recipe["randomise"]["colour"] = serde_json::json!(1);
+        assert!(!same_dataset(&unreadable, &now), "a field this build does not know");
+    }
+}
+
 #[cfg(all(test, feature = "wgpu"))]
 mod gpu_tests {
     use super::*;
