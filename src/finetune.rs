@@ -64,7 +64,7 @@ pub fn run(
         seeds,
         rule: format!(
             "both arms: the real-trained network's settings (lr {} for the first half of the epochs, then times {}), \
-             the same epochs at each K: {} or more, so that each arm takes at least {} optimiser steps{}{}{}",
+             the same epochs at each K: {} or more, so that each arm takes at least {} optimiser steps{}{}{}{}",
             curve.cfg.lr,
             curve.cfg.lr_step_factor,
             curve.cfg.epochs,
@@ -79,6 +79,11 @@ pub fn run(
                     "; the pretrained arm trains on K s / (1 - s) simulated images beside the K (s = {s}), \
                      in the epochs that give it the same steps"
                 ),
+            },
+            if curve.how.axis_offset {
+                "; the pretrained arm's map fitted on the K takes the lab sensor's axis offset (--axis-offset)"
+            } else {
+                ""
             },
             match &curve.edge {
                 None => String::new(),

@@ -166,6 +166,7 @@ fn sim2real_reads_a_lab_folder_in_its_own_frame_and_resumes() {
     ok(&[&args[..], &gentle[..], &["--finetune-lr-scale", "0.1", "-q"]].concat());
     let (fast, slow) = (json_file(&point), json_file(&out.join("finetune/k8-s0-lr0.1/point.json")));
     assert_eq!(fast["scratch"], slow["scratch"], "the from-scratch arm keeps its rate");
+    assert!(!out.join("finetune/k8-s0-lr0.1/scratch").exists(), "the plain point's from-scratch run, shared");
     assert_ne!(fast["pretrained"], slow["pretrained"], "{fast} {slow}");
     let rule = std::fs::read_to_string(out.join("finetune.json")).expect("finetune.json");
     assert!(rule.contains("the pretrained arm at 0.1 times that rate"), "{rule}");
@@ -412,6 +413,22 @@ fn turned_readings_average_the_simulator_trained_networks_yaw_turned_back() {
     assert!(rule.contains("in the edge's frame (--edge-frame)") && rule.contains("matched"), "{rule}");
     ok(&curve_args);
     assert_eq!(std::fs::read_to_string(out.join("finetune.md")).expect("md"), md, "a rerun reads the point back");
+    // With `--axis-offset` the map fitted on the K turns the lateral with the yaw read: a point
+    // of its own, its pretrained runs its own, the from-scratch arm the plain point's (not
+    // trained again), the rule saying so.
+    let axis_curve = ["--finetune", "8", "--finetune-seeds", "1", "--finetune-min-steps", "4", "--axis-offset"];
+    ok(&[&matched_args[..], &axis_curve[..]].concat());
+    let axis_dir = out.join("finetune/k8-s0-edge-matched-axis");
+    let axis: serde_json::Value = json_file(&axis_dir.join("point.json"));
+    assert!(
+        axis["map"].to_string().contains("cos(sim pose_Rz)") && !point["map"].to_string().contains("cos("),
+        "{axis}"
+    );
+    assert_eq!((&axis["scratch"], &axis["scratch_first"]), (&point["scratch"], &point["scratch_first"]), "{axis}");
+    assert!(axis_dir.join("pretrained-edge").join("config.json").is_file(), "the pretrained arm's own runs");
+    assert!(!axis_dir.join("scratch").exists() && !axis_dir.join("scratch-edge").exists(), "shared from-scratch runs");
+    let rule = std::fs::read_to_string(out.join("finetune.json")).expect("finetune.json");
+    assert!(rule.contains("axis offset (--axis-offset)"), "{rule}");
 }
 
 #[test]

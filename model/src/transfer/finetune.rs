@@ -20,6 +20,10 @@
 //!   ([`Curve::sim_share`]): `m = K s / (1 - s)` of the simulated training images (a seeded
 //!   choice per point) join the `K`, and the arm trains the epochs that give it the
 //!   from-scratch arm's steps ([`mixed_epochs`]).
+//! - With [`Scoring::axis_offset`] (`--axis-offset`) the map fitted on the `K` takes the lab
+//!   sensor's axis offset too ([`LabelMap::with_axis_offset`]), as the zero-shot map does.
+//! - The from-scratch arm does not depend on the pretrained arm's rate, simulated share or
+//!   map: it is trained once per `K` and seed, in the plain point's folder, and shared.
 //!
 //! - In the edge's frame ([`Curve::edge`], `--edge-frame`): each arm also trains a second
 //!   network, in the same steps as its first, on the `K` images each turned by minus its
@@ -32,8 +36,9 @@
 //!   held-out ones, are matched to the simulated images' moments over the lab's fitting images
 //!   turned by the fine-tuned network's yaws (labels unused).
 //!
-//! Each point's runs and its scores live in `k{K}-s{seed}/` under the curve's folder: a
-//! finished point is read back, not recomputed; an interrupted one resumes its runs.
+//! Each point's runs and its scores live in `k{K}-s{seed}/` under the curve's folder (with a
+//! suffix per option above; the from-scratch runs in the plain point's): a finished point is
+//! read back, not recomputed; an interrupted one resumes its runs.
 
 use std::path::{Path, PathBuf};
 
@@ -208,7 +213,9 @@ impl Curve<'_> {
     /// is finished, else trained (resuming its runs) and scored.
     pub fn point(&self, k: usize, seed: u64, progress: &mut dyn Progress) -> Result<CurvePoint> {
         let k = k.min(self.fitting.len());
-        // A gentler fine-tuning, or one with simulated images, is a point of its own.
+        // A gentler fine-tuning, one with simulated images or one whose map fits the axis
+        // offset is a point of its own; its from-scratch arm, which none of them touch, is
+        // the plain point's (trained once per K and seed).
         let mut name = format!("k{k}-s{seed}");
         if self.pretrained_lr_scale != 1.0 {
             name.push_str(&format!("-lr{}", self.pretrained_lr_scale));
@@ -216,10 +223,17 @@ impl Curve<'_> {
         if self.sim_share > 0.0 {
             name.push_str(&format!("-sim{}", self.sim_share));
         }
+        let mut plain = format!("k{k}-s{seed}");
         if let Some(edge) = &self.edge {
-            name.push_str(if edge.match_motion { "-edge-matched" } else { "-edge" });
+            let frame = if edge.match_motion { "-edge-matched" } else { "-edge" };
+            name.push_str(frame);
+            plain.push_str(frame);
+        }
+        if self.how.axis_offset {
+            name.push_str("-axis");
         }
         let dir = self.dir.join(name);
+        let scratch_dir = self.dir.join(plain);
         let done = dir.join("point.json");
         if done.is_file() {
             return read_json(&done);
@@ -239,6 +253,7 @@ impl Curve<'_> {
         let (sim_net, _, sim_scale) = load_posenet(self.sim_run, &device)?;
         let read = predict_poses(&sim_net, &sim_scale, &corpus_images(self.real, &rows), self.how.size, &device);
         let map = LabelMap::fit(&read, &sim_scale.columns(), &truth(&rows), self.labels)?;
+        let map = if self.how.axis_offset { map.with_axis_offset(&read, &truth(&rows)) } else { map };
         let sim_labels = sim_scale.columns();
         // In the edge's frame, what each arm's second network reads and the lab's yaw sense,
         // checked before any training.
@@ -285,7 +300,7 @@ impl Curve<'_> {
         // (b) From scratch, on the lab's own labels.
         let own = self.real.training_only(&rows, |pose| *pose, self.labels);
         let scratch_cfg = PoseConfig { labels: self.labels.to_vec(), epochs, seed: seed_cfg, ..self.cfg.clone() };
-        let run = dir.join("scratch");
+        let run = scratch_dir.join("scratch");
         train_posenet(&own, &scratch_cfg, self.how.backend, &run, run.join("config.json").is_file(), None, progress)?;
         let (net, _, scale) = load_posenet(&run, &device)?;
         let scratch_read = predict_poses(&net, &scale, &held_images, self.how.size, &device);
@@ -318,7 +333,7 @@ impl Curve<'_> {
                     set: own,
                     labels: lab_edge_labels,
                     cfg: scratch_cfg,
-                    run: dir.join("scratch-edge"),
+                    run: scratch_dir.join("scratch-edge"),
                     weights: None,
                     turn: (lab_sense, stage.turn),
                     matching: None,
