@@ -188,17 +188,31 @@ impl LabelMap {
     /// link (simulated `pose_x` or `pose_y`) refitted as `offset + a cos(yaw) + b sin(yaw)` on
     /// `predicted` (the simulator-trained readings of the fitting images, with their yaw)
     /// against their lab labels `real`, of least mean absolute error (iteratively reweighted
-    /// least squares from the link's offset). Unchanged where the readings carry no yaw.
+    /// least squares from the link's offset). Unchanged where the readings carry no yaw, and
+    /// where their yaws do not determine the terms: fewer than [`AXIS_OFFSET_MIN_SAMPLES`]
+    /// samples, or `[1, cos, sin]` over them nearly dependent (the least eigenvalue of their
+    /// mean outer product under [`AXIS_OFFSET_MIN_SPREAD`]: yaws bunched at one angle).
     pub fn with_axis_offset(mut self, predicted: &[Pose], real: &[Pose]) -> Self {
         let yawed = self.links.iter().any(|l| l.sim == Column::PoseRz);
-        for l in self.links.iter_mut().filter(|l| yawed && matches!(l.sim, Column::PoseX | Column::PoseY)) {
-            let rows: Vec<([f64; 3], f64)> = predicted
+        let terms: Vec<[f64; 3]> = predicted
+            .iter()
+            .map(|p| {
+                let (s, c) = p.get(Column::PoseRz).to_radians().sin_cos();
+                [1.0, c, s]
+            })
+            .collect();
+        let spread = terms.iter().fold(nalgebra::Matrix3::<f64>::zeros(), |m, r| {
+            let r = nalgebra::Vector3::from(*r);
+            m + r * r.transpose()
+        }) / terms.len().max(1) as f64;
+        let determined = terms.len() >= AXIS_OFFSET_MIN_SAMPLES
+            && spread.symmetric_eigenvalues().iter().copied().fold(f64::INFINITY, f64::min) >= AXIS_OFFSET_MIN_SPREAD;
+        for l in self.links.iter_mut().filter(|l| determined && yawed && matches!(l.sim, Column::PoseX | Column::PoseY))
+        {
+            let rows: Vec<([f64; 3], f64)> = terms
                 .iter()
-                .zip(real)
-                .map(|(p, t)| {
-                    let (s, c) = p.get(Column::PoseRz).to_radians().sin_cos();
-                    ([1.0, c, s], t.get(l.real) - l.sign * p.get(l.sim))
-                })
+                .zip(predicted.iter().zip(real))
+                .map(|(r, (p, t))| (*r, t.get(l.real) - l.sign * p.get(l.sim)))
                 .collect();
             let [offset, a, b] = least_absolute(&rows, [l.offset, 0.0, 0.0]);
             (l.offset, l.turning_mm) = (offset, [a, b]);
@@ -327,6 +341,14 @@ fn assign<T>(cost: &[Vec<(f64, T)>], distinct: bool) -> Vec<usize> {
 /// The coefficients `x` of least `sum |y - r . x|` over `rows` `(r, y)`, by iteratively
 /// reweighted least squares from `start` (weights `1 / max(|residual|, 1e-4)`, 50 rounds;
 /// a round whose normal equations are singular keeps the last coefficients).
+/// The fewest samples [`LabelMap::with_axis_offset`] fits its three terms on.
+pub const AXIS_OFFSET_MIN_SAMPLES: usize = 8;
+
+/// The least eigenvalue of the mean of `[1, cos, sin]` of the yaws' outer products that
+/// [`LabelMap::with_axis_offset`] fits on: yaws spread evenly over the whole turn give 0.5,
+/// over 120 deg 0.0135, over 90 deg 0.0043, all at one angle 0.
+pub const AXIS_OFFSET_MIN_SPREAD: f64 = 0.01;
+
 fn least_absolute(rows: &[([f64; 3], f64)], start: [f64; 3]) -> [f64; 3] {
     let mut x = start;
     for _ in 0..50 {
@@ -447,6 +469,12 @@ mod tests {
         let flat = [Column::PoseX];
         let lateral_only = LabelMap::fit(&read, &flat, &real, &[Column::PoseY]).expect("fit");
         assert_eq!(lateral_only.clone().with_axis_offset(&read, &real), lateral_only);
+        // Too few samples, or yaws that do not spread over the turn, leave the map as it is
+        // rather than fit three terms the yaws cannot tell apart.
+        let few = AXIS_OFFSET_MIN_SAMPLES - 1;
+        assert_eq!(plain.clone().with_axis_offset(&read[..few], &real[..few]), plain);
+        let bunched: Vec<Pose> = read.iter().map(|p| pose(p.x_mm(), 0.0, 30.0 + (p.yaw_deg() / 180.0))).collect();
+        assert_eq!(plain.clone().with_axis_offset(&bunched, &real), plain);
     }
 
     #[test]
