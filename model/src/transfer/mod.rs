@@ -338,9 +338,6 @@ fn assign<T>(cost: &[Vec<(f64, T)>], distinct: bool) -> Vec<usize> {
     best.1
 }
 
-/// The coefficients `x` of least `sum |y - r . x|` over `rows` `(r, y)`, by iteratively
-/// reweighted least squares from `start` (weights `1 / max(|residual|, 1e-4)`, 50 rounds;
-/// a round whose normal equations are singular keeps the last coefficients).
 /// The fewest samples [`LabelMap::with_axis_offset`] fits its three terms on.
 pub const AXIS_OFFSET_MIN_SAMPLES: usize = 8;
 
@@ -349,6 +346,9 @@ pub const AXIS_OFFSET_MIN_SAMPLES: usize = 8;
 /// over 120 deg 0.0135, over 90 deg 0.0043, all at one angle 0.
 pub const AXIS_OFFSET_MIN_SPREAD: f64 = 0.01;
 
+/// The coefficients `x` of least `sum |y - r . x|` over `rows` `(r, y)`, by iteratively
+/// reweighted least squares from `start` (weights `1 / max(|residual|, 1e-4)`, 50 rounds;
+/// a round whose normal equations are singular keeps the last coefficients).
 fn least_absolute(rows: &[([f64; 3], f64)], start: [f64; 3]) -> [f64; 3] {
     let mut x = start;
     for _ in 0..50 {

@@ -639,12 +639,6 @@ fn shard_set(parts: &[(tacsim_data::Shard, tacsim_data::Dataset)]) -> std::resul
     Ok(())
 }
 
-/// The GPU path against the CPU's on the `quick` recipe's samples (feature `wgpu`): the pins
-/// of every state alike to 1e-9 mm, and the images alike but where a pixel's exact coverage
-/// lies within a bound of 1/2: 1e-9 for the f64 raster (adapters with SHADER_F64), 1e-2 for
-/// the f32 one (`gpu/raster.rs`). Regression: in f32, samples 81 and 225 (`image_81.png`,
-/// `image_225.png` of `tacsim generate quick`) differed from the CPU's in one pixel each,
-/// coverage 2.9e-5 and 2.1e-9 from 1/2 on lavapipe; on an NVIDIA H100 201 of 300 images did.
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -673,6 +667,12 @@ mod tests {
     }
 }
 
+/// The GPU path against the CPU's on the `quick` recipe's samples (feature `wgpu`): the pins
+/// of every state alike to 1e-9 mm, and the images alike but where a pixel's exact coverage
+/// lies within a bound of 1/2: 1e-9 for the f64 raster (adapters with SHADER_F64), 1e-2 for
+/// the f32 one (`gpu/raster.rs`). Regression: in f32, samples 81 and 225 (`image_81.png`,
+/// `image_225.png` of `tacsim generate quick`) differed from the CPU's in one pixel each,
+/// coverage 2.9e-5 and 2.1e-9 from 1/2 on lavapipe; on an NVIDIA H100 201 of 300 images did.
 #[cfg(all(test, feature = "wgpu"))]
 mod gpu_tests {
     use super::*;
